@@ -1,0 +1,100 @@
+"""fvf: operator-based tangent vector fields on triangle meshes.
+
+A tangent field v is represented by the operator it induces on functions,
+D_v f = ⟨v, ∇f⟩. The flat namespace holds the mesh, the calculus, the operators and the
+flows; :mod:`fvf.chapter` holds one alias per symbol of the source chapter.
+"""
+
+from . import chapter, examples
+from .bracket import B, ad, bracket_F, bracket_V, commutator_field
+from .calculus import (
+    diag,
+    div,
+    divergence,
+    face_areas,
+    face_mass,
+    face_to_vertex,
+    face_to_vertex_values,
+    field_inner,
+    field_product,
+    grad,
+    gradient,
+    hat_gradients,
+    laplacian,
+    poisson_bracket,
+    rotate,
+    rotation,
+    stiffness,
+    vertex_areas,
+    vertex_mass,
+    vertex_to_face,
+    vertex_to_face_values,
+)
+from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
+from .errors import *  # noqa: F403
+from .errors import __all__ as _errors_all
+from .fields import as_face_field, as_face_function, as_vertex_function
+from .flow import GROWTH_LIMIT, FunctionalFlow, flow
+from .io import read_mesh, write_mesh
+from .mesh import TriMesh
+from .operators import D_F, D_V, Dbar_F, Dbar_V, directional_derivatives, extract_field
+from .repair import remove_unreferenced_vertices
+from .shapes import disk, icosphere, jittered_sphere, torus
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "TriMesh",
+    "read_mesh",
+    "write_mesh",
+    "remove_unreferenced_vertices",
+    "icosphere",
+    "jittered_sphere",
+    "torus",
+    "disk",
+    "chapter",
+    "examples",
+    "face_areas",
+    "vertex_areas",
+    "hat_gradients",
+    "vertex_mass",
+    "face_mass",
+    "rotation",
+    "rotate",
+    "diag",
+    "field_product",
+    "field_inner",
+    "face_to_vertex",
+    "vertex_to_face",
+    "grad",
+    "div",
+    "stiffness",
+    "laplacian",
+    "gradient",
+    "divergence",
+    "poisson_bracket",
+    "vertex_to_face_values",
+    "face_to_vertex_values",
+    "D_F",
+    "D_V",
+    "Dbar_F",
+    "Dbar_V",
+    "directional_derivatives",
+    "extract_field",
+    "Dtilde_F",
+    "Dtilde_V",
+    "Dtilde_dual_F",
+    "Dtilde_dual_V",
+    "bracket_V",
+    "bracket_F",
+    "B",
+    "ad",
+    "commutator_field",
+    "FunctionalFlow",
+    "flow",
+    "GROWTH_LIMIT",
+    "as_face_field",
+    "as_face_function",
+    "as_vertex_function",
+    *_errors_all,
+]

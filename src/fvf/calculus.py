@@ -1,0 +1,318 @@
+"""Discrete calculus on a triangle mesh (chapter §3.1, eqs. 26–31).
+
+Piecewise-linear (PL) functions live on vertices, shape (n,); piecewise-constant (PC)
+functions on faces, shape (m,); PC vector fields are (m, 3) arrays, flattened face-major
+(entry ``3t + k`` is component k of face t). Every operator here depends on the mesh
+only, is assembled once from per-face formulas (no Python loop over faces) and cached on
+the :class:`~fvf.TriMesh`; the returned sparse arrays share read-only buffers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from .fields import as_face_field, as_face_function, as_vertex_function
+from .mesh import TriMesh, _cross, _readonly
+
+__all__ = [
+    "face_areas",
+    "vertex_areas",
+    "hat_gradients",
+    "vertex_mass",
+    "face_mass",
+    "rotation",
+    "rotate",
+    "diag",
+    "field_product",
+    "field_inner",
+    "face_to_vertex",
+    "vertex_to_face",
+    "grad",
+    "div",
+    "stiffness",
+    "laplacian",
+    "gradient",
+    "divergence",
+    "poisson_bracket",
+    "vertex_to_face_values",
+    "face_to_vertex_values",
+]
+
+
+def _freeze(A: sp.sparray) -> sp.csr_array:
+    A = sp.csr_array(A)
+    for a in (A.data, A.indices, A.indptr):
+        a.flags.writeable = False
+    return A
+
+
+def face_rows_csr(values: np.ndarray, columns: np.ndarray, n_cols: int) -> sp.csr_array:
+    """CSR array whose row r holds ``values[r]`` at ``columns[r]`` (same count per row).
+
+    Parameters
+    ----------
+    values : float64 (r, c)
+    columns : int64 (r, c)
+        Distinct, ascending within each row.
+    n_cols : int
+    """
+    r, c = values.shape
+    indptr = np.arange(0, r * c + 1, c, dtype=np.int64)
+    return sp.csr_array(
+        (values.ravel(), columns.ravel().astype(np.int64, copy=False), indptr), shape=(r, n_cols)
+    )
+
+
+def _sorted_corners(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
+    """Corner order sorting each face's vertex indices, and the sorted faces; (m, 3) each."""
+
+    def build():
+        order = np.argsort(mesh.faces, axis=1)
+        return _readonly(order), _readonly(np.take_along_axis(mesh.faces, order, axis=1))
+
+    return mesh.cached("sorted_corners", build)
+
+
+def block_diagonal(blocks: np.ndarray) -> sp.csr_array:
+    """3m x 3m block-diagonal CSR array from per-face blocks.
+
+    Parameters
+    ----------
+    blocks : float64 (m, 3, 3)
+        ``blocks[t]`` acts on the three components of face t.
+    """
+    m = blocks.shape[0]
+    cols = np.repeat(3 * np.arange(m)[:, None] + np.arange(3), 3, axis=0)  # (3m, 3)
+    return face_rows_csr(blocks.reshape(3 * m, 3), cols, 3 * m)
+
+
+# ---------------------------------------------------------------------------- per-face
+def face_areas(mesh: TriMesh) -> np.ndarray:
+    """A_F: the area of each face, float64 (m,) (§3.1)."""
+    return mesh.face_areas
+
+
+def vertex_areas(mesh: TriMesh) -> np.ndarray:
+    """A_V: barycentric vertex areas, a third of the adjacent face areas, float64 (n,) (§3.1)."""
+    return mesh.vertex_areas
+
+
+def hat_gradients(mesh: TriMesh) -> np.ndarray:
+    """Gradient of each hat function on each face (eq. 27), float64 (m, 3, 3).
+
+    ``hat_gradients(mesh)[t, i] = J_t e_{t,i} / (2 A_F(t))``: the constant gradient, on
+    face t, of the PL function that is 1 at corner i and 0 at the other vertices.
+    """
+
+    def build():
+        N = np.repeat(mesh.face_normals, 3, axis=0)  # (3m, 3)
+        e = mesh.face_edge_vectors.reshape(-1, 3)
+        g = _cross(N, e) / np.repeat(2.0 * mesh.face_areas, 3)[:, None]
+        return _readonly(g.reshape(-1, 3, 3))
+
+    return mesh.cached("hat_gradients", build)
+
+
+# ---------------------------------------------------------------------------- mass, J, [.]
+def vertex_mass(mesh: TriMesh) -> sp.csr_array:
+    """[A_V]: the diagonal n x n matrix of barycentric vertex areas (inner product 26)."""
+    return mesh.cached("vertex_mass", lambda: _freeze(sp.diags_array(mesh.vertex_areas)))
+
+
+def face_mass(mesh: TriMesh, components: int = 3) -> sp.csr_array:
+    """[A_F]: diagonal face-area matrix, m x m (``components=1``) or 3m x 3m (default).
+
+    The 3m x 3m form repeats each face area over the three components of a face-major
+    flattened field, the inner product ⟨u, v⟩ = uᵀ[A_F]v of eq. (26).
+    """
+    if components not in (1, 3):
+        raise ValueError(f"components must be 1 or 3; got {components}")
+    return mesh.cached(
+        f"face_mass{components}",
+        lambda: _freeze(sp.diags_array(np.repeat(mesh.face_areas, components))),
+    )
+
+
+def rotation(mesh: TriMesh) -> sp.csr_array:
+    """J: rotation by +π/2 in each face plane, J_t u = N_t × u, sparse (3m, 3m).
+
+    Block diagonal with the cross-product matrices of the face normals (§3.1).
+    """
+
+    def build():
+        N = mesh.face_normals
+        z = np.zeros(mesh.n_faces)
+        blocks = np.stack(
+            [
+                np.stack([z, -N[:, 2], N[:, 1]], axis=1),
+                np.stack([N[:, 2], z, -N[:, 0]], axis=1),
+                np.stack([-N[:, 1], N[:, 0], z], axis=1),
+            ],
+            axis=1,
+        )  # (m, 3, 3): blocks[t] @ u = N_t x u
+        return _freeze(block_diagonal(blocks))
+
+    return mesh.cached("rotation", build)
+
+
+def rotate(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
+    """Apply J to a per-face field: ``N × u`` per face, (m, 3) -> (m, 3)."""
+    return _cross(mesh.face_normals, as_face_field(mesh, u, tangent="ignore"))
+
+
+def diag(values: npt.ArrayLike, repeat: int = 1) -> sp.csr_array:
+    """[f]: the diagonal matrix of a vector, each entry repeated ``repeat`` times.
+
+    ``diag(f_faces, 3)`` is the 3m x 3m matrix that scales each face's three components
+    by its value (§3.1).
+    """
+    return sp.csr_array(sp.diags_array(np.repeat(np.asarray(values, dtype=float), repeat)))
+
+
+def field_product(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
+    """[u]•: sparse (3m, m), mapping a PC function 𝐟 to the field 𝐟(t) u(t) (§3.1).
+
+    Parameters
+    ----------
+    u : array_like, (m, 3)
+        Per-face vectors (used as given: no tangent projection).
+    """
+    u = as_face_field(mesh, u, tangent="ignore")
+    m = mesh.n_faces
+    return face_rows_csr(u.reshape(-1, 1), np.repeat(np.arange(m), 3)[:, None], m)
+
+
+def field_inner(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
+    """[u]•ᵀ: sparse (m, 3m), mapping a field w to the PC function ⟨u(t), w(t)⟩ (§3.1)."""
+    u = as_face_field(mesh, u, tangent="ignore")
+    m = mesh.n_faces
+    return face_rows_csr(u, np.arange(3 * m).reshape(m, 3), 3 * m)
+
+
+# ---------------------------------------------------------------------------- interpolation
+def face_to_vertex(mesh: TriMesh) -> sp.csr_array:
+    """I_V^F: sparse (n, m), I_V^F(i, t) = A_F(t) / (3 A_V(i)) for i ∈ t (§3.1).
+
+    The area-weighted average of the face values around each vertex.
+    """
+
+    def build():
+        order, Fs = _sorted_corners(mesh)
+        w = (mesh.face_areas[:, None] / 3.0) / mesh.vertex_areas[Fs]  # (m, 3)
+        IT = face_rows_csr(w, Fs, mesh.n_vertices)  # (m, n) = (I_V^F)^T
+        return _freeze(IT.T.tocsr())
+
+    return mesh.cached("face_to_vertex", build)
+
+
+def vertex_to_face(mesh: TriMesh) -> sp.csr_array:
+    """I_F^V = [A_F]⁻¹ (I_V^F)ᵀ [A_V]: sparse (m, n), the mean of a face's three vertex values.
+
+    The adjoint of :func:`face_to_vertex`: ⟨𝐟, I_F^V g⟩ = ⟨I_V^F 𝐟, g⟩ in the inner
+    products of eq. (26).
+    """
+
+    def build():
+        _, Fs = _sorted_corners(mesh)
+        return _freeze(face_rows_csr(np.full(Fs.shape, 1.0 / 3.0), Fs, mesh.n_vertices))
+
+    return mesh.cached("vertex_to_face", build)
+
+
+# ---------------------------------------------------------------------------- grad, div, L
+def grad(mesh: TriMesh) -> sp.csr_array:
+    """grad: sparse (3m, n), the PC gradient of a PL function (eqs. 27–28).
+
+    Row ``3t + k`` is component k of the gradient on face t (face-major), with three
+    entries per row; ``(grad @ f).reshape(m, 3)`` is tangent to each face.
+    """
+
+    def build():
+        order, Fs = _sorted_corners(mesh)
+        g = np.take_along_axis(hat_gradients(mesh), order[:, :, None], axis=1)  # (m, 3i, 3k)
+        vals = g.transpose(0, 2, 1).reshape(-1, 3)  # (3m, 3): row (t, k), corner i
+        cols = np.repeat(Fs, 3, axis=0)
+        return _freeze(face_rows_csr(vals, cols, mesh.n_vertices))
+
+    return mesh.cached("grad", build)
+
+
+def div(mesh: TriMesh) -> sp.csr_array:
+    """div = −[A_V]⁻¹ gradᵀ [A_F]: sparse (n, 3m), the weak divergence (eq. 29).
+
+    With it, integration by parts holds exactly (Lemma 7, eq. 31):
+    ⟨v, grad f⟩ + ⟨div v, f⟩ = 0. On a mesh with boundary the same identity holds (the
+    boundary term is absorbed: div is the negative adjoint of grad).
+    """
+
+    def build():
+        G = grad(mesh)
+        rows = np.repeat(np.arange(G.shape[0]), 3)  # field index 3t + k of each entry
+        data = -G.data * mesh.face_areas[rows // 3] / mesh.vertex_areas[G.indices]
+        GT = sp.csc_array((data, G.indices, G.indptr), shape=(mesh.n_vertices, G.shape[0]))
+        return _freeze(GT.tocsr())
+
+    return mesh.cached("div", build)
+
+
+def _stiffness_local(mesh: TriMesh) -> np.ndarray:
+    """A_F(t) ⟨∇φ_a, ∇φ_b⟩ per face: the cotangent stiffness blocks, (m, 3, 3)."""
+    g = hat_gradients(mesh)
+    return np.einsum("tai,tbi->tab", g, g) * mesh.face_areas[:, None, None]
+
+
+def stiffness(mesh: TriMesh) -> sp.csr_array:
+    """W = gradᵀ [A_F] grad: the symmetric positive semidefinite cotangent matrix (n, n).
+
+    ``laplacian(mesh) = [A_V]⁻¹ W``; use W with :func:`vertex_mass` for symmetric
+    eigenproblems.
+    """
+    return mesh.cached(
+        "stiffness", lambda: _freeze(mesh.assemble_vertex_operator(_stiffness_local(mesh)))
+    )
+
+
+def laplacian(mesh: TriMesh) -> sp.csr_array:
+    """L = −div grad = [A_V]⁻¹ gradᵀ [A_F] grad: sparse (n, n), pointwise (§3.1).
+
+    Positive semidefinite in the A_V inner product, constants in its kernel, with the
+    1-ring sparsity of the cotangent Laplacian (divided by barycentric vertex areas).
+    """
+
+    def build():
+        local = _stiffness_local(mesh) / mesh.vertex_areas[mesh.faces][:, :, None]
+        return _freeze(mesh.assemble_vertex_operator(local))
+
+    return mesh.cached("laplacian", build)
+
+
+# ---------------------------------------------------------------------------- applied forms
+def gradient(mesh: TriMesh, f: npt.ArrayLike) -> np.ndarray:
+    """grad f as a per-face field: PL function (n,) -> tangent field (m, 3) (eq. 28)."""
+    return (grad(mesh) @ as_vertex_function(mesh, f)).reshape(-1, 3)
+
+
+def divergence(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
+    """div u as a PL function: per-face field (m, 3) -> (n,) (eq. 29)."""
+    return div(mesh) @ as_face_field(mesh, u, tangent="ignore").ravel()
+
+
+def poisson_bracket(mesh: TriMesh, f: npt.ArrayLike, g: npt.ArrayLike) -> np.ndarray:
+    """{f, g} = [J grad f]•ᵀ grad g: PC function (m,) (Theorem 1, eq. 60).
+
+    Per face, ⟨N × ∇f, ∇g⟩; antisymmetric in (f, g).
+    """
+    gf, gg = gradient(mesh, f), gradient(mesh, g)
+    return np.einsum("ij,ij->i", _cross(mesh.face_normals, gf), gg)
+
+
+def vertex_to_face_values(mesh: TriMesh, f: npt.ArrayLike) -> np.ndarray:
+    """I_F^V f: the mean of each face's vertex values, (n,) -> (m,)."""
+    return vertex_to_face(mesh) @ as_vertex_function(mesh, f)
+
+
+def face_to_vertex_values(mesh: TriMesh, f_faces: npt.ArrayLike) -> np.ndarray:
+    """I_V^F 𝐟: area-weighted average of the faces around each vertex, (m,) -> (n,)."""
+    return face_to_vertex(mesh) @ as_face_function(mesh, f_faces)

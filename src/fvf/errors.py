@@ -1,0 +1,106 @@
+"""Typed errors and warnings raised by fvf.
+
+Every user-facing error is a :class:`ValueError` subclass whose message names the
+offending indices (at most a handful, then a count) and says how to fix the input.
+Recoverable trouble is reported with :func:`warnings.warn` and one of the
+:class:`FvfWarning` subclasses, never printed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "FvfError",
+    "MeshError",
+    "MeshShapeError",
+    "MeshIndexError",
+    "NonFiniteError",
+    "DegenerateFaceError",
+    "UnreferencedVertexError",
+    "NonManifoldError",
+    "OrientationError",
+    "FieldShapeError",
+    "MeshReadError",
+    "FvfWarning",
+    "NonTangentFieldWarning",
+    "FlowGrowthWarning",
+    "format_indices",
+]
+
+
+class FvfError(ValueError):
+    """Base class of every error fvf raises on bad input."""
+
+
+class MeshError(FvfError):
+    """The vertices or faces given to :class:`fvf.TriMesh` are not a valid mesh."""
+
+
+class MeshShapeError(MeshError):
+    """Vertices or faces have the wrong shape or dtype."""
+
+
+class MeshIndexError(MeshError):
+    """A face refers to a vertex index outside ``[0, n)`` or repeats a vertex."""
+
+
+class NonFiniteError(MeshError):
+    """Vertex coordinates (or another input array) contain NaN or inf."""
+
+
+class DegenerateFaceError(MeshError):
+    """Some faces have zero area, so their gradient and normal are undefined."""
+
+
+class UnreferencedVertexError(MeshError):
+    """Some vertices belong to no face, so their vertex area is zero."""
+
+
+class NonManifoldError(MeshError):
+    """An edge is shared by more than two faces, or a vertex's faces form several fans."""
+
+
+class OrientationError(MeshError):
+    """Two faces sharing an edge traverse it in the same direction."""
+
+
+class FieldShapeError(FvfError):
+    """A function or vector field has the wrong shape, dtype, or non-finite values."""
+
+
+class MeshReadError(FvfError):
+    """A mesh file could not be parsed."""
+
+
+class FvfWarning(UserWarning):
+    """Base class of every warning fvf emits."""
+
+
+class NonTangentFieldWarning(FvfWarning):
+    """A per-face field had a normal component, which was projected away."""
+
+
+class FlowGrowthWarning(FvfWarning):
+    """A flow is estimated (or observed) to grow a function's norm beyond the limit."""
+
+
+def format_indices(idx, limit: int = 8) -> str:
+    """Format an index list for an error message: the first few and a count.
+
+    Parameters
+    ----------
+    idx : array_like of int, shape (k,)
+        Offending indices.
+    limit : int
+        How many to print before summarising.
+
+    Returns
+    -------
+    str
+        For example ``"[3, 17, 42] (3 in all)"``.
+    """
+    idx = np.asarray(idx).ravel()
+    shown = ", ".join(str(int(i)) for i in idx[:limit])
+    more = ", ..." if idx.size > limit else ""
+    return f"[{shown}{more}] ({idx.size} in all)"

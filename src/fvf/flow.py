@@ -1,0 +1,213 @@
+"""Functional flows Φ_{v,t} = exp(−t D^V_v) applied to functions (chapter §3.4–3.5).
+
+f(t) = Φ_{v,t} f_0 solves df/dt = −D^V_v f (eq. 43): the function is carried along the
+flow of v. The exponential is never formed; its action on vectors is computed with
+:func:`scipy.sparse.linalg.expm_multiply` (Al-Mohy & Higham 2011).
+
+Growth. For rotated gradients v = J grad g, [A_V] D^V_v is skew-symmetric and the flow
+keeps the A_V-norm. For other fields the discrete flow can grow a function's norm by
+many orders of magnitude on fine or irregular meshes (``docs/notes.md``,
+CHAPTER.md "Facts we measured"). Before flowing, :class:`FunctionalFlow` estimates the
+A_V-logarithmic norm μ of −D^V_v (the largest eigenvalue of its A_V-symmetric part, by
+a few Lanczos steps); ‖f(t)‖_{A_V} ≤ e^{μ t} ‖f_0‖_{A_V} for every f_0 and t ≥ 0.
+When this bound exceeds ``growth_limit`` (default :data:`GROWTH_LIMIT`) a
+:class:`~fvf.errors.FlowGrowthWarning` says by how much and where.
+"""
+
+from __future__ import annotations
+
+import warnings
+from functools import cached_property
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from .calculus import div
+from .errors import FlowGrowthWarning, format_indices
+from .fields import TangentPolicy, as_face_field, as_vertex_function
+from .mesh import TriMesh
+from .operators import D_V
+
+__all__ = ["FunctionalFlow", "flow", "GROWTH_LIMIT"]
+
+#: Default bound on the estimated norm growth e^{μ|t|} above which a flow warns.
+GROWTH_LIMIT = 100.0
+
+
+class FunctionalFlow:
+    """The functional flow of a tangent field: Φ_{v,t} = exp(−t D^V_v) (eq. 42).
+
+    Keeps D^V_v and its growth-rate estimates, so flowing many functions or times of one
+    field pays for them once.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    v : array_like, (m, 3)
+        Tangent field per face (a normal component is projected away with a warning).
+    growth_limit : float
+        Warn (:class:`~fvf.errors.FlowGrowthWarning`) when the estimated bound on
+        ‖f(t)‖/‖f_0‖ exceeds this.
+
+    Examples
+    --------
+    >>> import numpy as np, fvf
+    >>> mesh = fvf.icosphere(2)
+    >>> v = fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 2]))  # rotation about z
+    >>> phi = fvf.FunctionalFlow(mesh, v)
+    >>> f0 = mesh.vertices[:, 0]
+    >>> f1 = phi(f0, 0.3)
+    >>> bool(abs(phi.norm(f1) - phi.norm(f0)) < 1e-12)  # J grad g flows keep the norm
+    True
+    """
+
+    def __init__(
+        self,
+        mesh: TriMesh,
+        v: npt.ArrayLike,
+        *,
+        growth_limit: float = GROWTH_LIMIT,
+        tangent: TangentPolicy = "project",
+    ) -> None:
+        self.mesh = mesh
+        self.field = as_face_field(mesh, v, "v", tangent)
+        self.operator = D_V(mesh, self.field, tangent="ignore")
+        self.growth_limit = float(growth_limit)
+
+    @cached_property
+    def _symmetric_part(self) -> sp.csr_array:
+        """−½ A^{-1/2} (A D + Dᵀ A) A^{-1/2}: its spectrum bounds the A_V-norm growth."""
+        a = self.mesh.vertex_areas
+        s = sp.diags_array(1.0 / np.sqrt(a))
+        AD = sp.diags_array(a) @ self.operator
+        return (-0.5 * (s @ (AD + AD.T) @ s)).tocsr()
+
+    def _extreme_eigenvalue(self, sign: float) -> float:
+        S = sign * self._symmetric_part
+        n = S.shape[0]
+        if n <= 64:
+            return float(np.linalg.eigvalsh(S.toarray())[-1])
+        try:
+            lam = sla.eigsh(
+                S,
+                k=1,
+                which="LA",
+                tol=1e-4,
+                return_eigenvectors=False,
+                v0=np.full(n, 1.0 / np.sqrt(n)) + 1e-3 * np.arange(n) / n,
+            )
+            return float(lam[0])
+        except sla.ArpackNoConvergence as exc:  # fall back to a guaranteed upper bound
+            if exc.eigenvalues.size:
+                return float(exc.eigenvalues.max())
+            return float(abs(S).sum(axis=1).max())  # Gershgorin
+
+    @cached_property
+    def growth_rate(self) -> tuple[float, float]:
+        """(μ₊, μ₋): A_V-logarithmic norms of −D^V_v and +D^V_v.
+
+        ‖Φ_{v,t} f‖ ≤ e^{μ₊ t}‖f‖ for t ≥ 0 and ≤ e^{μ₋ |t|}‖f‖ for t < 0 (A_V-norm). Both
+        are 0 (to round-off) for divergence-free fields v = J grad g.
+        """
+        return max(self._extreme_eigenvalue(1.0), 0.0), max(self._extreme_eigenvalue(-1.0), 0.0)
+
+    def growth_bound(self, t: float) -> float:
+        """Upper bound on ‖Φ_{v,t} f‖_{A_V} / ‖f‖_{A_V} over all f (an estimate: Lanczos)."""
+        mu = self.growth_rate[0] if t >= 0 else self.growth_rate[1]
+        with np.errstate(over="ignore"):
+            return float(np.exp(mu * abs(t)))
+
+    def norm(self, f: npt.ArrayLike) -> float:
+        """A_V-norm (eq. 26) of a PL function (n,)."""
+        f = np.asarray(f, dtype=float)
+        return float(np.sqrt(np.einsum("i,i...->...", self.mesh.vertex_areas, f * f).sum()))
+
+    def _warn_growth(self, t_extreme: float) -> None:
+        bound = self.growth_bound(t_extreme)
+        if bound <= self.growth_limit:
+            return
+        divv = div(self.mesh) @ self.field.ravel()
+        worst = np.argsort(divv if t_extreme >= 0 else -divv)[-5:][::-1]
+        warnings.warn(
+            f"the flow to t={t_extreme:g} may grow a function's A_V-norm by up to "
+            f"{bound:.3g}x (growth rate {self.growth_rate[0 if t_extreme >= 0 else 1]:.3g} "
+            f"per unit time; limit {self.growth_limit:g}). The discrete divergence of v is "
+            f"largest at vertices {format_indices(worst)}; the chapter's flow is not "
+            "monotone for compressible fields on irregular meshes. Use a shorter time, a "
+            "divergence-free field (J grad g), or a smoother/remeshed surface; pass "
+            "growth_limit=np.inf to silence this.",
+            FlowGrowthWarning,
+            stacklevel=3,
+        )
+
+    def __call__(self, f: npt.ArrayLike, t: float | npt.ArrayLike) -> np.ndarray:
+        """Φ_{v,t} f for one time or an array of times.
+
+        Parameters
+        ----------
+        f : array_like, (n,) or (n, k)
+            PL function(s) at time 0.
+        t : float or array_like (T,)
+            Time(s), any sign and order. Arrays are computed by chaining the semigroup
+            Φ_{t+s} = Φ_t Φ_s (Lemma 11) over the sorted times.
+
+        Returns
+        -------
+        ndarray, float64
+            ``f.shape`` for a scalar t; ``(T,) + f.shape`` for an array.
+
+        Raises
+        ------
+        FloatingPointError
+            If the flow overflowed to inf/NaN (after the growth warning).
+
+        Warns
+        -----
+        FlowGrowthWarning
+            When the estimated growth bound exceeds ``growth_limit``.
+        """
+        f0 = as_vertex_function(self.mesh, f, "f", columns=True)
+        times = np.asarray(t, dtype=float)
+        if times.ndim > 1 or not np.isfinite(times).all():
+            raise ValueError(f"t must be a finite scalar or 1-D array; got {t!r}")
+        scalar = times.ndim == 0
+        times = np.atleast_1d(times)
+        for extreme in (times.max(), times.min()):
+            if extreme != 0:
+                self._warn_growth(float(extreme))
+        out = np.empty((times.size,) + f0.shape)
+        A = -self.operator
+        for sign in (1.0, -1.0):
+            pick = np.flatnonzero(sign * times >= 0)
+            order = pick[np.argsort(sign * times[pick])]
+            current, now = f0, 0.0
+            for i in order:
+                dt = times[i] - now
+                if dt != 0.0:
+                    current = sla.expm_multiply(dt * A, current)
+                    now = times[i]
+                out[i] = current
+        if not np.isfinite(out).all():
+            raise FloatingPointError(
+                f"the flow overflowed (growth bound {self.growth_bound(times.max()):.3g}); "
+                "use shorter times or a divergence-free field."
+            )
+        return out[0] if scalar else out
+
+
+def flow(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    f: npt.ArrayLike,
+    t: float | npt.ArrayLike,
+    *,
+    growth_limit: float = GROWTH_LIMIT,
+) -> np.ndarray:
+    """Φ_{v,t} f = exp(−t D^V_v) f: transport a function along v (eqs. 42–43).
+
+    One-off form of :class:`FunctionalFlow`; see there for shapes, the growth warning and
+    array times. Returns (n,) for a scalar t and an (n,) f, (T, n) for T times.
+    """
+    return FunctionalFlow(mesh, v, growth_limit=growth_limit)(f, t)
