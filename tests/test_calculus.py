@@ -113,7 +113,8 @@ def test_bullet_properties(closed, rng):
     assert rel(P(closed, v + w), P(closed, v) + P(closed, w)) < 1e-15  # 2
     assert np.allclose(Q(closed, v) @ w.ravel(), Q(closed, w) @ v.ravel())  # 3
     assert rel(Q(closed, v) @ P(closed, w), fvf.diag(Q(closed, v) @ w.ravel())) < 1e-15  # 4
-    outer = (P(closed, v) @ Q(closed, w)).toarray()[:9, :9]  # 5: block diagonal outer products
+    # 5: block-diagonal outer products
+    outer = (P(closed, v) @ Q(closed, w)).tocsr()[:9, :9].toarray()
     ref = np.zeros((9, 9))
     for t in range(3):
         ref[3 * t : 3 * t + 3, 3 * t : 3 * t + 3] = np.outer(v[t], w[t])

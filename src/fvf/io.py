@@ -35,6 +35,7 @@ _PLY_TYPES = {
 }  # fmt: skip
 _PLY_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
 _FACE_LISTS = ("vertex_indices", "vertex_index")
+_STRUCT = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I"}
 
 
 class PolygonTriangulatedWarning(FvfWarning):
@@ -157,8 +158,6 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
             "property double x\nproperty double y\nproperty double z\n"
             f"element face {m}\nproperty list uchar int vertex_indices\nend_header\n"
         )
-        if n > np.iinfo(np.int32).max:
-            raise MeshShapeError(f"{n} vertices do not fit the PLY int32 indices; use fewer")
         tri = np.empty(m, dtype=[("k", "u1"), ("i", "<i4", (3,))])
         tri["k"], tri["i"] = 3, F
         path.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
@@ -535,44 +534,45 @@ def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str)
 
 
 def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order: str):
-    """Record-by-record reading, for lists whose lengths vary (or truncated files)."""
-    codes = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
-    end, vals = len(data), [[] for _ in el.props]
+    """Find each record's property offsets in a loop, then gather the values with numpy.
+
+    For lists whose lengths vary (mixed polygons), and to report truncated files.
+    """
+    end, starts, lengths = len(data), [[] for _ in el.props], [[] for _ in el.props]
+    steps = [
+        (starts[j], lengths[j], int(p.code[1]), p.count and struct.Struct(order + _STRUCT[p.count]))
+        for j, p in enumerate(el.props)
+    ]
     for r in range(el.size):
-        for j, p in enumerate(el.props):
-            size = int((p.count or p.code)[1])
-            if pos + size > end:
-                _truncated(path, el, r, p, pos, end)
-            value = struct.unpack_from(order + codes[p.count or p.code], data, pos)[0]
-            pos += size
-            if p.count is None:
-                vals[j].append(value)
+        for at, length, size, count in steps:
+            at.append(pos)
+            if not count:
+                pos += size
                 continue
-            if value < 0 or pos + value * int(p.code[1]) > end:
-                if value < 0:
-                    raise MeshReadError(
-                        f"{path}: binary PLY '{el.name}' record {r}: list '{p.name}' has "
-                        f"negative length {value}; the file is corrupt, re-export it"
-                    )
-                _truncated(path, el, r, p, pos, end)
-            vals[j].append(struct.unpack_from(f"{order}{value}{codes[p.code]}", data, pos))
-            pos += value * int(p.code[1])
-    out = {}
-    for p, v in zip(el.props, vals, strict=True):
-        if p.count is None:
-            out[p.name] = np.array(v)
-        else:
-            counts = np.fromiter(map(len, v), np.int64, len(v))
-            out[p.name] = (counts, np.fromiter((i for t in v for i in t), np.int64, counts.sum()))
+            k = count.unpack_from(data, pos)[0] if pos + count.size <= end else 0
+            if k < 0:
+                raise MeshReadError(
+                    f"{path}: binary PLY element '{el.name}' record {r}: a list has negative "
+                    f"length {k}; the file is corrupt, re-export it"
+                )
+            length.append(k)
+            pos += count.size + k * size
+        if pos > end:
+            raise MeshReadError(
+                f"{path}: binary PLY ends early: element '{el.name}' record {r} of {el.size} "
+                f"needs {pos} bytes, but the file has {end}; the file is truncated or the "
+                "header's counts are wrong: re-export the mesh"
+            )
+    raw, out = np.frombuffer(data, np.uint8), {}
+    for p, at, k in zip(el.props, starts, lengths, strict=True):
+        at = np.asarray(at, dtype=np.int64)
+        if p.count:
+            k = np.asarray(k, dtype=np.int64)
+            nth = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+            at = np.repeat(at + int(p.count[1]), k) + nth * int(p.code[1])
+        values = raw[at[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
+        out[p.name] = (k, values.astype(np.int64)) if p.count else values
     return out, pos
-
-
-def _truncated(path: Path, el: _Element, record: int, prop: _Prop, pos: int, end: int):
-    raise MeshReadError(
-        f"{path}: binary PLY ends early: element '{el.name}' record {record} of {el.size}, "
-        f"property '{prop.name}' needs bytes past byte {pos}, but the file has {end} bytes; "
-        "the file is truncated or the header's counts are wrong: re-export the mesh"
-    )
 
 
 _READERS: dict[str, Callable[[Path, bytes], _Polygons]] = {

@@ -1,0 +1,119 @@
+"""Functional flows Φ_{v,t} = exp(−t D^V_v) (§3.4–3.5): Lemmas 11–13 and growth warnings."""
+
+import numpy as np
+import pytest
+
+import fvf
+from conftest import load_shared, random_tangent_field, rel, smooth_functions
+from fvf import chapter as ch
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    return fvf.jittered_sphere(3, 0.3, seed=2)
+
+
+def _rotation_z(mesh):
+    return mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+
+
+def test_lemma11_group_and_generator(sphere):
+    v = _rotation_z(sphere)
+    f, _, _ = smooth_functions(sphere)
+    phi = fvf.FunctionalFlow(sphere, v)
+    assert np.array_equal(phi(f, 0.0), f)  # Φ_0 = I
+    assert rel(phi(phi(f, 0.3), 0.4), phi(f, 0.7)) < 1e-12  # Φ_t Φ_s = Φ_{t+s}
+    assert rel(phi(phi(f, 0.5), -0.5), f) < 1e-12  # inverse
+    D = ch.D_V(sphere, v)
+    h = 1e-4
+    deriv = (phi(f, h) - phi(f, -h)) / (2 * h)
+    assert rel(deriv, -(D @ f)) < 1e-7  # dΦ/dt at 0 = −D^V_v (central difference, O(h²))
+    assert rel(D @ phi(f, 0.6), phi(D @ f, 0.6)) < 1e-12  # D Φ_t = Φ_t D
+
+
+def test_times_array_matches_scalars(sphere):
+    v = _rotation_z(sphere)
+    f, g, _ = smooth_functions(sphere)
+    phi = fvf.FunctionalFlow(sphere, v)
+    times = np.array([0.4, -0.2, 0.0, 0.1, -0.7])
+    out = phi(f, times)
+    assert out.shape == (5, sphere.n_vertices)
+    for k, t in enumerate(times):
+        assert rel(out[k], phi(f, t)) < 1e-12
+    block = phi(np.stack([f, g], axis=1), times)
+    assert block.shape == (5, sphere.n_vertices, 2)
+    assert rel(block[:, :, 1], phi(g, times)) < 1e-12
+    assert rel(ch.flow(sphere, v, f, times), out) < 1e-14
+
+
+def test_divergence_free_flow_keeps_norm(closed):
+    """A_V D^V_v is skew for v = J grad g, so ‖Φ_t f‖_{A_V} = ‖f‖_{A_V} (CHAPTER.md facts)."""
+    f, g, _ = smooth_functions(closed)
+    v = fvf.rotate(closed, fvf.gradient(closed, g))
+    v /= np.sqrt((closed.face_areas * (v * v).sum(1)).sum() / closed.total_area)  # unit RMS
+    phi = fvf.FunctionalFlow(closed, v)
+    t = 0.2 * np.sqrt(closed.total_area)
+    n0, n1 = phi.norm(f), phi.norm(phi(f, t))
+    assert abs(n1 - n0) <= 1e-10 * n0
+    assert max(phi.growth_rate) < 1e-8 * np.abs(ch.D_V(closed, v)).max()
+
+
+def _lion_setup(name):
+    mesh = load_shared(name)
+    X = mesh.vertices - mesh.vertices.mean(0)
+    X /= np.linalg.norm(X, axis=1).max()
+    mesh = fvf.TriMesh(X, mesh.faces)
+    v = fvf.gradient(mesh, X[:, 0])
+    v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum())
+    return mesh, v, np.sin(3 * X[:, 1]) + X[:, 2]
+
+
+def test_growth_warning_fires_on_lion():
+    """CHAPTER.md facts: on lion-00 the flow of grad x blows up by t = 0.1; we warn first."""
+    mesh, v, f0 = _lion_setup("lion-00.off")
+    phi = fvf.FunctionalFlow(mesh, v)
+    assert phi.growth_bound(0.1) > 1e10
+    with pytest.warns(fvf.FlowGrowthWarning, match="grow a function's A_V-norm"):
+        ft = phi(f0, 0.05)
+    assert np.abs(ft).max() > 1e3 * np.abs(f0).max()  # and it really does blow up
+
+
+def test_growth_warning_silent_on_regular_sphere():
+    mesh, v, f0 = _lion_setup("sphere_s2.off")
+    ft = fvf.flow(mesh, v, f0, 0.1)  # FvfWarning is an error in this suite: none may fire
+    assert np.abs(ft).max() <= 1.01 * np.abs(f0).max()
+
+
+def test_growth_bound_holds(sphere, rng):
+    """‖Φ_t f‖ ≤ e^{μ t} ‖f‖ for random fields and functions (μ from Lanczos)."""
+    v = random_tangent_field(sphere, rng)
+    phi = fvf.FunctionalFlow(sphere, v, growth_limit=np.inf)
+    for t in (0.05, -0.05):
+        f = rng.standard_normal(sphere.n_vertices)
+        assert phi.norm(phi(f, t)) <= phi.growth_bound(t) * phi.norm(f) * (1 + 1e-6)
+
+
+def test_lemma13_commuting_flows(sphere, rng):
+    """Φ_v Φ_w = Φ_w Φ_v when D^V_{[v,w]} = 0 (w ∥ v); they differ when the bracket is not 0."""
+    v = _rotation_z(sphere)
+    f, _, _ = smooth_functions(sphere)
+    w = 2.5 * v
+    assert abs(ch.bracket_V(sphere, v, w)).max() < 1e-12 * abs(ch.D_V(sphere, v)).max() ** 2
+    a = fvf.flow(sphere, v, fvf.flow(sphere, w, f, 0.3), 0.2)
+    b = fvf.flow(sphere, w, fvf.flow(sphere, v, f, 0.2), 0.3)
+    assert rel(a, b) < 1e-12
+    u = sphere.project_tangent(np.cross([1.0, 0.0, 0.0], sphere.face_centroids))
+    a = fvf.flow(sphere, v, fvf.flow(sphere, u, f, 0.3), 0.2)
+    b = fvf.flow(sphere, u, fvf.flow(sphere, v, f, 0.2), 0.3)
+    assert rel(a, b) > 1e-3
+
+
+def test_flow_rejects_bad_times(sphere):
+    v = _rotation_z(sphere)
+    f = sphere.vertices[:, 0]
+    with pytest.raises(ValueError, match="finite"):
+        fvf.flow(sphere, v, f, np.nan)
+    with pytest.raises(ValueError, match="1-D"):
+        fvf.flow(sphere, v, f, np.zeros((2, 2)))
+    with pytest.raises(fvf.FieldShapeError, match="vertices"):
+        fvf.flow(sphere, v, f[:-1], 0.1)
