@@ -14,7 +14,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from .calculus import block_diagonal, div, face_to_vertex, hat_gradients
-from .divergence import Dtilde_F
+from .divergence import dtilde_entries
 from .fields import TangentPolicy, as_face_field
 from .mesh import TriMesh
 from .operators import D_V, directional_derivatives
@@ -77,6 +77,8 @@ def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> s
 
     Maps a face-major flattened field ``w.ravel()`` (3m,) to the vertex-major flattened
     vertex field ``u.ravel()`` (3n,), where u = D^F_{[v,w]} X (n, 3) for tangent w.
+    Returned as a block sparse array (``scipy.sparse.bsr_array``, 3 x 3 blocks at
+    (vertex i, face t) for i ∈ t), 27 values per face corner.
     Lemma 17 (eq. 63), written per entry:
     ad_v[3i+k, 3t+l] = D̃^F_v(i, t) δ_kl − D̃^F_{v_k}(i, 3t+l), with v_k the k-th
     coordinate of v as a PC function. The chapter's eq. (63) is the same operator in
@@ -85,18 +87,17 @@ def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> s
     v = as_face_field(mesh, v, "v", tangent)
     F = mesh.faces
     m, n = mesh.n_faces, mesh.n_vertices
-    c = Dtilde_F(mesh, v, tangent="ignore")[F.ravel(), np.repeat(np.arange(m), 3)]
-    c = np.asarray(c).reshape(m, 3)  # D̃^F_v(F[t, a], t)
+    c = dtilde_entries(mesh, v)  # (m, 3): D̃^F_v(F[t, a], t)
     Iv = face_to_vertex(mesh) @ v  # (n, 3): I_V^F v_k
     g = hat_gradients(mesh) * (mesh.face_areas[:, None] / mesh.vertex_areas[F])[:, :, None]
     diff = v[:, None, :] - Iv[F]  # (m, 3a, 3k): v_k(t) − (I_V^F v_k)(i)
     blocks = c[:, :, None, None] * np.eye(3) + diff[:, :, :, None] * g[:, :, None, :]
-    rows = 3 * F[:, :, None, None] + np.arange(3)[:, None]  # (m, 3a, 3k, 1)
-    cols = 3 * np.arange(m)[:, None, None, None] + np.arange(3)  # (m, 1, 1, 3l)
-    rows, cols = np.broadcast_arrays(rows, cols)
-    return sp.csr_array(
-        sp.coo_array((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * m))
-    )
+    # One 3 x 3 block per (vertex F[t, a], face t), gathered by vertex into BSR.
+    order = np.argsort(F.ravel(), kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(F.ravel(), minlength=n), out=indptr[1:])
+    faces_of = np.repeat(np.arange(m), 3)[order]
+    return sp.bsr_array((blocks.reshape(-1, 3, 3)[order], faces_of, indptr), shape=(3 * n, 3 * m))
 
 
 def commutator_field(

@@ -11,11 +11,18 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from .calculus import div, face_to_vertex, hat_gradients, vertex_to_face
+from .calculus import (
+    _sorted_corners,
+    div,
+    face_rows_csr,
+    face_to_vertex,
+    hat_gradients,
+    vertex_to_face,
+)
 from .fields import TangentPolicy, as_face_field, as_face_function, as_vertex_function
 from .mesh import TriMesh
 
-__all__ = ["Dtilde_F", "Dtilde_V", "Dtilde_dual_F", "Dtilde_dual_V"]
+__all__ = ["dtilde_entries", "Dtilde_F", "Dtilde_V", "Dtilde_dual_F", "Dtilde_dual_V"]
 
 
 def _weighted_hat_products(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
@@ -24,20 +31,31 @@ def _weighted_hat_products(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     return -d * mesh.face_areas[:, None] / mesh.vertex_areas[mesh.faces]
 
 
+def dtilde_entries(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
+    """The entries D̃^F_v(F[t, a], t) per face and corner, float64 (m, 3) (eq. 52).
+
+    Parameters
+    ----------
+    v : float64 (m, 3)
+        A checked per-face field.
+    """
+    divv = div(mesh) @ v.ravel()  # (n,)
+    F = mesh.faces
+    return _weighted_hat_products(mesh, v) - divv[F] * (
+        mesh.face_areas[:, None] / (3.0 * mesh.vertex_areas[F])
+    )
+
+
 def Dtilde_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """D̃^F_v = div [v]• − [div v] I_V^F: sparse (n, m) (eq. 52), PC functions to PL.
 
     Column t has the three entries of the corners of face t.
     """
     v = as_face_field(mesh, v, "v", tangent)
-    divv = div(mesh) @ v.ravel()  # (n,)
-    F = mesh.faces
-    vals = _weighted_hat_products(mesh, v) - divv[F] * (
-        mesh.face_areas[:, None] / (3.0 * mesh.vertex_areas[F])
-    )  # (m, 3): entry (F[t, a], t)
-    m, n = mesh.n_faces, mesh.n_vertices
-    cols = np.repeat(np.arange(m), 3)
-    return sp.csr_array(sp.coo_array((vals.ravel(), (F.ravel(), cols)), shape=(n, m)))
+    order, Fs = _sorted_corners(mesh)
+    vals = np.take_along_axis(dtilde_entries(mesh, v), order, axis=1)
+    T = face_rows_csr(vals, Fs, mesh.n_vertices)  # (m, n): the transpose, row t = face t
+    return T.T.tocsr()
 
 
 def Dtilde_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:

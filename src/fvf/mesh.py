@@ -151,9 +151,8 @@ class TriMesh:
     @cached_property
     def _face_cross(self) -> np.ndarray:
         """(x1 - x0) x (x2 - x0) per face, shape (m, 3): twice the area times the normal."""
-        X, F = self.vertices, self.faces
-        x0 = X[F[:, 0]]
-        return _cross(X[F[:, 1]] - x0, X[F[:, 2]] - x0)
+        e = self.face_edge_vectors
+        return _cross(e[:, 1], e[:, 2])  # (x0 - x2) x (x1 - x0) = (x1 - x0) x (x2 - x0)
 
     @cached_property
     def face_areas(self) -> np.ndarray:
@@ -183,8 +182,13 @@ class TriMesh:
 
         Indexed ``[t, i, :]``; these are the edges of eq. (27).
         """
-        P = self.vertices[self.faces]  # (m, 3 corners, 3 coords)
-        return _readonly(P[:, [2, 0, 1]] - P[:, [1, 2, 0]])
+        X, F = self.vertices, self.faces
+        x0, x1, x2 = X[F[:, 0]], X[F[:, 1]], X[F[:, 2]]
+        e = np.empty((F.shape[0], 3, 3))
+        np.subtract(x2, x1, out=e[:, 0])
+        np.subtract(x0, x2, out=e[:, 1])
+        np.subtract(x1, x0, out=e[:, 2])
+        return _readonly(e)
 
     @cached_property
     def face_bases(self) -> np.ndarray:
@@ -272,19 +276,28 @@ class TriMesh:
         return _readonly(self._edge_data[1])
 
     @cached_property
-    def edge_faces(self) -> np.ndarray:
-        """The (at most two) faces of each edge, int64 (E, 2); -1 marks a missing side.
+    def _edge_corners(self) -> np.ndarray:
+        """Corner ``3t + a`` opposite each edge on each side, int64 (E, 2); -1 if missing.
 
-        Column 0 is the face that traverses the edge from ``edges[e, 0]`` to
-        ``edges[e, 1]``, column 1 the face traversing it the other way.
+        Side 0 is the face traversing the edge from ``edges[e, 0]`` to ``edges[e, 1]``.
         """
         F, E = self.faces, self.edges
         fe = self.face_edges.ravel()
         tail = F[:, [1, 2, 0]].ravel()
         side = (tail != E[fe, 0]).astype(np.int64)
         out = np.full((E.shape[0], 2), -1, dtype=np.int64)
-        out[fe, side] = np.repeat(np.arange(F.shape[0]), 3)
+        out[fe, side] = np.arange(3 * F.shape[0])
         return _readonly(out)
+
+    @cached_property
+    def edge_faces(self) -> np.ndarray:
+        """The (at most two) faces of each edge, int64 (E, 2); -1 marks a missing side.
+
+        Column 0 is the face that traverses the edge from ``edges[e, 0]`` to
+        ``edges[e, 1]``, column 1 the face traversing it the other way.
+        """
+        c = self._edge_corners
+        return _readonly(np.where(c >= 0, c // 3, -1))
 
     @cached_property
     def face_adjacency(self) -> np.ndarray:
@@ -378,12 +391,14 @@ class TriMesh:
         n, E = self.n_vertices, self.edges
         rows = np.concatenate([np.arange(n), E[:, 0], E[:, 1]])
         cols = np.concatenate([np.arange(n), E[:, 1], E[:, 0]])
-        order = np.argsort(rows * n + cols, kind="stable")
-        position = np.empty_like(order)
-        position[order] = np.arange(order.size)
-        indptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
-        indices = cols[order]
+        # Counting sort by row (coo -> csr), then the short rows are sorted by column;
+        # the data carry each entry's input position (exact in float64 below 2**53).
+        A = sp.coo_array((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(n, n))
+        A = A.tocsr()
+        A.sort_indices()
+        position = np.empty(rows.size, dtype=np.int64)
+        position[A.data.astype(np.int64) - 1] = np.arange(rows.size)
+        indptr, indices = A.indptr.astype(np.int64), A.indices.astype(np.int64)
         ne = E.shape[0]
         diag_slot = position[:n]
         fwd_slot, bwd_slot = position[n : n + ne], position[n + ne :]  # (i<j) and (j>i)
@@ -482,24 +497,25 @@ class TriMesh:
         self._validate_vertex_fans()
 
     def _validate_vertex_fans(self) -> None:
-        """Each vertex's faces must form a single fan (one edge-connected umbrella)."""
-        F, m = self.faces, self.n_faces
-        ef = self.edge_faces
-        interior = np.flatnonzero((ef >= 0).all(axis=1))
-        t0, t1 = ef[interior, 0], ef[interior, 1]
-        corner = np.arange(3 * m).reshape(m, 3)
-        rows, cols = [], []
-        for end in (0, 1):  # join the corners of t0 and t1 at both ends of the shared edge
-            v = self.edges[interior, end]
-            c0 = corner[t0, np.argmax(F[t0] == v[:, None], axis=1)]
-            c1 = corner[t1, np.argmax(F[t1] == v[:, None], axis=1)]
-            rows.append(c0)
-            cols.append(c1)
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        g = sp.coo_array((np.ones(r.size), (r, c)), shape=(3 * m, 3 * m))
-        _, label = connected_components(g, directed=False)
-        pairs = np.unique(np.stack([F.ravel(), label]), axis=1)
-        fans = np.bincount(pairs[0], minlength=self.n_vertices)
+        """Each vertex's faces must form a single fan (one edge-connected umbrella).
+
+        Corners at the same vertex are joined across every interior edge; each connected
+        component of corners is one fan of one vertex, so a vertex with two components is
+        non-manifold. Needs consistent orientation (checked before).
+        """
+        m = self.n_faces
+        c = self._edge_corners[(self._edge_corners >= 0).all(axis=1)]  # interior edges
+        t0, a0 = np.divmod(c[:, 0], 3)
+        t1, a1 = np.divmod(c[:, 1], 3)
+        # t0 runs x -> y along the edge and t1 runs y -> x: corner a+1 of one face sits at
+        # the same vertex as corner a+2 of the other.
+        r = np.concatenate([3 * t0 + (a0 + 1) % 3, 3 * t0 + (a0 + 2) % 3])
+        k = np.concatenate([3 * t1 + (a1 + 2) % 3, 3 * t1 + (a1 + 1) % 3])
+        g = sp.coo_array((np.ones(r.size), (r, k)), shape=(3 * m, 3 * m))
+        n_fans, label = connected_components(g, directed=False)
+        vertex_of_fan = np.empty(n_fans, dtype=np.int64)
+        vertex_of_fan[label] = self.faces.ravel()
+        fans = np.bincount(vertex_of_fan, minlength=self.n_vertices)
         bad = np.flatnonzero(fans > 1)
         if bad.size:
             raise NonManifoldError(
