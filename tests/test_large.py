@@ -5,9 +5,9 @@ Run with ``pytest -m slow`` (the third job of .ci/run).
 
 import numpy as np
 import pytest
-from conftest import load_shared, random_tangent_field, rel, smooth_functions
 
 import fvf
+from conftest import load_shared, random_tangent_field, rel, smooth_functions
 from fvf import chapter as ch
 
 pytestmark = pytest.mark.slow
