@@ -75,7 +75,7 @@ def best_of(
     fn: Callable[[Any], Any],
     setup: Callable[[], Any] | None = None,
     reps: int = 5,
-    budget: float = 3.0,
+    budget: float = 2.0,
     min_reps: int = 2,
 ) -> tuple[float, Any]:
     """Best wall time of ``fn(setup())`` over up to ``reps`` runs; setup is not timed.
@@ -85,10 +85,10 @@ def best_of(
     """
     best = math.inf
     result = None
+    gc.collect()
     start = time.perf_counter()
     for i in range(reps):
         arg = setup() if setup is not None else None
-        gc.collect()
         gc.disable()
         try:
             t0 = time.perf_counter()
@@ -103,8 +103,8 @@ def best_of(
 
 
 def reps_for(m: int) -> int:
-    """More repetitions at small sizes: ~30 at 10k faces, 3 at 1M."""
-    return int(np.clip(round(3e6 / m), 3, 30))
+    """More repetitions at small sizes: 20 at ~10k faces, ~10 at ~100k, 3 at ~1M."""
+    return int(np.clip(round(1e6 / m), 3, 20))
 
 
 def rel_diff(a: Any, b: Any) -> float:
@@ -136,23 +136,59 @@ def rss_now() -> int:
         return peak_rss()
 
 
-def peak_rss() -> int:
-    """Peak resident set size in bytes (ru_maxrss is KiB on Linux, bytes on macOS)."""
+def ru_maxrss() -> int:
+    """resource.getrusage(RUSAGE_SELF).ru_maxrss in bytes (KiB on Linux, bytes on macOS)."""
     r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return r if sys.platform == "darwin" else r * 1024
+
+
+def _proc_status(field: str) -> int | None:
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
+    return None
+
+
+def peak_rss() -> int:
+    """Peak RSS of this process image in bytes.
+
+    On Linux ru_maxrss survives fork + exec, so a child started by a large parent reports
+    the parent's peak; /proc/self/status VmHWM is per address space (reset by exec) and
+    is used when present, else ru_maxrss.
+    """
+    hwm = _proc_status("VmHWM")
+    return hwm if hwm is not None else ru_maxrss()
+
+
+def reset_peak_rss() -> bool:
+    """Reset VmHWM to the current RSS (Linux >= 4.0, writing 5 to clear_refs)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
 
 
 def print_table(headers: list[str], rows: list[list[str]], indent: str = "  ") -> None:
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
     line = indent + "  ".join(
-        h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(headers, widths))
+        h.ljust(w) if i == 0 else h.rjust(w)
+        for i, (h, w) in enumerate(zip(headers, widths, strict=True))
     )
     print(line)
     print(indent + "-" * (len(line) - len(indent)))
     for r in rows:
         print(
             indent
-            + "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+            + "  ".join(
+                c.ljust(w) if i == 0 else c.rjust(w)
+                for i, (c, w) in enumerate(zip(r, widths, strict=True))
+            )
         )
 
 
@@ -452,14 +488,29 @@ def bench_breakdown(fm: FreshMeshes, reps: int) -> list[tuple[str, float]]:
         calculus._sorted_corners(mesh)
         return mesh
 
-    add("mesh._validate_vertex_fans() (part of TriMesh construction)", lambda mesh: mesh._validate_vertex_fans())
-    add("mesh._edge_data (np.unique on 3m edge keys)", lambda mesh: mesh._edge_data, fm.new_uncached_edges)
+    add(
+        "mesh._validate_vertex_fans() (part of TriMesh construction)",
+        lambda mesh: mesh._validate_vertex_fans(),
+    )
+    add(
+        "mesh._edge_data (np.unique on 3m edge keys)",
+        lambda mesh: mesh._edge_data,
+        fm.new_uncached_edges,
+    )
     add("mesh.vertex_pattern (1-ring CSR pattern + slots)", lambda mesh: mesh.vertex_pattern)
     add("hat_gradients", lambda mesh: calculus.hat_gradients(mesh))
     add("_sorted_corners (argsort per face)", lambda mesh: calculus._sorted_corners(mesh))
-    add("_stiffness_local (einsum tai,tbi->tab)", lambda mesh: calculus._stiffness_local(mesh), warm_all)
+    add(
+        "_stiffness_local (einsum tai,tbi->tab)",
+        lambda mesh: calculus._stiffness_local(mesh),
+        warm_all,
+    )
     local = rng.standard_normal((m, 3, 3))
-    add("assemble_vertex_operator (bincount on slots)", lambda mesh: mesh.assemble_vertex_operator(local), warm_all)
+    add(
+        "assemble_vertex_operator (bincount on slots)",
+        lambda mesh: mesh.assemble_vertex_operator(local),
+        warm_all,
+    )
     v = rng.standard_normal((m, 3))
 
     def warm_tangent():
@@ -479,15 +530,22 @@ def bench_breakdown(fm: FreshMeshes, reps: int) -> list[tuple[str, float]]:
 
 
 def memory_child(path: str, which: str) -> None:
-    """Runs in a fresh process: build every operator of the mesh in ``path``, report RSS."""
+    """Runs in a fresh process: build every operator of the mesh in ``path``, report RSS.
+
+    Phases: load V, F -> [fvf: construct the TriMesh] -> build the operators. The peak of
+    each phase is measured from the RSS at its start (VmHWM is reset between phases).
+    """
     data = np.load(path)
-    V, F = data["V"], data["F"]
-    rss_loaded = rss_now()
-    report: dict[str, Any] = {"rss_loaded": rss_loaded}
+    V, F = np.ascontiguousarray(data["V"]), np.ascontiguousarray(data["F"])
+    del data
+    report: dict[str, Any] = {"rss_loaded": rss_now()}
+    report["can_reset"] = reset_peak_rss()
     ops: dict[str, Any] = {}
     if which == "fvf":
         mesh = TriMesh(V, F)
-        report["peak_after_construction"] = peak_rss()
+        report["peak_construction"] = peak_rss()
+        report["rss_constructed"] = rss_now()
+        reset_peak_rss()
         m = mesh.n_faces
         rng = np.random.default_rng(12345)
         v = mesh.project_tangent(rng.standard_normal((m, 3)))
@@ -503,15 +561,19 @@ def memory_child(path: str, which: str) -> None:
         ops["D_V"] = fvf.D_V(mesh, v)
         ops["Dtilde_V"] = fvf.Dtilde_V(mesh, v)
         ops["bracket_F"] = fvf.bracket_F(mesh, v, w)
-        cache_bytes = 0
-        for val in list(mesh.__dict__.values()) + list(mesh._cache.values()):
-            items = val if isinstance(val, tuple) else (val,)
-            for x in items:
+        cached: dict[str, int] = {}
+        for key, val in list(mesh.__dict__.items()) + list(mesh._cache.items()):
+            if key in ("vertices", "faces", "_cache"):
+                continue
+            size = 0
+            for x in val if isinstance(val, tuple) else (val,):
                 if isinstance(x, np.ndarray):
-                    cache_bytes += x.nbytes
+                    size += x.nbytes
                 elif sp.issparse(x):
-                    cache_bytes += sparse_bytes(x)
-        report["mesh_cache_bytes"] = cache_bytes  # includes the cached operators above
+                    size += sparse_bytes(x)
+            if size:
+                cached[key] = size
+        report["mesh_cache"] = cached
     else:
         import igl
 
@@ -520,13 +582,27 @@ def memory_child(path: str, which: str) -> None:
         ops["massmatrix"] = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_BARYCENTRIC)
         ops["doublearea"] = igl.doublearea(V, F)
         ops["per_face_normals"] = igl.per_face_normals(V, F, np.array([0.0, 0.0, 1.0]))
-    report["peak"] = peak_rss()
+    report["peak_ops"] = peak_rss()
+    report["rss_end"] = rss_now()
+    report["ru_maxrss"] = ru_maxrss()
     report["op_bytes"] = {k: sparse_bytes(a) for k, a in ops.items()}
     print(json.dumps(report))
 
 
 def run_memory(V: np.ndarray, F: np.ndarray) -> None:
-    print(f"\n== Peak memory, largest mesh (n={V.shape[0]:,}, m={F.shape[0]:,}), fresh processes ==")
+    print(
+        f"\n== Peak memory, largest mesh (n = {V.shape[0]:,}, m = {F.shape[0]:,}), "
+        "one fresh process each =="
+    )
+    print(
+        "  Peak RSS is /proc/self/status VmHWM (reset between phases); ru_maxrss is printed too, "
+        "but on\n  Linux it carries the parent's peak across fork+exec, so it is only an "
+        "upper bound here."
+    )
+
+    def row(label: str, nbytes: float, indent: str = "    ") -> None:
+        print(f"{indent}{label:<46}{fmt_bytes(nbytes):>12}")
+
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "mesh.npz")
         np.savez(path, V=V, F=F)
@@ -545,29 +621,35 @@ def run_memory(V: np.ndarray, F: np.ndarray) -> None:
             base = rep["rss_loaded"]
             if which == "fvf":
                 print(
-                    "  fvf: TriMesh + grad, div, laplacian, stiffness, vertex_mass, "
-                    "face_to_vertex, vertex_to_face, D_F, D_V, Dtilde_V, bracket_F"
+                    "  fvf: TriMesh, then grad, div, laplacian, stiffness, vertex_mass, "
+                    "face_to_vertex,\n       vertex_to_face, D_F, D_V, Dtilde_V, bracket_F"
                 )
-                print(f"    RSS after loading V, F:            {fmt_bytes(base)}")
-                print(
-                    f"    peak RSS - loaded, construction:   "
-                    f"{fmt_bytes(rep['peak_after_construction'] - base)}"
-                )
-                print(f"    peak RSS - loaded, all operators:  {fmt_bytes(rep['peak'] - base)}")
-                print(f"    operator bytes (data+indices+indptr): {fmt_bytes(total)}")
+                row("RSS after loading V, F", base)
+                peak_c = rep["peak_construction"]
+                row("peak RSS - loaded, during TriMesh(V, F)", peak_c - base)
+                if rep["can_reset"]:
+                    row("RSS after construction - loaded", rep["rss_constructed"] - base)
+                    row("peak RSS - loaded, while building operators", rep["peak_ops"] - base)
+                    overall = max(peak_c, rep["peak_ops"])
+                else:
+                    overall = rep["peak_ops"]
+                row("peak RSS - loaded, overall", overall - base)
+                row("RSS at end - loaded", rep["rss_end"] - base)
+                row("ru_maxrss (inherited upper bound)", rep["ru_maxrss"])
+                row("operator bytes (data+indices+indptr)", total)
                 for k, b in rep["op_bytes"].items():
-                    print(f"      {k:<16} {fmt_bytes(b):>12}")
-                print(
-                    f"    all arrays cached on the mesh (incl. cached operators): "
-                    f"{fmt_bytes(rep['mesh_cache_bytes'])}"
-                )
+                    row(k, b, "      ")
+                cache = rep["mesh_cache"]
+                row("arrays cached on the mesh (incl. operators)", sum(cache.values()))
+                for k, b in sorted(cache.items(), key=lambda kv: -kv[1])[:6]:
+                    row(k, b, "      ")
             else:
                 print(
                     "  libigl reference: grad, cotmatrix, massmatrix(BARY), doublearea, "
                     "per_face_normals"
                 )
-                print(f"    peak RSS - loaded:                 {fmt_bytes(rep['peak'] - base)}")
-                print(f"    operator bytes:                    {fmt_bytes(total)}")
+                row("peak RSS - loaded", rep["peak_ops"] - base)
+                row("operator bytes", total)
 
 
 # ------------------------------------------------------------------------------ main
@@ -581,7 +663,9 @@ def main() -> None:
         default="1e4,1e5,1e6",
         help="comma-separated target face counts (default 1e4,1e5,1e6)",
     )
-    ap.add_argument("--igl-threads", type=int, default=1, help="libigl thread pool size (default 1)")
+    ap.add_argument(
+        "--igl-threads", type=int, default=1, help="libigl thread pool size (default 1)"
+    )
     ap.add_argument("--no-memory", action="store_true", help="skip the peak-memory subprocess")
     args = ap.parse_args()
 
@@ -606,9 +690,11 @@ def main() -> None:
         f"{pkg_version('threadpoolctl')}"
     )
     print(f"  os.cpu_count() = {os.cpu_count()}, platform {platform.platform()}")
-    print("  threads: threadpool_limits(1) -> " + ", ".join(
-        f"{p.get('internal_api')}={p.get('num_threads')}" for p in threadpool_info()
-    ) + f"; libigl IGL_NUM_THREADS={os.environ['IGL_NUM_THREADS']}")
+    print(
+        "  threads: threadpool_limits(1) -> "
+        + ", ".join(f"{p.get('internal_api')}={p.get('num_threads')}" for p in threadpool_info())
+        + f"; libigl IGL_NUM_THREADS={os.environ['IGL_NUM_THREADS']}"
+    )
     print(
         "  meshes: spot.obj refined by this script's vectorized 1-to-4 midpoint subdivision "
         "(vertices not moved)"
@@ -661,7 +747,16 @@ def main() -> None:
             for name, r in igl_res.items()
         ]
         print_table(
-            ["operator", "fvf cold", "fvf warm", "peer", "peer time", "cold/peer", "warm/peer", "rel.diff"],
+            [
+                "operator",
+                "fvf cold",
+                "fvf warm",
+                "peer",
+                "peer time",
+                "cold/peer",
+                "warm/peer",
+                "rel.diff",
+            ],
             rows,
         )
         for name, r in igl_res.items():
@@ -685,7 +780,9 @@ def main() -> None:
             ]
             for name, r in comp_res.items()
         ]
-        print_table(["operator", "fvf", "composed", "fvf/comp", "rel.diff", "nnz", "composition"], rows)
+        print_table(
+            ["operator", "fvf", "composed", "fvf/comp", "rel.diff", "nnz", "composition"], rows
+        )
         results[level] = dict(n=n, m=m, igl=igl_res, comp=comp_res, build=t_build)
         largest = (V, F)
         if level == levels[-1]:

@@ -42,6 +42,12 @@ def bracket_F(
     Assembled through Lemma 14 (eq. 55),
     D^F_{[v,w]} = div B(v,w) grad − [div v] D^V_w + [div w] D^V_v, one 3 x 3 block per
     face on the 1-ring pattern (Lemma 16).
+
+    Notes
+    -----
+    Lemma 14 is an algebraic identity and holds on meshes with boundary too. Theorem 1
+    (eq. 60) uses div J grad h = 0, which holds at interior vertices only: on a mesh with
+    boundary it fails at boundary vertices.
     """
     v = as_face_field(mesh, v, "v", tangent)
     w = as_face_field(mesh, w, "w", tangent)

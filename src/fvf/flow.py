@@ -51,6 +51,12 @@ class FunctionalFlow:
         Warn (:class:`~fvf.errors.FlowGrowthWarning`) when the estimated bound on
         ‖f(t)‖/‖f_0‖ exceeds this.
 
+    Notes
+    -----
+    No boundary condition is imposed: on a mesh with boundary the flow is that of the
+    assembled D^V_v, and even a field J grad g (divergence-free inside) can grow the norm
+    through boundary vertices; the growth estimate accounts for it.
+
     Examples
     --------
     >>> import numpy as np, fvf

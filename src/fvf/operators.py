@@ -61,6 +61,13 @@ def D_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> 
 
     Assembled directly on the mesh's cached 1-ring pattern (Lemma 8), so building it for
     a new field costs one pass over the faces.
+
+    Notes
+    -----
+    [A_V] D^V_v is skew-symmetric for v = J grad g on a closed mesh (its flow keeps the
+    A_V-norm). On a mesh with boundary J grad g has flux through the boundary, and the
+    skew-symmetry (hence norm conservation) fails at boundary vertices; D^V_v itself is
+    assembled the same way, with one-sided averages at the boundary.
     """
     v = as_face_field(mesh, v, "v", tangent)
     d = directional_derivatives(mesh, v)  # (m, 3): entry for column corner b
