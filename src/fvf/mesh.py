@@ -389,19 +389,29 @@ class TriMesh:
             local blocks ``K[t]`` has data ``bincount(slots.ravel(), K.ravel())``.
         """
         n, E = self.n_vertices, self.edges
-        rows = np.concatenate([np.arange(n), E[:, 0], E[:, 1]])
-        cols = np.concatenate([np.arange(n), E[:, 1], E[:, 0]])
-        # Counting sort by row (coo -> csr), then the short rows are sorted by column;
-        # the data carry each entry's input position (exact in float64 below 2**53).
-        A = sp.coo_array((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(n, n))
-        A = A.tocsr()
-        A.sort_indices()
-        position = np.empty(rows.size, dtype=np.int64)
-        position[A.data.astype(np.int64) - 1] = np.arange(rows.size)
-        indptr, indices = A.indptr.astype(np.int64), A.indices.astype(np.int64)
         ne = E.shape[0]
-        diag_slot = position[:n]
-        fwd_slot, bwd_slot = position[n : n + ne], position[n + ne :]  # (i<j) and (j>i)
+        lo, hi = E[:, 0], E[:, 1]  # edges are sorted by (lo, hi)
+        n_fwd = np.bincount(lo, minlength=n)  # entries (i, j > i) of row i
+        n_bwd = np.bincount(hi, minlength=n)  # entries (i, j < i) of row i
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(n_fwd + n_bwd + 1, out=indptr[1:])
+        # Row i is [(i, j < i) ascending, (i, i), (i, j > i) ascending]: already sorted.
+        diag_slot = indptr[:-1] + n_bwd
+        first = np.zeros(n, dtype=np.int64)
+        np.cumsum(n_fwd[:-1], out=first[1:])
+        edge = np.arange(ne)
+        fwd_slot = diag_slot[lo] + 1 + (edge - first[lo])
+        # Edges in (hi, lo) order by a counting sort (scipy's coo -> csr keeps input order
+        # within a row, and the input is sorted by lo).
+        B = sp.coo_array((edge + 1.0, (hi, lo)), shape=(n, n)).tocsr()
+        by_hi = B.data.astype(np.int64) - 1
+        rank = edge - B.indptr[hi[by_hi]]
+        bwd_slot = np.empty(ne, dtype=np.int64)
+        bwd_slot[by_hi] = indptr[hi[by_hi]] + rank
+        indices = np.empty(indptr[-1], dtype=np.int64)
+        indices[diag_slot] = np.arange(n)
+        indices[fwd_slot] = hi
+        indices[bwd_slot] = lo
         F = self.faces
         slots = np.empty((F.shape[0], 3, 3), dtype=np.int64)
         for a in range(3):  # 3 x 3 corners per face, vectorized over faces

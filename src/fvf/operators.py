@@ -12,6 +12,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from .calculus import (
+    _freeze,
     _sorted_corners,
     face_rows_csr,
     face_to_vertex,
@@ -70,9 +71,29 @@ def D_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> 
     assembled the same way, with one-sided averages at the boundary.
     """
     v = as_face_field(mesh, v, "v", tangent)
-    d = directional_derivatives(mesh, v)  # (m, 3): entry for column corner b
-    w = mesh.face_areas[:, None] / (3.0 * mesh.vertex_areas[mesh.faces])  # (m, 3): row a
-    return mesh.assemble_vertex_operator(w[:, :, None] * d[:, None, :])
+    indptr, indices, _ = mesh.vertex_pattern
+    data = _D_V_scatter(mesh) @ directional_derivatives(mesh, v).ravel()
+    n = mesh.n_vertices
+    return sp.csr_array((data, indices, indptr), shape=(n, n))
+
+
+def _D_V_scatter(mesh: TriMesh) -> sp.csr_array:
+    """Sparse (nnz, 3m) map from ⟨v, ∇φ_b⟩ per face corner to the data of D^V_v.
+
+    Entry (slots[t, a, b], 3t + b) is A_F(t) / (3 A_V(F[t, a])), the weight of I_V^F
+    (eq. 36); cached per mesh so a new field costs one sparse product.
+    """
+
+    def build():
+        _, indices, slots = mesh.vertex_pattern
+        m = mesh.n_faces
+        w = mesh.face_areas[:, None] / (3.0 * mesh.vertex_areas[mesh.faces])  # (m, 3a)
+        vals = np.broadcast_to(w[:, :, None], (m, 3, 3))
+        cols = np.broadcast_to((3 * np.arange(m))[:, None, None] + np.arange(3), (m, 3, 3))
+        P = sp.coo_array((vals.ravel(), (slots.ravel(), cols.ravel())), (indices.size, 3 * m))
+        return _freeze(P.tocsr())
+
+    return mesh.cached("D_V_scatter", build)
 
 
 def Dbar_F(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
