@@ -40,6 +40,14 @@ from .mesh import TriMesh
 from .operators import D_F, D_V, Dbar_F, Dbar_V, directional_derivatives, extract_field
 from .repair import remove_unreferenced_vertices
 from .shapes import disk, icosphere, jittered_sphere, torus
+from .singularities import (
+    ZeroFieldWarning,
+    face_indices,
+    face_singularities,
+    singularities,
+    singularity_positions,
+    vertex_indices,
+)
 
 __version__ = "0.1.0"
 
@@ -96,5 +104,11 @@ __all__ = [
     "as_face_field",
     "as_face_function",
     "as_vertex_function",
+    "vertex_indices",
+    "singularities",
+    "face_indices",
+    "face_singularities",
+    "singularity_positions",
+    "ZeroFieldWarning",
     *_errors_all,
 ]
