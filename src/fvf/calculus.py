@@ -305,8 +305,11 @@ def laplacian(mesh: TriMesh) -> sp.csr_array:
     """
 
     def build():
-        local = _stiffness_local(mesh) / mesh.vertex_areas[mesh.faces][:, :, None]
-        return _freeze(mesh.assemble_vertex_operator(local))
+        W = stiffness(mesh)  # L = [A_V]⁻¹ W: scale each row of the shared pattern
+        rows = np.repeat(np.arange(mesh.n_vertices), np.diff(W.indptr))
+        return _freeze(
+            sp.csr_array((W.data / mesh.vertex_areas[rows], W.indices, W.indptr), W.shape)
+        )
 
     return mesh.cached("laplacian", build)
 
