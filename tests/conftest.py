@@ -8,6 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+try:  # small dense work (ARPACK, k x k algebra) is 10-25x slower with threaded OpenBLAS here
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+except ImportError:  # pragma: no cover
+    pass
+
 _DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 SHARED_MESHES = Path(os.environ.get("FVF_SHARED_MESHES", _DEFAULT))
 

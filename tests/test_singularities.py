@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
 import fvf
-from conftest import CLOSED_NAMES, CLOSED_SHARED, closed_mesh
+from conftest import CLOSED_NAMES, CLOSED_SHARED, closed_mesh, load_shared
 from fvf.calculus import gradient, rotate
 from fvf.errors import FieldShapeError, NonTangentFieldWarning
 from fvf.singularities import (
@@ -481,3 +481,15 @@ def test_singularity_positions():
         singularity_positions(mesh, [-1], kind="face")
     with pytest.raises(FieldShapeError, match="integer"):
         singularity_positions(mesh, [0.5])
+
+
+@pytest.mark.parametrize("name, chi", CLOSED_SHARED)
+def test_designed_fields_satisfy_poincare_hopf(name, chi):
+    """Issue: the indices of designed fields sum to χ on every closed shared mesh."""
+    mesh = load_shared(name)
+    faces = np.array([0, mesh.n_faces // 2])
+    directions = mesh.face_bases[faces, 0]
+    v = fvf.design_field(mesh, faces, directions, hard=True)
+    ids, idx = fvf.singularities(mesh, v)
+    assert idx.sum() == chi
+    assert len(ids) >= abs(chi)

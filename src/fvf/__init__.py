@@ -30,12 +30,25 @@ from .calculus import (
     vertex_to_face,
     vertex_to_face_values,
 )
+from .connection import (
+    connection_energy,
+    connection_laplacian,
+    connection_mass,
+    real_connection_laplacian,
+    restrict_to_tangent,
+    smoothest_fields,
+    tangent_basis_matrix,
+)
+from .design import closest_faces, design_field, locate_points
 from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
+from .eigen import SpectralFallbackWarning, eigen_residuals, smallest_eigenpairs
 from .errors import *  # noqa: F403
 from .errors import __all__ as _errors_all
 from .fields import as_face_field, as_face_function, as_vertex_function
 from .flow import GROWTH_LIMIT, FunctionalFlow, flow
+from .fmaps import functional_map, functional_map_from_bases, map_quality
 from .io import read_mesh, write_mesh
+from .killing import commutator_energy, killing_fields
 from .mesh import TriMesh
 from .operators import D_F, D_V, Dbar_F, Dbar_V, directional_derivatives, extract_field
 from .repair import remove_unreferenced_vertices
@@ -48,6 +61,7 @@ from .singularities import (
     singularity_positions,
     vertex_indices,
 )
+from .spectral import SpectralBasis, gradient_field_basis, laplace_basis
 
 __version__ = "0.1.0"
 
@@ -110,5 +124,26 @@ __all__ = [
     "face_singularities",
     "singularity_positions",
     "ZeroFieldWarning",
+    "connection_laplacian",
+    "connection_mass",
+    "connection_energy",
+    "real_connection_laplacian",
+    "restrict_to_tangent",
+    "smoothest_fields",
+    "tangent_basis_matrix",
+    "design_field",
+    "locate_points",
+    "closest_faces",
+    "smallest_eigenpairs",
+    "eigen_residuals",
+    "SpectralFallbackWarning",
+    "SpectralBasis",
+    "laplace_basis",
+    "gradient_field_basis",
+    "killing_fields",
+    "commutator_energy",
+    "functional_map",
+    "functional_map_from_bases",
+    "map_quality",
     *_errors_all,
 ]

@@ -25,6 +25,10 @@ ad (62–63)         bracket.ad                      (3n, 3m), fvf layout
 poisson_bracket    calculus.poisson_bracket        (m,)
 flow (42)          flow.flow                       (n,) or (T, n)
 extract_field (40) operators.extract_field         (rows of D, 3)
+laplace_basis      spectral.laplace_basis          (k,), (n, k)
+killing_fields     killing.killing_fields          (count,), (count, m, 3)
+singularities      singularities.singularities     (s,), (s,)
+functional_map     fmaps.functional_map            (k, k)
 =================  ==============================  =================================
 """
 
@@ -44,7 +48,11 @@ from .calculus import (
 from .calculus import rotation as J
 from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
 from .flow import flow
+from .fmaps import functional_map
+from .killing import killing_fields
 from .operators import D_F, D_V, Dbar_F, Dbar_V, extract_field
+from .singularities import singularities
+from .spectral import laplace_basis
 
 A_F = face_areas
 A_V = vertex_areas
@@ -76,4 +84,8 @@ __all__ = [
     "poisson_bracket",
     "flow",
     "extract_field",
+    "laplace_basis",
+    "killing_fields",
+    "singularities",
+    "functional_map",
 ]
