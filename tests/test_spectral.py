@@ -208,3 +208,17 @@ def test_map_consistent_field_is_its_own_mirror_image():
     # symmetry is not free: the smoothest fields span non-symmetric ones too
     _, smooth = fvf.smoothest_fields(mesh, 6)
     assert max(asym(s) for s in smooth) > 0.5
+
+
+def test_functional_map_between_two_meshes(rng):
+    """Mesh 2 is mesh 1 with its vertices shuffled and scaled by 2: C_12 = 2 I."""
+    mesh_1 = load_shared("spot.obj")
+    perm = rng.permutation(mesh_1.n_vertices)  # new vertex j is old vertex perm[j]
+    inverse = np.argsort(perm)
+    mesh_2 = fvf.TriMesh(2.0 * mesh_1.vertices[perm], inverse[mesh_1.faces])
+    b1, b2 = SpectralBasis(mesh_1, 12), SpectralBasis(mesh_2, 12)
+    assert np.allclose(b2.eigenvalues, b1.eigenvalues / 4, rtol=1e-6, atol=1e-9)
+    C = functional_map_from_bases(b1, b2, perm)
+    # Φ_2 = Φ_1[perm] / 2 and A_V2 = 4 A_V1[perm]: pulling back multiplies L2 norms by 2
+    # (areas x 4); the sign convention (largest entry positive) ignores the vertex order
+    assert np.abs(C - 2 * np.eye(12)).max() < 1e-6

@@ -1,0 +1,81 @@
+"""Cost of a reduced spectral flow against the full flow, at equal accuracy on the span.
+
+On unit icospheres, f_0 is a combination of the first Laplace–Beltrami eigenfunctions
+(so it lies in the span of the basis) and v = e_z × x is a rotation, whose exact flow
+turns f_0 about z: f(t) = f_0 ∘ R_z(−t). We time
+
+- full: ``fvf.flow`` (expm_multiply on the n x n D^V_v), and
+- reduced: ``basis.reduced_flow`` (D̂_v, a k x k exponential, reconstruction),
+
+and print both errors against the exact rotation of the PL interpolant (the accuracy of
+each), their mutual difference, and the time ratio. The basis itself is a one-off cost per
+mesh, printed separately. BLAS threads are pinned to 1 (threadpoolctl).
+
+Run: ``.venv/bin/python benchmarks/bench_reduced_flow.py [--levels 4,5,6] [--k 50]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+import fvf
+from fvf.spectral import SpectralBasis
+
+
+def best(fn, r=3):
+    t = np.inf
+    out = None
+    for _ in range(r):
+        s = time.perf_counter()
+        out = fn()
+        t = min(t, time.perf_counter() - s)
+    return t, out
+
+
+def rotate_z(p, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]], 1)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--levels", default="4,5,6")
+    ap.add_argument("--k", type=int, default=49)
+    ap.add_argument("--t", type=float, default=1.0)
+    args = ap.parse_args()
+    threadpool_limits(1)
+    print("BLAS threads pinned to 1 (threadpoolctl); times are best of 3")
+    print(
+        f"{'n':>7} {'k':>4} {'basis s':>8} {'full s':>8} {'reduced s':>9} {'ratio':>7} "
+        f"{'err full':>9} {'err red':>9} {'|full-red|':>10}"
+    )
+    for level in map(int, args.levels.split(",")):
+        mesh = fvf.icosphere(level)
+        X, a = mesh.vertices, mesh.vertex_areas
+        tb, basis = best(lambda m=mesh: SpectralBasis(m, args.k), r=1)
+        # a function in the span whose exact rotation is known: degree <= 3 polynomials
+        # restricted to the sphere are combinations of l <= 3 harmonics (k >= 16 holds them)
+        f_exact = lambda p: p[:, 0] + 0.5 * p[:, 1] * p[:, 2] + 0.3 * p[:, 0] ** 2 * p[:, 1]  # noqa: E731
+        f0 = basis.reconstruct(basis.project(f_exact(X)))
+        v = mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+        exact = f_exact(rotate_z(X, -args.t))
+
+        def norm(g):
+            return float(np.sqrt(a @ g**2))
+
+        tf, full = best(lambda: fvf.flow(mesh, v, f0, args.t))
+        tr, red = best(lambda: basis.reduced_flow(v, f0, args.t))
+        print(
+            f"{mesh.n_vertices:>7} {args.k:>4} {tb:>8.3f} {tf:>8.4f} {tr:>9.4f} "
+            f"{tr / tf:>6.2f}x {norm(full - exact):>9.2e} {norm(red - exact):>9.2e} "
+            f"{norm(full - red):>10.2e}"
+        )
+    print("err: A_V-norm distance to the exact rotation; the span holds f_0's exact rotation")
+
+
+if __name__ == "__main__":
+    main()
