@@ -41,6 +41,29 @@ def rotate_z(p, angle):
     return np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]], 1)
 
 
+def f_exact(p):
+    """Degree <= 3 polynomial: on the sphere, a combination of l <= 3 harmonics."""
+    return p[:, 0] + 0.5 * p[:, 1] * p[:, 2] + 0.3 * p[:, 0] ** 2 * p[:, 1]
+
+
+def row(mesh, k: int, t: float) -> None:
+    X, a = mesh.vertices, mesh.vertex_areas
+    tb, basis = best(lambda: SpectralBasis(mesh, k), r=1)
+    f0 = basis.reconstruct(basis.project(f_exact(X)))  # in the span (k >= 16 holds l <= 3)
+    v = mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+    exact = f_exact(rotate_z(X, -t))
+
+    def norm(g):
+        return float(np.sqrt(a @ g**2))
+
+    tf, full = best(lambda: fvf.flow(mesh, v, f0, t))
+    tr, red = best(lambda: basis.reduced_flow(v, f0, t))
+    print(
+        f"{mesh.n_vertices:>7} {k:>4} {tb:>8.3f} {tf:>8.4f} {tr:>9.4f} {tr / tf:>6.2f}x "
+        f"{norm(full - exact):>9.2e} {norm(red - exact):>9.2e} {norm(full - red):>10.2e}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--levels", default="4,5,6")
@@ -54,26 +77,7 @@ def main() -> None:
         f"{'err full':>9} {'err red':>9} {'|full-red|':>10}"
     )
     for level in map(int, args.levels.split(",")):
-        mesh = fvf.icosphere(level)
-        X, a = mesh.vertices, mesh.vertex_areas
-        tb, basis = best(lambda m=mesh: SpectralBasis(m, args.k), r=1)
-        # a function in the span whose exact rotation is known: degree <= 3 polynomials
-        # restricted to the sphere are combinations of l <= 3 harmonics (k >= 16 holds them)
-        f_exact = lambda p: p[:, 0] + 0.5 * p[:, 1] * p[:, 2] + 0.3 * p[:, 0] ** 2 * p[:, 1]  # noqa: E731
-        f0 = basis.reconstruct(basis.project(f_exact(X)))
-        v = mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
-        exact = f_exact(rotate_z(X, -args.t))
-
-        def norm(g):
-            return float(np.sqrt(a @ g**2))
-
-        tf, full = best(lambda: fvf.flow(mesh, v, f0, args.t))
-        tr, red = best(lambda: basis.reduced_flow(v, f0, args.t))
-        print(
-            f"{mesh.n_vertices:>7} {args.k:>4} {tb:>8.3f} {tf:>8.4f} {tr:>9.4f} "
-            f"{tr / tf:>6.2f}x {norm(full - exact):>9.2e} {norm(red - exact):>9.2e} "
-            f"{norm(full - red):>10.2e}"
-        )
+        row(fvf.icosphere(level), args.k, args.t)
     print("err: A_V-norm distance to the exact rotation; the span holds f_0's exact rotation")
 
 
