@@ -17,6 +17,8 @@ NAMES = {
     "poisson_bracket": fvf.poisson_bracket, "flow": fvf.flow, "extract_field": fvf.extract_field,
     "laplace_basis": fvf.laplace_basis, "killing_fields": fvf.killing_fields,
     "singularities": fvf.singularities, "functional_map": fvf.functional_map,
+    "Ad": fvf.Ad, "interpolate": fvf.interpolate, "rescale": fvf.rescale,
+    "acap_fields": fvf.acap_fields,
 }  # fmt: skip
 
 

@@ -6,7 +6,16 @@ flows; :mod:`fvf.chapter` holds one alias per symbol of the source chapter.
 """
 
 from . import chapter, examples
-from .bracket import B, ad, bracket_F, bracket_V, commutator_field
+from .bracket import (
+    B,
+    ad,
+    bracket_F,
+    bracket_norm,
+    bracket_smoothness,
+    bracket_V,
+    commutator_field,
+    dirichlet_ratio,
+)
 from .calculus import (
     diag,
     div,
@@ -30,6 +39,7 @@ from .calculus import (
     vertex_to_face,
     vertex_to_face_values,
 )
+from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
 from .connection import (
     connection_energy,
     connection_laplacian,
@@ -62,6 +72,7 @@ from .singularities import (
     vertex_indices,
 )
 from .spectral import SpectralBasis, gradient_field_basis, laplace_basis
+from .transport import Ad, FieldTransport, TransportResult, interpolate
 
 __version__ = "0.1.0"
 
@@ -145,5 +156,16 @@ __all__ = [
     "functional_map",
     "functional_map_from_bases",
     "map_quality",
+    "Ad",
+    "FieldTransport",
+    "TransportResult",
+    "interpolate",
+    "rescale",
+    "rescaling_operator",
+    "acap_fields",
+    "acap_energy_matrix",
+    "bracket_norm",
+    "bracket_smoothness",
+    "dirichlet_ratio",
     *_errors_all,
 ]

@@ -29,6 +29,10 @@ laplace_basis      spectral.laplace_basis          (k,), (n, k)
 killing_fields     killing.killing_fields          (count,), (count, m, 3)
 singularities      singularities.singularities     (s,), (s,)
 functional_map     fmaps.functional_map            (k, k)
+Ad (67)            transport.Ad                    (m, 3) or (T, m, 3)
+interpolate (68)   transport.interpolate           (m, 3) or (T, m, 3)
+rescale (65–66)    commuting.rescale               (n,)
+acap_fields        commuting.acap_fields           (k, m, 3)
 =================  ==============================  =================================
 """
 
@@ -46,6 +50,7 @@ from .calculus import (
     vertex_to_face,
 )
 from .calculus import rotation as J
+from .commuting import acap_fields, rescale
 from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
 from .flow import flow
 from .fmaps import functional_map
@@ -53,6 +58,7 @@ from .killing import killing_fields
 from .operators import D_F, D_V, Dbar_F, Dbar_V, extract_field
 from .singularities import singularities
 from .spectral import laplace_basis
+from .transport import Ad, interpolate
 
 A_F = face_areas
 A_V = vertex_areas
@@ -88,4 +94,8 @@ __all__ = [
     "killing_fields",
     "singularities",
     "functional_map",
+    "Ad",
+    "interpolate",
+    "rescale",
+    "acap_fields",
 ]

@@ -1,0 +1,128 @@
+"""Fields that commute with a given field: rescaling (§4.4.1) and ACAP fields (§4.4.2).
+
+Both minimize the mixed Lie bracket through ad_v (eqs. 62–63, :func:`fvf.ad`), whose
+output is a vertex field measured in the A_V inner product:
+‖ad_v w‖² = (ad_v w)ᵀ [A_V ⊗ I_3] (ad_v w).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from .bracket import ad
+from .calculus import field_product, stiffness, vertex_to_face
+from .connection import ConnectionKind, real_connection_laplacian, tangent_basis_matrix
+from .eigen import smallest_eigenpairs
+from .fields import TangentPolicy, as_face_field
+from .mesh import TriMesh
+
+__all__ = ["rescaling_operator", "rescale", "acap_energy_matrix", "acap_fields"]
+
+
+def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
+    return sp.csr_array(sp.diags_array(np.repeat(mesh.vertex_areas, 3)))
+
+
+def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
+    """F(v, u) = ad_v [u]• I_F^V: sparse (3n, n), f ↦ [v, f u] as a vertex field (eq. 65)."""
+    v = as_face_field(mesh, v, "v")
+    u = as_face_field(mesh, u, "u")
+    return (ad(mesh, v, tangent="ignore") @ (field_product(mesh, u) @ vertex_to_face(mesh))).tocsr()
+
+
+def rescale(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    alpha: float,
+    *,
+    return_energy: bool = False,
+):
+    """Commutation-guided rescaling: the f minimizing ½‖[v, f u]‖² + (α/2)‖∇f‖², ∫f² = 1.
+
+    Solves the generalized eigenproblem (eqs. 65–66) for the smallest eigenpair of
+
+        E f = λ [A_V] f,   E = F(v,u)ᵀ [A_V ⊗ I_3] F(v,u) + α W,
+
+    with F from :func:`rescaling_operator` and W = :func:`fvf.stiffness` (the weak form of
+    α L, so that fᵀ W f = ‖∇f‖²). The constraint ∫f² = fᵀ[A_V]f = 1 is eq. (66)'s.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    v, u : array_like (m, 3)
+    alpha : float
+        Smoothness weight α >= 0 (units of area⁻¹ × ‖v‖²·‖u‖²; choose relative to the
+        bracket term, e.g. as a fraction of ``λ_max(FᵀAF) / λ_max(W)``).
+    return_energy : bool
+        Also return the minimal energy ½λ.
+
+    Returns
+    -------
+    f : float64 (n,)
+        A_V-normalized, sign chosen so that ∫f > 0.
+    """
+    F = rescaling_operator(mesh, v, u)
+    E = (F.T @ _vertex_mass3(mesh) @ F + float(alpha) * stiffness(mesh)).tocsr()
+    E = 0.5 * (E + E.T)
+    lam, f = smallest_eigenpairs(E, mesh.vertex_areas, 1)
+    f = f[:, 0] * (1.0 if mesh.vertex_areas @ f[:, 0] >= 0 else -1.0)
+    return (f, 0.5 * float(lam[0])) if return_energy else f
+
+
+def acap_energy_matrix(
+    mesh: TriMesh, v: npt.ArrayLike, lam: float, kind: ConnectionKind = "knoppel"
+) -> sp.csr_array:
+    """E_B = Bᵀ (ad_vᵀ [A_V ⊗ I_3] ad_v) B + λ L_conn: sparse symmetric (2m, 2m) (§4.4.2).
+
+    B (3m, 2m) is the per-face orthonormal tangent basis (:func:`fvf.tangent_basis_matrix`)
+    and L_conn the real form of the face connection Laplacian in the same basis
+    (:func:`fvf.real_connection_laplacian`); both terms are weak (integrated) forms,
+    paired with the mass [A_F] repeated twice.
+    """
+    v = as_face_field(mesh, v, "v")
+    A = ad(mesh, v, tangent="ignore")
+    B = tangent_basis_matrix(mesh)
+    AB = (A @ B).tocsr()  # (3n, 2m)
+    E = AB.T @ _vertex_mass3(mesh) @ AB + float(lam) * real_connection_laplacian(mesh, kind)
+    E = sp.csr_array(E)
+    return (0.5 * (E + E.T)).tocsr()
+
+
+def acap_fields(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    lam: float,
+    k: int,
+    *,
+    kind: ConnectionKind = "knoppel",
+    tangent: TangentPolicy = "project",
+) -> np.ndarray:
+    """As-commuting-as-possible fields: the k smallest eigenvectors of E_B (§4.4.2).
+
+    Minimizes ‖ad_v w‖² + λ E_conn(w) over tangent fields w with ∫|w|² = 1; v itself
+    (and every multiple of it) is in the kernel of ad_v, and the connection energy picks
+    the smooth ones (Fig. 11).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    v : array_like (m, 3)
+    lam : float
+        Weight λ of the connection energy (:func:`acap_energy_matrix`).
+    k : int
+        Number of fields.
+
+    Returns
+    -------
+    float64 (k, m, 3)
+        Tangent, unit L2 norm (eq. 26), ordered by increasing energy.
+    """
+    v = as_face_field(mesh, v, "v", tangent)
+    E = acap_energy_matrix(mesh, v, lam, kind)
+    mass = np.repeat(mesh.face_areas, 2)
+    _, X = smallest_eigenpairs(E, mass, int(k))
+    B = tangent_basis_matrix(mesh)
+    return (B @ X).T.reshape(int(k), mesh.n_faces, 3)
