@@ -55,7 +55,9 @@ from .eigen import SpectralFallbackWarning, eigen_residuals, smallest_eigenpairs
 from .errors import *  # noqa: F403
 from .errors import __all__ as _errors_all
 from .fields import as_face_field, as_face_function, as_vertex_function
-from .flow import GROWTH_LIMIT, FunctionalFlow, flow
+from .flow import GROWTH_LIMIT, FunctionalFlow
+from .flows import TransportFlow, dual_edge_fluxes, flow, skew_operator, upwind_operator
+from .fluid import FluidResult, fluid_time_step, ideal_fluid
 from .fmaps import functional_map, functional_map_from_bases, map_quality
 from .io import read_mesh, write_mesh
 from .killing import commutator_energy, killing_fields
@@ -167,5 +169,12 @@ __all__ = [
     "bracket_norm",
     "bracket_smoothness",
     "dirichlet_ratio",
+    "TransportFlow",
+    "upwind_operator",
+    "skew_operator",
+    "dual_edge_fluxes",
+    "ideal_fluid",
+    "fluid_time_step",
+    "FluidResult",
     *_errors_all,
 ]

@@ -23,7 +23,8 @@ bracket_F (54)     bracket.bracket_F               (n, n), 1-ring
 B (55)             bracket.B                       (3m, 3m)
 ad (62–63)         bracket.ad                      (3n, 3m), fvf layout
 poisson_bracket    calculus.poisson_bracket        (m,)
-flow (42)          flow.flow                       (n,) or (T, n)
+flow (42)          flows.flow (method="chapter";   (n,) or (T, n)
+                   upwind, skew, cayley, spectral)
 extract_field (40) operators.extract_field         (rows of D, 3)
 laplace_basis      spectral.laplace_basis          (k,), (n, k)
 killing_fields     killing.killing_fields          (count,), (count, m, 3)
@@ -52,7 +53,7 @@ from .calculus import (
 from .calculus import rotation as J
 from .commuting import acap_fields, rescale
 from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
-from .flow import flow
+from .flows import flow
 from .fmaps import functional_map
 from .killing import killing_fields
 from .operators import D_F, D_V, Dbar_F, Dbar_V, extract_field
