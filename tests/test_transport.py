@@ -265,3 +265,34 @@ def test_fig7_measured_on_real_meshes(name):
     u = mesh.project_tangent(np.cross([1.0, 0, 0], C) + [0, 0.3, 0])
     rV, rF = bracket_smoothness(mesh, v, u, basis.eigenvectors[:, [1, 2, 3, 4, 5, 8, 11]])
     assert (rV / rF < 0.95).all()
+
+
+# ------------------------------------------------------------------ transport operator
+def test_transport_operator_matches_formed_generator(sphere):
+    """G is applied as its two sparse factors; it equals the formed product, its trace
+    (passed to expm_multiply) is exact, and products are counted in columns."""
+    rng = np.random.default_rng(3)
+    v = rotation(sphere, [0.3, 0.0, 1.0])
+    T = FieldTransport(sphere, v)
+    op = T.operator
+    G = T.generator
+    m = sphere.n_faces
+    assert G.shape == op.shape == (3 * m, 3 * m)
+    x = rng.standard_normal(3 * m)
+    X = rng.standard_normal((3 * m, 4))
+    op.reset_counts()
+    assert rel(op @ x, G @ x) < 1e-14 and rel(op @ X, G @ X) < 1e-14
+    assert rel(op.T @ x, G.T @ x) < 1e-14 and rel(op.rmatmat(X), G.T @ X) < 1e-14
+    assert op.n_matvec == 5 and op.n_rmatvec == 5
+    assert abs(op.trace - G.diagonal().sum()) < 1e-12 * abs(G).sum() / m
+    op.reset_counts()
+    u = rotation(sphere, [1.0, 0.0, 0.0])
+    import scipy.sparse.linalg as sla
+
+    ref = sla.expm_multiply(0.6 * G, u.ravel())
+    raw = sla.expm_multiply(0.6 * op, u.ravel(), traceA=0.6 * op.trace)
+    assert rel(raw, ref) < 1e-12
+    assert op.n_matvec > 0
+    op.reset_counts()
+    T(u, 0.6)
+    assert op.n_matvec > 0 and op.n_rmatvec >= 0

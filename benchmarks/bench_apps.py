@@ -1,0 +1,313 @@
+"""Benchmark the Lie-bracket applications: Ad transport (eq. 67) and ACAP fields (§4.4.2).
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/bench_apps.py            # ~10k, ~100k, ~1M faces
+    .venv/bin/python benchmarks/bench_apps.py --quick    # the two small sizes
+    .venv/bin/python benchmarks/bench_apps.py --sizes 2e4 --acap-timeout 600
+
+Meshes are the spot mesh refined by 1-to-4 midpoint subdivision (``bench_core.py``'s
+helpers; 5,856 / 93,696 / 1,499,136 faces for the default sizes). BLAS runs on one thread
+(threadpoolctl).
+
+Transport: v = e_z × (x − c) projected per face and scaled to max|v| = 1, u = grad sin(5x).
+Times are given in units of 10 mean edge lengths h̄: "t = 1" is the physical time 10 h̄,
+over which the fastest point of the flow moves 10 h̄ (so the work is about the same at every
+size). A product is one matrix-vector product (one column) with G = [I_F^V] ad_v or with
+Gᵀ; expm_multiply also spends products on its 1-norm estimates, all of which are counted.
+floor = (products with G) x (time of one) + (products with Gᵀ) x (time of one); wall/floor
+close to 1 means that the products are all the time (the rest: expm_multiply's vector
+work and Python overhead).
+
+ACAP: ``acap_fields(mesh, v, 1e-2, k=4)`` with v = J grad y (unit L2 norm), run in a child
+process with a time limit (``--acap-timeout``); its stages are printed as they finish, so a
+run that hits the limit still reports the assembly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+import scipy
+
+import fvf
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_core import fmt_bytes, fmt_time, peak_rss, pick_levels, print_table, spot_level  # noqa: E402
+
+ACAP_CHILD_FLAG = "--_acap-child"
+TIMES = (0.1, 1.0)  # in units of 10 mean edge lengths
+
+
+def best(fn, reps: int, budget: float = 2.0) -> float:
+    """Best wall time of fn() over up to reps runs (at least one, stop after budget s)."""
+    out = math.inf
+    gc.collect()
+    start = time.perf_counter()
+    for _ in range(reps):
+        gc.disable()
+        try:
+            t0 = time.perf_counter()
+            fn()
+            out = min(out, time.perf_counter() - t0)
+        finally:
+            gc.enable()
+        if time.perf_counter() - start > budget:
+            break
+    return out
+
+
+def transport_fields(mesh: fvf.TriMesh) -> tuple[np.ndarray, np.ndarray]:
+    C = mesh.face_centroids
+    v = mesh.project_tangent(np.cross([0.0, 0.0, 1.0], C - C.mean(0)))
+    v /= np.linalg.norm(v, axis=1).max()
+    u = fvf.gradient(mesh, np.sin(5.0 * mesh.vertices[:, 0]))
+    return v, u
+
+
+def bench_transport(V: np.ndarray, F: np.ndarray, formed: bool) -> dict:
+    mesh = fvf.TriMesh(V, F)
+    m = mesh.n_faces
+    reps = int(np.clip(round(1e6 / m), 3, 20))
+    v, u = transport_fields(mesh)
+    h = mesh.mean_edge_length
+    out: dict = dict(m=m, h=h)
+
+    t0 = time.perf_counter()
+    T = fvf.FieldTransport(mesh, v)
+    out["build"] = time.perf_counter() - t0
+    op = T.operator
+    out["factor_bytes"] = sum(a.nbytes for a in (op.ad.data, op.ad.indices, op.ad.indptr)) + sum(
+        a.nbytes for a in (op.vertex_to_face.data, op.vertex_to_face.indices)
+    )
+    x = u.ravel()
+    out["one"] = best(lambda: op.matvec(x), reps)
+    op.rmatvec(x)  # builds ad_vᵀ once, outside the timings
+    out["one_adj"] = best(lambda: op.rmatvec(x), reps)
+
+    rows = []
+    for t in TIMES:
+        tt = t * 10.0 * h
+        runs, wall, fwd, adj = max(1, reps // 4), math.inf, 0, 0
+        start = time.perf_counter()
+        for i in range(runs):
+            op.reset_counts()
+            t0 = time.perf_counter()
+            T(u, tt)
+            wall = min(wall, time.perf_counter() - t0)
+            if i == 0:
+                fwd, adj = op.n_matvec, op.n_rmatvec  # products of one call
+            if time.perf_counter() - start > 1.0:
+                break
+        floor = fwd * out["one"] + adj * out["one_adj"]
+        rows.append(dict(t=t, wall=wall, fwd=fwd, adj=adj, floor=floor))
+    out["runs"] = rows
+
+    if formed:
+        t0 = time.perf_counter()
+        G = T.generator
+        out["form"] = time.perf_counter() - t0
+        out["form_bytes"] = G.data.nbytes + G.indices.nbytes + G.indptr.nbytes
+        out["form_nnz"] = G.nnz
+        out["form_one"] = best(lambda: G @ x, reps)
+        out["trace_err"] = abs(G.diagonal().sum() - op.trace) / max(abs(op.trace), 1e-300)
+        del G
+        T._generator = None
+    return out
+
+
+# ------------------------------------------------------------------------------ ACAP
+def acap_child(path: str) -> None:
+    """Stages of acap_fields on a fresh mesh, one JSON line each as it finishes."""
+    from threadpoolctl import threadpool_limits
+
+    from fvf.bracket import ad
+    from fvf.commuting import acap_energy_matrix
+    from fvf.connection import real_connection_laplacian, tangent_basis_matrix
+    from fvf.eigen import smallest_eigenpairs
+
+    with threadpool_limits(1):
+        d = np.load(path)
+        V, F = d["V"], d["F"]
+
+        def emit(**kw):
+            print(json.dumps(kw), flush=True)
+
+        def field(mesh):
+            v = fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 1]))
+            return v / np.sqrt(mesh.face_areas @ (v * v).sum(1))
+
+        # the parts of E_B, each on a fresh mesh (no shared caches)
+        mesh = fvf.TriMesh(V, F)
+        v = field(mesh)
+        t0 = time.perf_counter()
+        ad(mesh, v, tangent="ignore")
+        emit(stage="ad_v", t=time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        real_connection_laplacian(mesh, "knoppel")
+        tangent_basis_matrix(mesh)
+        emit(stage="L_conn + B", t=time.perf_counter() - t0)
+        mesh = fvf.TriMesh(V, F)
+        v = field(mesh)
+        t0 = time.perf_counter()
+        E = acap_energy_matrix(mesh, v, 1e-2)
+        emit(stage="E_B assembly (all)", t=time.perf_counter() - t0, nnz=int(E.nnz))
+        t0 = time.perf_counter()
+        lam, X = smallest_eigenpairs(E, np.repeat(mesh.face_areas, 2), 4)
+        emit(stage="eigensolve", t=time.perf_counter() - t0, lam=[float(x) for x in lam])
+        emit(stage="peak RSS", bytes=peak_rss())
+
+
+def bench_acap(V: np.ndarray, F: np.ndarray, timeout: float) -> tuple[list[dict], str]:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "mesh.npz")
+        np.savez(path, V=V, F=F)
+        cmd = [sys.executable, os.path.abspath(__file__), ACAP_CHILD_FLAG, path]
+        status = "ok"
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+            text = proc.stdout
+            if proc.returncode != 0:
+                status = f"failed: {proc.stderr.strip().splitlines()[-1:]}"
+        except subprocess.TimeoutExpired as exc:
+            text = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+            status = f"stopped after {timeout:.0f} s"
+    return [json.loads(line) for line in text.splitlines() if line.startswith("{")], status
+
+
+# ------------------------------------------------------------------------------ main
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="only the two small sizes")
+    ap.add_argument("--sizes", default="1e4,1e5,1e6", help="target face counts")
+    ap.add_argument("--acap-timeout", type=float, default=300.0, help="seconds per ACAP run")
+    ap.add_argument("--no-acap", action="store_true")
+    ap.add_argument(
+        "--no-formed", action="store_true", help="skip forming G (2.7 GB at 1.5M faces)"
+    )
+    args = ap.parse_args()
+
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    limiter = threadpool_limits(1)  # noqa: F841  (kept alive for the whole run)
+    print("fvf applications benchmark: Ad transport and ACAP fields")
+    print(
+        f"  python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
+        f"fvf {fvf.__version__}; os.cpu_count() = {os.cpu_count()}"
+    )
+    print(
+        "  threads: threadpool_limits(1) -> "
+        + ", ".join(f"{p.get('internal_api')}={p.get('num_threads')}" for p in threadpool_info())
+    )
+    print(
+        "  transport times t in units of 10 mean edge lengths (t = 1: max displacement 10 h̄); "
+        "max|v| = 1"
+    )
+
+    targets = [float(s) for s in args.sizes.split(",") if s.strip()]
+    if args.quick:
+        targets = sorted(targets)[:2]
+    levels = pick_levels(targets, fvf.examples.spot().n_faces)
+    trows, frows, acap = [], [], []
+    for level in levels:
+        V, F = spot_level(level)
+        m = F.shape[0]
+        print(f"\n== spot x{4**level}: n = {V.shape[0]:,}, m = {m:,} faces ==", flush=True)
+        r = bench_transport(V, F, formed=not args.no_formed)
+        print(
+            f"  FieldTransport build {fmt_time(r['build'])}; "
+            f"factors {fmt_bytes(r['factor_bytes'])} "
+            f"(+ ad_vᵀ, same size); one product G {fmt_time(r['one'])}, Gᵀ "
+            f"{fmt_time(r['one_adj'])}",
+            flush=True,
+        )
+        for run in r["runs"]:
+            trows.append(
+                [
+                    f"{m:,}",
+                    f"{run['t']:g}",
+                    fmt_time(run["wall"]),
+                    f"{run['fwd']}",
+                    f"{run['adj']}",
+                    fmt_time(r["one"]),
+                    f"{run['wall'] / run['floor']:.2f}",
+                ]
+            )
+            print("  t = " + "  ".join(trows[-1][1:]), flush=True)
+        if "form" in r:
+            frows.append(
+                [
+                    f"{m:,}",
+                    fmt_time(r["form"]),
+                    fmt_bytes(r["form_bytes"]),
+                    f"{r['form_nnz'] / m:.0f}",
+                    fmt_time(r["form_one"]),
+                    fmt_time(r["one"]),
+                    f"{r['trace_err']:.1e}",
+                ]
+            )
+        if not args.no_acap:
+            stages, status = bench_acap(V, F, args.acap_timeout)
+            acap.append((m, stages, status))
+            for s in stages:
+                print(f"  ACAP {s}", flush=True)
+            print(f"  ACAP status: {status}", flush=True)
+
+    print("\n== Ad transport (expm_multiply on G as a LinearOperator, exact trace) ==")
+    print_table(
+        ["faces", "t (10 h̄)", "wall", "prod G", "prod Gᵀ", "one product", "wall/floor"], trows
+    )
+    if frows:
+        print("\n  G formed as a sparse matrix (not used by FieldTransport), for comparison:")
+        print_table(
+            ["faces", "form G", "G bytes", "nnz/face", "G product", "factored", "trace rel.err"],
+            frows,
+        )
+    if acap:
+        print("\n== ACAP fields, acap_fields(mesh, v, 1e-2, k=4) (fresh process per size) ==")
+        rows = []
+        for m, stages, status in acap:
+            by = {s["stage"]: s for s in stages}
+
+            def t(name, by=by):
+                return fmt_time(by[name]["t"]) if name in by else "-"
+
+            total = (
+                fmt_time(by["E_B assembly (all)"]["t"] + by["eigensolve"]["t"])
+                if "eigensolve" in by
+                else "-"
+            )
+            rss = fmt_bytes(by["peak RSS"]["bytes"]) if "peak RSS" in by else "-"
+            rows.append(
+                [
+                    f"{m:,}",
+                    t("ad_v"),
+                    t("L_conn + B"),
+                    t("E_B assembly (all)"),
+                    t("eigensolve"),
+                    total,
+                    rss,
+                    status,
+                ]
+            )
+        print_table(
+            ["faces", "ad_v", "L_conn+B", "E_B all", "eigensolve", "total", "peak RSS", "status"],
+            rows,
+        )
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == ACAP_CHILD_FLAG:
+        acap_child(sys.argv[2])
+    else:
+        main()
