@@ -1,0 +1,1298 @@
+"""The action of the matrix exponential, exp(t A) B, by adaptive Krylov time stepping.
+
+:func:`expm_action` computes exp(t_j A) B for many times t_j (any sign and order) and many
+right-hand sides B (n, p) in one pass, without forming exp(A). It is built for the
+functional flows of :mod:`fvf.flow`, Φ_{v,t} f = exp(−t D^V_v) f: A = −D^V_v is sparse
+with about 7 non-zeros per row and, for divergence-free fields v = J grad g, skew-adjoint
+in the A_V inner product ⟨x, y⟩ = xᵀ [A_V] y (CHAPTER.md, "Facts we measured").
+
+Algorithm (Saad 1992; Gallopoulos & Saad 1992; Hochbruck & Lubich 1997; the step control
+of Expokit-type integrators)
+------------------------------------------------------------------------------------------
+Each sign of t is one sweep over the sorted |t_j|. A step starts from the current state y
+and builds a basis u_0 = y/‖y‖, u_1, … of the Krylov space K_m(A, y) with
+A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product ⟨x, y⟩_W = xᵀ diag(w) y of ``inner``.
+
+* Skew-adjoint A (W A + Aᵀ W = 0): H_m is tridiagonal with zero diagonal and the basis
+  comes from a three-term recurrence — one product and three vector passes per basis
+  vector, whatever m. The vectors are stored unnormalized (y_j = ν_j u_j, which saves a
+  pass) and the p columns of B run simultaneous recurrences, so each product is one
+  sparse product on an (n, p) block. exp(s H_m) e_1 is exact and cheap for any s: with
+  D = diag(iᵏ), D⁻¹ H_m D = −i T_m, T_m symmetric tridiagonal with zero diagonal, whose
+  eigen-decomposition is an SVD of a bidiagonal matrix of half the size (see
+  :class:`_SkewExp`).
+* Otherwise: incomplete orthogonalization (each vector is W-orthogonalized against the
+  last :data:`IOM_WINDOW` ones, so a basis vector costs O(n) work, not O(n m)); H_m is
+  banded Hessenberg and its small exponentials are dense (scipy.linalg.expm). The Krylov
+  relation holds exactly whatever the window (Koskela 2015; Vo & Sidje 2017).
+* y(τ₀ + s) ≈ ‖y‖ U_m exp(s H_m) e_1 for every s of the step: all requested times inside
+  a step come from the same basis (dense output; one GEMM for all of them).
+* A posteriori error control. The Krylov solution solves the ODE up to the residual
+  r(s) = ‖y‖ h_m [exp(s H_m) e_1]_{m−1} u_m, so its error at s is
+  ∫_0^s exp((s − σ)A) r(σ) dσ. In the skew case exp(sA) is W-unitary and the error is at
+  most ∫_0^s |r(σ)| dσ; otherwise the propagator is bounded by e^{μ(s − σ)}, μ the
+  logarithmic norm of H_m (an estimate of A's). The integral is a quadrature on a grid
+  of s (small-matrix work only). With ``norm="max"`` (default) the estimate is also
+  scaled by (max|u_m| / ‖u_m‖_W) / (max|y| / ‖y‖_W): the error lies mostly along u_m,
+  which on graded meshes concentrates where the cells are small, so a W-norm estimate
+  alone can be 100× optimistic in the max norm.
+* Step control. The basis grows until the whole remaining interval meets the budget
+  SAFETY · tol · s / T (relative error per unit time, T the longest |t|), so errors add
+  up to at most tol at the end; when the basis reaches m_max the step is cut to the
+  longest s within budget and a new basis starts at y(τ₀ + s). The error stalls until
+  m ≈ |s|·ρ(A) (ρ estimated by twice the mean Lanczos coefficient) and then falls
+  superlinearly; checks start there and follow the observed decay, spaced by the cost of
+  a check relative to a product.
+
+Products are counted per column (``info["matvecs"]``; a product on an (n, p) block counts
+p) and per operator call (``info["block_matvecs"]``). Basis storage is reused between
+calls (see :data:`WORKSPACE_KEEP`, :func:`clear_workspace`).
+
+``method="auto"`` (:func:`choose_method`) uses :func:`scipy.sparse.linalg.expm_multiply`
+(Al-Mohy & Higham 2011) only for tiny matrices. When ``skew`` is not given, the
+three-term recurrence is tried first and H_m is checked on the fly (⟨A u_j, u_j⟩_W and
+h_{j−1,j} + h_{j,j−1} must vanish); a non-skew operator then costs one or two wasted
+products before the general method takes over. Small dense work (SVDs, m × m
+exponentials) is best run with single-threaded BLAS (``threadpoolctl``).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .errors import FvfError, FvfWarning
+
+try:  # in-place y += A x kernels (scipy's own CSR kernels, no temporary arrays)
+    from scipy.sparse import _sparsetools as _st
+
+    _CSR_MATVEC = _st.csr_matvec
+    _CSR_MATVECS = _st.csr_matvecs
+except (ImportError, AttributeError):  # pragma: no cover - other scipy versions
+    _CSR_MATVEC = _CSR_MATVECS = None
+
+__all__ = [
+    "expm_action",
+    "clear_workspace",
+    "choose_method",
+    "ExpmvCounter",
+    "ExpmInputError",
+    "KrylovFallbackWarning",
+    "METHODS",
+]
+
+Method = Literal["auto", "krylov", "expm_multiply"]
+METHODS = ("auto", "krylov", "expm_multiply")
+
+#: Below this many rows ``method="auto"`` uses expm_multiply (a Krylov basis would be
+#: most of the space anyway).
+SMALL_N = 32
+#: Default caps on the Krylov basis size per step (three-term recurrence, general case).
+M_MAX_SKEW = 128
+M_MAX_IOM = 100
+#: Vectors each new basis vector is orthogonalized against in the non-skew case.
+IOM_WINDOW = 4
+#: Default cap on the memory of the Krylov bases (bytes); columns are processed in groups
+#: so that a basis of the needed size fits.
+MAX_MEMORY = 2**32
+_GRID = 64  # quadrature points for the error integral over a step
+_STREAM_N = 65536  # from this n on, weighted norms use one fused pass (memory-bound sizes)
+#: Rounding floor of the error estimates, per unit time and per unit of ‖H_m‖: an estimate
+#: below NOISE·‖H_m‖·t is noise, so tolerances below it are met at that level instead.
+NOISE = 16 * np.finfo(float).eps
+SAFETY = 0.5  # the error estimates aim at SAFETY·tol
+
+
+_NONFINITE = (
+    "the Krylov recurrence produced inf/NaN: A (a LinearOperator?) returned non-finite "
+    "values, or the solution overflowed"
+)
+
+
+class ExpmInputError(FvfError):
+    """Bad input to :func:`expm_action`: shapes, non-finite values, weights, tol, method."""
+
+
+class KrylovFallbackWarning(FvfWarning):
+    """``skew=True`` was passed but the operator is not skew-adjoint; the general method
+    was used."""
+
+
+#: Bytes of Krylov-basis storage kept between calls (per thread) so that repeated calls
+#: do not pay the operating system for fresh pages (first-touch page faults cost up to
+#: half a sparse product per basis vector). :func:`clear_workspace` releases it.
+WORKSPACE_KEEP = 2**30
+_LOCAL = threading.local()
+
+
+def _basis_storage(size: int) -> np.ndarray:
+    """Uninitialized flat float64 storage of at least ``size``, from the per-thread cache
+    when it is large enough (give it back with :func:`_keep_storage`)."""
+    buf = getattr(_LOCAL, "buf", None)
+    if buf is not None and buf.size >= size:
+        _LOCAL.buf = None  # taken: a nested call allocates its own
+        return buf
+    return np.empty(size)
+
+
+def _keep_storage(buf: np.ndarray) -> None:
+    """Keep flat basis storage for the next call if it is small enough and the largest."""
+    cur = getattr(_LOCAL, "buf", None)
+    if buf.nbytes <= WORKSPACE_KEEP and (cur is None or cur.size < buf.size):
+        _LOCAL.buf = buf
+
+
+def clear_workspace() -> None:
+    """Release the Krylov-basis storage :func:`expm_action` keeps between calls."""
+    _LOCAL.buf = None
+
+
+class _NotSkew(Exception):
+    """Internal: H_m is visibly not skew tridiagonal (the operator is not skew-adjoint)."""
+
+
+# ----------------------------------------------------------------------- product counter
+class ExpmvCounter(spla.LinearOperator):
+    """A LinearOperator that wraps A and counts its products, column by column.
+
+    Use it to count the products of any method that accepts a LinearOperator, e.g.
+    ``expm_multiply(ExpmvCounter(A), b, traceA=A.diagonal().sum())``.
+
+    Parameters
+    ----------
+    A : sparse array/matrix, ndarray or LinearOperator, shape (n, n)
+
+    Attributes
+    ----------
+    matvecs : int
+        Columns multiplied by A (a product with an (n, p) block counts p).
+    rmatvecs : int
+        Columns multiplied by Aᵀ (norm estimators use them).
+    calls : int
+        Calls of A or Aᵀ (a block product counts 1).
+    log : list of (str, int)
+        ("A" or "AT", number of columns) per call, in order.
+    """
+
+    def __init__(self, A: Any) -> None:
+        self.A = A
+        self.matvecs = 0
+        self.rmatvecs = 0
+        self.calls = 0
+        self.log: list[tuple[str, int]] = []
+        super().__init__(dtype=np.dtype(getattr(A, "dtype", np.float64)), shape=A.shape)
+
+    def _record(self, kind: str, cols: int) -> None:
+        self.calls += 1
+        self.log.append((kind, cols))
+        if kind == "A":
+            self.matvecs += cols
+        else:
+            self.rmatvecs += cols
+
+    def _matvec(self, x: np.ndarray) -> np.ndarray:
+        self._record("A", 1)
+        return self.A @ x
+
+    def _matmat(self, X: np.ndarray) -> np.ndarray:
+        self._record("A", X.shape[1])
+        return self.A @ X
+
+    def _rmatvec(self, x: np.ndarray) -> np.ndarray:
+        self._record("AT", 1)
+        return self.A.T @ x
+
+    def _rmatmat(self, X: np.ndarray) -> np.ndarray:
+        self._record("AT", X.shape[1])
+        return self.A.T @ X
+
+    def _adjoint(self) -> spla.LinearOperator:
+        return _CounterAdjoint(self)
+
+    @property
+    def products(self) -> int:
+        """All columns multiplied by A or Aᵀ."""
+        return self.matvecs + self.rmatvecs
+
+    def reset(self) -> None:
+        """Set the counts back to zero."""
+        self.matvecs = self.rmatvecs = self.calls = 0
+        self.log.clear()
+
+
+class _CounterAdjoint(spla.LinearOperator):
+    """The transpose of an :class:`ExpmvCounter`, counting into its parent."""
+
+    def __init__(self, parent: ExpmvCounter) -> None:
+        self.parent = parent
+        super().__init__(dtype=parent.dtype, shape=parent.shape[::-1])
+
+    def _matvec(self, x):
+        return self.parent._rmatvec(x)
+
+    def _matmat(self, X):
+        return self.parent._rmatmat(X)
+
+    def _rmatvec(self, x):
+        return self.parent._matvec(x)
+
+    def _rmatmat(self, X):
+        return self.parent._matmat(X)
+
+    def _adjoint(self):
+        return self.parent
+
+
+# ------------------------------------------------------------------------ the operator
+class _Operator:
+    """y += A x for x, y of shape (n,) or (n, p), counting products."""
+
+    def __init__(self, A: Any, n: int) -> None:
+        self.n = n
+        self.matvecs = 0
+        self.calls = 0
+        self.csr = None
+        self.A = A
+        self.inplace = _CSR_MATVEC is not None
+        if sp.issparse(A):
+            C = A.tocsr() if A.format != "csr" else A
+            if C.dtype != np.float64:
+                C = C.astype(np.float64)
+            self.csr = C
+            self.nnz = C.nnz
+        elif isinstance(A, np.ndarray):
+            self.nnz = A.size
+        else:
+            self.nnz = None  # LinearOperator: cost unknown
+
+    def accumulate(self, x: np.ndarray, y: np.ndarray) -> None:
+        """y += A x (x, y C-contiguous, same shape (n,) or (n, p))."""
+        cols = 1 if x.ndim == 1 else x.shape[1]
+        self.matvecs += cols
+        self.calls += 1
+        C = self.csr
+        if C is not None and self.inplace:
+            try:
+                if x.ndim == 1:
+                    _CSR_MATVEC(self.n, self.n, C.indptr, C.indices, C.data, x, y)
+                else:
+                    n = self.n
+                    _CSR_MATVECS(n, n, cols, C.indptr, C.indices, C.data, x.ravel(), y.reshape(-1))
+                return
+            except (TypeError, ValueError):  # pragma: no cover - kernel signature changed
+                self.inplace = False
+        if C is not None:
+            y += C @ x
+        elif isinstance(self.A, np.ndarray):
+            y += self.A @ x
+        elif x.ndim == 1:
+            y += np.asarray(self.A.matvec(x)).reshape(y.shape)
+        else:
+            y += np.asarray(self.A.matmat(x)).reshape(y.shape)
+
+    def product_cost(self, cols: int) -> float:
+        """Rough wall time of one product on ``cols`` columns (seconds; for scheduling)."""
+        if self.nnz is None:
+            return 1.0  # unknown operator: assume products dominate everything
+        return 3e-6 + 1.3e-9 * self.nnz * (cols if cols == 1 else 0.75 * cols)
+
+
+# ---------------------------------------------------------------------- small matrices
+class _SkewExp:
+    """exp(s H) e_1 for skew tridiagonal H (H[j+1, j] = β_j = −H[j, j+1]), any s, for p
+    columns at once (one H per column).
+
+    With D = diag(iᵏ), D⁻¹ H D = −i T, T symmetric tridiagonal with zero diagonal and
+    off-diagonal β. T couples even and odd indices only: T = P [[0, B], [Bᵀ, 0]] Pᵀ with
+    the lower bidiagonal B (ceil(m/2) × floor(m/2)), B[i, i] = β_{2i}, B[i+1, i] = β_{2i+1}.
+    With B = U Σ Vᵀ (an SVD of half the size, cheaper than an eigensolve of T):
+
+        [exp(s H) e_1]_{2i}   = (−1)^i Σ_l U[i, l] U[0, l] cos(s σ_l)
+        [exp(s H) e_1]_{2i+1} = (−1)^i Σ_l V[i, l] U[0, l] sin(s σ_l)
+
+    (σ padded with zeros to ceil(m/2) for the cosines).
+
+    Parameters
+    ----------
+    beta : ndarray (m − 1, p)
+        The off-diagonals, one column per right-hand side.
+    """
+
+    def __init__(self, beta: np.ndarray) -> None:
+        m = beta.shape[0] + 1
+        p = beta.shape[1]
+        self.m, self.p = m, p
+        ke, ko = (m + 1) // 2, m // 2
+        self.ko = ko
+        if m == 1:
+            self.sig_e = np.zeros((p, 1))
+            self.Ge = np.ones((p, 1, 1))
+            return
+        Bm = np.zeros((p, ke, ko))
+        i = np.arange(ko)
+        Bm[:, i, i] = beta[0::2].T
+        j = np.arange(beta[1::2].shape[0])
+        Bm[:, j + 1, j] = beta[1::2].T
+        U, sig, Vt = np.linalg.svd(Bm)  # batched over the columns
+        self.sig_e = np.zeros((p, ke))
+        self.sig_e[:, :ko] = sig
+        sign_e = np.where(np.arange(ke) % 2 == 0, 1.0, -1.0)
+        sign_o = np.where(np.arange(ko) % 2 == 0, 1.0, -1.0)
+        self.Ge = U * U[:, :1, :] * sign_e[:, None]  # (p, ke, ke): [c, i, l]
+        self.sig_o = sig
+        self.Go = np.swapaxes(Vt, 1, 2) * U[:, :1, :ko] * sign_o[:, None]  # (p, ko, ko)
+
+    def e1(self, s: np.ndarray) -> np.ndarray:
+        """[exp(s H) e_1] for the times s (K,): (p, K, m)."""
+        out = np.empty((self.p, s.size, self.m))
+        cos = np.cos(self.sig_e[:, None, :] * s[:, None])  # (p, K, ke)
+        out[:, :, 0::2] = np.matmul(cos, np.swapaxes(self.Ge, 1, 2))
+        if self.ko:
+            sin = np.sin(self.sig_o[:, None, :] * s[:, None])
+            out[:, :, 1::2] = np.matmul(sin, np.swapaxes(self.Go, 1, 2))
+        return out
+
+    def last(self, s: np.ndarray) -> np.ndarray:
+        """[exp(s H) e_1]_{m−1} for the times s (K,): (p, K)."""
+        if (self.m - 1) % 2 == 0:
+            trig, G = np.cos(self.sig_e[:, None, :] * s[:, None]), self.Ge[:, -1, :]
+        else:
+            trig, G = np.sin(self.sig_o[:, None, :] * s[:, None]), self.Go[:, -1, :]
+        return np.matmul(trig, G[:, :, None])[:, :, 0]
+
+
+def _cumtrapz(y: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Cumulative trapezoid ∫_0^{s_k} y along the last axis (s[0] = 0)."""
+    out = np.zeros_like(y)
+    if s.size > 1:
+        out[..., 1:] = np.cumsum(0.5 * (y[..., 1:] + y[..., :-1]) * np.diff(s), axis=-1)
+    return out
+
+
+# ------------------------------------------------------------------------ the driver
+def _as_times(t: Any) -> tuple[np.ndarray, bool]:
+    try:
+        times = np.asarray(t, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ExpmInputError(f"t must be a real scalar or 1-D array; got {t!r}") from exc
+    if times.ndim > 1:
+        raise ExpmInputError(f"t must be a scalar or a 1-D array; got shape {times.shape}")
+    if not np.isfinite(times).all():
+        bad = np.flatnonzero(~np.isfinite(np.atleast_1d(times)))
+        raise ExpmInputError(f"t must be finite; non-finite entries at {bad[:8].tolist()}")
+    return np.atleast_1d(times), times.ndim == 0
+
+
+def _check_operator(A: Any) -> tuple[Any, int]:
+    if sp.issparse(A):
+        if A.ndim != 2 or A.shape[0] != A.shape[1]:
+            raise ExpmInputError(f"A must be square (n, n); got shape {A.shape}")
+        if np.iscomplexobj(A.data):
+            raise ExpmInputError("A must be real; complex operators are not supported")
+        C = A.tocsr() if A.format != "csr" else A
+        if not np.isfinite(C.data).all():
+            raise ExpmInputError("A has non-finite entries (inf or NaN)")
+        return C, A.shape[0]
+    if isinstance(A, spla.LinearOperator):
+        if len(A.shape) != 2 or A.shape[0] != A.shape[1]:
+            raise ExpmInputError(f"A must be square (n, n); got shape {A.shape}")
+        if np.issubdtype(np.dtype(A.dtype), np.complexfloating):
+            raise ExpmInputError("A must be real; complex operators are not supported")
+        return A, A.shape[0]
+    try:
+        M = np.asarray(A)
+    except (TypeError, ValueError) as exc:
+        raise ExpmInputError("A must be a sparse matrix, an ndarray or a LinearOperator") from exc
+    if M.ndim != 2 or M.shape[0] != M.shape[1]:
+        raise ExpmInputError(f"A must be square (n, n); got shape {M.shape}")
+    if np.iscomplexobj(M):
+        raise ExpmInputError("A must be real; complex operators are not supported")
+    if not (np.issubdtype(M.dtype, np.number) or M.dtype == bool) or not np.isfinite(M).all():
+        raise ExpmInputError("A has non-finite or non-numeric entries")
+    return M.astype(np.float64, copy=False), M.shape[0]
+
+
+def choose_method(
+    A: Any,
+    t: float | npt.ArrayLike,
+    n_rhs: int = 1,
+    *,
+    skew: bool | None = None,
+) -> Literal["krylov", "expm_multiply"]:
+    """The method ``expm_action(..., method="auto")`` uses for these inputs.
+
+    * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
+    * otherwise ``"krylov"``. Measured on flows of spot meshes (6k to 1.5M faces,
+      ``benchmarks/bench_expmv.py``): the Krylov method needs 2–4× fewer products than
+      expm_multiply at t = 0.1–1 mean edge lengths and 4–9× fewer at 10 (its Taylor
+      steps scale with |t|·‖A‖₁ and it spends products with Aᵀ on norm estimates; the
+      three-term recurrence needs about |t|·ρ(A) + O(log 1/tol)), and was faster in wall
+      time in all but one small case (a compressible field, 8 right-hand sides at
+      t = 0.1 edge lengths on 6k faces, where expm_multiply's block products win).
+
+    Parameters
+    ----------
+    A : sparse array/matrix, ndarray or LinearOperator, shape (n, n)
+    t : float or array_like (T,)
+    n_rhs : int
+        Number of right-hand sides (columns of B).
+    skew : bool or None
+        Whether A is skew-adjoint in the inner product of the call (None: unknown).
+
+    Returns
+    -------
+    {"krylov", "expm_multiply"}
+    """
+    n = A.shape[0]
+    times = np.atleast_1d(np.asarray(t, dtype=float))
+    if n < SMALL_N or not np.any(times != 0):
+        return "expm_multiply"
+    return "krylov"
+
+
+def expm_action(
+    A: Any,
+    B: npt.ArrayLike,
+    t: float | npt.ArrayLike,
+    *,
+    tol: float = 1e-10,
+    inner: npt.ArrayLike | None = None,
+    skew: bool | None = None,
+    method: Method = "auto",
+    norm: Literal["max", "inner"] = "max",
+    m_max: int | None = None,
+    max_memory: float = MAX_MEMORY,
+    return_info: bool = False,
+) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
+    """exp(t_j A) B for one or many times t_j and one or many right-hand sides.
+
+    Parameters
+    ----------
+    A : sparse array/matrix, ndarray or LinearOperator, shape (n, n), real
+        The generator; for a functional flow, A = −D^V_v.
+    B : array_like, shape (n,) or (n, p)
+        Initial value(s), real (float64) or complex (split into real and imaginary
+        columns, which share the products).
+    t : float or array_like, shape (T,)
+        Times, any sign and order (repeats and zeros allowed); all are computed in one
+        pass per sign.
+    tol : float
+        Target relative error of every output column, 0 < tol < 1: in the max norm and in
+        the norm of ``inner`` (``norm="max"``), or in the norm of ``inner`` only
+        (``norm="inner"``). Local errors are budgeted as tol × step / longest |t|, so they
+        add up to tol; for non-normal A the estimates do not include the amplification
+        of earlier steps' errors (see Notes). Tolerances below the rounding floor
+        ~:data:`NOISE` · |t| · ‖H_m‖ are met at that floor.
+    inner : array_like, shape (n,), optional
+        Positive weights w of the inner product ⟨x, y⟩ = xᵀ diag(w) y (for flows, the
+        vertex areas A_V). Default: all ones.
+    skew : bool or None
+        Whether A is skew-adjoint in that inner product (diag(w) A + Aᵀ diag(w) = 0; true
+        for A = ±D^V_v with v = J grad g on a closed mesh and w = A_V). None: try the
+        three-term recurrence and check it on the fly. True: use it; if the operator turns
+        out not to be skew, warn (:class:`KrylovFallbackWarning`) and use the general
+        method. False: the general method (incomplete orthogonalization).
+    method : {"auto", "krylov", "expm_multiply"}
+        "auto" follows :func:`choose_method`. "expm_multiply" chains
+        :func:`scipy.sparse.linalg.expm_multiply` over the sorted times of each sign.
+    norm : {"max", "inner"}
+        Norm(s) of the error control (see ``tol``); "max" costs a few more products.
+    m_max : int, optional
+        Largest Krylov basis per step (default :data:`M_MAX_SKEW` = 128 for the
+        three-term recurrence, :data:`M_MAX_IOM` = 100 otherwise); a longer time is
+        split into steps. ``max_memory`` can lower it.
+    max_memory : float
+        Cap on the bytes of a Krylov basis (default 4 GiB); columns of B are processed in
+        groups that fit.
+    return_info : bool
+        Also return a dict of statistics.
+
+    Returns
+    -------
+    X : ndarray, float64 (complex128 if B is complex)
+        ``B.shape`` for a scalar t, ``(T,) + B.shape`` for an array of times; X[j] is
+        exp(t_j A) B.
+    info : dict, only if ``return_info``
+        ``method`` ("lanczos", "iom" or "expm_multiply"); ``matvecs``: column products
+        with A (a product on an (n, p) block counts p; for expm_multiply, products with A
+        and Aᵀ, counted through :class:`ExpmvCounter`); ``block_matvecs``: operator calls;
+        ``steps``: Krylov bases built; ``basis_sizes``: their sizes; ``error_estimate``:
+        the largest accumulated relative error estimate over the columns (None for
+        expm_multiply); ``skew``: what was used; ``wasted_matvecs``: products of a failed
+        three-term attempt (included in ``matvecs``).
+
+    Raises
+    ------
+    ExpmInputError
+        Non-square, complex or non-numeric A; B of the wrong shape; non-finite A, B, t
+        or weights; weights ≤ 0; tol outside (0, 1); unknown method, norm or skew value;
+        m_max < 1.
+    FloatingPointError
+        The recurrence produced inf/NaN (a LinearOperator returned them, or the solution
+        overflowed).
+
+    Warns
+    -----
+    KrylovFallbackWarning
+        ``skew=True`` but A is not skew-adjoint.
+
+    Notes
+    -----
+    The exponential of A is never formed; the work is the products, O(n) per basis
+    vector (O(n · :data:`IOM_WINDOW`) in the general case) and small dense matrices. See
+    the module docstring for the algorithm. For non-normal A (compressible fields) the
+    error of an early step can be amplified by the later ones beyond the solution's own
+    growth; single-step solves (the default m_max covers about 100 mean edge lengths of
+    unit-speed transport) are not affected.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> from fvf.expmv import expm_action
+    >>> A = sp.diags_array([np.ones(49), -np.ones(49)], offsets=[1, -1])  # skew
+    >>> b = np.sin(np.linspace(0, 3, 50))
+    >>> x = expm_action(A, b, [0.5, -1.0, 2.0])
+    >>> x.shape, bool(np.allclose(np.linalg.norm(x, axis=1), np.linalg.norm(b)))
+    ((3, 50), True)
+    """
+    Aop, n = _check_operator(A)
+    times, scalar = _as_times(t)
+    if not isinstance(tol, int | float | np.floating) or not 0 < float(tol) < 1:
+        raise ExpmInputError(f"tol must be a number in (0, 1); got {tol!r}")
+    tol = float(tol)
+    if method not in METHODS:
+        raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
+    if m_max is not None and (int(m_max) != m_max or m_max < 1):
+        raise ExpmInputError(f"m_max must be a positive integer; got {m_max!r}")
+    if norm not in ("max", "inner"):
+        raise ExpmInputError(f"norm must be 'max' or 'inner'; got {norm!r}")
+    if skew not in (None, True, False):
+        raise ExpmInputError(f"skew must be None, True or False; got {skew!r}")
+    try:
+        Barr = np.asarray(B)
+    except (TypeError, ValueError) as exc:
+        raise ExpmInputError("B must be an array of shape (n,) or (n, p)") from exc
+    if Barr.ndim not in (1, 2) or Barr.shape[0] != n:
+        raise ExpmInputError(f"B must have shape ({n},) or ({n}, p); got {Barr.shape}")
+    if not (np.issubdtype(Barr.dtype, np.number) or Barr.dtype == bool):
+        raise ExpmInputError(f"B must be numeric; got dtype {Barr.dtype}")
+    if not np.isfinite(Barr).all():
+        rows = np.flatnonzero(~np.isfinite(Barr.reshape(n, -1)).all(axis=1))
+        raise ExpmInputError(f"B has non-finite entries in rows {rows[:8].tolist()}")
+    if inner is None:
+        w = None
+    else:
+        w = np.asarray(inner, dtype=float)
+        if w.shape != (n,):
+            raise ExpmInputError(f"inner must be a weight vector of shape ({n},); got {w.shape}")
+        if not np.isfinite(w).all() or (w <= 0).any():
+            bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
+            raise ExpmInputError(
+                f"inner weights must be finite and > 0; bad entries at {bad[:8].tolist()}"
+            )
+        if np.all(w == 1.0):
+            w = None
+
+    is_complex = np.iscomplexobj(Barr)
+    B2 = Barr.reshape(n, -1)
+    if is_complex:
+        B2 = np.hstack([B2.real, B2.imag])
+    B2 = np.ascontiguousarray(B2, dtype=np.float64)
+    p = B2.shape[1]
+
+    if method == "auto":
+        method = choose_method(Aop, times, p, skew=skew)
+
+    out = np.empty((times.size, n, p))
+    info: dict[str, Any] = {
+        "method": None,
+        "matvecs": 0,
+        "block_matvecs": 0,
+        "steps": 0,
+        "basis_sizes": [],
+        "error_estimate": 0.0,
+        "skew": skew,
+        "wasted_matvecs": 0,
+    }
+    if n == 0 or p == 0:
+        out[:] = 0.0
+    elif method == "expm_multiply":
+        _run_expm_multiply(Aop, B2, times, out, info, count=return_info)
+    else:
+        _run_krylov(Aop, n, B2, times, out, info, tol, w, skew, m_max, max_memory, norm == "max")
+
+    if is_complex:
+        q = p // 2
+        res = out[:, :, :q] + 1j * out[:, :, q:]
+    else:
+        res = out
+    res = res.reshape((times.size,) + Barr.shape)
+    if scalar:
+        res = res[0]
+    return (res, info) if return_info else res
+
+
+def _run_expm_multiply(
+    A: Any, B2: np.ndarray, times: np.ndarray, out: np.ndarray, info: dict, count: bool
+) -> None:
+    """Chain scipy's expm_multiply over the sorted times of each sign (as FunctionalFlow
+    does); with ``count``, through an :class:`ExpmvCounter` (its LinearOperator path)."""
+    info["method"] = "expm_multiply"
+    info["error_estimate"] = None
+    trace = float(A.diagonal().sum()) if hasattr(A, "diagonal") else None
+    op = ExpmvCounter(A) if count else None
+    for sign in (1.0, -1.0):
+        pick = np.flatnonzero(sign * times > 0)
+        order = pick[np.argsort(sign * times[pick], kind="stable")]
+        current, now = B2, 0.0
+        for i in order:
+            dt = times[i] - now
+            if dt != 0.0:
+                with warnings.catch_warnings():  # "trace of LinearOperator not available"
+                    warnings.simplefilter("ignore", UserWarning)
+                    if op is not None or isinstance(A, spla.LinearOperator):
+                        tr = None if trace is None else dt * trace
+                        current = spla.expm_multiply(dt * (op or A), current, traceA=tr)
+                    else:
+                        current = spla.expm_multiply(dt * A, current)
+                info["steps"] += 1
+                now = times[i]
+            out[i] = current
+    out[times == 0] = B2
+    if op is not None:
+        info["matvecs"] = op.products
+        info["block_matvecs"] = op.calls
+
+
+# ------------------------------------------------------------------------ Krylov sweeps
+def _run_krylov(
+    Aop: Any,
+    n: int,
+    B2: np.ndarray,
+    times: np.ndarray,
+    out: np.ndarray,
+    info: dict,
+    tol: float,
+    w: np.ndarray | None,
+    skew: bool | None,
+    m_max: int | None,
+    max_memory: float,
+    maxnorm: bool,
+) -> None:
+    """Fill out (T, n, p) with exp(t_j A) B2: one sweep over the sorted |t| of each sign."""
+    op = _Operator(Aop, n)
+    p = B2.shape[1]
+    out[times == 0] = B2
+    use_skew = skew is not False
+    for sign in (1.0, -1.0):
+        sel = np.flatnonzero(sign * times > 0)
+        if sel.size == 0:
+            continue
+        s_unique, first, inverse = np.unique(
+            sign * times[sel], return_index=True, return_inverse=True
+        )
+        slots = sel[first]  # the row of out that receives each distinct time
+        sweep = _Sweep(op, w, s_unique, sign, tol, maxnorm, out, slots, info)
+        if use_skew:
+            m_want = M_MAX_SKEW if m_max is None else int(m_max)
+            group, m_cap = _group_size(n, p, m_want, max_memory)
+            before = op.matvecs
+            try:
+                for c0 in range(0, p, group):
+                    _lanczos_sweep(sweep, B2, slice(c0, min(p, c0 + group)), m_cap)
+                info["method"] = "lanczos"
+                info["skew"] = True
+            except _NotSkew as exc:
+                if skew is True:
+                    warnings.warn(
+                        f"skew=True but A is not skew-adjoint in the given inner product "
+                        f"({exc}); using the general (incomplete orthogonalization) method.",
+                        KrylovFallbackWarning,
+                        stacklevel=3,
+                    )
+                info["wasted_matvecs"] += op.matvecs - before
+                use_skew = False
+        if not use_skew:
+            m_want = M_MAX_IOM if m_max is None else int(m_max)
+            _, m_cap = _group_size(n, 1, m_want, max_memory)
+            for c in range(p):
+                _iom_sweep(sweep, B2, c, m_cap, IOM_WINDOW)
+            info["method"] = "iom"
+            info["skew"] = False
+        rep = sel != slots[inverse]  # repeated times: copy the first occurrence
+        if rep.any():
+            out[sel[rep]] = out[slots[inverse[rep]]]
+        info["matvecs"] = op.matvecs
+        info["block_matvecs"] = op.calls
+
+
+def _group_size(n: int, p: int, m_want: int, max_memory: float) -> tuple[int, int]:
+    """(columns per simultaneous group, basis cap) for bases within ``max_memory`` bytes.
+
+    All p columns run together when a basis of min(m_want, 64) + 1 vectors of each fits;
+    otherwise the columns are split into groups that allow it. The basis cap is then as
+    large as memory allows, up to m_want.
+    """
+    per_vec = 8.0 * n
+    m_min = min(m_want, 64)
+    group = int(max(1, min(p, max_memory // (per_vec * (m_min + 1)))))
+    m_cap = int(max(1, min(m_want, max_memory // (per_vec * group) - 1)))
+    return group, m_cap
+
+
+def _combine(V: np.ndarray, m: int, C: np.ndarray) -> np.ndarray:
+    """Σ_j V[j, :, c] C[c, k, j] -> (K, n, p) for V (m+1, n, p), C (p, K, m).
+
+    p = 1 is one GEMM. For p > 1 the per-column coefficients are applied with one GEMM per
+    chunk of rows against all columns at once, (p·K, m) @ (m, rows·p), keeping the
+    diagonal blocks c = c': p times the flops of the useful ones, but one streaming read of
+    the basis (a transposed copy of it costs more on memory-bound machines).
+    """
+    _, n, p = V.shape
+    K = C.shape[1]
+    if p == 1:
+        return (C[0] @ V[:m, :, 0])[:, :, None]
+    Z = V[:m].reshape(m, n * p)
+    Call = C.reshape(p * K, m)
+    res = np.empty((K, n, p))
+    nb = max(64, int(2**19 // (p * K * p)))  # rows per chunk: ~4 MB of GEMM output
+    for a in range(0, n, nb):
+        b = min(n, a + nb)
+        G = (Call @ Z[:, a * p : b * p]).reshape(p, K, b - a, p)
+        res[:, a:b, :] = np.einsum("cknc->knc", G)
+    return res
+
+
+class _Lanczos:
+    """The unnormalized three-term recurrence y_{j+1} = A y_j + (β_{j−1} ν_j/ν_{j−1}) y_{j−1}.
+
+    y_j = ν_j u_j with known ν_j (no normalization pass over the vectors), so that
+    y_{j+1} = ν_j β_j u_{j+1}; β_j = ‖y_{j+1}‖_W / ν_j. One instance per Krylov step, on
+    the basis storage V (m_cap + 1, n, p) whose V[0] holds the start vectors. p = 1 runs on
+    Python floats (few numpy calls per vector: this path is what small meshes pay).
+    Every 8th vector (and the first three) it checks that H_m is skew tridiagonal.
+    """
+
+    def __init__(self, op: _Operator, w: np.ndarray | None, V: np.ndarray, limit: float) -> None:
+        self.op, self.w, self.V, self.limit = op, w, V, limit
+        m_cap1, n, p = V.shape
+        self.p = p
+        self.beta = np.zeros((m_cap1 - 1, p))
+        self.nu = np.zeros((m_cap1, p))
+        self.m = 0
+        if p == 1:
+            self.V1 = V[:, :, 0]
+            self.stream = n >= _STREAM_N
+            self.tmp = None if self.stream or w is None else np.empty(n)
+            x = self.V1[0]
+            self.nu1 = [math.sqrt(float(np.dot(x, x if w is None else w * x)))]
+            self.b1: list[float] = []
+            self.nu[0, 0] = self.nu1[0]
+        else:
+            self.tmp = np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
+            self.nu[0] = np.sqrt(_wnorm2(V[0], w, self.tmp))
+            self.inv_nu = _safe_div(np.ones(p), self.nu[0])
+            self.inv_nu_prev = np.zeros(p)
+        self.bsum = np.zeros(p)
+
+    def mean_beta(self) -> float:
+        """Largest mean of the coefficients β over the columns (≈ half the spectral radius)."""
+        return float(np.max(self.bsum)) / max(self.m, 1)
+
+    def extend(self) -> None:
+        """Add one vector (one product with A on the block)."""
+        if self.p == 1:
+            self._extend1()
+        else:
+            self._extend_block()
+
+    def _extend1(self) -> None:
+        j, V, w, nu, b1 = self.m, self.V1, self.w, self.nu1, self.b1
+        vn = V[j + 1]
+        if j == 0:
+            vn.fill(0.0)
+        else:
+            c = b1[j - 1] * nu[j] / nu[j - 1] if nu[j - 1] > 0 else 0.0
+            np.multiply(V[j - 1], c, out=vn)
+        self.op.accumulate(V[j], vn)
+        if w is None:
+            wv = vn
+            nz = math.sqrt(float(np.dot(vn, vn)))
+        elif self.stream:  # large n: one read of w and vn, no temporary
+            wv = None
+            nz = math.sqrt(float(np.einsum("i,i,i->", w, vn, vn)))
+        else:  # small n (in cache): BLAS dot beats einsum's generic loop
+            wv = np.multiply(w, vn, out=self.tmp)
+            nz = math.sqrt(float(np.dot(wv, vn)))
+        if not math.isfinite(nz):
+            raise FloatingPointError(_NONFINITE)
+        b = nz / nu[j] if nu[j] > 0 else 0.0
+        if j < 3 or j % 8 == 7:
+
+            def dot(x):
+                return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
+
+            diag = abs(float(dot(V[j]))) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
+            off = 0.0
+            if j and nu[j] * nu[j - 1] > 0:
+                off = abs(float(dot(V[j - 1]))) / (nu[j] * nu[j - 1])
+            _check_skew(diag, off, b, self.limit)
+        if nz > 1e150 or 0.0 < nz < 1e-150:  # keep the unnormalized vectors in range
+            vn *= 1.0 / nz
+            nz = 1.0
+        b1.append(b)
+        nu.append(nz)
+        self.beta[j, 0] = b
+        self.nu[j + 1, 0] = nz
+        self.bsum[0] += b
+        self.m = j + 1
+
+    def _extend_block(self) -> None:
+        j, V, w, p = self.m, self.V, self.w, self.p
+        nu, beta = self.nu, self.beta
+        Vn = V[j + 1]
+        if j == 0:
+            Vn.fill(0.0)
+        else:
+            np.multiply(V[j - 1], self.coef, out=Vn)
+        self.op.accumulate(V[j], Vn)
+        nz = np.sqrt(_wnorm2(Vn, w, self.tmp))
+        lo, hi = float(nz.min()), float(nz.max())
+        if not math.isfinite(hi):
+            raise FloatingPointError(_NONFINITE)
+        inv_nu = self.inv_nu  # 1/ν_j (0 for a zero column)
+        b = nz * inv_nu
+        if j < 3 or j % 8 == 7:
+            diag = np.abs(_wdot(Vn, V[j], w, self.tmp)) * inv_nu * inv_nu
+            off = (
+                np.abs(_wdot(Vn, V[j - 1], w, self.tmp)) * inv_nu * self.inv_nu_prev if j else b * 0
+            )
+            _check_skew(float(diag.max()), float(off.max()), float(b.max()), self.limit)
+        if hi > 1e150 or 0.0 < lo < 1e-150:  # keep the unnormalized vectors in range
+            big = (nz > 1e150) | ((nz < 1e-150) & (nz > 0))
+            np.multiply(Vn, np.where(big, _safe_div(np.ones(p), nz), 1.0), out=Vn)
+            nz = np.where(big, 1.0, nz)
+        beta[j] = b
+        nu[j + 1] = nz
+        self.bsum += b
+        self.coef = b * nz * inv_nu  # β_j ν_{j+1} / ν_j, for the next vector
+        self.inv_nu_prev, self.inv_nu = inv_nu, _safe_div(np.ones(p), nz)
+        self.m = j + 1
+
+    def broken(self) -> bool:
+        """True when every column hit an invariant subspace (β = 0): the basis is exact."""
+        return bool((self.beta[self.m - 1] == 0).all())
+
+
+@dataclass
+class _Sweep:
+    """What the steps of one sweep (one sign of t) share."""
+
+    op: _Operator
+    w: np.ndarray | None  # inner-product weights (None: Euclidean)
+    s_targets: np.ndarray  # sorted distinct |t| > 0 of this sign
+    sign: float
+    tol: float
+    maxnorm: bool  # control the max-norm error too
+    out: np.ndarray  # (T, n, p): the result of expm_action
+    slots: np.ndarray  # row of out for each of s_targets
+    info: dict
+
+    @property
+    def T(self) -> float:
+        return float(self.s_targets[-1])
+
+    @property
+    def rate(self) -> float:
+        """Allowed relative error per unit time, SAFETY·tol/T (raised to the rounding
+        floor NOISE·‖H_m‖ at each check)."""
+        return SAFETY * self.tol / self.T
+
+
+def _lanczos_sweep(sw: _Sweep, B2: np.ndarray, cols: slice, m_cap: int) -> None:
+    """Time stepping with the three-term recurrence; the columns ``cols`` run together.
+
+    Writes exp(sign·s_k·A) B2[:, cols] to out[slots[k], :, cols].
+    Raises _NotSkew when H_m visibly differs from a skew tridiagonal matrix.
+    """
+    n = B2.shape[0]
+    p = cols.stop - cols.start
+    storage = _basis_storage((m_cap + 1) * n * p)
+    try:
+        V = storage[: (m_cap + 1) * n * p].reshape(m_cap + 1, n, p)
+        _lanczos_steps(sw, B2[:, cols], cols, m_cap, V)
+    finally:
+        _keep_storage(storage)
+
+
+def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.ndarray) -> None:
+    op, w, sign, out, slots, info = sw.op, sw.w, sw.sign, sw.out, sw.slots, sw.info
+    s_targets = sw.s_targets
+    rate = sw.rate
+    limit = 0.1 * sw.tol / sw.T  # ignoring an entry h of H_m costs about |h|·T
+    maxnorm = sw.maxnorm
+    n, p = Y0.shape
+    np.copyto(V[0], Y0)
+    t_now, k, nt = 0.0, 0, s_targets.size
+    err_total = np.zeros(p)
+    while k < nt:
+        tau_rem = float(s_targets[-1] - t_now)
+        lz = _Lanczos(op, w, V, limit)
+        if not (lz.nu[0] > 0).any():
+            out[slots[k:], :, cols] = 0.0
+            return
+        # max-norm control: the error lies mostly along u_m, so its relative max-norm is
+        # the W-norm estimate times (max|u_m| / ‖u_m‖_W) / (max|y| / ‖y‖_W)
+        yscale = _safe_div(lz.nu[0], np.abs(V[0]).max(axis=0)) if maxnorm else None
+        last_check: tuple[int, float] | None = None
+        next_check = None  # None: from the Lanczos coefficients (see below)
+        while True:
+            lz.extend()
+            m = lz.m
+            if m < m_cap and not lz.broken():
+                if next_check is None:
+                    # The error stalls until m ≈ (spectral radius)·τ ≈ 2·mean(β)·τ (the
+                    # coefficients settle near half the spectral radius), then decays.
+                    if m < max(4, 2.0 * lz.mean_beta() * tau_rem + 3):
+                        continue
+                elif m < next_check:
+                    continue
+            # error estimate over the remaining interval (relative to ‖y‖, per column)
+            beta = lz.beta
+            sk = _SkewExp(beta[: m - 1])
+            factor = np.ones(p)
+            if maxnorm:  # ≥ 1: never looser than the W-norm control
+                factor = np.maximum(1.0, _safe_div(np.abs(V[m]).max(axis=0), lz.nu[m]) * yscale)
+            bl = beta[m - 1] * factor
+
+            def resid(ss, sk=sk, bl=bl):
+                return np.abs(bl[:, None] * sk.last(sign * ss))
+
+            s = np.linspace(0.0, tau_rem, _GRID + 1)
+            E = _cumtrapz(resid(s), s)
+            # ‖H_m‖ ≤ 2 max β; the noise of the estimate scales with the max-norm factor
+            rate_m = max(rate, NOISE * 2.0 * float(beta[:m].max()) * float(factor.max()))
+            excess = float(np.max(E[:, -1])) / (rate_m * tau_rem)
+            if excess <= 1.0:
+                tau, err = tau_rem, E[:, -1]
+                break
+            if m == m_cap:
+                tau, err = _cut_step(resid, tau_rem, rate_m)
+                break
+            next_check, last_check = _next_check(m, excess, last_check, m_cap, op, p, False)
+        # dense output at the targets in (t_now, t_now + tau], and the new state
+        last = tau == tau_rem
+        kk = np.arange(k, nt)
+        if not last:
+            kk = kk[s_targets[k:] <= t_now + tau]
+        s_loc = s_targets[kk] - t_now if last else np.append(s_targets[kk] - t_now, tau)
+        C = sk.e1(sign * s_loc)  # (p, K, m) for u_j
+        nu = lz.nu
+        C *= (nu[0][:, None] * _safe_div(np.ones((m, p)), nu[:m]).T)[:, None, :]  # for y_j
+        Y = _combine(V, m, C)
+        out[slots[kk], :, cols] = Y[: kk.size]
+        if not last:
+            np.copyto(V[0], Y[-1])
+        k = int(kk[-1]) + 1 if kk.size else k
+        t_now += tau
+        err_total += err
+        info["steps"] += 1
+        info["basis_sizes"].append(m)
+        info["error_estimate"] = max(info["error_estimate"], float(err_total.max()))
+        if tau == tau_rem:
+            break
+
+
+def _next_check(
+    m: int,
+    excess: float,
+    last_check: tuple[int, float] | None,
+    m_cap: int,
+    op: _Operator,
+    p: int,
+    dense: bool,
+) -> tuple[int, tuple[int, float]]:
+    """Basis size of the next error check, from log(error / budget) at the checks so far.
+
+    The decay of the log-excess is extrapolated linearly from the last two checks (the
+    convergence is superlinear, so this overestimates the vectors needed; a 1.3 margin on
+    the rate); with one check, a decay of 2 per vector is assumed. Checks are at least
+    ``_check_gap`` apart.
+    """
+    x = math.log(excess) if np.isfinite(excess) else 50.0
+    if last_check is not None and last_check[1] > x:
+        slope = (last_check[1] - x) / (m - last_check[0])
+        step = int(x / (1.3 * slope))
+    else:
+        step = int(x / 2.0)
+    return min(m_cap, m + max(_check_gap(op, p, m, dense), step, 1)), (m, x)
+
+
+def _wdot(
+    X: np.ndarray, Y: np.ndarray, w: np.ndarray | None, tmp: np.ndarray | None = None
+) -> np.ndarray:
+    """W-inner products of matching columns of X and Y (n, p): (p,).
+
+    With a temporary ``tmp`` (n, p) (small sizes, in cache): an elementwise product and a
+    BLAS GEMV with w; otherwise one fused einsum pass (large, memory-bound sizes).
+    """
+    if w is None:
+        return np.einsum("nc,nc->c", X, Y)
+    if tmp is not None:
+        return w @ np.multiply(X, Y, out=tmp)
+    return np.einsum("n,nc,nc->c", w, X, Y)
+
+
+def _wnorm2(X: np.ndarray, w: np.ndarray | None, tmp: np.ndarray | None = None) -> np.ndarray:
+    """Squared W-norms of the columns of X (n, p): (p,)."""
+    return _wdot(X, X, w, tmp)
+
+
+def _wnorm(x: np.ndarray, w: np.ndarray | None, tmp: np.ndarray | None) -> float:
+    """W-norm of a vector x (n,) (``tmp`` (n,): a temporary for small n, else None)."""
+    if w is None:
+        return math.sqrt(float(np.dot(x, x)))
+    if tmp is not None:
+        return math.sqrt(float(np.dot(np.multiply(w, x, out=tmp), x)))
+    return math.sqrt(float(np.einsum("i,i,i->", w, x, x)))
+
+
+def _safe_div(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a / b where b > 0, else 0."""
+    return np.divide(a, b, out=np.zeros(np.broadcast(a, b).shape), where=b > 0)
+
+
+def _check_skew(diag: float, off: float, scale: float, limit: float) -> None:
+    """Raise _NotSkew when H_m visibly differs from the skew tridiagonal it is assumed to be.
+
+    ``diag`` = |⟨A u_j, u_j⟩_W| (0 for a W-skew-adjoint A and any unit u_j), ``off`` =
+    |⟨A u_j + β_{j−1} u_{j−1}, u_{j−1}⟩_W| = |h_{j−1,j} + h_{j,j−1}| (0 up to the local
+    orthogonality of consecutive Lanczos vectors, which rounding keeps at ~1e-15 even when
+    global orthogonality is lost). Both are measured against ``scale`` = β_j.
+    """
+    if max(diag, off) > max(limit, 1e-12 * scale):
+        raise _NotSkew(f"|⟨A u, u⟩_W| = {diag:.3g}, |h_(j-1,j) + h_(j,j-1)| = {off:.3g} for unit u")
+
+
+def _check_gap(op: _Operator, p: int, m: int = 48, dense: bool = False) -> int:
+    """Basis vectors between error checks near convergence.
+
+    ≈ sqrt(check cost / product cost): checks at every vector on large meshes, every few
+    on small ones (an overshoot costs about gap/2 products, the checks cost/gap each).
+    A check costs an SVD of size m/2 (skew case) or a dense m × m exponential.
+    """
+    check = (3e-5 + 3e-8 * m * m) * p if not dense else 1e-4 + 1.5e-7 * m * m
+    return max(1, int(round(math.sqrt(check / op.product_cost(p)))))
+
+
+def _cut_step(
+    resid: Callable[[np.ndarray], np.ndarray], tau_rem: float, rate: float
+) -> tuple[float, np.ndarray]:
+    """Largest step τ ≤ tau_rem with ∫_0^τ |r| ≤ rate·τ for every column.
+
+    ``resid(s)`` returns |r(s)| (columns, len(s)).
+    """
+    hi = tau_rem
+    for _ in range(60):
+        s = np.linspace(0.0, hi, _GRID + 1)
+        E = np.atleast_2d(_cumtrapz(resid(s), s))
+        ok = np.all(E <= rate * s * (1 + 1e-12), axis=0)
+        ok[0] = True
+        bad = np.flatnonzero(~ok)
+        last = (bad[0] - 1) if bad.size else _GRID
+        if last >= 1:
+            return float(s[last]), E[:, last]
+        hi = s[1]
+    raise FloatingPointError("Krylov step size underflow")  # pragma: no cover
+
+
+def _iom_sweep(sw: _Sweep, B2: np.ndarray, c: int, m_cap: int, window: int) -> None:
+    """Krylov time stepping with incomplete orthogonalization, one column.
+
+    Each new vector is W-orthogonalized (one classical Gram–Schmidt pass) against the last
+    ``window`` basis vectors only, so H_m is banded and a step costs O(n · window); the
+    Krylov relation A U_m = U_m H_m + h_m u_m e_mᵀ holds exactly whatever the window, and
+    the residual-based error estimate stays valid (Koskela 2015; Vo & Sidje 2017).
+    Writes exp(sign·s_k·A) B2[:, c] to out[slots[k], :, c].
+    """
+    n = B2.shape[0]
+    storage = _basis_storage((m_cap + 1) * n)
+    try:
+        V = storage[: (m_cap + 1) * n].reshape(m_cap + 1, n)
+        _iom_steps(sw, B2[:, c], c, m_cap, window, V)
+    finally:
+        _keep_storage(storage)
+
+
+def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: np.ndarray) -> None:
+    op, w, sign, out, slots, info = sw.op, sw.w, sw.sign, sw.out, sw.slots, sw.info
+    s_targets = sw.s_targets
+    rate, maxnorm = sw.rate, sw.maxnorm
+    n = y0.shape[0]
+    y = np.array(y0, dtype=float)
+    t_now, k, nt = 0.0, 0, s_targets.size
+    err_total = 0.0
+    wv = np.empty(n)
+    tmp = wv if n < _STREAM_N else None  # the norms reuse the same temporary
+    while k < nt:
+        tau_rem = float(s_targets[-1] - t_now)
+        beta0 = _wnorm(y, w, tmp)
+        if beta0 == 0:
+            out[slots[k:], :, c] = 0.0
+            return
+        np.multiply(y, 1.0 / beta0, out=V[0])
+        H = np.zeros((m_cap + 1, m_cap))
+        bsum = 0.0
+        last_check: tuple[int, float] | None = None
+        next_check = None
+        m = 0
+        while True:
+            j = m
+            vn = V[j + 1]
+            vn.fill(0.0)
+            op.accumulate(V[j], vn)
+            lo = max(0, j + 1 - window)
+            Vw = V[lo : j + 1]
+            h = Vw @ (vn if w is None else np.multiply(w, vn, out=wv))
+            vn -= h @ Vw
+            H[lo : j + 1, j] = h
+            b = _wnorm(vn, w, tmp)
+            if not math.isfinite(b):
+                raise FloatingPointError(_NONFINITE)
+            H[j + 1, j] = b
+            bsum += b
+            if b > 0:
+                vn *= 1.0 / b
+            m = j + 1
+            if m < m_cap and b > 0:
+                if next_check is None:
+                    if m < max(4, 2.0 * bsum / m * tau_rem + 3):
+                        continue
+                elif m < next_check:
+                    continue
+            factor = 1.0
+            if maxnorm:  # see _lanczos_steps
+                factor = max(1.0, float(np.abs(V[m]).max()) / float(np.abs(V[0]).max()))
+            prof = _HessenbergExp(H, m, sign, factor)
+            s, E = prof.errors(tau_rem)
+            rate_m = max(rate, NOISE * float(np.abs(H[: m + 1, :m]).sum(axis=1).max()) * factor)
+            excess = E[-1] / (rate_m * tau_rem)
+            if excess <= 1.0 or b == 0:
+                tau, err = tau_rem, float(E[-1])
+                break
+            if m == m_cap:
+                tau, err = _cut_step_general(prof, tau_rem, rate_m)
+                break
+            next_check, last_check = _next_check(m, excess, last_check, m_cap, op, 1, True)
+        last = tau == tau_rem
+        kk = np.arange(k, nt)
+        if not last:
+            kk = kk[s_targets[k:] <= t_now + tau]
+        s_loc = s_targets[kk] - t_now if last else np.append(s_targets[kk] - t_now, tau)
+        Y = (prof.e1(s_loc) * beta0) @ V[:m]
+        out[slots[kk], :, c] = Y[: kk.size]
+        if not last:
+            y = Y[-1].copy()
+        k = int(kk[-1]) + 1 if kk.size else k
+        t_now += tau
+        err_total += err
+        info["steps"] += 1
+        info["basis_sizes"].append(m)
+        info["error_estimate"] = max(info["error_estimate"], float(err_total))
+        if tau == tau_rem:
+            break
+
+
+class _HessenbergExp:
+    """exp(s H_m) e_1 on grids of s, and the relative error estimate, for a Hessenberg H_m.
+
+    The residual r(s) = h_{m,m−1} [exp(s H_m) e_1]_{m−1} is propagated with the bound
+    e^{μ(s−σ)}, μ = largest eigenvalue of the symmetric part of H_m (the logarithmic norm
+    of A on the Krylov space, an estimate of A's), and divided by ‖exp(s H_m) e_1‖ (the
+    relative size of the solution).
+    """
+
+    def __init__(self, H: np.ndarray, m: int, sign: float, factor: float = 1.0) -> None:
+        self.Hm = sign * H[:m, :m]
+        self.h = H[m, m - 1] * factor
+        self.m = m
+        self.mu = float(np.linalg.eigvalsh(0.5 * (self.Hm + self.Hm.T))[-1])
+        self._grid: tuple[float, np.ndarray] | None = None
+
+    def grid(self, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """s = linspace(0, hi, _GRID + 1) and exp(s H_m) e_1 at those s: (_GRID + 1, m)."""
+        s = np.linspace(0.0, hi, _GRID + 1)
+        step = sla.expm((hi / _GRID) * self.Hm)
+        X = np.empty((_GRID + 1, self.m))
+        X[0] = 0.0
+        X[0, 0] = 1.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            for i in range(_GRID):
+                X[i + 1] = step @ X[i]
+        self._grid = (hi, X)
+        return s, X
+
+    def errors(self, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """(s, relative error estimate at s) on the grid of [0, hi]."""
+        s, X = self.grid(hi)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            r = np.abs(self.h * X[:, -1])
+            E = np.exp(self.mu * s) * _cumtrapz(np.exp(-self.mu * s) * r, s)
+            E = E / np.linalg.norm(X, axis=1)
+        E[~np.isfinite(E)] = np.inf
+        return s, E
+
+    def e1(self, s: np.ndarray) -> np.ndarray:
+        """exp(s H_m) e_1 for the times s (K,): (K, m).
+
+        Each time starts from the nearest point below it on the last error grid (so the
+        remaining exponential has a small norm, and times on the grid cost nothing);
+        equal offsets share one dense exponential (equally spaced outputs cost one).
+        """
+        out = np.empty((s.size, self.m))
+        base0 = np.zeros(self.m)
+        base0[0] = 1.0
+        hi, X = self._grid if self._grid is not None else (0.0, base0[None])
+        delta = hi / _GRID
+        cache: dict[float, np.ndarray] = {}
+        for i, si in enumerate(s):
+            g = 0
+            if delta > 0 and 0.0 <= si <= hi * (1 + 1e-12):
+                g = min(_GRID, int(np.floor(si / delta + 1e-9)))
+            d = si - g * delta
+            if abs(d) <= 1e-12 * abs(si):
+                out[i] = X[g]
+                continue
+            key = float(f"{d:.11e}")
+            E = cache.get(key)
+            if E is None:
+                E = cache[key] = sla.expm(d * self.Hm)
+            out[i] = E @ X[g]
+        return out
+
+
+def _cut_step_general(prof: _HessenbergExp, tau_rem: float, rate: float) -> tuple[float, float]:
+    """Largest step τ ≤ tau_rem whose error estimate meets rate·τ (Hessenberg case)."""
+    hi = tau_rem
+    for _ in range(60):
+        s, E = prof.errors(hi)
+        ok = E <= rate * s * (1 + 1e-12)
+        ok[0] = True
+        bad = np.flatnonzero(~ok)
+        last = (bad[0] - 1) if bad.size else _GRID
+        if last >= 1:
+            if last < _GRID:
+                prof.grid(float(s[last]))  # so that e1(τ) reuses it
+            return float(s[last]), float(E[last])
+        hi = s[1]
+    raise FloatingPointError("Krylov step size underflow")  # pragma: no cover
