@@ -58,16 +58,15 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
         report["problems"].append(f"{type(exc).__name__}: {exc}")
         return report
     report["n_vertices"], report["n_faces"] = X.shape[0], F.shape[0]
-    used = np.zeros(X.shape[0], dtype=bool)
-    used[F.ravel()] = True
-    unref = np.flatnonzero(~used)
+    n = X.shape[0]
+    X, F, kept = remove_unreferenced_vertices(X, F)
+    unref = np.setdiff1d(np.arange(n), kept)
     report["unreferenced_vertices"] = int(unref.size)
     if unref.size:
         report["problems"].append(
             f"UnreferencedVertexError: vertices {format_indices(unref)} belong to no face. "
             "Fix: fvf.remove_unreferenced_vertices(V, F)."
         )
-        X, F, _ = remove_unreferenced_vertices(X, F)
     angles = _corner_angles(X, F)
     report["min_angle_deg"] = float(np.nanmin(angles)) if np.isfinite(angles).any() else 0.0
     needles = np.flatnonzero(np.nan_to_num(angles, nan=0.0).min(axis=1) < NEEDLE_ANGLE_DEG)
