@@ -432,13 +432,15 @@ def choose_method(
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
-    * otherwise ``"krylov"``. Measured on flows of spot meshes (6k to 1.5M faces,
-      ``benchmarks/bench_expmv.py``): the Krylov method needs 2–4× fewer products than
-      expm_multiply at t = 0.1–1 mean edge lengths and 4–9× fewer at 10 (its Taylor
-      steps scale with |t|·‖A‖₁ and it spends products with Aᵀ on norm estimates; the
-      three-term recurrence needs about |t|·ρ(A) + O(log 1/tol)), and was faster in wall
-      time in all but one small case (a compressible field, 8 right-hand sides at
-      t = 0.1 edge lengths on 6k faces, where expm_multiply's block products win).
+    * otherwise ``"krylov"``. Measured on flows of unit-speed fields on spot meshes (6k,
+      94k and 1.5M faces; ``benchmarks/bench_expmv.py``, tol 1e-10), the Krylov method
+      needs 1.5–3.5× fewer products than expm_multiply at t = 0.1 mean edge lengths,
+      1.7–4.8× at 1 and 3.3–9.4× at 10 (20–36× for 16 output times, which
+      expm_multiply chains): its Taylor steps scale with |t|·‖A‖₁ and its norm estimates
+      spend products with Aᵀ, where the three-term recurrence needs about |t|·ρ(A) +
+      O(log 1/tol). It was faster in wall time in all cases but two on the 6k mesh
+      (compressible field: 8 right-hand sides at t = 0.1, where expm_multiply's block
+      products win, 0.6×; one right-hand side at t = 1, a tie).
 
     Parameters
     ----------
