@@ -17,38 +17,19 @@ Run: ``.venv/bin/python benchmarks/bench_reduced_flow.py [--levels 4,5,6] [--k 5
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
+from bench_flows import best, rotate_z  # shared with the flow table (same folder)
+from bench_flows import f_poly as f_exact
 from threadpoolctl import threadpool_limits
 
 import fvf
 from fvf.spectral import SpectralBasis
 
 
-def best(fn, r=3):
-    t = np.inf
-    out = None
-    for _ in range(r):
-        s = time.perf_counter()
-        out = fn()
-        t = min(t, time.perf_counter() - s)
-    return t, out
-
-
-def rotate_z(p, angle):
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]], 1)
-
-
-def f_exact(p):
-    """Degree <= 3 polynomial: on the sphere, a combination of l <= 3 harmonics."""
-    return p[:, 0] + 0.5 * p[:, 1] * p[:, 2] + 0.3 * p[:, 0] ** 2 * p[:, 1]
-
-
 def row(mesh, k: int, t: float) -> None:
     X, a = mesh.vertices, mesh.vertex_areas
-    tb, basis = best(lambda: SpectralBasis(mesh, k), r=1)
+    tb, basis = best(lambda: SpectralBasis(mesh, k), 1)
     f0 = basis.reconstruct(basis.project(f_exact(X)))  # in the span (k >= 16 holds l <= 3)
     v = mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
     exact = f_exact(rotate_z(X, -t))
@@ -56,8 +37,8 @@ def row(mesh, k: int, t: float) -> None:
     def norm(g):
         return float(np.sqrt(a @ g**2))
 
-    tf, full = best(lambda: fvf.flow(mesh, v, f0, t))
-    tr, red = best(lambda: basis.reduced_flow(v, f0, t))
+    tf, full = best(lambda: fvf.flow(mesh, v, f0, t), 3)
+    tr, red = best(lambda: basis.reduced_flow(v, f0, t), 3)
     print(
         f"{mesh.n_vertices:>7} {k:>4} {tb:>8.3f} {tf:>8.4f} {tr:>9.4f} {tr / tf:>6.2f}x "
         f"{norm(full - exact):>9.2e} {norm(red - exact):>9.2e} {norm(full - red):>10.2e}"
