@@ -163,7 +163,7 @@ def skew_operator(
 
         S = ½(D^V_v − [A_V]⁻¹ (D^V_v)ᵀ [A_V]) − ½[div v] = ½(D^V_v + D̃^V_v),
 
-    so [A_V] S + Sᵀ [A_V] = −[A_V][div v] and the flow df/dt = −S f satisfies
+    so [A_V] S + Sᵀ [A_V] = −[A_V]·[div v] and the flow df/dt = −S f satisfies
     d/dt ‖f‖²_{A_V} = ⟨f, [div v] f⟩_{A_V} exactly. S is also the central-flux finite
     volume scheme on the barycentric dual cells: S_ij = F_ij / (2 A_V(i)) for j ≠ i and
     S_ii = −½ (div v)_i, F from :func:`dual_edge_fluxes`. S 1 = 0. S is consistent
