@@ -20,7 +20,7 @@ def _rotation_z(mesh):
 def test_lemma11_group_and_generator(sphere):
     v = _rotation_z(sphere)
     f, _, _ = smooth_functions(sphere)
-    phi = fvf.FunctionalFlow(sphere, v)
+    phi = fvf.FunctionalFlow(sphere, v, tol=1e-13)  # identities to the action's accuracy
     assert np.array_equal(phi(f, 0.0), f)  # Φ_0 = I
     assert rel(phi(phi(f, 0.3), 0.4), phi(f, 0.7)) < 1e-12  # Φ_t Φ_s = Φ_{t+s}
     assert rel(phi(phi(f, 0.5), -0.5), f) < 1e-12  # inverse
@@ -34,7 +34,7 @@ def test_lemma11_group_and_generator(sphere):
 def test_times_array_matches_scalars(sphere):
     v = _rotation_z(sphere)
     f, g, _ = smooth_functions(sphere)
-    phi = fvf.FunctionalFlow(sphere, v)
+    phi = fvf.FunctionalFlow(sphere, v, tol=1e-13)
     times = np.array([0.4, -0.2, 0.0, 0.1, -0.7])
     out = phi(f, times)
     assert out.shape == (5, sphere.n_vertices)
@@ -43,7 +43,7 @@ def test_times_array_matches_scalars(sphere):
     block = phi(np.stack([f, g], axis=1), times)
     assert block.shape == (5, sphere.n_vertices, 2)
     assert rel(block[:, :, 1], phi(g, times)) < 1e-12
-    assert rel(ch.flow(sphere, v, f, times), out) < 1e-14
+    assert rel(ch.flow(sphere, v, f, times, tol=1e-13), out) < 1e-14
 
 
 def test_divergence_free_flow_keeps_norm(closed):
@@ -117,3 +117,32 @@ def test_flow_rejects_bad_times(sphere):
         fvf.flow(sphere, v, f, np.zeros((2, 2)))
     with pytest.raises(fvf.FieldShapeError, match="vertices"):
         fvf.flow(sphere, v, f[:-1], 0.1)
+
+
+@pytest.mark.parametrize("field", ["rotation", "gradient"])
+def test_krylov_action_matches_expm_multiply(field):
+    """The default exponential action (Krylov, expmv.py) agrees with scipy's expm_multiply
+    at the requested accuracy, for the unitary (J grad g) and a compressible case."""
+    mesh = fvf.icosphere(3)
+    X = mesh.vertices
+    v = fvf.gradient(mesh, X[:, 2])
+    if field == "rotation":
+        v = fvf.rotate(mesh, v)  # J grad z: [A_V] D^V_v skew (Lemma 13)
+    f = np.stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2]], axis=1)
+    times = np.array([0.5, -0.25, 1.0])
+    fast = fvf.FunctionalFlow(mesh, v)
+    ref = fvf.FunctionalFlow(mesh, v, method="expm_multiply")
+    assert fast.is_skew == (field == "rotation")
+    out = fast(f, times)
+    assert rel(out, ref(f, times)) < 1e-9
+    assert fast.stats["method"] == ("lanczos" if field == "rotation" else "iom")
+    assert ref.stats["method"] == "expm_multiply"
+    assert 0 < fast.stats["matvecs"] < ref.stats["matvecs"]
+
+
+def test_flow_rejects_unknown_action():
+    mesh = fvf.icosphere(1)
+    with pytest.raises(fvf.expmv.ExpmInputError, match="method must be one of"):
+        fvf.FunctionalFlow(mesh, _rotation_z(mesh), method="pade")
+    with pytest.raises(fvf.expmv.ExpmInputError, match="tol"):
+        fvf.FunctionalFlow(mesh, _rotation_z(mesh), tol=0.0)

@@ -1,8 +1,10 @@
 """Functional flows Φ_{v,t} = exp(−t D^V_v) applied to functions (chapter §3.4–3.5).
 
 f(t) = Φ_{v,t} f_0 solves df/dt = −D^V_v f (eq. 43): the function is carried along the
-flow of v. The exponential is never formed; its action on vectors is computed with
-:func:`scipy.sparse.linalg.expm_multiply` (Al-Mohy & Higham 2011).
+flow of v. The exponential is never formed; its action on vectors is computed by
+:func:`fvf.expmv.expm_action` (adaptive Krylov time stepping in the A_V inner product,
+all requested times and all columns in one pass; ``method="expm_multiply"`` selects
+:func:`scipy.sparse.linalg.expm_multiply`, Al-Mohy & Higham 2011, chained over the times).
 
 Growth. For rotated gradients v = J grad g, [A_V] D^V_v is skew-symmetric and the flow
 keeps the A_V-norm. For other fields the discrete flow can grow a function's norm by
@@ -26,11 +28,12 @@ import scipy.sparse.linalg as sla
 
 from .calculus import div
 from .errors import FlowGrowthWarning, format_indices
+from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
 
-__all__ = ["FunctionalFlow", "flow", "GROWTH_LIMIT"]
+__all__ = ["FunctionalFlow", "GROWTH_LIMIT"]
 
 #: Default bound on the estimated norm growth e^{μ|t|} above which a flow warns.
 GROWTH_LIMIT = 100.0
@@ -50,6 +53,21 @@ class FunctionalFlow:
     growth_limit : float
         Warn (:class:`~fvf.errors.FlowGrowthWarning`) when the estimated bound on
         ‖f(t)‖/‖f_0‖ exceeds this.
+    tangent : {"project", "raise", "ignore"}
+        What to do with a normal component of v (see :func:`fvf.fields.as_face_field`).
+    method : {"auto", "krylov", "expm_multiply"}
+        Exponential action (:func:`fvf.expmv.expm_action`); "auto" uses the Krylov
+        method except on tiny meshes (:func:`fvf.expmv.choose_method`).
+    tol : float
+        Target relative error of the exponential action (default 1e-10).
+
+    Attributes
+    ----------
+    operator : scipy.sparse.csr_array, (n, n)
+        D^V_v (eq. 36).
+    stats : dict
+        Statistics of the last call: ``method``, ``matvecs`` (column products with
+        D^V_v), ``error_estimate`` … (see :func:`fvf.expmv.expm_action`).
 
     Notes
     -----
@@ -76,11 +94,29 @@ class FunctionalFlow:
         *,
         growth_limit: float = GROWTH_LIMIT,
         tangent: TangentPolicy = "project",
+        method: str = "auto",
+        tol: float = 1e-10,
     ) -> None:
+        if method not in METHODS:
+            raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
+        if not 0 < tol < 1:
+            raise ExpmInputError(f"tol must lie in (0, 1); got {tol!r}")
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
         self.growth_limit = float(growth_limit)
+        self.method = method
+        self.tol = float(tol)
+        self.stats: dict = {}
+
+    @cached_property
+    def is_skew(self) -> bool:
+        """Whether [A_V] D^V_v is skew-symmetric to round-off (v = J grad g, closed mesh):
+        the flow is then A_V-unitary and the three-term Lanczos recurrence applies."""
+        AD = (sp.diags_array(self.mesh.vertex_areas) @ self.operator).tocsr()
+        scale = float(abs(AD).max()) if AD.nnz else 0.0
+        asym = AD + AD.T
+        return scale == 0.0 or float(abs(asym).max() if asym.nnz else 0.0) <= 1e-12 * scale
 
     @cached_property
     def _symmetric_part(self) -> sp.csr_array:
@@ -156,8 +192,9 @@ class FunctionalFlow:
         f : array_like, (n,) or (n, k)
             PL function(s) at time 0.
         t : float or array_like (T,)
-            Time(s), any sign and order. Arrays are computed by chaining the semigroup
-            Φ_{t+s} = Φ_t Φ_s (Lemma 11) over the sorted times.
+            Time(s), any sign and order; all are computed in one Krylov pass per sign
+            (dense output inside each step; the semigroup Φ_{t+s} = Φ_t Φ_s, Lemma 11,
+            across steps).
 
         Returns
         -------
@@ -183,37 +220,19 @@ class FunctionalFlow:
         for extreme in (times.max(), times.min()):
             if extreme != 0:
                 self._warn_growth(float(extreme))
-        out = np.empty((times.size,) + f0.shape)
-        A = -self.operator
-        for sign in (1.0, -1.0):
-            pick = np.flatnonzero(sign * times >= 0)
-            order = pick[np.argsort(sign * times[pick])]
-            current, now = f0, 0.0
-            for i in order:
-                dt = times[i] - now
-                if dt != 0.0:
-                    current = sla.expm_multiply(dt * A, current)
-                    now = times[i]
-                out[i] = current
+        out, self.stats = expm_action(
+            -self.operator,
+            f0,
+            times,
+            tol=self.tol,
+            inner=self.mesh.vertex_areas,
+            skew=True if self.is_skew else None,
+            method=self.method,
+            return_info=True,
+        )
         if not np.isfinite(out).all():
             raise FloatingPointError(
                 f"the flow overflowed (growth bound {self.growth_bound(times.max()):.3g}); "
                 "use shorter times or a divergence-free field."
             )
         return out[0] if scalar else out
-
-
-def flow(
-    mesh: TriMesh,
-    v: npt.ArrayLike,
-    f: npt.ArrayLike,
-    t: float | npt.ArrayLike,
-    *,
-    growth_limit: float = GROWTH_LIMIT,
-) -> np.ndarray:
-    """Φ_{v,t} f = exp(−t D^V_v) f: transport a function along v (eqs. 42–43).
-
-    One-off form of :class:`FunctionalFlow`; see there for shapes, the growth warning and
-    array times. Returns (n,) for a scalar t and an (n,) f, (T, n) for T times.
-    """
-    return FunctionalFlow(mesh, v, growth_limit=growth_limit)(f, t)

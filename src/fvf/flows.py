@@ -42,6 +42,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .errors import FlowGrowthWarning, format_indices
+from .expmv import expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .flow import GROWTH_LIMIT, FunctionalFlow
 from .mesh import TriMesh
@@ -67,9 +68,9 @@ DEFAULT_COURANT = 0.5
 _UNIFORMIZATION_CHUNK = 300.0
 
 _OPTIONS = {
-    "chapter": {"growth_limit"},
+    "chapter": {"growth_limit", "expm", "tol"},
     "upwind": set(),
-    "skew": {"growth_limit"},
+    "skew": {"growth_limit", "expm", "tol"},
     "cayley": {"growth_limit", "dt", "courant", "operator"},
     "spectral": {"k", "basis"},
 }
@@ -271,9 +272,9 @@ class TransportFlow:
         The generator (df/dt = −operator f): D^V_v, G, S, or the Cayley operator; None for
         ``"spectral"``.
     stats : dict
-        Work of the last call: ``matvecs`` (products with an n x n matrix, excluding
-        :func:`~scipy.sparse.linalg.expm_multiply`'s, which it does not report),
-        ``steps``, ``factorizations`` (sparse LU).
+        Work of the last call: ``matvecs`` (column products with an n x n matrix),
+        ``steps``, ``factorizations`` (sparse LU); for "chapter" and "skew" the
+        statistics of :func:`fvf.expmv.expm_action` (``method``, ``error_estimate`` …).
 
     Examples
     --------
@@ -309,13 +310,18 @@ class TransportFlow:
         self.method = method
         self.field = as_face_field(mesh, v, "v", tangent)
         self.growth_limit = float(options.get("growth_limit", GROWTH_LIMIT))
-        self.stats: dict[str, int] = {"matvecs": 0, "steps": 0, "factorizations": 0}
+        self.stats: dict[str, Any] = {"matvecs": 0, "steps": 0, "factorizations": 0}
         self._chapter: FunctionalFlow | None = None
         self._lu: dict[float, Any] = {}
         self.operator: sp.csr_array | None = None
         if method == "chapter":
             self._chapter = FunctionalFlow(
-                mesh, self.field, growth_limit=self.growth_limit, tangent="ignore"
+                mesh,
+                self.field,
+                growth_limit=self.growth_limit,
+                tangent="ignore",
+                method=options.get("expm", "auto"),
+                tol=options.get("tol", 1e-10),
             )
             self.operator = self._chapter.operator
         elif method == "upwind":
@@ -323,6 +329,7 @@ class TransportFlow:
             self._upwind = {1.0: _Uniformization(self.operator)}
         elif method == "skew":
             self.operator = skew_operator(mesh, self.field, tangent="ignore")
+            self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
@@ -480,7 +487,9 @@ class TransportFlow:
         """
         self.stats = {"matvecs": 0, "steps": 0, "factorizations": 0}
         if self.method == "chapter":
-            return self._chapter(f, t)
+            out = self._chapter(f, t)
+            self.stats = self._chapter.stats
+            return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times = np.asarray(t, dtype=float)
         if times.ndim > 1 or not np.isfinite(times).all():
@@ -494,8 +503,14 @@ class TransportFlow:
         if self.method == "upwind":
             out = _chain(f0, times, self._advance_upwind)
         elif self.method == "skew":
-            A = -self.operator
-            out = _chain(f0, times, lambda g, now, dt: sla.expm_multiply(dt * A, g))
+            out, self.stats = expm_action(
+                -self.operator,
+                f0,
+                times,
+                inner=self.mesh.vertex_areas,
+                return_info=True,
+                **self._expm,
+            )
         elif self.method == "cayley":
             out = _chain(f0, times, self._advance_cayley)
         else:
@@ -538,8 +553,10 @@ def flow(
         Time(s), any sign and order.
     method : {"chapter", "upwind", "skew", "cayley", "spectral"}
         - ``"chapter"`` (default): exp(−t D^V_v) (eq. 42), :class:`fvf.FunctionalFlow`.
-          Warns (:class:`~fvf.errors.FlowGrowthWarning`) when it may blow up. Option
-          ``growth_limit``.
+          Warns (:class:`~fvf.errors.FlowGrowthWarning`) when it may blow up. Options
+          ``growth_limit``, ``expm`` and ``tol`` (the exponential action: ``expm`` is a
+          ``method`` of :func:`fvf.expmv.expm_action`, "auto" by default; ``tol`` its
+          target relative error, 1e-10 by default).
         - ``"upwind"``: exp(−t G), G = :func:`upwind_operator`. f(t) stays within
           [min f_0, max f_0] on every mesh for every field (a convex combination of
           f_0's values); first-order accurate (smears). For t < 0 it is the upwind
@@ -547,6 +564,7 @@ def flow(
         - ``"skew"``: exp(−t S), S = :func:`skew_operator`. d/dt ‖f‖² = ⟨f, [div v] f⟩
           exactly; norm-preserving for div v = 0. Warns when e^{½ max(div v) t} exceeds
           ``growth_limit`` (it can, on real meshes: the discrete div v is large there).
+          Options ``growth_limit``, ``expm``, ``tol`` as for "chapter".
         - ``"cayley"``: implicit midpoint steps of length ≤ ``dt`` of
           ``operator="skew"`` (default) or ``"chapter"``. One sparse LU per step length;
           second order in time. The default ``dt`` is :data:`DEFAULT_COURANT` · mean edge
