@@ -651,7 +651,11 @@ def _run_expm_multiply(
     does); with ``count``, through an :class:`ExpmvCounter` (its LinearOperator path)."""
     info["method"] = "expm_multiply"
     info["error_estimate"] = None
-    trace = float(A.diagonal().sum()) if hasattr(A, "diagonal") else None
+    trace = getattr(A, "trace", None)  # e.g. fvf.transport.TransportOperator's exact trace
+    if hasattr(A, "diagonal"):
+        trace = float(A.diagonal().sum())
+    elif not isinstance(trace, float):
+        trace = None
     op = ExpmvCounter(A) if count else None
     for sign in (1.0, -1.0):
         pick = np.flatnonzero(sign * times > 0)

@@ -27,6 +27,7 @@ import scipy.sparse.linalg as sla
 
 from .bracket import ad
 from .calculus import vertex_to_face
+from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field
 from .mesh import TriMesh
 
@@ -145,28 +146,38 @@ class FieldTransport:
     """The transport generator G = [I_F^V] ad_v of a field v (3m x 3m), kept for reuse.
 
     G is applied as the composition of its two sparse factors (:class:`TransportOperator`,
-    ``self.operator``) and passed to :func:`scipy.sparse.linalg.expm_multiply` as a linear
-    operator together with its exact trace. Decided by measurement (one thread, spot mesh
-    refined to 1.5M faces; ``benchmarks/bench_apps.py``): forming G = (I_F^V ⊗ I_3) ad_v
-    takes 3.4-5 s and 2.0 GB with int32 indices (2.7 GB with int64; 117 entries per face),
-    and one product with it 0.25-0.35 s, against 0.2-0.25 s for the two factors, which
-    hold 0.38 GB (ad_v, 81 entries per face, int32 block indices, and I_F^V) plus about as
-    much for ad_vᵀ, which the 1-norm estimates of expm_multiply need. At 94k faces a
-    product with the formed G is 3-4x slower (27 ms vs 6 ms, cache effects). So G is not
-    built; ``self.generator`` still returns it, formed on first access.
+    ``self.operator``) and its exponential action computed by :func:`fvf.expmv.expm_action`
+    (Krylov with incomplete orthogonalization in the face-area inner product; all times in
+    one pass) or, with ``method="expm_multiply"``, by
+    :func:`scipy.sparse.linalg.expm_multiply` with the exact trace. Decided by measurement
+    (one thread, spot mesh refined to 1.5M faces; ``benchmarks/bench_apps.py``): forming G =
+    (I_F^V ⊗ I_3) ad_v takes 3.4-5 s and 2.0 GB with int32 indices (2.7 GB with int64; 117
+    entries per face), and one product with it 0.25-0.35 s, against 0.2-0.25 s for the two
+    factors, which hold 0.38 GB (ad_v, 81 entries per face, int32 block indices, and I_F^V)
+    plus about as much for ad_vᵀ, which the 1-norm estimates of expm_multiply need. At 94k
+    faces a product with the formed G is 3-4x slower (27 ms vs 6 ms, cache effects). So G is
+    not built; ``self.generator`` still returns it, formed on first access.
 
     Parameters
     ----------
     mesh : TriMesh
     v : array_like (m, 3)
         The field whose flow transports other fields.
+    tangent : {"project", "raise", "ignore"}
+        What to do with a normal component of v.
+    method : {"auto", "krylov", "expm_multiply"}
+        Exponential action (see :func:`fvf.expmv.expm_action`).
+    tol : float
+        Its target relative error (default 1e-10).
 
     Attributes
     ----------
     operator : TransportOperator
         G as a linear operator; ``operator.n_matvec`` / ``operator.n_rmatvec`` count the
-        products with G and Gᵀ (columns) made so far, including those of the norm
-        estimates inside ``expm_multiply``.
+        products with G and Gᵀ (columns) made so far (Gᵀ only by the norm estimates
+        inside ``expm_multiply``).
+    stats : dict
+        Statistics of the last call (:func:`fvf.expmv.expm_action`'s ``info``).
 
     Examples
     --------
@@ -178,7 +189,22 @@ class FieldTransport:
     True
     """
 
-    def __init__(self, mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"):
+    def __init__(
+        self,
+        mesh: TriMesh,
+        v: npt.ArrayLike,
+        tangent: TangentPolicy = "project",
+        *,
+        method: str = "auto",
+        tol: float = 1e-10,
+    ):
+        if method not in METHODS:
+            raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
+        if not 0 < tol < 1:
+            raise ExpmInputError(f"tol must lie in (0, 1); got {tol!r}")
+        self.method = method
+        self.tol = float(tol)
+        self.stats: dict = {}
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = TransportOperator(
@@ -222,18 +248,17 @@ class FieldTransport:
             raise ValueError(f"t must be a finite scalar or 1-D array; got {t!r}")
         scalar = times.ndim == 0
         times = np.atleast_1d(times)
-        raw = np.empty((times.size, u.size))
-        for sign in (1.0, -1.0):
-            pick = np.flatnonzero(sign * times >= 0)
-            current, now = u.ravel(), 0.0
-            for i in pick[np.argsort(sign * times[pick])]:
-                if times[i] != now:
-                    dt = times[i] - now
-                    current = sla.expm_multiply(
-                        dt * self.operator, current, traceA=dt * self.operator.trace
-                    )
-                    now = times[i]
-                raw[i] = current
+        raw, self.stats = expm_action(
+            self.operator,
+            u.ravel(),
+            times,
+            tol=self.tol,
+            inner=np.repeat(self.mesh.face_areas, 3),
+            skew=False,
+            method=self.method,
+            return_info=True,
+        )
+        raw = raw.reshape(times.size, -1)  # (T, 3m)
         out, normal = [], []
         for r in raw:
             f, nrm = self._project(r.reshape(-1, 3))
