@@ -92,19 +92,7 @@ def read_mesh(path: str | os.PathLike) -> tuple[npt.NDArray[np.float64], npt.NDA
             f"{path}: unsupported mesh file suffix {path.suffix!r}; read_mesh reads "
             f"{', '.join(SUFFIXES)} (case-insensitive): convert the mesh or rename the file"
         )
-    data = path.read_bytes()
-    if not data.strip():
-        raise MeshReadError(f"{path}: the file is empty; write a mesh into it or pick another")
-    try:
-        poly = reader(path, data)
-        faces, n_split = _triangulate(path, poly)
-    except MeshReadError:
-        raise
-    except (ValueError, TypeError, IndexError, OverflowError, struct.error) as exc:
-        raise MeshReadError(
-            f"{path}: cannot parse this {suffix} file ({type(exc).__name__}: {exc}); "
-            f"check that it is a valid {suffix[1:].upper()} file, or re-export it"
-        ) from exc
+    poly, (faces, n_split) = _parsed(path, lambda p, data: _checked(p, reader(p, data)))
     if n_split:
         warnings.warn(
             f"{path}: fan-triangulated {n_split} polygons with more than 3 vertices into "
@@ -113,6 +101,87 @@ def read_mesh(path: str | os.PathLike) -> tuple[npt.NDArray[np.float64], npt.NDA
             stacklevel=2,
         )
     return np.ascontiguousarray(poly.vertices, dtype=np.float64), faces
+
+
+def read_ply_properties(
+    path: str | os.PathLike,
+) -> tuple[dict[str, npt.NDArray[np.float64]], dict[str, npt.NDArray[np.float64]]]:
+    """Read the scalar vertex and face properties of a PLY file, aligned with :func:`read_mesh`.
+
+    Lets a PLY file carry functions (one value per vertex, e.g. ``property float f``) and
+    per-face fields (three face properties, e.g. ``vx vy vz``) next to its mesh. Lists
+    (such as the face index list) are not properties in this sense and are left out.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.ply`` file (ascii or binary), as accepted by :func:`read_mesh`.
+
+    Returns
+    -------
+    vertex_properties : dict of str to numpy.ndarray of float64, shape (n,)
+        Every scalar property of the ``vertex`` element except ``x``, ``y``, ``z``, in
+        file order; n is the number of vertices :func:`read_mesh` returns.
+    face_properties : dict of str to numpy.ndarray of float64, shape (m,)
+        Every scalar property of the ``face`` element. A polygon's value is repeated for
+        each of its fan triangles, so row t belongs to ``read_mesh(path)[1][t]``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    fvf.errors.MeshReadError
+        Not a ``.ply`` file, or the file cannot be read by :func:`read_mesh`.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".ply":
+        raise MeshReadError(
+            f"{path}: only PLY files carry vertex and face properties; got suffix "
+            f"{path.suffix!r} (store functions and fields in an .npz file instead)"
+        )
+
+    def parse(p: Path, data: bytes):
+        values, where, face_list = _parse_ply(p, data)
+        counts, flat = values["face"][face_list]
+        vertices = np.column_stack([values["vertex"][c] for c in "xyz"])
+        _checked(p, _Polygons(vertices, counts, flat, flat, where, f"0..{len(vertices) - 1}"))
+        return values, counts
+
+    values, counts = _parsed(path, parse)
+    ntri = counts - 2  # each polygon becomes counts - 2 fan triangles, in order
+    vertex = {
+        name: np.asarray(a, dtype=np.float64)
+        for name, a in values["vertex"].items()
+        if not isinstance(a, tuple) and name not in ("x", "y", "z")
+    }
+    face = {
+        name: np.repeat(np.asarray(a, dtype=np.float64), ntri)
+        for name, a in values["face"].items()
+        if not isinstance(a, tuple)
+    }
+    return vertex, face
+
+
+def _parsed(path: Path, parse: Callable[[Path, bytes], object]):
+    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError."""
+    data = path.read_bytes()
+    if not data.strip():
+        raise MeshReadError(f"{path}: the file is empty; write a mesh into it or pick another")
+    suffix = path.suffix.lower()
+    try:
+        return parse(path, data)
+    except MeshReadError:
+        raise
+    except (ValueError, TypeError, IndexError, OverflowError, struct.error) as exc:
+        raise MeshReadError(
+            f"{path}: cannot parse this {suffix} file ({type(exc).__name__}: {exc}); "
+            f"check that it is a valid {suffix[1:].upper()} file, or re-export it"
+        ) from exc
+
+
+def _checked(path: Path, poly: _Polygons) -> tuple[_Polygons, tuple[np.ndarray, int]]:
+    """The polygons and their triangulation (:func:`_triangulate`, which checks them)."""
+    return poly, _triangulate(path, poly)
 
 
 def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
@@ -407,6 +476,17 @@ def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]
 
 
 def _read_ply(path: Path, data: bytes) -> _Polygons:
+    values, where, face_list = _parse_ply(path, data)
+    vertices = np.column_stack([values["vertex"][c] for c in "xyz"]).astype(np.float64)
+    counts, flat = values["face"][face_list]
+    return _Polygons(vertices, counts, flat, flat, where, f"0..{len(vertices) - 1}")
+
+
+def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str]:
+    """Check and parse a PLY file: ``({element: {property: values}}, where, face list name)``.
+
+    Scalar properties are 1-D arrays; the face index list is ``(counts, flat)``.
+    """
     fmt, elements, pos, line0 = _ply_header(path, data)
     byname = {}
     for el in elements:
@@ -430,9 +510,7 @@ def _read_ply(path: Path, data: bytes) -> _Polygons:
         values, where = _ply_ascii(path, data[pos:], elements, line0)
     else:
         values, where = _ply_binary(path, data, pos, elements, _PLY_FORMATS[fmt])
-    vertices = np.column_stack([values["vertex"][c] for c in "xyz"]).astype(np.float64)
-    counts, flat = values["face"][lists[0]]
-    return _Polygons(vertices, counts, flat, flat, where, f"0..{len(vertices) - 1}")
+    return values, where, lists[0]
 
 
 def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
@@ -450,7 +528,12 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
         cursor += el.size
         if el.name not in ("vertex", "face") or el.name in values:
             continue
-        keep = {p.name: [] for p in el.props if p.name in ("x", "y", "z") or p.count}
+        # every scalar property (read_ply_properties wants them) and the face index list
+        keep = {
+            p.name: []
+            for p in el.props
+            if p.count is None or (el.name == "face" and p.name in _FACE_LISTS)
+        }
         lineno = [i + line0 for i in chunk]
         for i, ln in zip(chunk, lineno, strict=True):
             t, c = lines[i].split(), 0
@@ -475,10 +558,11 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
         out = {}
         for name, rows in keep.items():
             n = np.fromiter(map(len, rows), np.int64, len(rows))
-            kind = np.int64 if el.name == "face" else np.float64
+            is_list = name in _FACE_LISTS and el.name == "face"
+            kind = np.int64 if is_list else np.float64
             what = f"the '{el.name}' property '{name}'"
             flat = _numbers(path, [x for v in rows for x in v], n, lineno, kind, what)
-            out[name] = (n, flat) if el.name == "face" else flat
+            out[name] = (n, flat) if is_list else flat
         values[el.name] = out
         if el.name == "face":
             face_line = lineno
