@@ -63,7 +63,18 @@ from .io import read_mesh, write_mesh
 from .killing import commutator_energy, killing_fields
 from .mesh import TriMesh
 from .operators import D_F, D_V, Dbar_F, Dbar_V, directional_derivatives, extract_field
-from .repair import remove_unreferenced_vertices
+from .repair import (
+    DEFAULT_REPAIR_STEPS,
+    RepairResult,
+    orient_faces,
+    remove_degenerate_faces,
+    remove_duplicate_faces,
+    remove_duplicate_vertices,
+    remove_unreferenced_vertices,
+    repair_mesh,
+    split_nonmanifold_edges,
+    split_nonmanifold_vertices,
+)
 from .shapes import disk, icosphere, jittered_sphere, torus
 from .singularities import (
     ZeroFieldWarning,
@@ -83,6 +94,15 @@ __all__ = [
     "read_mesh",
     "write_mesh",
     "remove_unreferenced_vertices",
+    "remove_duplicate_vertices",
+    "remove_degenerate_faces",
+    "remove_duplicate_faces",
+    "orient_faces",
+    "split_nonmanifold_vertices",
+    "split_nonmanifold_edges",
+    "repair_mesh",
+    "RepairResult",
+    "DEFAULT_REPAIR_STEPS",
     "icosphere",
     "jittered_sphere",
     "torus",
