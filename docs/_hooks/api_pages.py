@@ -1,0 +1,89 @@
+"""mkdocs hook: one API reference page per public module of fvf, generated at build time.
+
+Every module ``src/fvf/<name>.py`` (or package ``src/fvf/<name>/``) whose name does not
+start with ``_`` gets a page ``api/<name>.md`` containing ``::: fvf.<name>`` (rendered by
+mkdocstrings from the docstrings), listed in the navigation under "API reference" in the
+order of ``GROUPS``; a module added later appears under "More modules" without editing
+anything. Pages listed in ``OPTIONAL`` are added to the navigation only when their file
+exists, so the strict build tolerates pages that other work has not written yet.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mkdocs.structure.files import File
+
+SRC = Path(__file__).resolve().parents[2] / "src" / "fvf"
+
+GROUPS = {
+    "Mesh and input/output": ["mesh", "io", "shapes", "examples", "repair", "diagnostics"],
+    "Discrete calculus (§3.1)": ["calculus", "fields"],
+    "Functional vector fields (§3.2–3.3)": ["operators", "divergence"],
+    "Flows (§3.4–3.5)": ["flow", "flows", "expmv", "fluid"],
+    "Lie brackets and ad (§3.6, §4)": ["bracket", "transport", "commuting"],
+    "Spectral and design": [
+        "eigen",
+        "spectral",
+        "killing",
+        "fmaps",
+        "symmetric",
+        "connection",
+        "design",
+        "singularities",
+    ],
+    "Chapter names and errors": ["chapter", "errors"],
+    "Command line and pictures": ["cli", "demo", "viz"],
+}
+
+# (nav title, file) pairs written by other work; listed only once the file exists.
+OPTIONAL = [
+    ("Pictures (fvf.viz)", "viz.md"),
+    ("Command line", "cli.md"),
+    ("Mesh repair", "repair.md"),
+    ("Meshes with boundary", "boundary.md"),
+]
+
+
+def public_modules() -> list[str]:
+    """Names of the public modules of fvf: ``src/fvf/<name>.py`` or ``src/fvf/<name>/``."""
+    files = {p.stem for p in SRC.glob("*.py")}
+    packages = {p.parent.name for p in SRC.glob("*/__init__.py")}
+    return sorted(n for n in files | packages if not n.startswith("_"))
+
+
+def _api_nav() -> list:
+    modules = public_modules()
+    nav: list = [{"Overview": "api/index.md"}]
+    seen: set[str] = set()
+    for title, names in GROUPS.items():
+        present = [n for n in names if n in modules]
+        seen.update(present)
+        if present:
+            nav.append({title: [{f"fvf.{n}": f"api/{n}.md"} for n in present]})
+    rest = [n for n in modules if n not in seen]
+    if rest:
+        nav.append({"More modules": [{f"fvf.{n}": f"api/{n}.md"} for n in rest]})
+    return nav
+
+
+def on_config(config):
+    docs = Path(config["docs_dir"])
+    nav = config["nav"]
+    for i, entry in enumerate(nav):
+        if isinstance(entry, dict) and "API reference" in entry:
+            nav[i] = {"API reference": _api_nav()}
+    extra = [{title: path} for title, path in OPTIONAL if (docs / path).exists()]
+    for entry in nav:
+        if isinstance(entry, dict) and "Guides" in entry:
+            entry["Guides"] = list(entry["Guides"]) + extra
+    return config
+
+
+def on_files(files, config):
+    for name in public_modules():
+        uri = f"api/{name}.md"
+        if files.get_file_from_path(uri) is None:
+            content = f"# fvf.{name}\n\n::: fvf.{name}\n"
+            files.append(File.generated(config, uri, content=content))
+    return files
