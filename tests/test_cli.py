@@ -38,3 +38,414 @@ def test_mesh_report_on_broken_meshes():
     assert rep["problems"] and "MeshShapeError" in rep["problems"][0]
     rep = mesh_report(X[:4], F)
     assert rep["ok"] and rep["genus"] == 0 and rep["problems"] == []
+
+
+# ---------------------------------------------------------------------------- users' data
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import fvf  # noqa: E402
+from fvf.cli import main  # noqa: E402
+from fvf.fieldio import DataFileError, DataKeyError, MeshMismatchError, read_data  # noqa: E402
+
+COMMANDS = ["demo", "info", "flow", "bracket", "transport", "design", "render", "view"]
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    """A folder with an icosphere (162 vertices, 320 faces) as OBJ and data files on it."""
+    d = tmp_path_factory.mktemp("cli")
+    mesh = fvf.icosphere(2)
+    fvf.write_mesh(d / "ico.obj", mesh.vertices, mesh.faces)
+    X, C = mesh.vertices, mesh.face_centroids
+    v = mesh.project_tangent(np.cross([0, 0, 1.0], C))  # rotation about z
+    u = mesh.project_tangent(np.cross([1.0, 0, 0], C))  # rotation about x
+    f = X[:, 0] + X[:, 1] * X[:, 2]
+    np.savez(d / "fields.npz", f=f, v=v, u=u, vertices=X, faces=mesh.faces)
+    np.savez(d / "two.npz", f=np.stack([f, X[:, 2]]), v=v, u=u, u1=-u, t=[0.0, 0.4])
+    return d, mesh, {"f": f, "v": v, "u": u}
+
+
+def one_line_error(err: str) -> bool:
+    lines = err.strip().splitlines()
+    return len(lines) == 1 and lines[0].startswith("fvf") and "Traceback" not in err
+
+
+def test_flow_subprocess_equals_library(work):
+    d, mesh, a = work
+    r = run("flow", "ico.obj", "fields.npz", "--t", "0", "0.5", "-1", "-o", "out/flow", cwd=d)
+    assert r.returncode == 0, r.stderr
+    out = np.load(d / "out" / "flow.npz")
+    expected = fvf.flow(mesh, a["v"], a["f"], [0.0, 0.5, -1.0])
+    assert out["f_t"].shape == (3, 162)
+    np.testing.assert_allclose(out["f_t"], expected, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(out["t"], [0.0, 0.5, -1.0])
+    assert str(out["method"]) == "chapter" and str(out["fvf_version"]) == fvf.__version__
+    assert str(out["command"]).startswith("fvf flow ico.obj fields.npz --t 0 0.5 -1")
+    assert str(out["mesh_path"]) == str((d / "ico.obj").resolve())
+    assert list(out["inputs"]) == [str((d / "fields.npz").resolve())]
+    np.testing.assert_array_equal(out["faces"], mesh.faces)
+
+
+def test_flow_methods_and_function_rows_in_process(work, capsys):
+    d, mesh, a = work
+    out = d / "flow_up.npz"
+    assert main(["flow", str(d / "ico.obj"), str(d / "two.npz"), "--method", "upwind",
+                 "-o", str(out)]) == 0  # fmt: skip
+    res = np.load(out)
+    F = np.stack([a["f"], mesh.vertices[:, 2]])
+    assert res["f_t"].shape == (2, 2, 162)  # (T, k, n): times from the file's key t
+    expected = fvf.flow(mesh, a["v"], F.T, [0.0, 0.4], method="upwind")  # (T, n, k)
+    np.testing.assert_allclose(res["f_t"], expected.transpose(0, 2, 1), atol=1e-12)
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "0.3",
+                 "--method", "spectral", "--k", "20", "-o", str(out)]) == 0  # fmt: skip
+    expected = fvf.flow(mesh, a["v"], a["f"], [0.3], method="spectral", k=20)
+    np.testing.assert_allclose(np.load(out)["f_t"], expected, atol=1e-10)
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_bracket_subprocess_equals_library(work):
+    d, mesh, a = work
+    r = run("bracket", "ico.obj", "two.npz", "-o", "br.npz", cwd=d)
+    assert r.returncode == 0, r.stderr
+    out = np.load(d / "br.npz")
+    v, u = a["v"], a["u"]
+    np.testing.assert_allclose(out["commutator"], fvf.commutator_field(mesh, v, u), atol=1e-12)
+    np.testing.assert_allclose(out["bracket_norm"], fvf.bracket_norm(mesh, v, u), atol=1e-12)
+    F = np.stack([a["f"], mesh.vertices[:, 2]])
+    np.testing.assert_allclose(out["bracket_F_f"], (fvf.bracket_F(mesh, v, u) @ F.T).T)
+    np.testing.assert_allclose(out["bracket_V_f"], (fvf.bracket_V(mesh, v, u) @ F.T).T)
+    # [R_z, R_x] is the rotation about -y (up to sign convention): a non-zero field
+    assert np.abs(out["commutator"]).max() > 0.1
+
+
+def test_transport_subprocess_equals_library(work):
+    d, mesh, a = work
+    r = run("transport", "ico.obj", "fields.npz", "--t", "0", "0.7", "-o", "tr.npz", cwd=d)
+    assert r.returncode == 0, r.stderr
+    out = np.load(d / "tr.npz")
+    expected = fvf.Ad(mesh, a["v"], a["u"], [0.0, 0.7])
+    assert str(out["mode"]) == "Ad" and out["u_t"].shape == (2, 320, 3)
+    np.testing.assert_allclose(out["u_t"], expected, atol=1e-10)
+    np.testing.assert_allclose(out["u_t"][0], a["u"], atol=1e-12)
+
+
+def test_transport_interpolation_in_process(work):
+    d, mesh, a = work
+    out = d / "interp.npz"
+    assert main(["transport", str(d / "ico.obj"), str(d / "two.npz"), "--t", "0", ".5", "1",
+                 "-o", str(out)]) == 0  # fmt: skip
+    res = np.load(out)
+    assert str(res["mode"]) == "interpolate"
+    expected = fvf.interpolate(mesh, a["v"], a["u"], -a["u"], [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(res["u_t"], expected, atol=1e-10)
+    np.testing.assert_allclose(res["u_t"][2], -a["u"], atol=1e-12)
+
+
+def test_design_subprocess_equals_library(work):
+    d, mesh, _ = work
+    faces, directions = np.array([0, 100, 200]), mesh.face_edge_vectors[[0, 100, 200], 0]
+    np.savez(d / "c.npz", constraint_faces=faces, directions=directions)
+    r = run("design", "ico.obj", "--constraints", "c.npz", "--soft", "50", "-o", "d.npz", cwd=d)
+    assert r.returncode == 0, r.stderr
+    out = np.load(d / "d.npz")
+    v = fvf.design_field(mesh, faces, directions, weights=50.0)
+    np.testing.assert_allclose(out["v"], v, atol=1e-12)
+    ids, idx = fvf.singularities(mesh, v)
+    np.testing.assert_array_equal(out["singularity_vertices"], ids)
+    np.testing.assert_array_equal(out["singularity_indices"], idx)
+    assert out["singularity_indices"].sum() == 2  # Poincare-Hopf on the sphere
+    np.testing.assert_allclose(out["singularity_positions"], mesh.vertices[ids])
+    assert f"singularities: {ids.size}" in r.stdout
+
+
+def test_design_hard_and_points_in_process(work):
+    d, mesh, _ = work
+    P = mesh.face_centroids[[5, 60]]
+    directions = mesh.face_edge_vectors[[5, 60], 1]
+    np.savez(d / "cp.npz", points=P, directions=directions)
+    assert main(["design", str(d / "ico.obj"), "--constraints", str(d / "cp.npz"), "--hard",
+                 "-o", str(d / "dp.npz")]) == 0  # fmt: skip
+    expected = fvf.design_field(mesh, points=P, directions=directions, hard=True)
+    np.testing.assert_allclose(np.load(d / "dp.npz")["v"], expected, atol=1e-12)
+
+
+def viz_render():
+    viz = pytest.importorskip("fvf.viz")
+    if not hasattr(viz, "render"):
+        pytest.skip("fvf.viz.render is not built yet")
+    return viz
+
+
+def test_render_subprocess(work):
+    viz_render()
+    pytest.importorskip("matplotlib")
+    d, mesh, a = work
+    np.savez(d / "c1.npz", constraint_faces=[0], directions=mesh.face_edge_vectors[[0], 0])
+    assert main(["design", str(d / "ico.obj"), "--constraints", str(d / "c1.npz"),
+                 "-o", str(d / "d1.npz")]) == 0  # fmt: skip
+    r = run("render", "ico.obj", "d1.npz", "--field", "v", "--singularities", "--size", "320",
+            "240", "--backend", "matplotlib", "-o", "field.png", cwd=d)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    from PIL import Image
+
+    img = np.asarray(Image.open(d / "field.png").convert("RGB")).astype(float)
+    assert img.shape[:2] == (240, 320)
+    assert img.std(axis=(0, 1)).max() > 5  # not a blank picture
+    assert main(["render", str(d / "ico.obj"), str(d / "fields.npz"), "--function", "f",
+                 "--backend", "matplotlib", "-o", str(d / "f.png")]) == 0  # fmt: skip
+    assert (d / "f.png").stat().st_size > 1000
+
+
+def test_flow_png(work, monkeypatch):
+    viz_render()
+    monkeypatch.setenv("FVF_VIZ_BACKEND", "matplotlib")  # skip polyscope's 2 s start-up probe
+    pytest.importorskip("matplotlib")
+    d, _, _ = work
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "1", "-o",
+                 str(d / "fp.npz"), "--png", str(d / "fp.png")]) == 0  # fmt: skip
+    assert (d / "fp.png").stat().st_size > 1000
+
+
+def test_render_without_viz_is_one_line(work, capsys, monkeypatch):
+    d, _, _ = work
+    monkeypatch.setitem(sys.modules, "fvf.viz", None)  # import fvf.viz -> ImportError
+    monkeypatch.delattr(fvf, "viz", raising=False)
+    assert main(["render", str(d / "ico.obj"), "-o", str(d / "x.png")]) == 3
+    err = capsys.readouterr().err
+    assert one_line_error(err) and "fvf[viz]" in err
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "1", "-o",
+                 str(d / "x.npz"), "--png", str(d / "x.png")]) == 3  # fmt: skip
+    assert not (d / "x.npz").exists()  # checked before any work
+
+
+def test_view_without_display_is_one_line(work, capsys, monkeypatch):
+    d, _, _ = work
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(d / "ico.obj")]) == 3
+    assert one_line_error(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_shows_an_example(command, capsys):
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "example:" in out and f"fvf {command}" in out and "exit status" in out
+
+
+def test_top_level_help_and_usage_errors(work, capsys):
+    d, _, _ = work
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    assert all(c in out for c in COMMANDS) and "exit status" in out
+    assert main(["flow", str(d / "ico.obj")]) == 2  # missing arguments
+    assert one_line_error(capsys.readouterr().err)
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "-o", "x.npz"]) == 2
+    err = capsys.readouterr().err  # no --t and no key t
+    assert one_line_error(err) and "--t" in err
+    assert main(["frobnicate"]) == 2
+    assert one_line_error(capsys.readouterr().err)
+
+
+def write(path, text):
+    path.write_text(text)
+    return str(path)
+
+
+def bad_inputs(d, mesh, a):
+    """(argv, words expected in the error) for every kind of bad input."""
+    ico, fields = str(d / "ico.obj"), str(d / "fields.npz")
+    broken = write(d / "broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    nonmanifold = write(
+        d / "fin.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
+    )
+    np.savez(d / "nov.npz", f=a["f"], w=a["v"])
+    np.savez(d / "shortv.npz", f=a["f"], v=a["v"][:10])
+    np.savez(d / "vertexv.npz", f=a["f"], v=mesh.vertices)
+    np.savez(d / "fnk.npz", f=np.stack([a["f"]] * 2, axis=1), v=a["v"])
+    np.savez(d / "nan.npz", f=np.where(np.arange(162) == 7, np.nan, a["f"]), v=a["v"])
+    np.savez(d / "strv.npz", f=a["f"], v=np.array("hello"))
+    np.savez(d / "other.npz", f=a["f"], v=a["v"], faces=mesh.faces[:, ::-1])
+    write(d / "notnpz.npz", "this is not a zip file")
+    flow = ["flow", ico]
+    return [
+        (["flow", str(d / "missing.obj"), fields, "--t", "1", "-o", "o"], ["missing.obj"]),
+        (flow + [str(d / "missing.npz"), "--t", "1", "-o", "o"], ["missing.npz"]),
+        (["flow", broken, fields, "--t", "1", "-o", "o"], ["MeshReadError", "line 4"]),
+        (["bracket", nonmanifold, fields, "-o", "o"], ["NonManifoldError", "fvf info"]),
+        (flow + [str(d / "nov.npz"), "--t", "1", "-o", "o"], ["DataKeyError", "'v'", "f, w"]),
+        (flow + [str(d / "shortv.npz"), "--t", "1", "-o", "o"], ["'v'", "(10, 3)", "(320, 3)"]),
+        (flow + [str(d / "vertexv.npz"), "--t", "1", "-o", "o"], ["(162, 3)", "per vertex"]),
+        (flow + [str(d / "fnk.npz"), "--t", "1", "-o", "o"], ["(162, 2)", "transpose"]),
+        (flow + [str(d / "nan.npz"), "--t", "1", "-o", "o"], ["NaN", "[7]"]),
+        (flow + [str(d / "strv.npz"), "--t", "1", "-o", "o"], ["'v'", "real numbers"]),
+        (flow + [str(d / "other.npz"), "--t", "1", "-o", "o"], ["MeshMismatchError", "faces"]),
+        (flow + [str(d / "notnpz.npz"), "--t", "1", "-o", "o"], ["DataFileError", ".npz"]),
+        (flow + [fields, "--t", "nan", "-o", "o"], ["--t"]),
+        (["transport", ico, fields, "--t", "1", "--to", "zz", "-o", "o"], ["'zz'"]),
+        (["transport", ico, str(d / "two.npz"), "--t", "2", "-o", "o"], ["[0, 1]"]),
+        (["design", ico, "--constraints", fields, "-o", "o"], ["'constraint_faces'"]),
+        (["render", ico, fields, "--function", "f[999]", "-o", "o.png"], ["f", "(162,)"]),
+        (["info", broken], ["MeshReadError"]),
+    ]
+
+
+def test_bad_input_gives_one_line_and_status_2(work, capsys):
+    d, mesh, a = work
+    for argv, words in bad_inputs(d, mesh, a):
+        if argv[0] == "render" and not hasattr(pytest.importorskip("fvf.viz"), "render"):
+            continue
+        status = main(argv)
+        err = capsys.readouterr().err
+        assert status == 2, (argv, err)
+        assert one_line_error(err), (argv, err)
+        assert all(w in err for w in words), (argv, words, err)
+
+
+def test_bad_input_subprocess(work):
+    """The installed code path: a real process, exit status 2, one line, no traceback."""
+    d, mesh, a = work
+    cases = bad_inputs(d, mesh, a)
+    for argv, _ in [cases[2], cases[4]]:  # broken OBJ, wrong key
+        r = run(*argv, cwd=d)
+        assert r.returncode == 2 and one_line_error(r.stderr), (argv, r.stderr)
+    r = run("--debug", *cases[4][0], cwd=d)
+    assert r.returncode != 0 and "Traceback" in r.stderr and "DataKeyError" in r.stderr
+
+
+def test_computation_failure_is_status_4(work, capsys, monkeypatch):
+    d, _, _ = work
+
+    def overflow(*args, **kwargs):
+        raise FloatingPointError("the flow overflowed (growth bound 1e300)")
+
+    monkeypatch.setattr(fvf, "flow", overflow)
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "9", "-o",
+                 str(d / "x.npz")]) == 4  # fmt: skip
+    assert one_line_error(capsys.readouterr().err)
+
+
+def test_warnings_are_one_line_each(work, capsys):
+    d, mesh, a = work
+    np.savez(d / "normal.npz", f=a["f"], v=a["v"] + mesh.face_normals)
+    out = d / "nt.npz"
+    assert main(["flow", str(d / "ico.obj"), str(d / "normal.npz"), "--t", "0.2",
+                 "-o", str(out)]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.startswith("fvf: warning: NonTangentFieldWarning") and "Traceback" not in err
+    assert all(line.startswith("fvf: warning:") for line in err.strip().splitlines())
+    np.testing.assert_allclose(np.load(out)["v"], a["v"], atol=1e-12)  # projected
+
+
+def test_info_json(work, capsys):
+    import json
+
+    d, _, _ = work
+    assert main(["info", "--json", str(d / "ico.obj")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["genus"] == 0 and report["closed"] and report["problems"] == []
+    fin = write(d / "fin2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\n"
+                "f 1 2 3\nf 2 1 4\nf 1 2 5\n")  # fmt: skip
+    assert main(["info", fin]) == 1
+    assert "NonManifoldError" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------------------- fvf.fieldio
+PLY = """ply
+format ascii 1.0
+element vertex 5
+property double x
+property double y
+property double z
+property float f
+element face 2
+property list uchar int vertex_indices
+property float vx
+property float vy
+property float vz
+property int label
+end_header
+0 0 0 1
+1 0 0 2
+1 1 0 3
+0 1 0 4
+2 0 0 5
+4 0 1 2 3 1 0 0 7
+3 1 4 2 0 1 0 8
+"""
+
+
+def test_ply_properties_as_functions_and_fields(tmp_path):
+    path = tmp_path / "quad.ply"
+    path.write_text(PLY)
+    with pytest.warns(fvf.io.PolygonTriangulatedWarning):
+        mesh = fvf.TriMesh(*fvf.read_mesh(path))
+    vertex, face = fvf.io.read_ply_properties(path)
+    np.testing.assert_array_equal(vertex["f"], [1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(face["label"], [7, 7, 8])  # the quad became 2 triangles
+    data = read_data(path, mesh)
+    np.testing.assert_array_equal(data.field("v", mesh), [[1, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(data.functions("f", mesh), [1, 2, 3, 4, 5])
+    # the same file in binary: write it with the binary writer's layout plus properties
+    header = PLY.split("end_header\n")[0].replace("ascii", "binary_little_endian")
+    vert = np.array(
+        [(0, 0, 0, 1), (1, 0, 0, 2), (1, 1, 0, 3), (0, 1, 0, 4), (2, 0, 0, 5)],
+        dtype=[("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("f", "<f4")],
+    )
+    quad = np.array([(4, [0, 1, 2, 3], 1, 0, 0, 7)], dtype=[("k", "u1"), ("i", "<i4", (4,)),
+                    ("vx", "<f4"), ("vy", "<f4"), ("vz", "<f4"), ("label", "<i4")])  # fmt: skip
+    tri = np.array([(3, [1, 4, 2], 0, 1, 0, 8)], dtype=[("k", "u1"), ("i", "<i4", (3,)),
+                   ("vx", "<f4"), ("vy", "<f4"), ("vz", "<f4"), ("label", "<i4")])  # fmt: skip
+    binary = tmp_path / "quad_bin.ply"
+    binary.write_bytes((header + "end_header\n").encode() + vert.tobytes() + quad.tobytes()
+                       + tri.tobytes())  # fmt: skip
+    vb, fb = fvf.io.read_ply_properties(binary)
+    assert vb.keys() == vertex.keys() and fb.keys() == face.keys()
+    for k in face:
+        np.testing.assert_array_equal(fb[k], face[k])
+    with pytest.raises(fvf.MeshReadError, match="only PLY"):
+        fvf.io.read_ply_properties(tmp_path / "x.obj")
+
+
+def test_flow_reads_ply_properties(work, tmp_path):
+    d, mesh, a = work
+    lines = ["ply", "format ascii 1.0", f"element vertex {mesh.n_vertices}"]
+    lines += [f"property double {c}" for c in "xyzf"]
+    lines += [f"element face {mesh.n_faces}", "property list uchar int vertex_indices"]
+    lines += [f"property double v{c}" for c in "xyz"] + ["end_header"]
+    lines += [" ".join(f"{x:.17g}" for x in row) for row in np.column_stack([mesh.vertices,
+              a["f"]])]  # fmt: skip
+    lines += [f"3 {i} {j} {k} " + " ".join(f"{x:.17g}" for x in vec)
+              for (i, j, k), vec in zip(mesh.faces, a["v"], strict=True)]  # fmt: skip
+    ply = tmp_path / "withdata.ply"
+    ply.write_text("\n".join(lines) + "\n")
+    assert main(["flow", str(ply), str(ply), "--t", "0.5", "-o", str(tmp_path / "o.npz")]) == 0
+    expected = fvf.flow(mesh, a["v"], a["f"], [0.5])
+    np.testing.assert_allclose(np.load(tmp_path / "o.npz")["f_t"], expected, atol=1e-12)
+
+
+def test_data_file_errors_name_key_and_shapes(work, tmp_path):
+    d, mesh, a = work
+    data = read_data(d / "fields.npz", mesh)
+    assert set(data) == {"f", "v", "u", "vertices", "faces"} and "v" in data
+    with pytest.raises(DataKeyError, match=r"no key 'g' \(keys present: f, faces, u, v"):
+        data.functions("g", mesh)
+    with pytest.raises(fvf.FieldShapeError, match=r"key 'f' has shape \(162,\), expected"):
+        data.field("f", mesh)
+    assert data.select("vertices[3]").shape == (3,) and data.select("vertices[3, -1]").ndim == 0
+    with pytest.raises(fvf.FieldShapeError, match=r"outside key 'f' of shape \(162,\)"):
+        data.select("f[162]")
+    with pytest.raises(DataKeyError, match="KEY"):
+        data.select("f[a]")
+    moved = fvf.TriMesh(mesh.vertices * 1.001, mesh.faces)
+    with pytest.raises(MeshMismatchError, match="'vertices' differs"):
+        read_data(d / "fields.npz", moved)
+    np.save(tmp_path / "single.npy", a["f"])
+    with pytest.raises(DataFileError, match="single array"):
+        read_data(tmp_path / "single.npy")
+    with pytest.raises(FileNotFoundError):
+        read_data(tmp_path / "none.npz")
+    for exc in (DataFileError, DataKeyError, MeshMismatchError):
+        assert issubclass(exc, fvf.FvfError)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shlex
 import sys
 import warnings
@@ -111,12 +110,15 @@ def _write(args, out, arrays, mesh, inputs=()):
 def _render(viz, mesh, path, **kwargs):
     try:
         info = viz.render(mesh, path, **kwargs)
-    except ImportError as exc:
-        raise Unavailable(
-            f"rendering needs the [viz] extra (pip install 'fvf[viz]'): {exc}"
-        ) from exc
+    except ImportError as exc:  # fvf.viz.MissingExtraError
+        raise Unavailable(" ".join(str(exc).split())) from exc
     backend = getattr(info, "backend", None)
-    print(f"wrote {path}" + (f" (backend: {backend})" if backend else ""))
+    fallback = getattr(info, "fallback", None)
+    print(
+        f"wrote {path}"
+        + (f" (backend: {backend})" if backend else "")
+        + (f"; fell back because {fallback}" if fallback else "")
+    )
     return info
 
 
@@ -309,32 +311,24 @@ def _cmd_render(args) -> int:
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
-    for name in ("arrow_scale", "cmap", "title", "backend"):
+    for name in ("arrow_scale", "cmap", "title", "backend", "max_arrows"):
         if getattr(args, name) is not None:
             kwargs[name] = getattr(args, name)
-    if args.clim is not None:
-        kwargs["clim"] = tuple(args.clim)
-    if args.size is not None:
-        kwargs["size"] = tuple(args.size)
+    for name in ("clim", "size", "view"):
+        if getattr(args, name) is not None:
+            kwargs[name] = tuple(getattr(args, name))
     _render(viz, mesh, args.output, **kwargs)
     return EXIT_OK
 
 
 def _cmd_view(args) -> int:
     viz = _viz()
-    if sys.platform.startswith("linux") and not (
-        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-    ):
-        raise Unavailable(
-            "fvf view needs a display (DISPLAY/WAYLAND_DISPLAY is not set); "
-            "use `fvf render ... -o picture.png` instead"
-        )
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
     try:
         viz.view(mesh, **kwargs)
-    except ImportError as exc:
-        raise Unavailable(f"fvf view needs polyscope (pip install 'fvf[viz]'): {exc}") from exc
+    except (ImportError, viz.NoDisplayError) as exc:
+        raise Unavailable(" ".join(str(exc).split())) from exc
     return EXIT_OK
 
 
@@ -485,7 +479,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--arrow-scale", type=float, help="arrow length per unit field (absolute)")
     p.add_argument("--size", nargs=2, type=int, metavar=("W", "H"), help="pixels (800 600)")
     p.add_argument("--title", help="picture title")
-    p.add_argument("--backend", choices=("auto", "polyscope", "matplotlib"), help="renderer")
+    p.add_argument("--view", nargs=2, type=float, metavar=("AZ", "EL"), help="camera, degrees")
+    p.add_argument("--max-arrows", type=int, help="arrows at about this many faces (1500)")
+    p.add_argument("--backend", help="auto (default), polyscope-egl or matplotlib")
     p.set_defaults(run=_cmd_render)
 
     p = _add(
@@ -536,7 +532,7 @@ def main(argv: list[str] | None = None) -> int:
         except Exception as exc:
             if args.debug:
                 raise
-            if isinstance(exc, Unavailable):
+            if isinstance(exc, (Unavailable, ImportError)):
                 status = EXIT_UNAVAILABLE
             elif isinstance(exc, (FloatingPointError, np.linalg.LinAlgError)):
                 status = EXIT_FAILED

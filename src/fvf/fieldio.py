@@ -357,12 +357,13 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
         if not path.exists():
             raise FileNotFoundError(2, "No such file or directory", str(path))
         try:
-            with np.load(path, allow_pickle=False) as archive:
-                if not isinstance(archive, Mapping):
-                    raise DataFileError(
-                        f"{path}: holds a single array, not an .npz archive of named arrays; "
-                        "save it with np.savez(path, f=..., v=...)"
-                    )
+            archive = np.load(path, allow_pickle=False)
+            if not isinstance(archive, Mapping):
+                raise DataFileError(
+                    f"{path}: holds a single array, not an .npz archive of named arrays; "
+                    "save it with np.savez(path, f=..., v=...)"
+                )
+            with archive:
                 arrays = {k: archive[k] for k in archive.files}
         except DataFileError:
             raise
