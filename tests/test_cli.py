@@ -449,3 +449,25 @@ def test_data_file_errors_name_key_and_shapes(work, tmp_path):
         read_data(tmp_path / "none.npz")
     for exc in (DataFileError, DataKeyError, MeshMismatchError):
         assert issubclass(exc, fvf.FvfError)
+
+
+def test_docs_session_runs(tmp_path, monkeypatch, capsys):
+    """docs/cli.md's Python block and every `fvf ...` line of its bash block work as shown."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text()
+    (python,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    (bash,) = re.findall(r"```bash\n(.*?)```", text, flags=re.S)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FVF_VIZ_BACKEND", "matplotlib")
+    exec(compile(python, "docs/cli.md", "exec"), {})
+    viz = __import__("importlib").util.find_spec("fvf.viz") is not None
+    for line in bash.strip().splitlines():
+        argv = line.split()[1:]
+        if argv[0] == "render" and not viz:
+            continue
+        assert main(argv) == 0, (line, capsys.readouterr().err)
+    out = np.load(tmp_path / "flowed.npz")
+    assert out["f_t"].shape == (3, 642) and str(out["method"]) == "skew"
+    assert np.load(tmp_path / "designed.npz")["singularity_indices"].sum() == 2

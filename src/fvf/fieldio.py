@@ -1,41 +1,39 @@
-"""Functions and fields in files: the ``.npz`` schema of the ``fvf`` command (and PLY properties).
+"""Functions and fields in files: the ``.npz`` schema of the ``fvf`` command, and PLY properties.
 
 The ``fvf`` subcommands read a mesh (OBJ, OFF, PLY) and a *data file* holding functions
 and fields on it, and write their results as another data file. A data file is an
 uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
 ``allow_pickle=False``, so only plain numeric and string arrays are allowed. Keys:
 
-=================== ===================== =====================================================
-key                 dtype, shape          meaning
-=================== ===================== =====================================================
-``f``               float, (n,) or (k, n) vertex (PL) function(s), one row per function, in
-                                          the order of the mesh's vertices
-``v``               float, (m, 3)         per-face tangent field, one ambient xyz vector per
-                                          face in the order of the mesh's faces: the field
-                                          that flows, transports, or the first of a bracket
-``u``               float, (m, 3)         a second per-face field: the bracket's partner w,
-                                          the transported field u (eq. 67), or u_0 (eq. 68)
-``u1``              float, (m, 3)         the end field u_1 of an interpolation (eq. 68)
-``t``               float, () or (T,)     times (used when the command line gives none)
-``vertices``        float, (n, 3)         optional copy of the mesh's vertices; when
-                                          present it must match the mesh (to 1e-9 of its size)
-``faces``           int, (m, 3)           optional copy of the mesh's faces (0-based); when
-                                          present it must equal the mesh's faces
-=================== ===================== =====================================================
+| key        | dtype, shape          | meaning                                        |
+|------------|-----------------------|------------------------------------------------|
+| `f`        | float, (n,) or (k, n) | vertex (PL) function(s), one row per function  |
+| `v`        | float, (m, 3)         | per-face tangent field (ambient xyz per face)  |
+| `u`        | float, (m, 3)         | a second field: bracket partner, or transported|
+| `u1`       | float, (m, 3)         | end field of an interpolation (eq. 68)         |
+| `t`        | float, () or (T,)     | times, when the command line gives none        |
+| `vertices` | float, (n, 3)         | optional copy of the mesh's vertices           |
+| `faces`    | int, (m, 3)           | optional copy of the mesh's faces (0-based)    |
 
-Design constraints (``fvf design --constraints C.npz``; :func:`fvf.design_field`):
+Rows follow the mesh file's vertex and face order. ``v`` is the field that flows or
+transports (or the first of a bracket); ``u`` is the bracket's partner w, the transported
+field u (eq. 67) or u_0 (eq. 68). When ``vertices`` / ``faces`` are present they must
+match the mesh (faces exactly, vertices to :data:`MESH_MATCH_RTOL` of its size), so data
+are never applied to the wrong mesh.
 
-=================== ===================== =====================================================
-``constraint_faces`` int, (k,)            the constrained faces
-``directions``      float, (k, 3)         ambient direction per constraint (projected onto
-                                          its face)
-``points``          float, (k, 3)         ambient points instead of ``constraint_faces``: each
-                                          constraint applies to the face nearest its point
-``barycentric``     float, (k, 3)         optional, with ``constraint_faces``: the points'
-                                          barycentric coordinates (checked; each row >= 0,
-                                          summing to 1)
-``weights``         float, () or (k,)     optional soft weights (> 0)
-=================== ===================== =====================================================
+Design constraints (``fvf design --constraints C.npz``, :func:`fvf.design_field`):
+
+| key                | dtype, shape      | meaning                                         |
+|--------------------|-------------------|-------------------------------------------------|
+| `constraint_faces` | int, (k,)         | the constrained faces                           |
+| `directions`       | float, (k, 3)     | ambient directions, projected onto their faces  |
+| `points`           | float, (k, 3)     | ambient points instead of `constraint_faces`    |
+| `barycentric`      | float, (k, 3)     | optional with `constraint_faces`: checked points|
+| `weights`          | float, () or (k,) | optional soft weights (> 0)                     |
+
+A constraint given by a point applies to the face nearest the point
+(:func:`fvf.closest_faces`); barycentric rows must be >= 0 and sum to 1
+(:func:`fvf.locate_points`).
 
 Non-tangent fields are projected onto the face planes with a
 :class:`~fvf.errors.NonTangentFieldWarning` (:func:`fvf.as_face_field`).
