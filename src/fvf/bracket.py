@@ -22,7 +22,7 @@ from .calculus import (
     vertex_to_face,
 )
 from .divergence import dtilde_entries
-from .fields import TangentPolicy, as_face_field
+from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V, directional_derivatives
 
@@ -160,12 +160,21 @@ def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
     Returns
     -------
     float or float64 (c,)
+        0 for a zero column (a zero function is perfectly smooth).
+
+    Raises
+    ------
+    FieldShapeError
+        Wrong shape or dtype, or non-finite values.
     """
+    g = as_vertex_function(mesh, g, "g", columns=True)
+    s = np.abs(g).max(axis=0)  # scale each column: squares of 1e150 would overflow
+    g = g / np.where(s > 0, s, 1.0)
     W = stiffness(mesh)
     a = mesh.vertex_areas
     num = np.einsum("i...,i...->...", g, W @ g)
     den = np.einsum("i,i...->...", a, g * g)
-    return num / den
+    return num / np.where(den > 0, den, 1.0)
 
 
 def bracket_smoothness(

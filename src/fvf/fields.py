@@ -32,7 +32,10 @@ TangentPolicy = Literal["project", "raise", "ignore"]
 
 
 def _real_array(a: npt.ArrayLike, name: str) -> np.ndarray:
-    a = np.asarray(a)
+    try:
+        a = np.asarray(a)
+    except ValueError as exc:  # ragged nested lists
+        raise FieldShapeError(f"{name} could not be read as an array ({exc}).") from exc
     if a.dtype == object or not (
         np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
     ):

@@ -45,6 +45,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .calculus import gradient, rotate, stiffness
+from .errors import FieldShapeError, FvfError
 from .fields import as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
@@ -55,6 +56,7 @@ __all__ = [
     "ideal_fluid",
     "fluid_time_step",
     "stream_velocity",
+    "FluidSolveError",
 ]
 
 #: Options of SuperLU for structurally symmetric 1-ring matrices: minimum degree ordering
@@ -161,8 +163,12 @@ def _extrapolate(mids: list[np.ndarray], current: np.ndarray) -> np.ndarray:
     return current
 
 
+class FluidSolveError(FvfError, RuntimeError):
+    """The implicit midpoint equation of a step could not be solved (step too long)."""
+
+
 def _not_converged(tol: float, max_iterations: int, step: int, res: float) -> RuntimeError:
-    return RuntimeError(
+    return FluidSolveError(
         f"the implicit midpoint iteration did not reach tol={tol:g} in {max_iterations} "
         f"iterations at step {step} (residual {res:.3g}); use a shorter dt or a larger tol."
     )
@@ -215,10 +221,22 @@ class FluidResult:
 
 
 def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) -> float:
-    """A step length for a Courant number: c · mean edge length / max |u(ω_0)|."""
+    """A step length for a Courant number: c · mean edge length / max |u(ω_0)|.
+
+    Raises
+    ------
+    FieldShapeError
+        Wrong shape or non-finite ω_0, or an ω_0 that induces no velocity (zero, or
+        constant on closed components): the fluid is at rest and every step is exact.
+    """
     psi = StreamFunctionSolver(mesh)(omega0)
     speed = float(np.linalg.norm(stream_velocity(mesh, psi), axis=1).max())
-    return courant * mesh.mean_edge_length / max(speed, 1e-300)
+    if not speed > 0:
+        raise FieldShapeError(
+            "omega0 induces no velocity (it is zero, or constant on closed components), so "
+            "no Courant step exists: the fluid is at rest. Fix: pass any dt to ideal_fluid."
+        )
+    return courant * mesh.mean_edge_length / speed
 
 
 def ideal_fluid(
@@ -257,7 +275,9 @@ def ideal_fluid(
         Relative residual (A_V-norm) at which the midpoint equation counts as solved. E and
         Z drift by about this much per step.
     max_iterations : int
-        Iterations per step before giving up (:class:`RuntimeError`).
+        Iterations per step before giving up (:class:`FluidSolveError`, a
+        :class:`RuntimeError` and :class:`~fvf.errors.FvfError`; also raised at once when
+        the iterate overflows because dt is far above the Courant limit).
     save_every : int
         Keep every ``save_every``-th frame.
 
@@ -317,12 +337,19 @@ def ideal_fluid(
                 break
             if it == max_iterations:
                 raise _not_converged(tol, max_iterations, step, res)
+            if not np.isfinite(res):  # the iterate blew up: dt far above the Courant limit
+                raise _not_converged(tol, max_iterations, step, res)
             if lu is None or (res > _REFACTOR_RATIO * previous and not fresh):
-                lu = sla.splu((eye + h2 * D).tocsc(), **_SYMMETRIC_LU)
+                try:
+                    lu = sla.splu((eye + h2 * D).tocsc(), **_SYMMETRIC_LU)
+                except RuntimeError as exc:  # "Factor is exactly singular"
+                    raise _not_converged(tol, max_iterations, step, res) from exc
                 info["factorizations"] += 1
                 accel, fresh = _Anderson(a, _ANDERSON_DEPTH), True
             previous = res
             x = accel(x, lu.solve(r))
+            if not np.isfinite(x).all():
+                raise _not_converged(tol, max_iterations, step, np.inf)
         iters.append(it)
         mids = [x, *mids[:2]]
         omega = 2.0 * x - omega

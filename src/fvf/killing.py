@@ -15,6 +15,8 @@ import scipy.linalg as sla
 
 from .calculus import rotate
 from .connection import smoothest_fields
+from .errors import FieldShapeError
+from .fields import as_face_field
 from .mesh import TriMesh
 from .spectral import SpectralBasis, gradient_field_basis
 
@@ -66,8 +68,26 @@ def smooth_field_space(
 
 
 def commutator_energy(basis: SpectralBasis, v: np.ndarray) -> float:
-    """|M| ‖D̂_v L̂ − L̂ D̂_v‖_F² / (λ_max² ‖v‖²): scale-free, 0 for a Killing field."""
-    D = basis.reduced_D(v)
+    """|M| ‖D̂_v L̂ − L̂ D̂_v‖_F² / (λ_max² ‖v‖²): scale-free, 0 for a Killing field.
+
+    Parameters
+    ----------
+    basis : SpectralBasis
+    v : array_like (m, 3)
+        Tangent field per face (a normal component is projected away with a warning).
+
+    Raises
+    ------
+    FieldShapeError
+        Wrong shape, non-finite values, or v = 0 (the scale-free energy is then 0/0).
+    """
+    v = as_face_field(basis.mesh, v, "v")
+    if not np.any(v):
+        raise FieldShapeError(
+            "v is zero, so its scale-free commutator energy (divided by ‖v‖²) is undefined. "
+            "Fix: pass a non-zero field."
+        )
+    D = basis.reduced_D(v, tangent="ignore")
     lam = basis.eigenvalues
     C = D * (lam[None, :] - lam[:, None])
     norm2 = float(np.einsum("t,tc,tc->", basis.mesh.face_areas, v, v))

@@ -535,25 +535,42 @@ class TriMesh:
             )
 
 
+def _as_array(a: npt.ArrayLike, name: str) -> np.ndarray:
+    """np.asarray, with ragged nested lists reported as a MeshShapeError."""
+    try:
+        return np.asarray(a)
+    except ValueError as exc:  # e.g. "setting an array element with a sequence"
+        raise MeshShapeError(
+            f"{name} could not be read as an array ({exc}). Fix: give a rectangular array, "
+            "(n, 3) for vertices and (m, 3) for faces."
+        ) from exc
+
+
 def _validate_arrays(
     vertices: npt.ArrayLike, faces: npt.ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
-    X = np.asarray(vertices)
-    F = np.asarray(faces)
+    X = _as_array(vertices, "vertices")
+    F = _as_array(faces, "faces")
     if X.ndim != 2 or X.shape[1] != 3:
         raise MeshShapeError(
             f"vertices must have shape (n, 3); got {X.shape}. Fix: pass one xyz row per "
             "vertex (for 2-D meshes append a zero z column)."
         )
     if not (np.issubdtype(X.dtype, np.floating) or np.issubdtype(X.dtype, np.integer)):
-        raise MeshShapeError(f"vertices must be real numbers; got dtype {X.dtype}.")
+        raise MeshShapeError(
+            f"vertices must be real numbers; got dtype {X.dtype}. Fix: pass float "
+            "coordinates (e.g. np.asarray(V, dtype=float) for numeric strings)."
+        )
     if F.ndim != 2 or F.shape[1] != 3:
         raise MeshShapeError(
             f"faces must have shape (m, 3) (triangles); got {F.shape}. Fix: triangulate "
             "polygons first (fvf.read_mesh does this for files)."
         )
     if F.shape[0] == 0 or X.shape[0] == 0:
-        raise MeshShapeError(f"the mesh is empty ({X.shape[0]} vertices, {F.shape[0]} faces).")
+        raise MeshShapeError(
+            f"the mesh is empty ({X.shape[0]} vertices, {F.shape[0]} faces). Fix: pass at "
+            "least one triangle."
+        )
     if not np.issubdtype(F.dtype, np.integer):
         raise MeshShapeError(
             f"faces must be an integer array; got dtype {F.dtype}. Fix: faces.astype(np.int64) "
