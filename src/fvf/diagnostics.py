@@ -58,15 +58,12 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
     welded = _repair.remove_duplicate_vertices(X, F)
     dup_v = np.flatnonzero(welded.vertex_origin[welded.vertex_map] != np.arange(n))
     report["duplicate_vertices"] = int(dup_v.size)
-    if dup_v.size:
-        problems.append(
-            _problem(
-                "DuplicateVertices",
-                f"vertices {format_indices(dup_v)} coincide with a lower-index vertex, so the "
-                "surface is cut there",
-                "fvf.remove_duplicate_vertices(V, F) (then fvf.remove_degenerate_faces)",
-            )
-        )
+    if dup_v.size:  # legitimate after a split, so a hint and not a problem
+        report["hints"] = [
+            f"vertices {format_indices(dup_v)} coincide with a lower-index vertex: the "
+            "surface is cut there (an unwelded soup, a seam, or a split vertex). To weld them: "
+            "fvf.remove_duplicate_vertices(V, F), then run fvf info again"
+        ]
     repeats = _repair._repeats_vertex(F)
     flat = ~repeats & _repair._zero_area(X, F, DEGENERATE_AREA_RTOL)
     report["degenerate_faces"] = int(repeats.sum() + flat.sum())
@@ -163,7 +160,9 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
         fix naming a function of :mod:`fvf.repair`), and, where they could be computed:
         ``n_vertices``, ``n_faces``, ``unreferenced_vertices``, ``duplicate_vertices``,
         ``degenerate_faces``, ``duplicate_faces``, ``nonmanifold_edges``,
-        ``nonmanifold_vertices``, ``orientation`` ("consistent", "inconsistent",
+        ``nonmanifold_vertices``, ``hints`` (when vertices coincide: not a problem, since
+        a split leaves coincident copies, but the usual sign of an unwelded soup),
+        ``orientation`` ("consistent", "inconsistent",
         "non-orientable"), ``min_angle_deg``, ``needle_faces`` (count below
         :data:`NEEDLE_ANGLE_DEG`), and, when the only problem is unreferenced vertices or
         there is none, the topology of the mesh without them: ``manifold``, ``closed``,

@@ -81,8 +81,8 @@ class RepairResult:
     Notes
     -----
     For compatibility with the tuple the first repair returned, iterating over a result
-    gives ``(vertices, faces, vertex_origin)``: ``V, F, kept = remove_unreferenced_vertices(V,
-    F)`` still works.
+    and indexing it behave like the tuple ``(vertices, faces, vertex_origin)``: ``V, F, kept =
+    remove_unreferenced_vertices(V, F)`` still works.
     """
 
     vertices: np.ndarray
@@ -96,6 +96,12 @@ class RepairResult:
 
     def __iter__(self):
         return iter((self.vertices, self.faces, self.vertex_origin))
+
+    def __len__(self) -> int:
+        return 3
+
+    def __getitem__(self, index):
+        return (self.vertices, self.faces, self.vertex_origin)[index]
 
     def __repr__(self) -> str:
         return (
