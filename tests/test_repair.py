@@ -597,3 +597,17 @@ def test_mesh_report_moebius_and_nonfinite():
     assert any("non-orientable" in p for p in report["problems"])
     report = mesh_report([[0, 0, 0], [np.inf, 0, 0], [0, 1, 0]], [[0, 1, 2]])
     assert report["problems"][0].startswith("NonFiniteError: vertices [1]")
+
+
+def test_docs_repair_md_runs(capsys):
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "repair.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert len(blocks) == 2
+    namespace: dict = {}
+    for i, block in enumerate(blocks):
+        exec(compile(block, f"docs/repair.md block {i}", "exec"), namespace)
+    out = capsys.readouterr().out
+    assert "remove_duplicate_vertices: merged" in out and "faces flipped" in out
