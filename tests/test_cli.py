@@ -311,7 +311,7 @@ def test_bad_input_subprocess(work):
     for argv, _ in [cases[2], cases[4]]:  # broken OBJ, wrong key
         r = run(*argv, cwd=d)
         assert r.returncode == 2 and one_line_error(r.stderr), (argv, r.stderr)
-    r = run("--debug", *cases[4][0], cwd=d)
+    r = run(*cases[4][0], "--debug", cwd=d)
     assert r.returncode != 0 and "Traceback" in r.stderr and "DataKeyError" in r.stderr
 
 

@@ -40,6 +40,15 @@ _EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input
 Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md."""
 
 
+_DEBUG = "show the traceback of an error instead of one line"
+
+
+def _version() -> str:
+    from fvf import __version__
+
+    return __version__
+
+
 class Unavailable(RuntimeError):
     """A feature the command needs is not available on this machine."""
 
@@ -134,8 +143,10 @@ def info(path: str, as_json: bool = False) -> dict:
         return report
     print(f"{path}:")
     for key, val in report.items():
-        if key != "problems":
+        if key not in ("problems", "hints"):
             print(f"  {key}: {val}")
+    for hint in report.get("hints", []):
+        print(f"  hint: {hint}")
     for problem in report["problems"]:
         print(f"  problem: {problem}")
     if not report["problems"]:
@@ -346,13 +357,16 @@ def _array(x):
 
 # ---------------------------------------------------------------------------- parser
 def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
-    return sub.add_parser(
+    p = sub.add_parser(
         name,
         help=help,
         description=help,
         epilog=f"example:\n  {example}\n\n{_EXIT_TEXT}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    # --debug after the command too (SUPPRESS keeps the top-level value when absent)
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG)
+    return p
 
 
 def _add_display_options(p: argparse.ArgumentParser) -> None:
@@ -373,11 +387,13 @@ def parser() -> argparse.ArgumentParser:
 
     top = _Parser(
         prog="fvf",
-        description=__doc__.split("\n\n")[0],
-        epilog=_EXIT_TEXT,
+        description="Operator-based tangent vector fields on your meshes (fvf "
+        f"{_version()}): run `fvf COMMAND --help` for a command's options and an example.",
+        epilog="examples:\n  fvf demo --out results/\n  fvf info bunny.off\n"
+        f"  fvf flow bunny.off fields.npz --t 0 1 -o flowed.npz\n\n{_EXIT_TEXT}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    top.add_argument("--debug", action="store_true", help="show tracebacks")
+    top.add_argument("--debug", action="store_true", help=_DEBUG)
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = _add(
