@@ -191,7 +191,7 @@ def test_fallback_when_factorization_fails(monkeypatch):
     W, mass = problem(mesh)
     expected, _ = smallest_eigenpairs(W, mass, 10, method="dense")
 
-    def broken(K):
+    def broken(K, ordering="auto"):
         raise eigen._MethodFailed("factorization of W - sigma*M failed (forced in test)")
 
     monkeypatch.setattr(eigen, "factor_spd", broken)
@@ -281,3 +281,30 @@ def test_bad_input(change, match):
             args["W"], args["mass"], args["k"], tol=args["tol"], method=args["method"]
         )
     assert isinstance(info.value, FvfError) and isinstance(info.value, ValueError)
+
+
+@pytest.mark.parametrize("ordering", ["mmd", "nd"])
+def test_orderings_agree(ordering):
+    """Both fill-reducing orderings give the same eigenpairs and the same inertia count."""
+    mesh = fvf.jittered_sphere(3, 0.3, seed=4)
+    W, mass = problem(mesh)
+    expected, _ = smallest_eigenpairs(W, mass, 12, method="dense")
+    lam, X = smallest_eigenpairs(W, mass, 12, method="krylov", ordering=ordering)
+    np.testing.assert_allclose(lam, expected, rtol=1e-9, atol=1e-9)
+    tau = 0.5 * (expected[3] + expected[4])  # between l = 1 and l = 2 on a sphere
+    assert eigen.count_eigenvalues_below(W, mass, tau, ordering) == 4
+
+
+def test_factor_spd_nd_solves_and_rejects_indefinite(rng):
+    mesh = fvf.jittered_sphere(3, 0.3, seed=4)
+    W, mass = problem(mesh)
+    K = (W + 1e-3 * sp.diags_array(mass)).tocsc()
+    fac = eigen.factor_spd(K, "nd")
+    assert fac.ordering == "nd" and fac.perm is not None
+    B = rng.standard_normal((K.shape[0], 3))
+    assert np.abs(K @ fac.solve(B) - B).max() < 1e-9 * np.abs(B).max()
+    assert np.abs(K @ fac.solve(B[:, 0]) - B[:, 0]).max() < 1e-9 * np.abs(B).max()
+    with pytest.raises(eigen._MethodFailed, match="non-positive pivots"):
+        eigen.factor_spd((W - 10.0 * sp.diags_array(mass)).tocsc(), "nd")
+    with pytest.raises(fvf.eigen.SpectralInputError, match="ordering must be one of"):
+        eigen.factor_spd(K, "metis")
