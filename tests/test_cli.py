@@ -388,6 +388,9 @@ def test_ply_properties_as_functions_and_fields(tmp_path):
     data = read_data(path, mesh)
     np.testing.assert_array_equal(data.field("v", mesh), [[1, 0, 0], [1, 0, 0], [0, 1, 0]])
     np.testing.assert_array_equal(data.functions("f", mesh), [1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(data["faces"], mesh.faces)  # the PLY's own mesh, checked:
+    with pytest.raises(MeshMismatchError, match="'faces' has shape"):
+        read_data(path, fvf.disk(4, 6))
     # the same file in binary: write it with the binary writer's layout plus properties
     header = PLY.split("end_header\n")[0].replace("ascii", "binary_little_endian")
     vert = np.array(

@@ -83,9 +83,14 @@ def _times(args, data):
     import numpy as np
 
     if args.t:
-        values = [float(x) for item in args.t for x in item.split(",") if x.strip()]
+        try:
+            values = [float(x) for item in args.t for x in item.split(",") if x.strip()]
+        except ValueError:
+            values = []
         if not values or not np.isfinite(values).all():
-            raise ValueError(f"--t needs finite numbers; got {' '.join(args.t)!r}")
+            raise ValueError(
+                f"--t needs finite numbers (e.g. --t 0 0.5 1); got {' '.join(args.t)!r}"
+            )
         return np.array(values)
     if data is not None and "t" in data:
         return data.times("t")

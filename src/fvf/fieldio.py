@@ -46,7 +46,8 @@ strings ``fvf_version``, ``command`` (the command line), ``mesh_path`` (absolute
 A PLY file can serve as a data file too (:func:`fvf.io.read_ply_properties`): each scalar
 vertex property other than x, y, z becomes a function of that name (n,), each scalar face
 property a per-face function (m,), and each triple of face properties ``<p>x, <p>y, <p>z``
-a per-face field ``<p>`` (m, 3) — so ``vx vy vz`` is the field ``v``.
+a per-face field ``<p>`` (m, 3) — so ``vx vy vz`` is the field ``v``; the PLY's own
+vertices and faces become ``vertices`` and ``faces``, so they must match the mesh used.
 
 Every problem raises a typed :class:`~fvf.errors.FvfError` naming the file and the key:
 :class:`DataFileError` (unreadable file), :class:`DataKeyError` (a missing key, listing
@@ -59,6 +60,7 @@ from __future__ import annotations
 import datetime
 import os
 import re
+import warnings
 import zipfile
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -200,7 +202,7 @@ class DataFile(Mapping):
         from .errors import format_indices
 
         if "faces" in self:
-            F = self["faces"]
+            F = self.integers("faces", (None, 3))
             if F.shape != mesh.faces.shape:
                 raise MeshMismatchError(
                     f"{self.path}: key 'faces' has shape {F.shape} but the mesh has "
@@ -378,13 +380,17 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
 
 def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
     """Functions and fields from PLY properties (see the module docstring)."""
-    from .io import read_ply_properties
+    from .io import PolygonTriangulatedWarning, read_mesh, read_ply_properties
 
     try:
         vertex, face = read_ply_properties(path)
+        with warnings.catch_warnings():  # reported when the file is read as the mesh
+            warnings.simplefilter("ignore", PolygonTriangulatedWarning)
+            X, F = read_mesh(path)
     except MeshReadError as exc:
         raise DataFileError(str(exc)) from exc
     arrays: dict[str, np.ndarray] = dict(vertex)
+    arrays.update(vertices=X, faces=F)  # the PLY's own mesh: checked against the mesh used
     for name, values in face.items():
         arrays.setdefault(name, values)
     for name in list(face):
