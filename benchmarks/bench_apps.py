@@ -16,8 +16,8 @@ over which the fastest point of the flow moves 10 h̄ (so the work is about the 
 size). A product is one matrix-vector product (one column) with G = [I_F^V] ad_v or with
 Gᵀ; expm_multiply also spends products on its 1-norm estimates, all of which are counted.
 Both exponential actions are run: ``fvf.expmv.expm_action`` (the default of FieldTransport)
-and ``scipy.sparse.linalg.expm_multiply``, each at tol 1e-10, with the error measured
-against expm_action at 1e-13.
+and ``scipy.sparse.linalg.expm_multiply`` (expm_action at tol 1e-10); "rel diff" is the
+largest difference between the two results relative to the largest entry.
 floor = (products with G) x (time of one) + (products with Gᵀ) x (time of one); wall/floor
 close to 1 means that the products are all the time (the rest: expm_multiply's vector
 work and Python overhead).
@@ -114,13 +114,13 @@ def bench_transport(V: np.ndarray, F: np.ndarray, formed: bool) -> dict:
                     fwd, adj = op.n_matvec, op.n_rmatvec  # products of one call
                 if time.perf_counter() - start > 1.0:
                     break
-            if method == "auto":
-                T.tol, refs[t] = 1e-13, T(u, tt).fields  # a reference 1000x tighter
-                T.tol = 1e-10
-            err = float(np.abs(res - refs[t]).max() / np.abs(refs[t]).max())
+            refs[method, t] = res
             floor = fwd * out["one"] + adj * out["one_adj"]
             name = "krylov" if method == "auto" else method
-            rows.append(dict(t=t, method=name, wall=wall, fwd=fwd, adj=adj, floor=floor, err=err))
+            rows.append(dict(t=t, method=name, wall=wall, fwd=fwd, adj=adj, floor=floor))
+    for row in rows:  # the two actions against each other (independent algorithms)
+        a, b = refs["auto", row["t"]], refs["expm_multiply", row["t"]]
+        row["err"] = float(np.abs(a - b).max() / np.abs(b).max())
     out["runs"] = rows
 
     if formed:
@@ -277,7 +277,7 @@ def main() -> None:
 
     print(
         "\n== Ad transport: fvf.expmv.expm_action (krylov, the default) vs scipy expm_multiply"
-        " (G as a LinearOperator, exact trace); tol 1e-10, error vs krylov at tol 1e-13 =="
+        " (G as a LinearOperator, exact trace); rel diff = max|krylov - expm_multiply| / max| |"
     )
     print_table(
         [
@@ -289,7 +289,7 @@ def main() -> None:
             "prod Gᵀ",
             "one product",
             "wall/floor",
-            "max rel err",
+            "rel diff",
         ],
         trows,
     )
