@@ -1,0 +1,103 @@
+"""What every example script shares: its command line, the mesh, and optional pictures.
+
+Each script runs as ``python examples/<script>.py [MESH] [--out DIR] [--no-pictures]``:
+MESH is an OBJ/OFF/PLY file (default: the built-in Spot, 2930 vertices), DIR receives the
+pictures (default ``examples_out/``). Pictures need the ``[viz]`` extra
+(``pip install 'fvf[viz]'``); without it the script still computes and prints every
+number, and says that it skipped the picture.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+import fvf
+
+
+def parse_args(description: str, default: str = "the built-in Spot") -> argparse.Namespace:
+    """The command line shared by all examples."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("mesh", nargs="?", help=f"OBJ/OFF/PLY mesh (default: {default})")
+    parser.add_argument("--out", default="examples_out", help="folder for the pictures")
+    parser.add_argument("--no-pictures", action="store_true", help="numbers only")
+    return parser.parse_args()
+
+
+def load_mesh(path: str | None) -> fvf.TriMesh:
+    """The mesh at ``path``, or the built-in Spot when ``path`` is None."""
+    mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.examples.spot()
+    print(f"mesh: {path or 'built-in spot.obj'} ({mesh.n_vertices} vertices, {mesh.n_faces} faces)")
+    return mesh
+
+
+def unit_radius(mesh: fvf.TriMesh) -> fvf.TriMesh:
+    """The mesh centred at its vertex mean and scaled so that its farthest vertex is at 1."""
+    X = mesh.vertices - mesh.vertices.mean(0)
+    return fvf.TriMesh(X / np.linalg.norm(X, axis=1).max(), mesh.faces)
+
+
+def l2(mesh: fvf.TriMesh, field: np.ndarray) -> float:
+    """L2 norm (eq. 26) of a per-face field (m, 3) or a per-vertex field (n, 3)."""
+    weights = mesh.face_areas if len(field) == mesh.n_faces else mesh.vertex_areas
+    return float(np.sqrt(weights @ (field * field).sum(1)))
+
+
+def report(name: str, value) -> None:
+    """Print one measured number, ``name: value``."""
+    if isinstance(value, float):
+        value = f"{value:.6g}"
+    print(f"  {name}: {value}", flush=True)
+
+
+def picture(args: argparse.Namespace, name: str, draw: Callable) -> Path | None:
+    """Call ``draw(viz, path)`` with the module :mod:`fvf.viz` and ``out/name``.
+
+    Returns the path written, or None when pictures are off or the ``[viz]`` extra is
+    missing (saying so).
+    """
+    if args.no_pictures:
+        print(f"picture {name}: skipped (--no-pictures)")
+        return None
+    try:
+        from fvf import viz
+
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        path = out / name
+        draw(viz, path)
+    except ImportError as exc:  # the [viz] extra is optional (MissingExtraError included)
+        print(f"picture {name}: skipped, the [viz] extra is missing ({exc})")
+        return None
+    print(f"picture: wrote {path}")
+    return path
+
+
+def strip(viz, mesh: fvf.TriMesh, path: Path, panels: list[dict], size=(400, 320)) -> Path:
+    """Render one picture per dict of :func:`fvf.viz.render` keywords; paste them in a row.
+
+    Every panel is rendered to ``path`` with a ``_<i>`` suffix first; the row is written to
+    ``path`` and the single panels are removed.
+    """
+    from PIL import Image  # part of the [viz] extra
+
+    parts = []
+    for i, keywords in enumerate(panels):
+        part = path.with_name(f"{path.stem}_{i}{path.suffix}")
+        viz.render(mesh, part, size=size, **keywords)
+        parts.append(part)
+    images = [Image.open(p).convert("RGB") for p in parts]
+    row = Image.new(
+        "RGB", (sum(im.width for im in images), max(im.height for im in images)), "white"
+    )
+    x = 0
+    for im in images:
+        row.paste(im, (x, 0))
+        x += im.width
+    row.save(path)
+    for p in parts:
+        p.unlink()
+    return path
