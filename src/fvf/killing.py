@@ -32,10 +32,13 @@ def orthonormal_fields(mesh: TriMesh, fields: np.ndarray, rtol: float = 1e-9) ->
 
     Returns
     -------
-    float64 (r, m, 3), r <= p: near-dependent directions (Gram eigenvalues below
-    ``rtol`` times the largest) are dropped.
+    float64 (r, m, 3), r <= p: zero fields and near-dependent directions (Gram
+    eigenvalues below ``rtol`` times the largest, after each field is scaled to unit
+    norm, so fields of very different magnitudes are all kept) are dropped.
     """
     a = mesh.face_areas
+    norms = np.sqrt(np.einsum("t,ptc,ptc->p", a, fields, fields, optimize=True))
+    fields = fields[norms > 0] / norms[norms > 0, None, None]
     G = np.einsum("t,ptc,qtc->pq", a, fields, fields, optimize=True)
     s, U = np.linalg.eigh(G)
     keep = s > rtol * s.max()
@@ -68,7 +71,11 @@ def smooth_field_space(
 
 
 def commutator_energy(basis: SpectralBasis, v: np.ndarray) -> float:
-    """|M| ‖D̂_v L̂ − L̂ D̂_v‖_F² / (λ_max² ‖v‖²): scale-free, 0 for a Killing field.
+    """|M|² ‖D̂_v L̂ − L̂ D̂_v‖_F² / (λ_max² ‖v‖²): scale-free, 0 for a Killing field.
+
+    ‖v‖² = Σ A_F |v|² (eq. 26), so ‖v‖² / |M| is the mean squared speed and the energy
+    is |M| ‖[D̂_v, L̂]‖² / (λ_max² · mean |v|²): invariant under X -> s X and v -> c v
+    (``tests/test_covariance.py``).
 
     Parameters
     ----------
@@ -91,7 +98,7 @@ def commutator_energy(basis: SpectralBasis, v: np.ndarray) -> float:
     lam = basis.eigenvalues
     C = D * (lam[None, :] - lam[:, None])
     norm2 = float(np.einsum("t,tc,tc->", basis.mesh.face_areas, v, v))
-    return float(basis.mesh.total_area * (C**2).sum() / (lam[-1] ** 2 * norm2))
+    return float(basis.mesh.total_area**2 * (C**2).sum() / (lam[-1] ** 2 * norm2))
 
 
 def killing_fields(
@@ -133,7 +140,7 @@ def killing_fields(
     lam = basis.eigenvalues
     K = basis.reduced_D_many(psi) * (lam[None, None, :] - lam[None, :, None])  # (r, k, k)
     K = K.reshape(len(psi), -1)
-    Q = K @ K.T * mesh.total_area / lam[-1] ** 2  # orthonormal fields: G = I
+    Q = K @ K.T * mesh.total_area**2 / lam[-1] ** 2  # orthonormal fields: G = I
     energies, coef = sla.eigh(Q, subset_by_index=[0, count - 1])
     out = np.einsum("rj,rtc->jtc", coef, psi, optimize=True)
     flat = out.reshape(count, -1)
