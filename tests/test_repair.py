@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import fvf
 from conftest import BOUNDARY_SHARED, CLOSED_SHARED, load_shared
@@ -366,6 +368,17 @@ def test_remove_duplicate_faces_including_flipped_and_rotated(rng):
     fvf.TriMesh(*fvf.orient_faces(r.vertices, r.faces)[:2])
 
 
+def test_a_flipped_duplicate_pillow_is_a_problem_though_trimesh_accepts_it():
+    V = np.eye(3)
+    F = np.array([[0, 1, 2], [0, 2, 1]])
+    assert fvf.TriMesh(V, F).euler_characteristic == 2  # a closed surface of zero volume
+    report = mesh_report(V, F)
+    assert not report["ok"] and "fvf.remove_duplicate_faces(V, F)" in report["problems"][0]
+    r = fvf.remove_duplicate_faces(V, F)
+    np.testing.assert_array_equal(r.faces, F[:1])
+    np.testing.assert_array_equal(r.face_map, [0, -1])
+
+
 def test_remove_degenerate_faces_repeated_indices_and_zero_area():
     V, F = icosphere_arrays(1)
     mid = (V[F[0, 0]] + V[F[0, 1]]) / 2  # a new vertex on edge (F0, F1): zero-area face
@@ -611,3 +624,45 @@ def test_docs_repair_md_runs(capsys):
         exec(compile(block, f"docs/repair.md block {i}", "exec"), namespace)
     out = capsys.readouterr().out
     assert "remove_duplicate_vertices: merged" in out and "faces flipped" in out
+
+
+# ---------------------------------------------------------------------------- property test
+ALL_DEFAULT_AND_CUT = [*fvf.DEFAULT_REPAIR_STEPS[:3], "split_nonmanifold_edges"]
+ALL_DEFAULT_AND_CUT += list(fvf.DEFAULT_REPAIR_STEPS[3:])
+
+
+@settings(derandomize=True, max_examples=300, deadline=None)
+@given(
+    n=st.integers(3, 10),
+    faces=st.lists(st.tuples(*[st.integers(0, 9)] * 3), min_size=1, max_size=24),
+    dup=st.integers(0, 3),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_random_broken_meshes_repair_to_a_trimesh_or_a_documented_error(n, faces, dup, seed):
+    """Random faces on a few points (non-manifold, flipped, duplicated, degenerate, soups)."""
+    rng = np.random.default_rng(seed)
+    V = rng.standard_normal((n, 3))
+    V = np.vstack([V, V[:dup]])  # some coincident vertices
+    F = np.array(faces) % len(V)
+    r = None
+    try:
+        r = fvf.repair_mesh(*frozen(V, F), steps=ALL_DEFAULT_AND_CUT)
+    except fvf.OrientationError as exc:
+        assert "non-orientable" in str(exc)
+    except fvf.NonManifoldError as exc:
+        assert "still shared" in str(exc)
+    report = mesh_report(V, F)
+    if report["ok"]:  # no problems: TriMesh accepts the arrays as they are
+        fvf.TriMesh(V, F)
+    if r is not None and not r.changed:
+        assert report["ok"]
+    if r is None:
+        return
+    check_maps(V, F, r)
+    if len(r.faces) == 0:
+        with pytest.raises(fvf.MeshShapeError, match="empty"):
+            fvf.TriMesh(r.vertices, r.faces)
+        return
+    mesh = fvf.TriMesh(r.vertices, r.faces)
+    assert mesh_report(r.vertices, r.faces)["problems"] == []
+    assert fvf.repair_mesh(mesh.vertices, mesh.faces, steps=ALL_STEPS[1:]).log == ()

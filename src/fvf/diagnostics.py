@@ -155,7 +155,7 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
     Returns
     -------
     dict
-        ``ok`` (bool: no problems, so a TriMesh can be built as is), ``problems`` (list of
+        ``ok`` (bool: no problems; a TriMesh can then be built as is), ``problems`` (list of
         one-line messages ``"<ErrorType>: <what, with indices>. Fix: <repair call>"``, each
         fix naming a function of :mod:`fvf.repair`), and, where they could be computed:
         ``n_vertices``, ``n_faces``, ``unreferenced_vertices``, ``duplicate_vertices``,

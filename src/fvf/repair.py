@@ -253,15 +253,23 @@ def _half_edges(F: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
     counts : int64 (E,)
         Number of faces on each edge.
     order : int64 (3m,)
-        Half-edges sorted by edge (stable), so an edge's half-edges are consecutive.
+        Half-edges sorted by edge, so an edge's half-edges are consecutive.
     """
     tail = F.ravel()
     head = F[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(tail, head), np.maximum(tail, head)
-    key, edge_of, counts = np.unique(lo * max(n, 1) + hi, return_inverse=True, return_counts=True)
+    key = np.minimum(tail, head) * max(n, 1) + np.maximum(tail, head)
+    order = np.argsort(key)  # one sort gives the edges, their counts and the grouping
+    ks = key[order]
+    new = np.empty(ks.size, dtype=bool)
+    new[:1] = True
+    np.not_equal(ks[1:], ks[:-1], out=new[1:])
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, ks.size))
+    edge_of = np.empty(ks.size, dtype=np.int64)
+    edge_of[order] = np.cumsum(new) - 1
+    key = ks[starts]
     edges = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
-    order = np.argsort(edge_of, kind="stable")
-    return edges, edge_of.ravel(), counts, order
+    return edges, edge_of, counts, order
 
 
 def _edge_pairs(
@@ -324,13 +332,6 @@ def _duplicate_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     reversed_ = np.zeros(m, dtype=bool)
     reversed_[order] = duplicate[order] & (even[order] != even[first])
     return duplicate, reversed_
-
-
-def _face_components(m: int, ha: np.ndarray, hb: np.ndarray) -> tuple[int, np.ndarray]:
-    """Components of faces joined across manifold edges."""
-    g = sp.coo_array((np.ones(ha.size), (ha // 3, hb // 3)), shape=(m, m))
-    count, labels = connected_components(g, directed=False)
-    return int(count), labels.astype(np.int64)
 
 
 def _corner_fans(F: np.ndarray, ha: np.ndarray, hb: np.ndarray) -> tuple[int, np.ndarray]:
@@ -606,7 +607,9 @@ def orient_faces(
     k = np.concatenate([np.where(same, tb + m, tb), np.where(same, tb, tb + m)])
     g = sp.coo_array((np.ones(r.size), (r, k)), shape=(2 * m, 2 * m))
     _, sheet = connected_components(g, directed=False)
-    n_comp, comp = _face_components(m, ha, hb)
+    # A component's faces all carry the same pair of sheets: the smaller labels it.
+    comp = np.minimum(sheet[:m], sheet[m:])
+    n_comp = int(np.count_nonzero(np.bincount(comp)))
     bad_faces = np.flatnonzero(sheet[:m] == sheet[m:])
     if bad_faces.size:
         comps = np.unique(comp[bad_faces])
@@ -616,18 +619,24 @@ def orient_faces(
             "shared edge run in opposite directions. No repair can fix this: cut the "
             "surface open, or remove those faces."
         )
-    root = np.full(n_comp, m, dtype=np.int64)
+    n_labels = 2 * m
+    root = np.full(n_labels, m, dtype=np.int64)
     np.minimum.at(root, comp, np.arange(m))
     flip = sheet[m:] == sheet[root[comp]]  # on the sheet where the root face is unflipped
-    size = np.bincount(comp, minlength=n_comp)
-    invert = 2 * np.bincount(comp, weights=flip, minlength=n_comp) > size
+    size = np.bincount(comp, minlength=n_labels)
+    invert = 2 * np.bincount(comp, weights=flip, minlength=n_labels) > size
     if outward and m:
         open_face = np.zeros(m, dtype=bool)
         open_face[np.flatnonzero(counts[edge_of] == 1) // 3] = True
-        closed = np.bincount(comp, weights=open_face, minlength=n_comp) == 0
-        P = V[F] - V[F].reshape(-1, 3).mean(axis=0)
-        det = np.einsum("ij,ij->i", P[:, 0], np.cross(P[:, 1], P[:, 2]))
-        volume = np.bincount(comp, weights=np.where(flip, -det, det), minlength=n_comp)
+        closed = np.bincount(comp, weights=open_face, minlength=n_labels) == 0
+        c = V[F[:, 0]].mean(axis=0)  # volumes about a point near the mesh, for precision
+        a, b, d = (V[F[:, i]] - c for i in range(3))
+        det = (
+            a[:, 0] * (b[:, 1] * d[:, 2] - b[:, 2] * d[:, 1])
+            + a[:, 1] * (b[:, 2] * d[:, 0] - b[:, 0] * d[:, 2])
+            + a[:, 2] * (b[:, 0] * d[:, 1] - b[:, 1] * d[:, 0])
+        )
+        volume = np.bincount(comp, weights=np.where(flip, -det, det), minlength=n_labels)
         invert = np.where(closed, volume < 0, invert)
     flip ^= invert[comp]
     F2 = F.copy()
