@@ -112,6 +112,10 @@ def test_bracket_subprocess_equals_library(work):
     v, u = a["v"], a["u"]
     np.testing.assert_allclose(out["commutator"], fvf.commutator_field(mesh, v, u), atol=1e-12)
     np.testing.assert_allclose(out["bracket_norm"], fvf.bracket_norm(mesh, v, u), atol=1e-12)
+    on_faces = mesh.project_tangent(fvf.vertex_to_face(mesh) @ out["commutator"])
+    np.testing.assert_allclose(out["commutator_face"], on_faces, atol=1e-12)
+    normal = np.einsum("ij,ij->i", out["commutator_face"], mesh.face_normals)
+    assert np.abs(normal).max() < 1e-12  # drawable as arrows without a warning
     F = np.stack([a["f"], mesh.vertices[:, 2]])
     np.testing.assert_allclose(out["bracket_F_f"], (fvf.bracket_F(mesh, v, u) @ F.T).T)
     np.testing.assert_allclose(out["bracket_V_f"], (fvf.bracket_V(mesh, v, u) @ F.T).T)

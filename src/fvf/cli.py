@@ -208,7 +208,8 @@ def _cmd_bracket(args) -> int:
         "v": v,
         "u": w,
         "commutator": commutator,
-        "commutator_face": fvf.vertex_to_face(mesh) @ commutator,  # I_F^V per coordinate
+        # I_F^V per coordinate, projected onto the faces (for drawing as arrows)
+        "commutator_face": mesh.project_tangent(fvf.vertex_to_face(mesh) @ commutator),
         "bracket_norm": fvf.bracket_norm(mesh, v, w, where="vertex"),
         "bracket_norm_face": fvf.bracket_norm(mesh, v, w, where="face"),
     }
@@ -527,8 +528,13 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    name = category.__name__
-    print(f"fvf: warning: {name}: {' '.join(str(message).split())}", file=sys.stderr)
+    text = f"fvf: warning: {category.__name__}: {' '.join(str(message).split())}"
+    if text not in _SHOWN:  # once per distinct message, wherever it was raised
+        _SHOWN.add(text)
+        print(text, file=sys.stderr)
+
+
+_SHOWN: set[str] = set()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -545,6 +551,7 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2), already printed
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
+    _SHOWN.clear()
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _show_warning
