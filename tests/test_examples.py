@@ -28,7 +28,7 @@ EXAMPLES = ROOT / "examples"
 SCRIPTS = sorted(
     p.name for p in EXAMPLES.glob("*.py") if p.name[0] != "_" and p.stem != "make_tour"
 )
-HAVE_VIZ = importlib.util.find_spec("matplotlib") is not None
+HAVE_VIZ = all(importlib.util.find_spec(name) for name in ("matplotlib", "PIL", "fvf.viz"))
 
 
 @pytest.fixture(scope="module")
