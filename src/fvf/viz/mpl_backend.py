@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._deps import require
-from .scene import Scene, index_color
+from .scene import Scene, index_color, shade
 
 __all__ = ["draw_matplotlib", "projection"]
 
@@ -77,12 +77,10 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
     face_depth = depth[F].mean(1)
     order = faces[np.argsort(face_depth[faces], kind="stable")]  # far to near
     polys = xy[F[order]]
-    # colours: flat per face, scaled by a Lambert term of a light above-right of the eye
-    light = 0.35 * right + 0.55 * up + back
-    light /= np.linalg.norm(light)
-    shade = 0.30 + 0.70 * np.abs(N[order] @ light)
+    # colours: flat per face, scaled by a Lambert term (scene.shade)
     base = scene.colors[F[order]].mean(1) if scene.colors_on == "vertices" else scene.colors[order]
-    face_rgb = np.clip(base * shade[:, None], 0.0, 1.0)
+    shade_ = shade(scene, N[order])
+    face_rgb = np.clip(base * shade_[:, None], 0.0, 1.0)
 
     fig, canvas, ax = _figure(width, height, "white")
     ax.add_collection(

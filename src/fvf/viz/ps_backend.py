@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 from ._deps import require
-from .scene import Scene, index_color
+from .scene import Scene, index_color, shade
 
 __all__ = ["init_headless", "draw_polyscope", "populate"]
 
@@ -69,16 +69,18 @@ def populate(ps, scene: Scene) -> None:
     ps.remove_all_structures()
     ps.set_ground_plane_mode("none")
     ps.set_background_color((1.0, 1.0, 1.0))
+    if scene.colors_on == "vertices":  # area-weighted vertex normals
+        N = np.zeros((mesh.n_vertices, 3))
+        for c in range(3):
+            np.add.at(N, mesh.faces[:, c], mesh.face_normals * mesh.face_areas[:, None])
+        N /= np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
+    else:
+        N = mesh.face_normals
     s = ps.register_surface_mesh(
-        "mesh",
-        mesh.vertices,
-        mesh.faces,
-        color=(0.8, 0.83, 0.88),
-        edge_width=0.0,
-        smooth_shade=False,
-        material="clay",
+        "mesh", mesh.vertices, mesh.faces, edge_width=0.0, smooth_shade=False, material="flat"
     )
-    s.add_color_quantity("colors", scene.colors, defined_on=scene.colors_on, enabled=True)
+    colors = np.clip(scene.colors * shade(scene, N)[:, None], 0.0, 1.0)
+    s.add_color_quantity("colors", colors, defined_on=scene.colors_on, enabled=True)
     radius = 0.0024
     if scene.arrows is not None and len(scene.arrows):
         # arrows in the faces' own bases (mesh.face_bases), only at the chosen faces

@@ -17,7 +17,7 @@ from ..mesh import TriMesh
 from .arrows import arrow_segments, default_arrow_scale, spread_faces
 from .camera import View, as_view, camera_frame
 
-__all__ = ["Scene", "SURFACE_COLOR", "index_color", "build_scene"]
+__all__ = ["Scene", "SURFACE_COLOR", "index_color", "build_scene", "shade"]
 
 #: Colour of a surface that shows no function: light blue-grey.
 SURFACE_COLOR = (0.80, 0.83, 0.88)
@@ -54,6 +54,19 @@ class Scene:
     lines: list[np.ndarray] = field(default_factory=list)
     line_color: tuple = LINE_COLOR
     colorbar: dict | None = None  # {"cmap", "clim", "label"}
+
+
+def shade(scene: Scene, normals: np.ndarray) -> np.ndarray:
+    """Lambert factor of unit normals (k, 3) under a light above-right of the eye, (k,).
+
+    ``0.42 + 0.58 |⟨N, l⟩|``: both backends multiply the colours by it (polyscope draws
+    them with its unlit "flat" material), so the shape reads and the colours stay close
+    to the colorbar's.
+    """
+    right, up, back = scene.frame
+    light = 0.35 * right + 0.55 * up + back
+    light = light / np.linalg.norm(light)
+    return 0.42 + 0.58 * np.abs(normals @ light)
 
 
 def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str]:
