@@ -330,6 +330,19 @@ def test_computation_failure_is_status_4(work, capsys, monkeypatch):
                  str(d / "x.npz")]) == 4  # fmt: skip
     assert one_line_error(capsys.readouterr().err)
 
+    class Overflowed:  # a transport whose result went to NaN without raising
+        def __init__(self, mesh, v):
+            pass
+
+        def __call__(self, u, t):
+            return fvf.TransportResult(np.full((t.size,) + u.shape, 1e300), np.full(t.size, np.nan))
+
+    monkeypatch.setattr(fvf, "FieldTransport", Overflowed)
+    assert main(["transport", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "9", "-o",
+                 str(d / "y.npz")]) == 4  # fmt: skip
+    err = capsys.readouterr().err
+    assert one_line_error(err) and "'normal_part'" in err and not (d / "y.npz").exists()
+
 
 def test_warnings_are_one_line_each(work, capsys):
     d, mesh, a = work

@@ -111,7 +111,17 @@ def _viz():
 
 
 def _write(args, out, arrays, mesh, inputs=()):
+    import numpy as np
+
     from fvf.fieldio import write_data
+
+    for key, a in arrays.items():  # never write a result that overflowed
+        if a.dtype.kind in "fc" and not np.isfinite(a).all():
+            raise FloatingPointError(
+                f"the result {key!r} {a.shape} has NaN or inf values: the computation "
+                "overflowed (try shorter times, a smaller field or --method upwind); "
+                "nothing was written"
+            )
 
     path = write_data(
         out, arrays, mesh=mesh, mesh_path=args.mesh, command=args.command_line, inputs=inputs
