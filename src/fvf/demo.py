@@ -374,6 +374,12 @@ def _html(report: dict, story: _Story) -> str:
         f"{report['n_faces']} faces, Euler characteristic {report['euler_characteristic']}). "
         f"Rendered with: {esc(str(story.backend or 'nothing (pictures skipped)'))}. "
         f"Total time {report['seconds']:.1f} s.</p>",
+        "<p>Under each stage, its source: the exact calls that made its numbers and "
+        "pictures. <code>s</code> carries the mesh and the fields from stage to stage, "
+        "<code>st['numbers']</code> collects the numbers, and "
+        "<code>story.picture(st, name, mesh, caption, **options)</code> is "
+        "<code>fvf.viz.render(mesh, OUT / name, title=caption, size="
+        f"{story.size}, **options)</code> (see <code>fvf.demo</code>).</p>",
     ]
     for st in story.stages:
         parts.append(f"<h2>{esc(st['title'])}</h2><table>")

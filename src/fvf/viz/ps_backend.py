@@ -81,7 +81,7 @@ def populate(ps, scene: Scene) -> None:
     )
     colors = np.clip(scene.colors * shade(scene, N)[:, None], 0.0, 1.0)
     s.add_color_quantity("colors", colors, defined_on=scene.colors_on, enabled=True)
-    radius = 0.0024
+    radius = 0.003
     if scene.arrows is not None and len(scene.arrows):
         # arrows in the faces' own bases (mesh.face_bases), only at the chosen faces
         a = np.zeros((mesh.n_faces, 2))
