@@ -288,6 +288,11 @@ def bad_inputs(d, mesh, a):
         (flow + [str(d / "other.npz"), "--t", "1", "-o", "o"], ["MeshMismatchError", "faces"]),
         (flow + [str(d / "notnpz.npz"), "--t", "1", "-o", "o"], ["DataFileError", ".npz"]),
         (flow + [fields, "--t", "nan", "-o", "o"], ["--t"]),
+        (flow + [fields, "--t", "1", "--k", "5", "-o", "o"], ["--k", "spectral"]),
+        (
+            flow + [fields, "--t", "1", "--method", "upwind", "--growth-limit", "9", "-o", "o"],
+            ["--growth-limit"],
+        ),  # fmt: skip
         (["transport", ico, fields, "--t", "1", "--to", "zz", "-o", "o"], ["'zz'"]),
         (["transport", ico, str(d / "two.npz"), "--t", "2", "-o", "o"], ["[0, 1]"]),
         (["design", ico, "--constraints", fields, "-o", "o"], ["'constraint_faces'"]),

@@ -181,6 +181,14 @@ def _cmd_demo(args) -> int:
     return EXIT_OK
 
 
+#: The options of ``fvf flow`` and the methods of :func:`fvf.flow` that take them.
+_FLOW_OPTIONS = {
+    "k": ("spectral",),
+    "dt": ("cayley",),
+    "growth_limit": ("chapter", "skew", "cayley"),
+}
+
+
 def _cmd_flow(args) -> int:
     import fvf
 
@@ -190,12 +198,15 @@ def _cmd_flow(args) -> int:
     v, f = data.field(args.field, mesh), data.functions(args.function, mesh)
     t = _times(args, data)
     options = {}
-    if args.k is not None:
-        options["k"] = args.k
-    if args.dt is not None:
-        options["dt"] = args.dt
-    if args.growth_limit is not None:
-        options["growth_limit"] = args.growth_limit
+    for name, methods in _FLOW_OPTIONS.items():
+        if getattr(args, name) is None:
+            continue
+        if args.method not in methods:
+            flag = "--" + name.replace("_", "-")
+            raise ValueError(
+                f"{flag} applies to --method {' or '.join(methods)}, not {args.method!r}"
+            )
+        options[name] = getattr(args, name)
     f_t = fvf.flow(mesh, v, f.T, t, method=args.method, **options)  # (T, n) or (T, n, k)
     f_t = f_t if f.ndim == 1 else f_t.transpose(0, 2, 1)  # (T, k, n): rows are functions
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
