@@ -107,3 +107,14 @@ def test_tutorial_follows_the_chapter():
     wanted += ["Fig. 10", "Fig. 11", "Fig. 12"]
     for key in wanted:
         assert any(key in h for h in headings), f"no tutorial section for {key}"
+
+
+def test_sphinx_roles_in_docstrings_become_links(site):
+    """docs/_hooks/rst_roles.py turns :func:`...` roles into links (or plain code)."""
+    out, _ = site
+    pages = [p.read_text() for p in (out / "api").glob("*/index.html")]
+    assert not any(re.search(r":(func|class|mod|data|meth|attr):`", html) for html in pages)
+    links = sum(html.count('class="autorefs autorefs-internal"') for html in pages)
+    assert links > 100, links
+    flows = (out / "api" / "flows" / "index.html").read_text()
+    assert 'href="#fvf.flows.upwind_operator"' in flows

@@ -113,6 +113,8 @@ def on_files(files, config):
     for name in public_modules():
         uri = f"api/{name}.md"
         if files.get_file_from_path(uri) is None:
-            content = f"# fvf.{name}\n\n::: fvf.{name}\n"
+            # the module's own heading (level 1) is the page title and its link target
+            options = "    options:\n      show_root_heading: true\n      heading_level: 1\n"
+            content = f"::: fvf.{name}\n{options}"
             files.append(File.generated(config, uri, content=content))
     return files
