@@ -485,3 +485,27 @@ def test_products_ratio_on_spot_at_ten_edge_lengths():
         assert maxrel(x, ref) <= TOL
         assert counter.products >= 3.0 * info["matvecs"], kind
         assert counter.matvecs >= 3.0 * info["matvecs"], kind
+
+
+@pytest.mark.parametrize("kind", ["skew", "grad"])
+def test_inner_weights_are_scale_free(mesh, kind):
+    """Only the ratios of the weights matter: areas of a 1e-8-sized mesh (~1e-18) give
+    the same result as O(1) areas (they once underflowed the max-norm control)."""
+    A = _flow_operator(mesh, kind)
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    t = 3 * mesh.mean_edge_length
+    ref = expm_action(A, b, t, inner=w)
+    assert maxrel(expm_action(A, b, t, inner=1e-20 * w), ref) < 1e-13
+    assert maxrel(expm_action(A, b, t, inner=1e20 * w), ref) < 1e-13
+
+
+def test_out_of_reach_span_and_overflow_raise_flow_overflow(mesh):
+    A = _flow_operator(mesh, "skew")
+    b = _f0(mesh)
+    with pytest.raises(fvf.FlowOverflowError, match="exceeds"):
+        expm_action(A, b, 1e20)
+    G = _flow_operator(mesh, "grad")  # non-normal: grows like e^{μ t}
+    with pytest.raises(fvf.FlowOverflowError), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        expm_action(1e3 * G, b, 1e3 * mesh.mean_edge_length, method="krylov")

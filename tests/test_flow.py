@@ -146,3 +146,22 @@ def test_flow_rejects_unknown_action():
         fvf.FunctionalFlow(mesh, _rotation_z(mesh), method="pade")
     with pytest.raises(fvf.expmv.ExpmInputError, match="tol"):
         fvf.FunctionalFlow(mesh, _rotation_z(mesh), tol=0.0)
+
+
+def test_zero_field_flow_is_the_identity():
+    mesh = fvf.icosphere(2)  # n > 64: the Lanczos growth estimate path
+    f = mesh.vertices[:, 0]
+    phi = fvf.FunctionalFlow(mesh, np.zeros((mesh.n_faces, 3)))
+    assert phi.growth_rate == (0.0, 0.0)
+    np.testing.assert_array_equal(phi(f, 1.0), f)
+
+
+@pytest.mark.parametrize("method", ["chapter", "skew", "cayley"])
+def test_out_of_reach_times_raise_flow_overflow(method):
+    """A 1e150 field for a unit time: 1e150 edge lengths of flow is out of floating-point
+    reach; the documented error (an FvfError and a FloatingPointError), not a crash."""
+    mesh = fvf.icosphere(2)
+    v = 1e150 * fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 2]))
+    with pytest.raises(fvf.FlowOverflowError, match="t|steps"):
+        fvf.flow(mesh, v, mesh.vertices[:, 0], 1.0, method=method, growth_limit=np.inf)
+    assert issubclass(fvf.FlowOverflowError, FloatingPointError)

@@ -22,6 +22,7 @@ __all__ = [
     "OrientationError",
     "FieldShapeError",
     "MeshReadError",
+    "FlowOverflowError",
     "FvfWarning",
     "NonTangentFieldWarning",
     "FlowGrowthWarning",
@@ -71,6 +72,12 @@ class FieldShapeError(FvfError):
 
 class MeshReadError(FvfError):
     """A mesh file could not be parsed."""
+
+
+class FlowOverflowError(FvfError, FloatingPointError):
+    """A flow or exponential action cannot be computed in floating point: its values
+    overflow, or the time is so long (|t| times the operator's norm) that the steps it
+    needs underflow. Also a :class:`FloatingPointError`."""
 
 
 class FvfWarning(UserWarning):

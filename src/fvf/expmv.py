@@ -71,7 +71,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import FvfError, FvfWarning
+from .errors import FlowOverflowError, FvfError, FvfWarning
 
 try:  # in-place y += A x kernels (scipy's own CSR kernels, no temporary arrays)
     from scipy.sparse import _sparsetools as _st
@@ -422,6 +422,19 @@ def _check_operator(A: Any) -> tuple[Any, int]:
     return M.astype(np.float64, copy=False), M.shape[0]
 
 
+#: Largest max|t| · ‖A‖_∞ accepted (beyond ~1/eps the steps underflow relative to t).
+MAX_SPAN = 1e15
+
+
+def _norm_inf(A: Any) -> float:
+    """‖A‖_∞ of a sparse or dense A; 0 for a LinearOperator (unknown, not checked)."""
+    if sp.issparse(A):
+        return float(abs(A).sum(axis=1).max()) if A.nnz else 0.0
+    if isinstance(A, np.ndarray):
+        return float(np.abs(A).sum(axis=1).max()) if A.size else 0.0
+    return 0.0
+
+
 def choose_method(
     A: Any,
     t: float | npt.ArrayLike,
@@ -525,13 +538,14 @@ def expm_action(
         ``B.shape`` for a scalar t, ``(T,) + B.shape`` for an array of times; X[j] is
         exp(t_j A) B.
     info : dict, only if ``return_info``
-        ``method`` ("lanczos", "iom" or "expm_multiply"); ``matvecs``: column products
-        with A (a product on an (n, p) block counts p; for expm_multiply, products with A
-        and Aᵀ, counted through :class:`ExpmvCounter`); ``block_matvecs``: operator calls;
-        ``steps``: Krylov bases built; ``basis_sizes``: their sizes; ``error_estimate``:
-        the largest accumulated relative error estimate over the columns (None for
-        expm_multiply); ``skew``: what was used; ``wasted_matvecs``: products of a failed
-        three-term attempt (included in ``matvecs``).
+        ``method`` ("lanczos", "iom", "expm_multiply", or "zero" for A = 0);
+        ``matvecs``: column products with A (a product on an (n, p) block counts p; for
+        expm_multiply, products with A and Aᵀ, counted through :class:`ExpmvCounter`);
+        ``block_matvecs``: operator calls; ``steps``: Krylov bases built;
+        ``basis_sizes``: their sizes; ``error_estimate``: the largest accumulated
+        relative error estimate over the columns (None for expm_multiply); ``skew``:
+        what was used; ``wasted_matvecs``: products of a failed three-term attempt
+        (included in ``matvecs``).
 
     Raises
     ------
@@ -539,9 +553,10 @@ def expm_action(
         Non-square, complex or non-numeric A; B of the wrong shape; non-finite A, B, t
         or weights; weights ≤ 0; tol outside (0, 1); unknown method, norm or skew value;
         m_max < 1.
-    FloatingPointError
-        The recurrence produced inf/NaN (a LinearOperator returned them, or the solution
-        overflowed).
+    FlowOverflowError
+        (also a FloatingPointError) The recurrence produced inf/NaN (a LinearOperator
+        returned them, or the solution overflowed), or max|t| · ‖A‖_∞ exceeds
+        :data:`MAX_SPAN`.
 
     Warns
     -----
@@ -604,6 +619,8 @@ def expm_action(
             )
         if np.all(w == 1.0):
             w = None
+        else:
+            w = w / w.max()  # only ratios matter; keeps tiny meshes (A_V ~ 1e-18) in range
 
     is_complex = np.iscomplexobj(Barr)
     B2 = Barr.reshape(n, -1)
@@ -626,8 +643,19 @@ def expm_action(
         "skew": skew,
         "wasted_matvecs": 0,
     }
+    a_norm = _norm_inf(Aop)
+    span = float(np.abs(times).max()) * a_norm if times.size else 0.0
+    if span > MAX_SPAN:
+        raise FlowOverflowError(
+            f"max|t| x ||A||_inf = {span:.3g} exceeds {MAX_SPAN:.0e}: the exponential needs "
+            "so many steps that each underflows relative to t. Shorten t or rescale A "
+            "(for a flow, a field of speed s for time t moves s*t)."
+        )
     if n == 0 or p == 0:
         out[:] = 0.0
+    elif a_norm == 0.0 and not isinstance(Aop, spla.LinearOperator):
+        out[:] = B2  # A = 0: exp(tA) = I exactly
+        info["method"] = "zero"
     elif method == "expm_multiply":
         _run_expm_multiply(Aop, B2, times, out, info, count=return_info)
     else:
@@ -841,7 +869,7 @@ class _Lanczos:
             wv = np.multiply(w, vn, out=self.tmp)
             nz = math.sqrt(float(np.dot(wv, vn)))
         if not math.isfinite(nz):
-            raise FloatingPointError(_NONFINITE)
+            raise FlowOverflowError(_NONFINITE)
         b = nz / nu[j] if nu[j] > 0 else 0.0
         if j < 3 or j % 8 == 7:
 
@@ -875,7 +903,7 @@ class _Lanczos:
         nz = np.sqrt(_wnorm2(Vn, w, self.tmp))
         lo, hi = float(nz.min()), float(nz.max())
         if not math.isfinite(hi):
-            raise FloatingPointError(_NONFINITE)
+            raise FlowOverflowError(_NONFINITE)
         inv_nu = self.inv_nu  # 1/ν_j (0 for a zero column)
         b = nz * inv_nu
         if j < 3 or j % 8 == 7:
@@ -954,6 +982,8 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
     while k < nt:
         tau_rem = float(s_targets[-1] - t_now)
         lz = _Lanczos(op, w, V, limit)
+        if not np.isfinite(lz.nu[0]).all():
+            raise FlowOverflowError(_NONFINITE)
         if not (lz.nu[0] > 0).any():
             out[slots[k:], :, cols] = 0.0
             return
@@ -1119,7 +1149,7 @@ def _cut_step(
         if last >= 1:
             return float(s[last]), E[:, last]
         hi = s[1]
-    raise FloatingPointError("Krylov step size underflow")  # pragma: no cover
+    raise FlowOverflowError("Krylov step size underflow")  # pragma: no cover
 
 
 def _iom_sweep(sw: _Sweep, B2: np.ndarray, c: int, m_cap: int, window: int) -> None:
@@ -1153,6 +1183,8 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
     while k < nt:
         tau_rem = float(s_targets[-1] - t_now)
         beta0 = _wnorm(y, w, tmp)
+        if not math.isfinite(beta0):
+            raise FlowOverflowError(_NONFINITE)
         if beta0 == 0:
             out[slots[k:], :, c] = 0.0
             return
@@ -1174,7 +1206,7 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
             H[lo : j + 1, j] = h
             b = _wnorm(vn, w, tmp)
             if not math.isfinite(b):
-                raise FloatingPointError(_NONFINITE)
+                raise FlowOverflowError(_NONFINITE)
             H[j + 1, j] = b
             bsum += b
             if b > 0:
@@ -1301,4 +1333,4 @@ def _cut_step_general(prof: _HessenbergExp, tau_rem: float, rate: float) -> tupl
                 prof.grid(float(s[last]))  # so that e1(τ) reuses it
             return float(s[last]), float(E[last])
         hi = s[1]
-    raise FloatingPointError("Krylov step size underflow")  # pragma: no cover
+    raise FlowOverflowError("Krylov step size underflow")  # pragma: no cover

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .calculus import div
-from .errors import FlowGrowthWarning, format_indices
+from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
 from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
@@ -129,6 +129,8 @@ class FunctionalFlow:
     def _extreme_eigenvalue(self, sign: float) -> float:
         S = sign * self._symmetric_part
         n = S.shape[0]
+        if S.nnz == 0 or not np.any(S.data):
+            return 0.0  # e.g. v = 0: the flow is the identity
         if n <= 64:
             return float(np.linalg.eigvalsh(S.toarray())[-1])
         try:
@@ -144,6 +146,8 @@ class FunctionalFlow:
         except sla.ArpackNoConvergence as exc:  # fall back to a guaranteed upper bound
             if exc.eigenvalues.size:
                 return float(exc.eigenvalues.max())
+            return float(abs(S).sum(axis=1).max())  # Gershgorin
+        except sla.ArpackError:
             return float(abs(S).sum(axis=1).max())  # Gershgorin
 
     @cached_property
@@ -203,8 +207,9 @@ class FunctionalFlow:
 
         Raises
         ------
-        FloatingPointError
-            If the flow overflowed to inf/NaN (after the growth warning).
+        FlowOverflowError
+            (also a FloatingPointError) If the flow overflowed to inf/NaN (after the
+            growth warning), or |t| · ‖D^V_v‖ is out of floating-point reach.
 
         Warns
         -----
@@ -231,7 +236,7 @@ class FunctionalFlow:
             return_info=True,
         )
         if not np.isfinite(out).all():
-            raise FloatingPointError(
+            raise FlowOverflowError(
                 f"the flow overflowed (growth bound {self.growth_bound(times.max()):.3g}); "
                 "use shorter times or a divergence-free field."
             )

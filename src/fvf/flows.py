@@ -41,7 +41,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .errors import FlowGrowthWarning, format_indices
+from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
 from .expmv import expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .flow import GROWTH_LIMIT, FunctionalFlow
@@ -66,6 +66,11 @@ DEFAULT_COURANT = 0.5
 
 #: Largest Poisson mean q·t per uniformization chunk (e^{−q t} stays far from underflow).
 _UNIFORMIZATION_CHUNK = 300.0
+
+#: Most time steps a Cayley flow takes in one call.
+MAX_STEPS = 1e8
+#: Largest q·t of an upwind flow (about that many products with the stochastic matrix).
+MAX_UNIFORMIZATION = 1e9
 
 _OPTIONS = {
     "chapter": {"growth_limit", "expm", "tol"},
@@ -214,6 +219,11 @@ class _Uniformization:
         if self.P is None or t == 0.0:
             return f.copy()
         lam = self.q * t
+        if not lam <= MAX_UNIFORMIZATION:
+            raise FlowOverflowError(
+                f"the upwind flow to t={t:g} needs about {lam:.3g} products (rate "
+                f"q={self.q:.3g} x t; more than {MAX_UNIFORMIZATION:.0e}); shorten t"
+            )
         chunks = max(1, math.ceil(lam / _UNIFORMIZATION_CHUNK))
         w = _poisson_weights(lam / chunks)
         w = w / w.sum()
@@ -438,7 +448,14 @@ class TransportFlow:
         return _norm(self.mesh, np.asarray(f, dtype=float))
 
     def _steps(self, dt_total: float) -> tuple[int, float]:
-        steps = max(1, math.ceil(abs(dt_total) / self.dt * (1 - 1e-12)))
+        with np.errstate(over="ignore", divide="ignore"):
+            ratio = abs(dt_total) / self.dt
+        if not ratio <= MAX_STEPS:
+            raise FlowOverflowError(
+                f"the Cayley flow to t={dt_total:g} needs {ratio:.3g} steps of dt={self.dt:.3g} "
+                f"(more than {MAX_STEPS:.0e}); shorten t or pass a larger dt"
+            )
+        steps = max(1, math.ceil(ratio * (1 - 1e-12)))
         return steps, dt_total / steps
 
     def _cayley_lu(self, h: float):
@@ -516,7 +533,7 @@ class TransportFlow:
         else:
             out = self._spectral(f0, times)
         if not np.isfinite(out).all():
-            raise FloatingPointError(
+            raise FlowOverflowError(
                 f"the {self.method} flow overflowed (growth bound "
                 f"{self.growth_bound(float(times.max())):.3g}); use method='upwind'."
             )

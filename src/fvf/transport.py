@@ -307,13 +307,15 @@ def interpolate(
     T = FieldTransport(mesh, v)
     u0 = as_face_field(mesh, u0, "u0")
     u1 = as_face_field(mesh, u1, "u1")
-    a = T(u0, times).fields
-    b = T(u1, times - 1.0).fields
-    w = times[..., None, None] if times.ndim else times
-    out = (1.0 - w) * a + w * b
-    # the endpoints are the inputs themselves (Ad at t = 0 is the identity)
-    if times.ndim == 0:
-        return u0.copy() if times == 0 else (u1.copy() if times == 1 else out)
-    out[times == 0] = u0
-    out[times == 1] = u1
-    return out
+    flat = np.atleast_1d(times)
+    out = np.empty((flat.size,) + u0.shape)
+    # the endpoints are the inputs themselves (Ad at t = 0 is the identity): no flow
+    out[flat == 0] = u0
+    out[flat == 1] = u1
+    inner = (flat > 0) & (flat < 1)
+    if inner.any():
+        s = flat[inner][:, None, None]
+        a = T(u0, flat[inner]).fields  # (k, m, 3)
+        b = T(u1, flat[inner] - 1.0).fields
+        out[inner] = (1.0 - s) * a + s * b
+    return out[0] if times.ndim == 0 else out
