@@ -496,3 +496,27 @@ def test_docs_session_runs(tmp_path, monkeypatch, capsys):
     out = np.load(tmp_path / "flowed.npz")
     assert out["f_t"].shape == (3, 642) and str(out["method"]) == "skew"
     assert np.load(tmp_path / "designed.npz")["singularity_indices"].sum() == 2
+
+
+def test_render_and_view_pass_the_options_through(work, monkeypatch, capsys):
+    """What fvf.viz receives (recorded by stand-ins; the pictures are tested above)."""
+    viz = viz_render()
+    d, mesh, a = work
+    calls = []
+    monkeypatch.setattr(viz, "render", lambda mesh, path, **kw: calls.append((path, kw)))
+    monkeypatch.setattr(viz, "view", lambda mesh, **kw: calls.append((None, kw)))
+    argv = [str(d / "ico.obj"), str(d / "fields.npz"), "--function", "f", "--field", "u",
+            "--singularities"]  # fmt: skip
+    options = "--clim -1 2 --size 300 200 --view 30 10 --arrow-scale 0.5 --cmap magma -o p.png"
+    assert main(["render", *argv, *options.split()]) == 0
+    assert main(["view", *argv]) == 0
+    (path, kw), (_, kw_view) = calls
+    assert path == "p.png" and kw["clim"] == (-1.0, 2.0) and kw["size"] == (300, 200)
+    assert kw["view"] == (30.0, 10.0) and kw["arrow_scale"] == 0.5 and kw["cmap"] == "magma"
+    np.testing.assert_array_equal(kw["function"], a["f"])
+    np.testing.assert_allclose(kw["field"], a["u"])
+    ids, idx = fvf.singularities(mesh, a["u"])  # rotation about x: +1 at both poles
+    np.testing.assert_array_equal(kw["singularities"][1], idx)
+    np.testing.assert_allclose(kw["singularities"][0], mesh.vertices[ids])
+    assert idx.tolist() == [1, 1]
+    assert kw_view.keys() == {"function", "field", "singularities"}
