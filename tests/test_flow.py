@@ -6,6 +6,7 @@ import pytest
 import fvf
 from conftest import load_shared, random_tangent_field, rel, smooth_functions
 from fvf import chapter as ch
+from fvf.flow import hotspots
 
 
 @pytest.fixture(scope="module")
@@ -73,9 +74,16 @@ def test_growth_warning_fires_on_lion():
     mesh, v, f0 = _lion_setup("lion-00.off")
     phi = fvf.FunctionalFlow(mesh, v)
     assert phi.growth_bound(0.1) > 1e10
-    with pytest.warns(fvf.FlowGrowthWarning, match="grow a function's A_V-norm"):
+    with pytest.warns(fvf.FlowGrowthWarning, match="grow a function's A_V-norm") as rec:
         ft = phi(f0, 0.05)
     assert np.abs(ft).max() > 1e3 * np.abs(f0).max()  # and it really does blow up
+    msg = str(rec[0].message)
+    assert "at vertices [" in msg and "in faces [" in msg
+    worst, faces = hotspots(mesh, fvf.div(mesh) @ v.ravel())
+    assert f"in faces {fvf.errors.format_indices(faces)}" in msg
+    # the named faces are exactly those around the named vertices
+    assert np.array_equal(faces, np.flatnonzero(np.isin(mesh.faces, worst).any(axis=1)))
+    assert set(worst) <= set(mesh.faces[faces].ravel())
 
 
 def test_growth_warning_silent_on_regular_sphere():

@@ -33,10 +33,21 @@ from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
 
-__all__ = ["FunctionalFlow", "GROWTH_LIMIT"]
+__all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots"]
 
 #: Default bound on the estimated norm growth e^{μ|t|} above which a flow warns.
 GROWTH_LIMIT = 100.0
+
+
+def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` vertices of largest ``score`` (n,) and the faces around them.
+
+    Returns (vertices (≤ count,) int64, by decreasing score; faces (k,) int64, sorted):
+    where a growth warning points the user to.
+    """
+    worst = np.argsort(score, kind="stable")[-count:][::-1]
+    faces = np.flatnonzero(np.isin(mesh.faces, worst).any(axis=1))
+    return worst.astype(np.int64), faces.astype(np.int64)
 
 
 class FunctionalFlow:
@@ -175,12 +186,13 @@ class FunctionalFlow:
         if bound <= self.growth_limit:
             return
         divv = div(self.mesh) @ self.field.ravel()
-        worst = np.argsort(divv if t_extreme >= 0 else -divv)[-5:][::-1]
+        worst, faces = hotspots(self.mesh, divv if t_extreme >= 0 else -divv)
         warnings.warn(
             f"the flow to t={t_extreme:g} may grow a function's A_V-norm by up to "
             f"{bound:.3g}x (growth rate {self.growth_rate[0 if t_extreme >= 0 else 1]:.3g} "
             f"per unit time; limit {self.growth_limit:g}). The discrete divergence of v is "
-            f"largest at vertices {format_indices(worst)}; the chapter's flow is not "
+            f"largest at vertices {format_indices(worst)}, in faces "
+            f"{format_indices(faces)}; the chapter's flow is not "
             "monotone for compressible fields on irregular meshes. Use a shorter time, a "
             "divergence-free field (J grad g), or a smoother/remeshed surface; pass "
             "growth_limit=np.inf to silence this.",

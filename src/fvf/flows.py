@@ -44,7 +44,7 @@ import scipy.sparse.linalg as sla
 from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
 from .expmv import expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
-from .flow import GROWTH_LIMIT, FunctionalFlow
+from .flow import GROWTH_LIMIT, FunctionalFlow, hotspots
 from .mesh import TriMesh
 from .operators import directional_derivatives
 
@@ -427,11 +427,11 @@ class TransportFlow:
         dv = self._divergence if self._chapter is None else None
         where = ""
         if dv is not None:
-            worst = np.argsort(dv if t_extreme >= 0 else -dv)[-5:][::-1]
+            worst, faces = hotspots(self.mesh, dv if t_extreme >= 0 else -dv)
             where = (
                 f" The law d/dt ‖f‖² = ⟨f, [div v] f⟩ allows it: div v reaches "
                 f"{(dv if t_extreme >= 0 else -dv).max():.3g} at vertices "
-                f"{format_indices(worst)}."
+                f"{format_indices(worst)}, in faces {format_indices(faces)}."
             )
         warnings.warn(
             f"the {self.method} flow to t={t_extreme:g} may grow a function's A_V-norm by "
