@@ -231,3 +231,25 @@ def test_subdivide_keeps_surface_and_field(sphere):
     assert fine.total_area == pytest.approx(sphere.total_area, rel=1e-12)
     np.testing.assert_allclose(fine.face_normals, sphere.face_normals[parent], atol=1e-12)
     np.testing.assert_array_equal(fv, v[parent])
+
+
+@pytest.mark.parametrize("backend", ["polyscope-egl", "matplotlib"])
+def test_render_face_function_on_a_mesh_with_boundary(tmp_path, backend):
+    if backend not in backends():
+        pytest.skip(f"polyscope headless unavailable: {viz.polyscope_status()}")
+    disk = fvf.disk(8, 6)
+    f = disk.face_centroids[:, 0]
+    v = disk.project_tangent(np.cross([0.0, 0.0, 1.0], disk.face_centroids))
+    info = viz.render(
+        disk,
+        tmp_path / "d.png",
+        function=f,
+        field=v,
+        view=(0, 60, "z"),
+        backend=backend,
+        size=(300, 240),
+        texture=viz.lic_texture(disk, v),
+    )
+    assert info.n_arrows == disk.n_faces and info.clim == (f.min(), f.max())
+    busy, hues = content(picture(info.path))
+    assert 0.1 < busy < 0.9 and hues >= 3

@@ -129,7 +129,7 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
         ax.scatter(
             p[:, 0],
             p[:, 1],
-            s=(width / 800.0) ** 2 * 70.0,
+            s=max(45.0, (width / 800.0) ** 2 * 90.0),
             c=cols,
             edgecolors="black",
             linewidths=0.8,
