@@ -572,15 +572,14 @@ SPECS: dict[str, Spec] = {
         hostile="face_field",
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad)(c.f, c.t),
         warns=_GROWTH,
-        huge="skip",  # see test_flows_of_huge_fields_* (xfail)
-        zero="skip",  # see test_chapter_flow_of_zero_field (xfail)
+        huge=errors.FvfError,  # 1e150 · an edge length: FlowOverflowError
     ),
     "flow": Spec(
         lambda fn, mesh, c: fn(mesh, c.v, c.f, c.t, method="upwind"),
         _check_upwind,
         hostile="face_field",
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, c.f, c.t, method="upwind"),
-        huge="skip",
+        huge=errors.FvfError,
     ),
     "GROWTH_LIMIT": Spec(
         lambda fn, mesh, c: fn, lambda r, m, c: (r > 1) or pytest.fail(""), meshless=True
@@ -591,7 +590,7 @@ SPECS: dict[str, Spec] = {
         hostile="face_field",
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, "skew", growth_limit=np.inf)(c.f, c.t),
         warns=_GROWTH,
-        huge="skip",
+        huge=errors.FvfError,
     ),
     "upwind_operator": Spec(
         lambda fn, mesh, c: fn(mesh, c.u),
@@ -1002,8 +1001,8 @@ def _mesh_params():
     return out
 
 
-#: (name, mesh) pairs with a known bug in a module this campaign may not edit; each has a
-#: strict xfail test below, so the sweep skips them and the xfail notices the fix.
+#: (name, mesh) pairs with a known bug in a module this campaign may not edit; pin each
+#: with a strict xfail test, so the sweep skips it and the xfail notices the fix.
 KNOWN_BUGS: set[tuple[str, str]] = set()
 
 MESH_NAMES = [n for n, s in SPECS.items() if not s.meshless and n in fvf.__all__]
