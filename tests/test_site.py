@@ -118,3 +118,45 @@ def test_sphinx_roles_in_docstrings_become_links(site):
     assert links > 100, links
     flows = (out / "api" / "flows" / "index.html").read_text()
     assert 'href="#fvf.flows.upwind_operator"' in flows
+
+
+def _gen_gallery():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("gen_gallery", DOCS / "gen_gallery.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_gallery_generator_lays_out_the_demo_report():
+    """docs/gen_gallery.py turns the demo's index.html into Markdown: a section per stage,
+    its numbers (without the machine-dependent seconds), its pictures and skip notes."""
+    gen = _gen_gallery()
+    report = gen.Report()
+    report.feed(
+        "<p>Mesh: m.obj (4 vertices). Rendered with: matplotlib. Total time 1.5 s.</p>"
+        "<h2>Brackets (eqs. 46, 54)</h2><table><tr><td>nnz |x|</td><td>12</td></tr>"
+        "<tr><td>seconds</td><td>0.1</td></tr></table>"
+        "<figure><a href='a.png'><img src='a.png' alt='first [v,w]'></a></figure>"
+        "<figure><a href='b.gif'><img src='b.gif' alt='second'></a></figure>"
+        "<details><summary>calls</summary><pre>x = fvf.ad(mesh, v)  # not a number</pre></details>"
+        "<h2>Fig. 11</h2><p class='skip'>skipped: needs the [viz] extra</p>"
+    )
+    text = gen.page(report)
+    assert "## Brackets (eqs. 46, 54)" in text and "## Fig. 11" in text
+    assert "| nnz \\|x\\| | `12` |" in text and "seconds" not in text.split("## Brackets")[1]
+    assert "![first [v,w]](gallery/a.png)" in text and "(gallery/b.gif)" in text
+    assert "*skipped: needs the [viz] extra*" in text
+    assert "Mesh: m.obj (4 vertices). Rendered with: matplotlib.*" in text
+    assert "Total time" not in text
+
+
+def test_gallery_page_shows_every_committed_picture():
+    text = (DOCS / "gallery.md").read_text()
+    pictures = sorted(p.name for p in (DOCS / "gallery").glob("*") if p.suffix in (".png", ".gif"))
+    if not pictures:
+        pytest.skip("gallery not generated (docs/gen_gallery.py needs the [viz] extra)")
+    assert sorted(re.findall(r"\]\(gallery/([^)]+)\)", text)) == pictures
+    for figure in ("Fig. 3", "Fig. 7", "Fig. 9", "Fig. 10", "Fig. 11", "Fig. 12"):
+        assert figure in text, figure
