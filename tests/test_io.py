@@ -455,3 +455,43 @@ def test_fuzz_read_mesh(fuzz_dir, name, mutations):
             assert str(path) in str(exc)
             return
     check_mesh(V, F)
+
+
+@pytest.mark.parametrize("name", list(FUZZ_BASES))
+@settings(derandomize=True, max_examples=100, deadline=None)
+@given(mutations=st.lists(MUTATION, min_size=1, max_size=2))
+def test_fuzzed_files_that_load_go_through_report_and_repair(fuzz_dir, name, mutations):
+    """What loads from a mutated file is reported and repaired, or a typed error says why.
+
+    The path of a user's file: read_mesh, then ``fvf info`` (mesh_report, never raises) and
+    repair_mesh (an FvfError at worst), then TriMesh on the result (an FvfError at worst).
+    tests/fuzz_readers.py runs the same contract coverage-guided under atheris.
+    """
+    from fvf import TriMesh
+    from fvf.diagnostics import mesh_report
+    from fvf.repair import repair_mesh
+
+    data = bytearray(FUZZ_BASES[name])
+    for op, where, byte in mutations:
+        k = where % (len(data) + 1)
+        if op == "insert":
+            data.insert(k, byte)
+        elif data and op == "delete":
+            del data[k % len(data)]
+        elif data:
+            data[k % len(data)] = byte
+    path = fuzz_dir / f"r_{name}"
+    path.write_bytes(bytes(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PolygonTriangulatedWarning)
+        try:
+            V, F = read_mesh(path)
+        except MeshReadError:
+            return
+    report = mesh_report(V, F)
+    assert isinstance(report["ok"], bool) and isinstance(report["problems"], list)
+    try:
+        fixed = repair_mesh(V, F)
+        TriMesh(fixed.vertices, fixed.faces)
+    except FvfError:  # only when something needed repair (welding can expose problems)
+        assert not report["ok"] or report.get("hints")
