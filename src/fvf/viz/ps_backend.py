@@ -117,7 +117,7 @@ def populate(ps, scene: Scene) -> None:
             material="flat",
         )
     if scene.markers is not None and len(scene.markers):
-        pc = ps.register_point_cloud("singularities", scene.markers, radius=0.02, material="clay")
+        pc = ps.register_point_cloud("singularities", scene.markers, radius=0.014, material="clay")
         cols = np.array([index_color(i) for i in scene.marker_indices])
         pc.add_color_quantity("index", cols, enabled=True)
 
