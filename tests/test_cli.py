@@ -520,3 +520,24 @@ def test_render_and_view_pass_the_options_through(work, monkeypatch, capsys):
     np.testing.assert_allclose(kw["singularities"][0], mesh.vertices[ids])
     assert idx.tolist() == [1, 1]
     assert kw_view.keys() == {"function", "field", "singularities"}
+
+
+def test_several_data_files_are_merged(work, capsys):
+    """A designed field from one file and functions from another; later keys win."""
+    d, mesh, a = work
+    np.savez(d / "c2.npz", constraint_faces=[3], directions=mesh.face_edge_vectors[[3], 0])
+    assert main(["design", str(d / "ico.obj"), "--constraints", str(d / "c2.npz"), "-o",
+                 str(d / "d2.npz")]) == 0  # fmt: skip
+    designed = np.load(d / "d2.npz")["v"]
+    out = d / "merged.npz"
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), str(d / "d2.npz"),
+                 "--t", "0.5", "-o", str(out)]) == 0  # fmt: skip
+    res = np.load(out)
+    np.testing.assert_allclose(res["f_t"], fvf.flow(mesh, designed, a["f"], [0.5]), atol=1e-12)
+    assert len(res["inputs"]) == 2
+    capsys.readouterr()
+    np.savez(d / "bad_f.npz", f=np.zeros(5))
+    assert main(["flow", str(d / "ico.obj"), str(d / "d2.npz"), str(d / "bad_f.npz"),
+                 "--t", "1", "-o", str(out)]) == 2  # fmt: skip
+    err = capsys.readouterr().err  # the message names the file the bad key came from
+    assert one_line_error(err) and "bad_f.npz: key 'f' has shape (5,)" in err

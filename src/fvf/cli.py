@@ -41,6 +41,7 @@ Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see
 
 
 _DEBUG = "show the traceback of an error instead of one line"
+_MERGE = "(or PLY properties); several files: a later one's keys replace an earlier one's"
 
 
 def _version() -> str:
@@ -72,10 +73,14 @@ def _load_mesh(path: str):
         raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
 
 
-def _load_data(path: str, mesh):
-    from fvf.fieldio import read_data
+def _load_data(paths: str | list[str], mesh):
+    """One data file, or several merged (a later file's key replaces an earlier's)."""
+    from fvf.fieldio import DataFile, read_data
 
-    return read_data(path, mesh)
+    if isinstance(paths, str):
+        return read_data(paths, mesh)
+    files = [read_data(p, mesh) for p in paths]
+    return files[0] if len(files) == 1 else DataFile.merged(files)
 
 
 def _times(args, data):
@@ -210,7 +215,7 @@ def _cmd_flow(args) -> int:
     f_t = fvf.flow(mesh, v, f.T, t, method=args.method, **options)  # (T, n) or (T, n, k)
     f_t = f_t if f.ndim == 1 else f_t.transpose(0, 2, 1)  # (T, k, n): rows are functions
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
-    _write(args, args.output, arrays, mesh, [args.data])
+    _write(args, args.output, arrays, mesh, args.data)
     if viz is not None:
         last = f_t[-1] if f.ndim == 1 else f_t[-1, 0]
         title = f"flow ({args.method}) at t = {t[-1]:g}"
@@ -239,7 +244,7 @@ def _cmd_bracket(args) -> int:
         arrays["f"] = f
         arrays["bracket_F_f"] = (fvf.bracket_F(mesh, v, w) @ f.T).T  # eq. 54
         arrays["bracket_V_f"] = (fvf.bracket_V(mesh, v, w) @ f.T).T  # eq. 46
-    _write(args, args.output, arrays, mesh, [args.data])
+    _write(args, args.output, arrays, mesh, args.data)
     return EXIT_OK
 
 
@@ -257,7 +262,7 @@ def _cmd_transport(args) -> int:
     else:
         result = fvf.FieldTransport(mesh, v)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
-    _write(args, args.output, arrays, mesh, [args.data])
+    _write(args, args.output, arrays, mesh, args.data)
     return EXIT_OK
 
 
@@ -326,10 +331,10 @@ def _display_arrays(args, mesh):
         else:
             raise ValueError(
                 f"--singularities needs keys singularity_positions and singularity_indices "
-                f"in {args.data} (fvf design writes them) or a --field KEY to find them in"
+                f"in {data.path} (fvf design writes them) or a --field KEY to find them in"
             )
         kwargs["singularities"] = (pos, idx)
-    return kwargs, ([args.data] if args.data else [])
+    return kwargs, args.data
 
 
 def _numbers_of(data, spec, shapes):
@@ -398,7 +403,7 @@ def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
 
 def _add_display_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="?", help=".npz data file (or PLY with properties)")
+    p.add_argument("data", nargs="*", help=".npz data file(s) (or PLY with properties)")
     p.add_argument("--function", metavar="KEY", help="vertex/face function to color by (KEY[i])")
     p.add_argument("--field", metavar="KEY", help="per-face (or per-vertex) field to draw")
     p.add_argument(
@@ -450,7 +455,7 @@ def parser() -> argparse.ArgumentParser:
         "fvf flow mesh.obj field.npz --t 0 0.5 1 --method upwind -o flowed.npz --png f.png",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", help=".npz with keys f (n,)|(k,n) and v (m,3) (or PLY properties)")
+    p.add_argument("data", nargs="+", help=".npz with keys f (n,)|(k,n), v (m,3) " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times, e.g. --t 0 0.5 1 (or key t)")
     p.add_argument("--method", choices=METHODS, default="chapter", help="default: chapter")
     p.add_argument("--function", default="f", metavar="KEY", help="function key (default f)")
@@ -469,7 +474,7 @@ def parser() -> argparse.ArgumentParser:
         "fvf bracket mesh.obj fields.npz -o bracket.npz   (fields.npz: v, u; optional f)",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", help=".npz with keys v, u (m,3); with f the brackets apply to it")
+    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, f] " + _MERGE)
     p.add_argument("--first", default="v", metavar="KEY", help="first field key (default v)")
     p.add_argument("--second", default="u", metavar="KEY", help="second field key (default u)")
     p.add_argument("--function", metavar="KEY", help="functions to apply both brackets to")
@@ -483,7 +488,7 @@ def parser() -> argparse.ArgumentParser:
         "fvf transport mesh.obj fields.npz --t 0 0.25 0.5 -o moved.npz   (keys v, u [, u1])",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", help=".npz with keys v, u (m,3), optional u1 (m,3): interpolate")
+    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, u1] " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times (interpolation: in [0, 1])")
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
     p.add_argument("--transported", default="u", metavar="KEY", help="moved field (default u)")

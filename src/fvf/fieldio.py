@@ -49,6 +49,9 @@ property a per-face function (m,), and each triple of face properties ``<p>x, <p
 a per-face field ``<p>`` (m, 3) — so ``vx vy vz`` is the field ``v``; the PLY's own
 vertices and faces become ``vertices`` and ``faces``, so they must match the mesh used.
 
+Several data files can be combined with :meth:`DataFile.merged` (a later file's key
+replaces an earlier one's), as the commands do when given several files.
+
 Every problem raises a typed :class:`~fvf.errors.FvfError` naming the file and the key:
 :class:`DataFileError` (unreadable file), :class:`DataKeyError` (a missing key, listing
 the keys present), :class:`~fvf.errors.FieldShapeError` (wrong dtype or shape, with the
@@ -62,7 +65,7 @@ import os
 import re
 import warnings
 import zipfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -112,11 +115,40 @@ class DataFile(Mapping):
     arrays : mapping of str to array_like
     path : str or os.PathLike
         Where the arrays came from (used in messages).
+    sources : mapping of str to path, optional
+        The file of each key, when they come from several files (:meth:`merged`).
     """
 
-    def __init__(self, arrays: Mapping[str, npt.ArrayLike], path: str | os.PathLike):
+    def __init__(
+        self,
+        arrays: Mapping[str, npt.ArrayLike],
+        path: str | os.PathLike,
+        sources: Mapping[str, str | os.PathLike] | None = None,
+    ):
         self.path = Path(path)
         self._arrays = {k: np.asarray(a) for k, a in arrays.items()}
+        self._sources = {k: Path(v) for k, v in (sources or {}).items()}
+
+    @classmethod
+    def merged(cls, files: Sequence[DataFile]) -> DataFile:
+        """The keys of several data files in one, a later file's key replacing an earlier's.
+
+        Lets a command take, say, a designed field from one file and functions from another.
+        Each file's mesh copy has been checked on reading; messages name each key's file.
+        """
+        arrays: dict[str, np.ndarray] = {}
+        sources: dict[str, Path] = {}
+        for data in files:
+            for key in data:
+                arrays[key], sources[key] = data[key], data.source(key)
+        return cls(arrays, " + ".join(str(d.path) for d in files), sources)
+
+    def source(self, key: str) -> Path:
+        """The file that ``key`` came from."""
+        return self._sources.get(key, self.path)
+
+    def _at(self, key: str) -> str:
+        return f"{self.source(key)}: key {key!r}"
 
     def __getitem__(self, key: str) -> np.ndarray:
         if key not in self._arrays:
@@ -145,7 +177,7 @@ class DataFile(Mapping):
             np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
         ):
             raise FieldShapeError(
-                f"{self.path}: key {key!r} must hold real numbers ({what}); got dtype {a.dtype} "
+                f"{self._at(key)} must hold real numbers ({what}); got dtype {a.dtype} "
                 f"with shape {a.shape}"
             )
         return a.astype(np.float64)
@@ -175,7 +207,8 @@ class DataFile(Mapping):
             raise DataKeyError(
                 f"{self.path}: cannot read {spec!r} as KEY or KEY[i] or KEY[i,j] (e.g. f_t[2])"
             )
-        a = self[match["key"].strip()]
+        key = match["key"].strip()
+        a = self[key]
         if match["index"] is None:
             return a
         index = tuple(int(i) for i in match["index"].split(","))
@@ -183,7 +216,7 @@ class DataFile(Mapping):
             not -s <= i < s for i, s in zip(index, a.shape, strict=False)
         ):
             raise FieldShapeError(
-                f"{self.path}: index {list(index)} is outside key {match['key']!r} of shape "
+                f"{self.source(key)}: index {list(index)} is outside key {key!r} of shape "
                 f"{a.shape}; indices select along its leading axes"
             )
         return a[index]
@@ -205,13 +238,13 @@ class DataFile(Mapping):
             F = self.integers("faces", (None, 3))
             if F.shape != mesh.faces.shape:
                 raise MeshMismatchError(
-                    f"{self.path}: key 'faces' has shape {F.shape} but the mesh has "
+                    f"{self._at('faces')} has shape {F.shape} but the mesh has "
                     f"{mesh.faces.shape}: the data belong to another mesh; pass that mesh"
                 )
             bad = np.flatnonzero((F != mesh.faces).any(axis=1))
             if bad.size:
                 raise MeshMismatchError(
-                    f"{self.path}: key 'faces' differs from the mesh's faces at rows "
+                    f"{self._at('faces')} differs from the mesh's faces at rows "
                     f"{format_indices(bad)}: the data belong to another mesh (or a reordered "
                     "one); pass that mesh"
                 )
@@ -219,14 +252,14 @@ class DataFile(Mapping):
             X = self._numeric("vertices", self["vertices"], "vertex positions")
             if X.shape != mesh.vertices.shape:
                 raise MeshMismatchError(
-                    f"{self.path}: key 'vertices' has shape {X.shape} but the mesh has "
+                    f"{self._at('vertices')} has shape {X.shape} but the mesh has "
                     f"{mesh.vertices.shape}: the data belong to another mesh; pass that mesh"
                 )
             size = float(np.ptp(mesh.vertices, axis=0).max()) or 1.0
             bad = np.flatnonzero(~(np.abs(X - mesh.vertices) <= MESH_MATCH_RTOL * size).all(axis=1))
             if bad.size:
                 raise MeshMismatchError(
-                    f"{self.path}: key 'vertices' differs from the mesh's vertices at rows "
+                    f"{self._at('vertices')} differs from the mesh's vertices at rows "
                     f"{format_indices(bad)}: the data belong to another mesh; pass that mesh"
                 )
 
@@ -247,10 +280,10 @@ class DataFile(Mapping):
             elif a.shape[-1:] == (mesh.n_faces,):
                 hint = "; it has one value per face: fvf needs one per vertex"
             raise FieldShapeError(
-                f"{self.path}: key {key!r} has shape {a.shape}, expected ({n},) or (k, {n}): "
+                f"{self._at(key)} has shape {a.shape}, expected ({n},) or (k, {n}): "
                 f"vertex functions, one value per mesh vertex{hint}"
             )
-        as_vertex_function(mesh, a.T, f"{self.path}: key {key!r}", columns=True)
+        as_vertex_function(mesh, a.T, f"{self._at(key)}", columns=True)
         return a
 
     def field(self, key: str, mesh: TriMesh) -> np.ndarray:
@@ -273,10 +306,10 @@ class DataFile(Mapping):
             if a.shape == (mesh.n_vertices, 3):
                 hint = "; it has one vector per vertex: convert with fvf.vertex_to_face_values"
             raise FieldShapeError(
-                f"{self.path}: key {key!r} has shape {a.shape}, expected ({m}, 3): one ambient "
+                f"{self._at(key)} has shape {a.shape}, expected ({m}, 3): one ambient "
                 f"xyz vector per mesh face{hint}"
             )
-        return as_face_field(mesh, a, f"{self.path}: key {key!r}")
+        return as_face_field(mesh, a, f"{self._at(key)}")
 
     def times(self, key: str = "t") -> np.ndarray:
         """Times under ``key``: float64 (T,) (a scalar becomes (1,)).
@@ -289,8 +322,7 @@ class DataFile(Mapping):
         a = self._numeric(key, self[key], "times")
         if a.ndim > 1 or a.size == 0 or not np.isfinite(a).all():
             raise FieldShapeError(
-                f"{self.path}: key {key!r} must hold finite times, shape () or (T,); got "
-                f"shape {a.shape}"
+                f"{self._at(key)} must hold finite times, shape () or (T,); got shape {a.shape}"
             )
         return np.atleast_1d(a)
 
@@ -299,7 +331,7 @@ class DataFile(Mapping):
         a = self[key]
         if not np.issubdtype(a.dtype, np.integer) or not _fits(a.shape, shape):
             raise FieldShapeError(
-                f"{self.path}: key {key!r} has dtype {a.dtype} and shape {a.shape}, expected "
+                f"{self._at(key)} has dtype {a.dtype} and shape {a.shape}, expected "
                 f"integers of shape {_shape_text(shape)}"
             )
         return a.astype(np.int64)
@@ -309,7 +341,7 @@ class DataFile(Mapping):
         a = self._numeric(key, self[key], f"shape {_shape_text(shape)}")
         if not _fits(a.shape, shape):
             raise FieldShapeError(
-                f"{self.path}: key {key!r} has shape {a.shape}, expected {_shape_text(shape)}"
+                f"{self._at(key)} has shape {a.shape}, expected {_shape_text(shape)}"
             )
         return a
 
