@@ -341,3 +341,29 @@ def test_translation_of_unquantised_coordinates():
         e = rel_err(a, b)
         assert e <= 20 * input_error, f"{name}: {e:.3g} vs input rounding {input_error:.3g}"
     assert input_error > TOL  # why this test cannot ask for 1e-10
+
+
+def _match_signs(A, B):
+    """Flip each field of A (k, m, 3) to agree in sign with B."""
+    s = np.sign(np.einsum("ktc,ktc->k", A, B))
+    return A * s[:, None, None]
+
+
+def test_rescale(pair):
+    """½‖[v, f u]‖² + (α/2)‖∇f‖², ∫f² = 1: with v, u pushed forward the bracket term
+    scales by s⁴ and ‖∇f‖² not at all, so α s⁴ gives the same minimiser, f / s."""
+    M, N, T, s = pair.M, pair.N, pair.T, pair.T.s
+    u2 = N.project_tangent(T.push(pair.u))
+    a = fvf.rescale(N, pair.v2, u2, 0.1 * s**4)
+    b = fvf.rescale(M, pair.v, pair.u, 0.1)
+    check("rescale", a, b / s, 1e-8)  # eigensolver residual tolerance 1e-8
+
+
+def test_acap_fields(pair):
+    """‖ad_v w‖² scales by s² for v pushed forward (w of fixed size), the connection energy
+    not at all: λ s² gives the same fields, rotated and divided by s (unit L2 norm)."""
+    M, N, T, s = pair.M, pair.N, pair.T, pair.T.s
+    a = fvf.acap_fields(N, pair.v2, 0.5 * s**2, 2)
+    b = fvf.acap_fields(M, pair.v, 0.5, 2)
+    want = T.vec(b) / s
+    check("acap", _match_signs(a, want), want, 1e-8)
