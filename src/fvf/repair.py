@@ -394,7 +394,7 @@ def remove_duplicate_vertices(
     faces : array_like of int (m, 3)
     tol : float
         Merge distance relative to the bounding-box diagonal. ``0`` merges exactly equal
-        coordinates only (``-0.0 == 0.0``). With ``tol > 0`` vertices closer than
+        coordinates only (``-0.0 == 0.0``). With ``tol > 0`` vertices within
         ``tol * diagonal`` are merged, transitively: a chain of close vertices becomes one
         vertex even if its ends are farther apart.
 
