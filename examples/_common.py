@@ -79,15 +79,17 @@ def picture(args: argparse.Namespace, name: str, draw: Callable) -> Path | None:
 def strip(viz, mesh: fvf.TriMesh, path: Path, panels: list[dict], size=(400, 320)) -> Path:
     """Render one picture per dict of :func:`fvf.viz.render` keywords; paste them in a row.
 
-    Every panel is rendered to ``path`` with a ``_<i>`` suffix first; the row is written to
-    ``path`` and the single panels are removed.
+    A panel's ``"mesh"`` key, if any, replaces ``mesh`` for that panel. Every panel is
+    rendered to ``path`` with a ``_<i>`` suffix first; the row is written to ``path`` and
+    the single panels are removed.
     """
     from PIL import Image  # part of the [viz] extra
 
     parts = []
     for i, keywords in enumerate(panels):
         part = path.with_name(f"{path.stem}_{i}{path.suffix}")
-        viz.render(mesh, part, size=size, **keywords)
+        keywords = dict(keywords)
+        viz.render(keywords.pop("mesh", mesh), part, size=size, **keywords)
         parts.append(part)
     images = [Image.open(p).convert("RGB") for p in parts]
     row = Image.new(

@@ -50,12 +50,14 @@ def main() -> None:
     )
 
     def draw(viz, path):
-        texture = viz.lic_texture(mesh, v)  # LIC of v: noise averaged along its flow
         clim = (float(frames.min()), float(frames.max()))
         panels = [
-            dict(function=f, texture=texture, clim=clim, title=f"t = {t:.3g}")
+            dict(function=f, field=v, max_arrows=400, clim=clim, title=f"f(t), t = {t:.3g}")
             for f, t in zip(frames[::2], times[::2], strict=True)
         ]
+        fine, v_fine, _ = viz.subdivide(mesh, v, levels=2)  # a finer canvas for the streaks
+        texture = viz.lic_texture(fine, v_fine)  # noise averaged along the flow of v
+        panels.append(dict(mesh=fine, texture=texture, title="LIC of v"))
         strip(viz, mesh, path, panels)
 
     picture(args, "fig03_flow.png", draw)
