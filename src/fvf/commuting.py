@@ -121,11 +121,13 @@ def acap_fields(
         Tangent, unit L2 norm (eq. 26), ordered by increasing energy.
     Notes
     -----
-    Cost (one thread, refined spot mesh, ``benchmarks/bench_apps.py``): E_B has about 52
-    entries per face and assembles in 0.1 s / 3 s / 17 s at 5.9k / 94k / 1.5M faces; the
-    eigensolve (:func:`fvf.smallest_eigenpairs`, a sparse factorization of E_B − σ[A_F])
-    takes 0.8 s at 5.9k and 6 s at 23k faces, did not finish in 300 s at 94k faces, and
-    runs out of memory at 1.5M.
+    Cost (one thread, refined spot mesh, k = 4, ``benchmarks/bench_apps.py`` on a shared
+    2-core machine): E_B has about 52 entries per face and assembles in 0.1 s / 2.6 s /
+    16 s at 5.9k / 94k / 375k faces. The eigensolve (:func:`fvf.smallest_eigenpairs`, a
+    sparse factorization of E_B − σ[A_F] under a nested-dissection ordering,
+    :mod:`fvf.ordering`) takes 0.8 s at 5.9k, 39 s at 94k (peak memory 2.3 GB) and 500 s
+    at 375k faces (10 GB); the factor grows about 4.5x per 4x faces, so 1.5M faces would
+    need about 40 GB (with minimum-degree ordering it did not finish at 94k faces).
     """
     v = as_face_field(mesh, v, "v", tangent)
     E = acap_energy_matrix(mesh, v, lam, kind)
