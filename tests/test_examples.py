@@ -120,6 +120,16 @@ def test_example_runs_and_measures(script, small_mesh, tmp_path, capsys, monkeyp
         assert not pictures and "skipped" in out, out
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("script", SCRIPTS)
+def test_example_on_its_default_mesh(script, capsys, monkeypatch):
+    """The scripts as a user runs them first: no mesh argument (Spot, or the icosphere of
+    Fig. 12), numbers only."""
+    out, numbers = _run(script, "--no-pictures", capsys=capsys, monkeypatch=monkeypatch)
+    assert "(2930 vertices, 5856 faces)" in out or "icosphere(4)" in out
+    assert CLAIMS[script](numbers), out
+
+
 def test_no_pictures_flag(small_mesh, tmp_path, capsys, monkeypatch):
     args = str(small_mesh), "--no-pictures", "--out", str(tmp_path)
     out, numbers = _run("fig10_rescaling.py", *args, capsys=capsys, monkeypatch=monkeypatch)
