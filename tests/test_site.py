@@ -160,3 +160,12 @@ def test_gallery_page_shows_every_committed_picture():
     assert sorted(re.findall(r"\]\(gallery/([^)]+)\)", text)) == pictures
     for figure in ("Fig. 3", "Fig. 7", "Fig. 9", "Fig. 10", "Fig. 11", "Fig. 12"):
         assert figure in text, figure
+
+
+def test_rst_markup_in_docstrings_becomes_markdown(site):
+    """``.. math::`` blocks are display math, and no reST directive is printed literally."""
+    out, _ = site
+    connection = (out / "api" / "connection" / "index.html").read_text()
+    assert 'class="arithmatex"' in connection and "w_{st}" in connection
+    for page in (out / "api").glob("*/index.html"):
+        assert ".. math::" not in page.read_text(), page

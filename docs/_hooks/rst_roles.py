@@ -1,11 +1,15 @@
-"""Griffe extension: Sphinx roles in fvf's docstrings become links in the API reference.
+"""Griffe extension: the Sphinx markup of fvf's docstrings, rendered by mkdocstrings.
 
-fvf's numpy-style docstrings cross-reference with Sphinx roles (``:func:`fvf.ad```,
-``:class:`~fvf.errors.FlowGrowthWarning```, ``:data:`DENSE_MAX```), which mkdocstrings
-would print literally. Before rendering, each role is replaced by an *optional*
-mkdocs-autorefs reference to the object's canonical path: a link when that object is
-rendered somewhere on the site, plain code otherwise (numpy, scipy), never a warning.
-Relative names are looked up in the enclosing class, then the module, then ``fvf``.
+fvf's numpy-style docstrings use a little reStructuredText that mkdocstrings (Markdown)
+would print literally. Before rendering:
+
+- roles (``:func:`fvf.ad```, ``:class:`~fvf.errors.FlowGrowthWarning```,
+  ``:data:`DENSE_MAX```) become *optional* mkdocs-autorefs references to the object's
+  canonical path: a link when that object is rendered somewhere on the site, plain code
+  otherwise (numpy, scipy), never a warning. Relative names are looked up in the
+  enclosing class, then the module, then ``fvf``;
+- ``.. math::`` blocks become ``$$ … $$`` display math (pymdownx.arithmatex, MathJax);
+- a paragraph ending in ``::`` (a literal block follows) ends in ``:``.
 """
 
 from __future__ import annotations
@@ -16,7 +20,24 @@ from typing import Any
 
 import griffe
 
+_MATH = re.compile(
+    r"^(?P<indent>[ ]*)\.\. math::[ ]*\n\n(?P<body>(?:(?P=indent)[ ]+\S.*\n|[ ]*\n)+)", re.M
+)
+_LITERAL = re.compile(r"(?<=\S)::[ ]*$", re.M)
 _ROLE = re.compile(r":(?:func|class|mod|data|meth|attr|exc|obj|const):`(~?)([\w.]+)(?:\(\))?`")
+
+
+def _math(match: re.Match) -> str:
+    indent, body = match.group("indent"), match.group("body").rstrip()
+    lines = [line.strip() for line in body.splitlines()]
+    return (
+        f"{indent}$$\n" + "".join(f"{indent}{line}\n" for line in lines if line) + f"{indent}$$\n\n"
+    )
+
+
+def markdown(text: str) -> str:
+    """Math blocks and literal-block markers of a docstring in Markdown (roles aside)."""
+    return _LITERAL.sub(":", _MATH.sub(_math, text if text.endswith("\n") else text + "\n"))
 
 
 def _canonical(collection, path: str) -> str | None:
@@ -65,7 +86,8 @@ class RstRoles(griffe.Extension):
             if obj.is_alias:
                 return
             if obj.docstring is not None:
-                obj.docstring.value = _ROLE.sub(lambda m: link(obj, m), obj.docstring.value)
+                text = _ROLE.sub(lambda m: link(obj, m), obj.docstring.value)
+                obj.docstring.value = markdown(text).rstrip("\n")
             for member in obj.members.values():
                 if not member.is_alias:
                     visit(member)
