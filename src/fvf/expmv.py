@@ -659,7 +659,10 @@ def expm_action(
     elif method == "expm_multiply":
         _run_expm_multiply(Aop, B2, times, out, info, count=return_info)
     else:
-        _run_krylov(Aop, n, B2, times, out, info, tol, w, skew, m_max, max_memory, norm == "max")
+        with np.errstate(over="ignore", invalid="ignore"):  # inf/NaN raise FlowOverflowError
+            _run_krylov(
+                Aop, n, B2, times, out, info, tol, w, skew, m_max, max_memory, norm == "max"
+            )
 
     if is_complex:
         q = p // 2

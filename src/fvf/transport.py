@@ -18,6 +18,7 @@ function by R_z(+t). Use ``t → −t`` to move a field with a function.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,8 +28,10 @@ import scipy.sparse.linalg as sla
 
 from .bracket import ad
 from .calculus import vertex_to_face
+from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
 from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field
+from .flow import GROWTH_LIMIT
 from .mesh import TriMesh
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
@@ -169,6 +172,9 @@ class FieldTransport:
         Exponential action (see :func:`fvf.expmv.expm_action`).
     tol : float
         Its target relative error (default 1e-10).
+    growth_limit : float
+        Warn (:class:`~fvf.errors.FlowGrowthWarning`) when a transported field's L2 norm
+        (eq. 26) exceeds this multiple of the input's (observed, after the computation).
 
     Attributes
     ----------
@@ -197,6 +203,7 @@ class FieldTransport:
         *,
         method: str = "auto",
         tol: float = 1e-10,
+        growth_limit: float = GROWTH_LIMIT,
     ):
         if method not in METHODS:
             raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
@@ -204,6 +211,7 @@ class FieldTransport:
             raise ExpmInputError(f"tol must lie in (0, 1); got {tol!r}")
         self.method = method
         self.tol = float(tol)
+        self.growth_limit = float(growth_limit)
         self.stats: dict = {}
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
@@ -228,6 +236,36 @@ class FieldTransport:
         rel = float(np.sqrt(a @ normal**2)) / total if total > 0 else 0.0
         return U - normal[:, None] * N, rel
 
+    def _check_growth(self, u: np.ndarray, raw: np.ndarray, times: np.ndarray) -> None:
+        """Raise on inf/NaN; warn when ‖Ad u‖/‖u‖ (face-area L2) exceeds growth_limit."""
+        if not np.isfinite(raw).all():
+            raise FlowOverflowError(
+                f"the transport overflowed to inf/NaN by t={times[np.abs(times).argmax()]:g}: "
+                "[I_F^V] ad_v is not normal and its exponential grew without bound; use "
+                "shorter times or a smoother field/mesh"
+            )
+        a = np.repeat(self.mesh.face_areas, 3)
+        n0 = float(np.sqrt(a @ (u.ravel() ** 2)))
+        if n0 == 0:
+            return
+        norms = np.sqrt((raw * raw) @ a)  # (T,)
+        k = int(np.argmax(norms))
+        growth = float(norms[k]) / n0
+        if growth <= self.growth_limit:
+            return
+        size = np.sqrt((raw[k].reshape(-1, 3) ** 2).sum(1))  # (m,) |Ad u| per face
+        faces = np.sort(np.argsort(size, kind="stable")[-8:][::-1])
+        warnings.warn(
+            f"the transport to t={times[k]:g} grew the field's L2 norm {growth:.3g}x (limit "
+            f"{self.growth_limit:g}); the transported field is largest in faces "
+            f"{format_indices(faces)}. Transport along a flow keeps norms up to the flow's "
+            "stretching; growth this large comes from the non-normal discrete generator "
+            "(as for the chapter's function flow, docs/flows.md). Use shorter times or a "
+            "smoother field/mesh; pass growth_limit=np.inf to silence this.",
+            FlowGrowthWarning,
+            stacklevel=3,
+        )
+
     def __call__(self, u: npt.ArrayLike, t: float | npt.ArrayLike) -> TransportResult:
         """Ad_{Φ_{v,t}} u for one time or an array of times (eq. 67).
 
@@ -241,6 +279,17 @@ class FieldTransport:
         Returns
         -------
         TransportResult
+
+        Raises
+        ------
+        FlowOverflowError
+            The transported field overflowed to inf/NaN, or the time is out of reach.
+
+        Warns
+        -----
+        FlowGrowthWarning
+            When the transported field's L2 norm exceeds ``growth_limit`` times the
+            input's, naming the faces where it is largest.
         """
         u = as_face_field(self.mesh, u, "u")
         times = np.asarray(t, dtype=float)
@@ -259,6 +308,7 @@ class FieldTransport:
             return_info=True,
         )
         raw = raw.reshape(times.size, -1)  # (T, 3m)
+        self._check_growth(u, raw, times)
         out, normal = [], []
         for r in raw:
             f, nrm = self._project(r.reshape(-1, 3))
