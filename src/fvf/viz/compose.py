@@ -36,7 +36,10 @@ def compose(
     fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100, facecolor="white")
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.0, 0.0, sw / width, sh / height))
-    ax.imshow(image, interpolation="nearest", aspect="auto")
+    ax.set_xlim(0, sw)
+    ax.set_ylim(0, sh)
+    # pixels copied as they are (no resampling): the scene fills the axes' rectangle
+    fig.figimage(np.ascontiguousarray(image[:sh, :sw]), xo=0, yo=0, origin="upper", zorder=0)
     ax.set_axis_off()
     if title:
         fig.text(
@@ -71,4 +74,4 @@ def compose(
             for k, c in zip(kinds, counts, strict=True)
         ]
         ax.legend(handles=handles, loc="lower left", fontsize=8, frameon=True)
-    fig.savefig(str(path), dpi=100, facecolor="white")
+    fig.savefig(str(path), dpi=100, facecolor="white", pil_kwargs={"compress_level": 3})
