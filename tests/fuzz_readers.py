@@ -1,4 +1,4 @@
-"""Coverage-guided fuzzing of fvf.read_mesh with atheris (not collected by pytest).
+"""Long fuzzing campaigns for the mesh readers (a script, not collected by pytest).
 
 Every input must either load (a valid (V, F) pair) or raise an ``fvf.errors.FvfError``;
 anything else is a *finding*. PLY inputs also go through ``read_ply_properties`` (arrays
@@ -7,40 +7,49 @@ raise) and ``repair_mesh`` (``FvfError`` only), the path a user's file takes. Fi
 recorded (input bytes + traceback) in ``--findings`` and the campaign continues, so one run
 counts them all.
 
-The first input byte picks the reader (``.obj``, ``.off``, ``.ply``); the rest is the file.
+Two engines:
+
+* atheris (coverage-guided libFuzzer; ``pip install atheris`` into the dev venv, it is not
+  a dependency of fvf). The first input byte picks the reader (``.obj``, ``.off``,
+  ``.ply``), the rest is the file; arguments starting with ``-`` go to libFuzzer, the others
+  are corpus directories (seeded when empty)::
+
+      python tests/fuzz_readers.py corpus/ -atheris_runs=500000 -max_len=4096
+
+* hypothesis (no extra install): the byte mutations of ``tests/test_io.py`` applied to the
+  same seeds, with many more examples than the test suite runs::
+
+      python tests/fuzz_readers.py --hypothesis 20000
+
 Seeds are the fuzz bases of ``tests/test_io.py`` plus a few extra shapes of each format.
-
-Usage (atheris is not a dependency of fvf: ``pip install atheris`` into the dev venv)::
-
-    python tests/fuzz_readers.py -atheris_runs=200000 -max_len=4096 -rss_limit_mb=2048
-
-Options that do not start with ``-`` are libFuzzer corpus directories.
 """
 
 from __future__ import annotations
 
 import argparse
 import atexit
-import os
+import shutil
 import sys
 import tempfile
 import traceback
 import warnings
 from pathlib import Path
 
-import atheris
-
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-with atheris.instrument_imports():
+SUFFIXES = [".obj", ".off", ".ply"]
+COUNTS = {"runs": 0, "loaded": 0, "fvf_errors": 0, "repair_errors": 0, "findings": 0}
+API: dict = {}  # the fvf functions under test, imported by load_fvf (instrumented or not)
+
+
+def load_fvf() -> None:
     import fvf.io
     from fvf.diagnostics import mesh_report
     from fvf.errors import FvfError
     from fvf.repair import repair_mesh
 
-SUFFIXES = [".obj", ".off", ".ply"]
-COUNTS = {"runs": 0, "loaded": 0, "fvf_errors": 0, "repair_errors": 0, "findings": 0}
+    API.update(io=fvf.io, mesh_report=mesh_report, FvfError=FvfError, repair_mesh=repair_mesh)
 
 
 def seeds() -> list[bytes]:
@@ -60,88 +69,135 @@ def seeds() -> list[bytes]:
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--findings", default="fuzz_findings", help="directory for findings")
-    args, rest = parser.parse_known_args()
-    findings = Path(args.findings)
-    findings.mkdir(exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix="fvf_fuzz_"))
-    paths = [work / f"input{s}" for s in SUFFIXES]
-    seen: set[str] = set()
+class Checker:
+    """Runs one input through the readers and the repair path; counts and records findings."""
 
-    corpus = [a for a in rest if not a.startswith("-")]
-    if corpus and not any(any(Path(c).iterdir()) for c in corpus if Path(c).is_dir()):
-        for k, s in enumerate(seeds()):
-            (Path(corpus[0]) / f"seed{k}").write_bytes(s)
+    def __init__(self, findings: Path) -> None:
+        self.findings = findings
+        findings.mkdir(exist_ok=True)
+        self.work = Path(tempfile.mkdtemp(prefix="fvf_fuzz_"))
+        self.paths = [self.work / f"input{s}" for s in SUFFIXES]
+        self.seen: set[str] = set()
 
-    def one_input(data: bytes) -> None:
+    def finding(self, exc: BaseException, path: Path, data: bytes) -> None:
+        COUNTS["findings"] += 1
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        key = f"{type(exc).__name__}:{Path(where.filename).name}:{where.lineno}"
+        if key not in self.seen:
+            self.seen.add(key)
+            stem = self.findings / f"finding{len(self.seen)}{path.suffix}"
+            stem.write_bytes(data)
+            stem.with_suffix(".txt").write_text(traceback.format_exc())
+
+    def __call__(self, data: bytes) -> None:
         COUNTS["runs"] += 1
         if not data:
             return
-        path = paths[data[0] % 3]
-        path.write_bytes(data[1:])
-
-        def finding(exc: BaseException) -> None:
-            COUNTS["findings"] += 1
-            where = traceback.extract_tb(exc.__traceback__)[-1]
-            key = f"{type(exc).__name__}:{Path(where.filename).name}:{where.lineno}"
-            if key not in seen:
-                seen.add(key)
-                stem = findings / f"finding{len(seen)}{path.suffix}"
-                stem.write_bytes(data[1:])
-                stem.with_suffix(".txt").write_text(traceback.format_exc())
-
+        path = self.paths[data[0] % 3]
+        body = data[1:]
+        path.write_bytes(body)
+        io, FvfError = API["io"], API["FvfError"]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                V, F = fvf.io.read_mesh(path)
+                V, F = io.read_mesh(path)
                 if path.suffix == ".ply":
-                    vprops, fprops = fvf.io.read_ply_properties(path)
+                    vprops, fprops = io.read_ply_properties(path)
                     if any(len(a) != len(V) for a in vprops.values()) or any(
                         len(a) != len(F) for a in fprops.values()
                     ):
                         raise AssertionError("read_ply_properties: arrays not aligned")
+            ok = (
+                V.dtype.kind == "f"
+                and V.ndim == 2
+                and V.shape[1] == 3
+                and F.dtype.kind == "i"
+                and F.ndim == 2
+                and F.shape[1] == 3
+                and len(F) > 0
+                and F.min() >= 0
+                and F.max() < len(V)
+            )
+            if not ok:
+                raise AssertionError(f"read_mesh contract: {V.shape} {F.shape} {F.dtype}")
         except FvfError:
             COUNTS["fvf_errors"] += 1
             return
         except Exception as exc:  # noqa: BLE001 - a finding, recorded and counted
-            finding(exc)
+            self.finding(exc, path, body)
             return
         COUNTS["loaded"] += 1
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                mesh_report(V, F)
+                API["mesh_report"](V, F)
                 try:
-                    repair_mesh(V, F)
+                    API["repair_mesh"](V, F)
                 except FvfError:
                     COUNTS["repair_errors"] += 1
         except Exception as exc:  # noqa: BLE001
-            finding(exc)
-        ok = (
-            V.dtype.kind == "f"
-            and V.ndim == 2
-            and V.shape[1] == 3
-            and F.dtype.kind == "i"
-            and F.ndim == 2
-            and F.shape[1] == 3
-            and len(F) > 0
-            and F.min() >= 0
-            and F.max() < len(V)
-        )
-        if not ok:
-            COUNTS["findings"] += 1
-            (findings / f"contract{COUNTS['findings']}{path.suffix}").write_bytes(data[1:])
+            self.finding(exc, path, body)
 
-    def summary() -> None:
-        print(f"\nfvf fuzz summary: {COUNTS} distinct findings: {sorted(seen)}", flush=True)
-        for p in paths:
-            p.unlink(missing_ok=True)
-        os.rmdir(work)
+    def close(self) -> None:
+        print(f"\nfvf fuzz summary: {COUNTS}; distinct findings: {sorted(self.seen)}", flush=True)
+        shutil.rmtree(self.work, ignore_errors=True)
 
-    atexit.register(summary)
-    atheris.Setup([sys.argv[0], *rest], one_input)
+
+def run_hypothesis(check: Checker, examples: int) -> None:
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from test_io import MUTATION
+
+    base = seeds()
+
+    @settings(
+        max_examples=examples,
+        deadline=None,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
+    @given(k=st.integers(0, len(base) - 1), mutations=st.lists(MUTATION, min_size=1, max_size=8))
+    def campaign(k, mutations):
+        data = bytearray(base[k][1:])
+        for op, where, byte in mutations:
+            i = where % (len(data) + 1)
+            if op == "insert":
+                data.insert(i, byte)
+            elif data and op == "delete":
+                del data[i % len(data)]
+            elif data:
+                data[i % len(data)] = byte
+        check(base[k][:1] + bytes(data))
+
+    campaign()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--findings", default="fuzz_findings", help="directory for findings")
+    parser.add_argument("--hypothesis", type=int, metavar="N", help="run N hypothesis examples")
+    args, rest = parser.parse_known_args()
+    if args.hypothesis:
+        load_fvf()
+        check = Checker(Path(args.findings))
+        try:
+            run_hypothesis(check, args.hypothesis)
+        finally:
+            check.close()
+        return
+
+    import atheris
+
+    with atheris.instrument_imports():
+        load_fvf()
+    check = Checker(Path(args.findings))
+    corpus = [Path(a) for a in rest if not a.startswith("-")]
+    if corpus and corpus[0].is_dir() and not any(any(c.iterdir()) for c in corpus if c.is_dir()):
+        for k, s in enumerate(seeds()):
+            (corpus[0] / f"seed{k}").write_bytes(s)
+    atexit.register(check.close)
+    atheris.Setup([sys.argv[0], *rest], check)
     atheris.Fuzz()
 
 
