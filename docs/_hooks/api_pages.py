@@ -26,13 +26,22 @@ from mkdocs.structure.files import File
 SRC = Path(__file__).resolve().parents[2] / "src" / "fvf"
 
 GROUPS = {
-    "Mesh and input/output": ["mesh", "io", "shapes", "examples", "repair", "diagnostics"],
+    "Mesh and input/output": [
+        "mesh",
+        "io",
+        "fieldio",
+        "shapes",
+        "examples",
+        "repair",
+        "diagnostics",
+    ],
     "Discrete calculus (§3.1)": ["calculus", "fields"],
     "Functional vector fields (§3.2–3.3)": ["operators", "divergence"],
     "Flows (§3.4–3.5)": ["flow", "flows", "expmv", "fluid"],
     "Lie brackets and ad (§3.6, §4)": ["bracket", "transport", "commuting"],
     "Spectral and design": [
         "eigen",
+        "ordering",
         "spectral",
         "killing",
         "fmaps",
