@@ -189,7 +189,7 @@ def main() -> None:
 
     import atheris
 
-    with atheris.instrument_imports():
+    with atheris.instrument_imports(include=["fvf"]):
         load_fvf()
     check = Checker(Path(args.findings))
     corpus = [Path(a) for a in rest if not a.startswith("-")]
