@@ -40,6 +40,18 @@ def unit_radius(mesh: fvf.TriMesh) -> fvf.TriMesh:
     return fvf.TriMesh(X / np.linalg.norm(X, axis=1).max(), mesh.faces)
 
 
+def scaled_coordinate(X: np.ndarray, k: int) -> np.ndarray:
+    """Coordinate k of the vertices X (n, 3) divided by its extent, (n,).
+
+    On a flat mesh whose coordinate k is constant, the coordinate of largest extent is
+    used instead, so that the example's functions still vary.
+    """
+    extent = np.ptp(X, axis=0)
+    if extent[k] <= 1e-9 * extent.max():
+        k = int(extent.argmax())
+    return X[:, k] / extent[k]
+
+
 def l2(mesh: fvf.TriMesh, field: np.ndarray) -> float:
     """L2 norm (eq. 26) of a per-face field (m, 3) or a per-vertex field (n, 3)."""
     weights = mesh.face_areas if len(field) == mesh.n_faces else mesh.vertex_areas

@@ -11,7 +11,7 @@ stays within the initial range on every mesh (docs/flows.md).
 from __future__ import annotations
 
 import numpy as np
-from _common import load_mesh, parse_args, picture, report, strip
+from _common import load_mesh, parse_args, picture, report, scaled_coordinate, strip
 
 import fvf
 
@@ -22,7 +22,7 @@ def main() -> None:
     X = mesh.vertices
     h = X[:, 1] + 0.5 * np.sin(3 * X[:, 0] / np.ptp(X[:, 0]))
     v = fvf.rotate(mesh, fvf.gradient(mesh, h))  # J grad h, (m, 3)
-    f0 = np.sin(4 * X[:, 2] / np.ptp(X[:, 2]))  # (n,)
+    f0 = np.sin(4 * scaled_coordinate(X, 2))  # (n,)
     # times: up to the time a point moving at the largest speed crosses the mesh
     times = np.linspace(0.0, 1.0, 5) * np.ptp(X[:, 0]) / np.abs(v).max()
 

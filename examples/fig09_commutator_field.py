@@ -43,7 +43,10 @@ def main() -> None:
     size = np.linalg.norm(u, axis=1)
     print("commutator field u = D^F_[v,w] X on this mesh")
     report("mean |u|, max |u|", [round(float(size.mean()), 4), round(float(size.max()), 4)])
-    report("relative normal part ||u.N|| / ||u||", l2(mesh, normal_part) / l2(mesh, u))
+    if l2(mesh, u) > 0:
+        report("relative normal part ||u.N|| / ||u||", l2(mesh, normal_part) / l2(mesh, u))
+    else:
+        print("  u = 0: the two fields commute on this mesh")
 
     regular, irregular = fvf.icosphere(4), fvf.jittered_sphere(4, 0.35, seed=9)
     fits = [
