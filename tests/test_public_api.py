@@ -1221,3 +1221,194 @@ def test_huge_fields_with_scaled_time(method):
         a = fvf.flow(mesh, c.v, c.f, c.t, method=method)
         b = fvf.flow(mesh, 1e150 * c.v, c.f, c.t / 1e150, method=method)
     assert close(b, a, 1e-12)
+
+
+# ---------------------------------------------------------------------------- bad arguments
+def _bad_argument_cases():
+    """(label, call, documented error) for invalid non-field arguments."""
+    m = mesh_of("disk")
+    c = ctx_of(m)
+    n = m.n_vertices
+    nan3 = np.array([[np.nan, 0.0, 0.0]])
+    return [
+        ("closest_faces NaN point", lambda: fvf.closest_faces(m, nan3), errors.FvfError),
+        ("design NaN direction", lambda: fvf.design_field(m, [0], nan3), errors.FvfError),
+        (
+            "design face out of range",
+            lambda: fvf.design_field(m, [m.n_faces], [[1.0, 0, 0]]),
+            errors.FvfError,
+        ),
+        (
+            "locate NaN barycentric",
+            lambda: fvf.locate_points(m, [0], [[np.nan, 0.5, 0.5]]),
+            errors.FvfError,
+        ),
+        (
+            "singularity_positions id out of range",
+            lambda: fvf.singularity_positions(m, [n]),
+            errors.FieldShapeError,
+        ),
+        (
+            "singularity_positions kind",
+            lambda: fvf.singularity_positions(m, [0], "edge"),
+            errors.ParameterError,
+        ),
+        (
+            "vertex_indices zero policy",
+            lambda: fvf.vertex_indices(m, c.u, zero="ignore"),
+            errors.ParameterError,
+        ),
+        (
+            "vertex_indices zero_rtol NaN",
+            lambda: fvf.vertex_indices(m, c.u, zero_rtol=np.nan),
+            errors.ParameterError,
+        ),
+        (
+            "eigenpairs k > n",
+            lambda: fvf.smallest_eigenpairs(fvf.stiffness(m), m.vertex_areas, n + 5),
+            errors.FvfError,
+        ),
+        (
+            "eigenpairs NaN mass",
+            lambda: fvf.smallest_eigenpairs(fvf.stiffness(m), np.full(n, np.nan), 3),
+            errors.FvfError,
+        ),
+        ("SpectralBasis k > n", lambda: fvf.SpectralBasis(m, n + 1), errors.FvfError),
+        (
+            "gradient_field_basis count > k-1",
+            lambda: fvf.gradient_field_basis(c.basis, 100),
+            errors.ParameterError,
+        ),
+        ("killing count 0", lambda: fvf.killing_fields(m, 0, basis=c.basis), errors.ParameterError),
+        (
+            "functional_map p2p short",
+            lambda: fvf.functional_map(m, m, np.arange(n - 1), 4),
+            errors.FieldShapeError,
+        ),
+        (
+            "functional_map p2p out of range",
+            lambda: fvf.functional_map(m, m, np.arange(n) + 1, 4),
+            errors.FieldShapeError,
+        ),
+        (
+            "map_quality NaN",
+            lambda: fvf.map_quality(
+                np.full((8, 8), np.nan), c.basis.eigenvalues, c.basis.eigenvalues
+            ),
+            errors.FieldShapeError,
+        ),
+        (
+            "map_quality shape",
+            lambda: fvf.map_quality(np.eye(5), c.basis.eigenvalues, c.basis.eigenvalues),
+            errors.FieldShapeError,
+        ),
+        ("smoothest_fields count 0", lambda: fvf.smoothest_fields(m, 0), errors.FvfError),
+        ("connection kind", lambda: fvf.connection_laplacian(m, "bogus"), errors.FvfError),
+        (
+            "restrict_to_tangent shape",
+            lambda: fvf.restrict_to_tangent(m, np.eye(3)),
+            errors.FieldShapeError,
+        ),
+        (
+            "extract_field wrong columns",
+            lambda: fvf.extract_field(m, np.eye(3)),
+            errors.FieldShapeError,
+        ),
+        (
+            "extract_field nested list",
+            lambda: fvf.extract_field(m, [[1, 2]]),
+            errors.FieldShapeError,
+        ),
+        (
+            "dirichlet_ratio 3-D",
+            lambda: fvf.dirichlet_ratio(m, np.zeros((n, 2, 2))),
+            errors.FieldShapeError,
+        ),
+        (
+            "bracket_smoothness short functions",
+            lambda: fvf.bracket_smoothness(m, c.u, c.w, np.ones((n - 1, 2))),
+            errors.FieldShapeError,
+        ),
+        (
+            "bracket_norm where",
+            lambda: fvf.bracket_norm(m, c.u, c.w, where="edge"),
+            errors.ParameterError,
+        ),
+        ("diag NaN", lambda: fvf.diag([1.0, np.nan]), errors.FieldShapeError),
+        ("face_mass components", lambda: fvf.face_mass(m, 2), errors.ParameterError),
+        ("ideal_fluid dt 0", lambda: fvf.ideal_fluid(m, c.f, 0.0, 2), errors.ParameterError),
+        ("ideal_fluid dt NaN", lambda: fvf.ideal_fluid(m, c.f, np.nan, 2), errors.ParameterError),
+        ("ideal_fluid steps < 0", lambda: fvf.ideal_fluid(m, c.f, 0.01, -1), errors.ParameterError),
+        (
+            "ideal_fluid method",
+            lambda: fvf.ideal_fluid(m, c.f, 0.01, 1, method="rk4"),
+            errors.ParameterError,
+        ),
+        (
+            "ideal_fluid spectral with boundary",
+            lambda: fvf.ideal_fluid(m, c.f, 0.01, 1, method="spectral"),
+            errors.ParameterError,
+        ),
+        (
+            "ideal_fluid step far beyond Courant",
+            lambda: fvf.ideal_fluid(m, 1e150 * c.f, 1.0, 1),
+            errors.FvfError,
+        ),
+        (
+            "fluid_time_step courant NaN",
+            lambda: fvf.fluid_time_step(m, c.f, np.nan),
+            errors.ParameterError,
+        ),
+        ("TriMesh None", lambda: fvf.TriMesh(None, None), errors.MeshShapeError),
+        (
+            "repair ragged",
+            lambda: fvf.repair_mesh([[0, 0, 0], [1, 0]], [[0, 1, 2]]),
+            errors.FvfError,
+        ),
+        (
+            "write_mesh extension",
+            lambda: fvf.write_mesh("/nonexistent/x.xyz", m.vertices, m.faces),
+            errors.FvfError,
+        ),
+    ]
+
+
+@pytest.mark.parametrize(
+    "case", range(len(_bad_argument_cases())), ids=[c[0] for c in _bad_argument_cases()]
+)
+def test_bad_arguments(case):
+    """Invalid scalar, option, index and array arguments raise the documented FvfError."""
+    _, call, error = _bad_argument_cases()[case]
+    with pytest.raises(error):
+        call()
+
+
+_LEAD_BUGS = [
+    ("flow t NaN", lambda m, c: fvf.flow(m, c.v, c.f, np.nan)),
+    ("flow method", lambda m, c: fvf.flow(m, c.v, c.f, 0.1, method="bogus")),
+    ("FunctionalFlow t inf", lambda m, c: fvf.FunctionalFlow(m, c.v)(c.f, np.inf)),
+    ("Ad t NaN", lambda m, c: fvf.Ad(m, c.v, c.u, np.nan)),
+    ("interpolate t outside [0, 1]", lambda m, c: fvf.interpolate(m, c.v, c.u, c.w, 2.0)),
+    (
+        "eigen_residuals evecs short",
+        lambda m, c: fvf.eigen_residuals(
+            fvf.stiffness(m), m.vertex_areas, c.basis.eigenvalues, c.basis.eigenvectors[:-1]
+        ),
+    ),
+    ("rescale alpha < 0", lambda m, c: fvf.rescale(m, c.v, c.u, -1.0)),
+    ("acap_energy_matrix lam NaN", lambda m, c: fvf.acap_energy_matrix(m, c.v, np.nan)),
+]
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="flows.py/flow.py/transport.py raise plain ValueError for bad times or methods, "
+    "eigen.py a numpy matmul ValueError for mismatched eigenvectors, commuting.py accepts "
+    "alpha < 0 and returns a NaN matrix for lam = NaN (modules of the lead); they should "
+    "raise fvf.ParameterError / FieldShapeError",
+)
+@pytest.mark.parametrize("case", range(len(_LEAD_BUGS)), ids=[c[0] for c in _LEAD_BUGS])
+def test_bad_arguments_in_flow_and_spectral_modules(case):
+    m = mesh_of("disk")
+    with pytest.raises(errors.FvfError):
+        _LEAD_BUGS[case][1](m, ctx_of(m))

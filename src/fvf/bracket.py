@@ -22,6 +22,7 @@ from .calculus import (
     vertex_to_face,
 )
 from .divergence import dtilde_entries
+from .errors import ParameterError
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V, directional_derivatives
@@ -147,7 +148,7 @@ def bracket_norm(
         return np.linalg.norm(u, axis=1)
     if where == "face":
         return np.linalg.norm(vertex_to_face(mesh) @ u, axis=1)
-    raise ValueError(f"where must be 'vertex' or 'face'; got {where!r}")
+    raise ParameterError(f"where must be 'vertex' or 'face'; got {where!r}")
 
 
 def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
@@ -192,6 +193,7 @@ def bracket_smoothness(
         :func:`dirichlet_ratio` of D^V_{[v,w]} φ and of D^F_{[v,w]} φ for each column.
         The chapter's claim is that the mixed bracket's output is the smoother one.
     """
+    functions = as_vertex_function(mesh, functions, "functions", columns=True)
     gV = bracket_V(mesh, v, w) @ functions
     gF = bracket_F(mesh, v, w) @ functions
     return dirichlet_ratio(mesh, gV), dirichlet_ratio(mesh, gF)

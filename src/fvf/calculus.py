@@ -13,7 +13,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from .fields import as_face_field, as_face_function, as_vertex_function
+from .errors import FieldShapeError, ParameterError
+from .fields import _check_finite, _real_array, as_face_field, as_face_function, as_vertex_function
 from .mesh import TriMesh, _cross, _readonly
 
 __all__ = [
@@ -138,7 +139,7 @@ def face_mass(mesh: TriMesh, components: int = 3) -> sp.csr_array:
     flattened field, the inner product ⟨u, v⟩ = uᵀ[A_F]v of eq. (26).
     """
     if components not in (1, 3):
-        raise ValueError(f"components must be 1 or 3; got {components}")
+        raise ParameterError(f"components must be 1 or 3; got {components}")
     return mesh.cached(
         f"face_mass{components}",
         lambda: _freeze(sp.diags_array(np.repeat(mesh.face_areas, components))),
@@ -177,8 +178,17 @@ def diag(values: npt.ArrayLike, repeat: int = 1) -> sp.csr_array:
 
     ``diag(f_faces, 3)`` is the 3m x 3m matrix that scales each face's three components
     by its value (§3.1).
+
+    Raises
+    ------
+    FieldShapeError
+        ``values`` not a 1-D real array, or non-finite.
     """
-    return sp.csr_array(sp.diags_array(np.repeat(np.asarray(values, dtype=float), repeat)))
+    a = _real_array(values, "values")
+    if a.ndim != 1:
+        raise FieldShapeError(f"values must be 1-D; got shape {a.shape}")
+    _check_finite(a, "values", "entries")
+    return sp.csr_array(sp.diags_array(np.repeat(a, repeat)))
 
 
 def field_product(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:

@@ -23,6 +23,7 @@ __all__ = [
     "FieldShapeError",
     "MeshReadError",
     "FlowOverflowError",
+    "ParameterError",
     "FvfWarning",
     "NonTangentFieldWarning",
     "FlowGrowthWarning",
@@ -78,6 +79,12 @@ class FlowOverflowError(FvfError, FloatingPointError):
     """A flow or exponential action cannot be computed in floating point: its values
     overflow, or the time is so long (|t| times the operator's norm) that the steps it
     needs underflow. Also a :class:`FloatingPointError`."""
+
+
+class ParameterError(FvfError):
+    """A scalar or option argument is invalid: a non-finite or out-of-range time, step,
+    weight, tolerance or count, or an unknown option name (the message lists the valid
+    ones)."""
 
 
 class FvfWarning(UserWarning):

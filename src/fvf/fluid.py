@@ -45,7 +45,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .calculus import gradient, rotate, stiffness
-from .errors import FieldShapeError, FvfError
+from .errors import FieldShapeError, FvfError, ParameterError
 from .fields import as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
@@ -228,7 +228,11 @@ def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) 
     FieldShapeError
         Wrong shape or non-finite ω_0, or an ω_0 that induces no velocity (zero, or
         constant on closed components): the fluid is at rest and every step is exact.
+    ParameterError
+        A non-positive or non-finite Courant number.
     """
+    if not (np.isfinite(courant) and courant > 0):
+        raise ParameterError(f"courant must be a positive number; got {courant!r}")
     psi = StreamFunctionSolver(mesh)(omega0)
     speed = float(np.linalg.norm(stream_velocity(mesh, psi), axis=1).max())
     if not speed > 0:
@@ -300,11 +304,11 @@ def ideal_fluid(
     True
     """
     if method not in ("midpoint", "spectral"):
-        raise ValueError(f"unknown fluid method {method!r}; choose 'midpoint' or 'spectral'")
+        raise ParameterError(f"unknown fluid method {method!r}; choose 'midpoint' or 'spectral'")
     omega = as_vertex_function(mesh, omega0, "omega0")
     dt, steps, save_every = float(dt), int(steps), max(1, int(save_every))
     if not (np.isfinite(dt) and dt != 0.0) or steps < 0:
-        raise ValueError(f"need a finite nonzero dt and steps >= 0; got dt={dt}, steps={steps}")
+        raise ParameterError(f"need a finite nonzero dt and steps >= 0; got dt={dt}, steps={steps}")
     if method == "spectral":
         return _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every)
 
@@ -377,14 +381,14 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
     from .spectral import SpectralBasis
 
     if not mesh.is_closed:
-        raise ValueError(
+        raise ParameterError(
             "method='spectral' needs a closed mesh (the Neumann eigenfunctions give "
             "velocities through the boundary); use method='midpoint'."
         )
     if basis is None:
         basis = SpectralBasis(mesh, int(k))
     elif basis.mesh is not mesh:
-        raise ValueError("basis was built on another mesh")
+        raise ParameterError("basis was built on another mesh")
     lam, Phi = basis.eigenvalues, basis.eigenvectors
     moving = np.flatnonzero(lam > 1e-10 * max(lam[-1], 1e-300))  # not the constants
     fields = np.stack([stream_velocity(mesh, Phi[:, i]) for i in moving])

@@ -69,10 +69,22 @@ def map_quality(C_12: np.ndarray, eigenvalues_1: np.ndarray, eigenvalues_2: np.n
         ``laplacian_commutativity``: ‖C Λ_1 − Λ_2 C‖_F / (‖C‖_F λ_max) (isometry);
         ``off_diagonality``: energy of C outside a band |i − j| ≤ 2, relative to ‖C‖_F²;
         ``diagonal``: the diagonal of C (±1 for a self-symmetry's eigenfunctions).
+
+    Raises
+    ------
+    FieldShapeError
+        C_12 not of shape (k_2, k_1) for k_1, k_2 eigenvalues, or non-finite values.
     """
     C = np.asarray(C_12, dtype=float)
+    l1, l2 = np.asarray(eigenvalues_1, dtype=float), np.asarray(eigenvalues_2, dtype=float)
+    if C.ndim != 2 or l1.ndim != 1 or l2.ndim != 1 or C.shape != (l2.size, l1.size):
+        raise FieldShapeError(
+            f"C_12 must have shape (len(eigenvalues_2), len(eigenvalues_1)) = "
+            f"({l2.size}, {l1.size}); got {C.shape}"
+        )
+    if not (np.isfinite(C).all() and np.isfinite(l1).all() and np.isfinite(l2).all()):
+        raise FieldShapeError("C_12 and the eigenvalues must be finite")
     k2, k1 = C.shape
-    l1, l2 = np.asarray(eigenvalues_1)[:k1], np.asarray(eigenvalues_2)[:k2]
     k = min(k1, k2)
     I = np.eye(k1)
     band = np.abs(np.subtract.outer(np.arange(k2), np.arange(k1))) <= 2

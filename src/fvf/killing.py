@@ -15,7 +15,7 @@ import scipy.linalg as sla
 
 from .calculus import rotate
 from .connection import smoothest_fields
-from .errors import FieldShapeError
+from .errors import FieldShapeError, ParameterError
 from .fields import as_face_field
 from .mesh import TriMesh
 from .spectral import SpectralBasis, gradient_field_basis
@@ -136,7 +136,7 @@ def killing_fields(
     basis = SpectralBasis(mesh, k) if basis is None else basis
     psi = smooth_field_space(basis) if fields is None else orthonormal_fields(mesh, fields)
     if not 1 <= count <= len(psi):
-        raise ValueError(f"count must be in [1, {len(psi)}] (the field space's dimension)")
+        raise ParameterError(f"count must be in [1, {len(psi)}] (the field space's dimension)")
     lam = basis.eigenvalues
     K = basis.reduced_D_many(psi) * (lam[None, None, :] - lam[None, :, None])  # (r, k, k)
     K = K.reshape(len(psi), -1)

@@ -143,6 +143,8 @@ def extract_field(mesh: TriMesh, D) -> np.ndarray:
     result accurate on meshes far from the origin: with X ~ 1e6 and D ~ 1/h, ``D @ X``
     cancels ~|X|/h before rounding, losing ``1e6 · eps`` relative to the result.
     """
+    if not sp.issparse(D):
+        D = np.asarray(D)
     if D.ndim != 2 or D.shape[1] != mesh.n_vertices:
         raise FieldShapeError(
             f"D must have {mesh.n_vertices} columns (one per vertex) to act on the "

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .errors import FieldShapeError, FvfWarning, format_indices
+from .errors import FieldShapeError, FvfWarning, ParameterError, format_indices
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import _cross
 
@@ -68,11 +68,13 @@ def _wrap(d: np.ndarray) -> np.ndarray:
 
 def _check_zero_policy(zero: str) -> None:
     if zero not in ("raise", "warn"):
-        raise ValueError(f"zero must be 'raise' or 'warn'; got {zero!r}")
+        raise ParameterError(f"zero must be 'raise' or 'warn'; got {zero!r}")
 
 
 def _zero_mask(length: np.ndarray, scale: float, rtol: float) -> np.ndarray:
     """True where a vector of the given length counts as zero (everything if scale is 0)."""
+    if not (np.isfinite(rtol) and rtol >= 0):
+        raise ParameterError(f"zero_rtol must be a non-negative number; got {rtol!r}")
     if not scale > 0.0:
         return np.ones(length.shape, dtype=bool)
     return length <= rtol * scale
@@ -430,7 +432,7 @@ def singularity_positions(
 
     Raises
     ------
-    ValueError
+    ParameterError
         Unknown ``kind``.
     FieldShapeError
         ``ids`` not a 1-D integer array, or out of range.
@@ -440,7 +442,7 @@ def singularity_positions(
     elif kind == "face":
         P, what = mesh.face_centroids, "face"
     else:
-        raise ValueError(f"kind must be 'vertex' or 'face'; got {kind!r}")
+        raise ParameterError(f"kind must be 'vertex' or 'face'; got {kind!r}")
     ids = np.asarray(ids)
     if ids.size == 0:
         return np.empty((0, 3))

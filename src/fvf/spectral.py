@@ -19,7 +19,7 @@ import scipy.linalg as sla
 
 from .calculus import grad, rotate, stiffness, vertex_to_face
 from .eigen import smallest_eigenpairs
-from .errors import FieldShapeError
+from .errors import FieldShapeError, ParameterError
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .flow import FunctionalFlow
 from .mesh import TriMesh
@@ -269,7 +269,7 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     ----------
     basis : SpectralBasis
     count : int, optional
-        How many eigenfunctions (default all but the first, constant one).
+        How many eigenfunctions (default all but the first, constant one), 1 <= count < k.
 
     Returns
     -------
@@ -279,6 +279,11 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     """
     mesh = basis.mesh
     count = basis.k - 1 if count is None else int(count)
+    if not 1 <= count <= basis.k - 1:
+        raise ParameterError(
+            f"count must be in [1, {basis.k - 1}] (the basis has {basis.k - 1} non-constant "
+            f"eigenfunctions); got {count}"
+        )
     G = (grad(mesh) @ basis.eigenvectors[:, 1 : count + 1]).reshape(mesh.n_faces, 3, -1)
     G = np.moveaxis(G, 2, 0)  # (count, m, 3)
     JG = np.stack([rotate(mesh, g) for g in G])
