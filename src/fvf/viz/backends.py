@@ -35,6 +35,7 @@ _PROBE = (
     "import polyscope as ps\n"
     "ps.set_allow_headless_backends(True)\n"
     "ps.set_verbosity(0)\n"
+    "ps.set_use_prefs_file(False)\n"
     "ps.init('openGL3_egl')\n"
     "ps.set_window_size(64, 48)\n"
     "b = ps.screenshot_to_buffer(transparent_bg=False)\n"

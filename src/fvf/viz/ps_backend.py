@@ -54,6 +54,7 @@ def init_headless():
     try:
         ps.set_allow_headless_backends(True)
         ps.set_verbosity(0)
+        ps.set_use_prefs_file(False)  # no .polyscope.ini in the user's working directory
         with _quiet():
             ps.init("openGL3_egl")
     except Exception as exc:  # polyscope raises RuntimeError, or others from its bindings
