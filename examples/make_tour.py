@@ -2,6 +2,8 @@
 
 Edit the cells here and run ``python examples/make_tour.py``; ``tests/test_examples.py``
 checks that the committed notebook is what this script writes, and runs its code cells.
+The cells are written in ``ruff format`` style and the keys sorted, as ruff and nbformat
+write them, so ``ruff format examples`` leaves the notebook unchanged.
 """
 
 from __future__ import annotations
@@ -46,9 +48,9 @@ and the field is recovered from its operator D^F_v by applying it to the coordin
     (
         "code",
         """h = X[:, 1] + 0.5 * np.sin(3 * X[:, 0] / np.ptp(X[:, 0]))
-v = fvf.rotate(mesh, fvf.gradient(mesh, h))   # J grad h, (m, 3)
-w = fvf.gradient(mesh, X[:, 0])               # grad x, (m, 3)
-div_v = fvf.divergence(mesh, v)               # (n,)
+v = fvf.rotate(mesh, fvf.gradient(mesh, h))  # J grad h, (m, 3)
+w = fvf.gradient(mesh, X[:, 0])  # grad x, (m, 3)
+div_v = fvf.divergence(mesh, v)  # (n,)
 lemma9 = np.abs(fvf.extract_field(mesh, fvf.D_F(mesh, v)) - v).max()
 print("max |div J grad h| =", np.abs(div_v).max())
 print("max |D^F_v X - v|  =", lemma9)""",
@@ -65,7 +67,7 @@ flow keeps the A_V-norm.""",
         """phi = fvf.FunctionalFlow(mesh, v)
 f0 = np.sin(4 * X[:, 2] / np.ptp(X[:, 2]))
 times = np.linspace(0.0, 1.0, 5) * np.ptp(X[:, 0]) / np.abs(v).max()
-frames = phi(f0, times)                        # (5, n)
+frames = phi(f0, times)  # (5, n)
 norm_drift = abs(phi.norm(frames[-1]) / phi.norm(f0) - 1)
 print("relative norm drift:", norm_drift)""",
     ),
@@ -81,7 +83,7 @@ Applied to the coordinates, the mixed bracket gives the commutator field (Fig. 9
         """BV = fvf.bracket_V(mesh, v, w)
 BF = fvf.bracket_F(mesh, v, w)
 L = fvf.laplacian(mesh)
-u = fvf.commutator_field(mesh, v, w)           # (n, 3)
+u = fvf.commutator_field(mesh, v, w)  # (n, 3)
 print("nnz: vertex bracket", BV.nnz, "| mixed bracket", BF.nnz, "| Laplacian", L.nnz)
 print("mean |D^F_[v,w] X| =", np.linalg.norm(u, axis=1).mean())""",
     ),
@@ -91,8 +93,8 @@ print("mean |D^F_[v,w] X| =", np.linalg.norm(u, axis=1).mean())""",
     ),
     (
         "code",
-        """f = fvf.rescale(mesh, v, w, 10.0)             # (n,): makes f w commute better with v
-acap = fvf.acap_fields(mesh, v, 1e-2, 2)       # (2, m, 3)
+        """f = fvf.rescale(mesh, v, w, 10.0)  # (n,): makes f w commute better with v
+acap = fvf.acap_fields(mesh, v, 1e-2, 2)  # (2, m, 3)
 singular = [fvf.singularities(mesh, field) for field in acap]
 for i, (ids, index) in enumerate(singular):
     print(f"ACAP field {i}: {len(ids)} singular vertices, index sum {index.sum()}")""",
@@ -105,7 +107,7 @@ for i, (ids, index) in enumerate(singular):
         "code",
         """T = 0.1 * np.ptp(X[:, 0]) / np.abs(v).max()
 u0 = acap[0]
-u1 = fvf.Ad(mesh, v, u0, T)                    # (m, 3): u0 carried along v for time T
+u1 = fvf.Ad(mesh, v, u0, T)  # (m, 3): u0 carried along v for time T
 halfway = fvf.interpolate(mesh, T * v, u0, u1, 0.5)
 A_F = mesh.face_areas
 change = np.sqrt(A_F @ ((u1 - u0) ** 2).sum(1) / (A_F @ (u0**2).sum(1)))
@@ -125,10 +127,20 @@ try:
 
     out = Path(tempfile.mkdtemp(prefix="fvf_tour_"))
     ids, index = singular[0]
-    viz.render(mesh, out / "flow.png", function=frames[-1], texture=viz.lic_texture(mesh, v),
-               title="f(t) and the LIC of v")
-    viz.render(mesh, out / "acap.png", field=acap[0],
-               singularities=(fvf.singularity_positions(mesh, ids), index), title="ACAP field")
+    viz.render(
+        mesh,
+        out / "flow.png",
+        function=frames[-1],
+        texture=viz.lic_texture(mesh, v),
+        title="f(t) and the LIC of v",
+    )
+    viz.render(
+        mesh,
+        out / "acap.png",
+        field=acap[0],
+        singularities=(fvf.singularity_positions(mesh, ids), index),
+        title="ACAP field",
+    )
     pictures = [out / "flow.png", out / "acap.png"]
 except ImportError as exc:  # fvf.viz.MissingExtraError is an ImportError
     print("pictures skipped:", exc)
@@ -169,7 +181,7 @@ def notebook() -> dict:
 
 def text() -> str:
     """The file's contents."""
-    return json.dumps(notebook(), indent=1, ensure_ascii=False) + "\n"
+    return json.dumps(notebook(), indent=1, sort_keys=True, ensure_ascii=False) + "\n"
 
 
 if __name__ == "__main__":
