@@ -313,8 +313,10 @@ def closest_faces(
     -----
     Exact (brute force over all faces, vectorised in chunks of points): O(k m) time. Per
     face, the barycentric coordinates of the projection follow from the hat gradients,
-    λ_i(p) = 1/3 + ∇φ_i · (p − c_t); when one is negative the nearest point lies on an
-    edge, and the nearest of the three edge points is taken.
+    λ_i(p) = δ_i0 + ∇φ_i · (p − x_0) (measured from corner 0, not from the centroid,
+    so that far from the origin only exact coordinate differences enter); when one is
+    negative the nearest point lies on an edge, and the nearest of the three edge points
+    is taken.
     """
     p = np.asarray(points, dtype=float)
     if p.ndim == 1 and p.shape == (3,):
@@ -327,15 +329,16 @@ def closest_faces(
     m = mesh.n_faces
     X = mesh.vertices[mesh.faces]  # (m, 3 corners, 3)
     G = hat_gradients(mesh)  # (m, 3, 3)
-    C = mesh.face_centroids
+    X0 = X[:, 0]
     N = mesh.face_normals
+    corner0 = np.array([1.0, 0.0, 0.0])
     out_f = np.empty(p.shape[0], dtype=np.int64)
     out_b = np.empty((p.shape[0], 3))
     step = max(1, chunk // m)
     for lo in range(0, p.shape[0], step):  # chunks of points, each vectorised over faces
         q = p[lo : lo + step]  # (c, 3)
-        rel = q[:, None, :] - C[None]  # (c, m, 3)
-        lam = 1.0 / 3.0 + np.einsum("tij,ctj->cti", G, rel)  # (c, m, 3)
+        rel = q[:, None, :] - X0[None]  # (c, m, 3)
+        lam = corner0 + np.einsum("tij,ctj->cti", G, rel)  # (c, m, 3)
         inside = (lam >= 0).all(axis=2)
         d2 = np.einsum("ctj,tj->ct", rel, N) ** 2
         bary = lam.copy()
