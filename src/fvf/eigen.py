@@ -432,7 +432,7 @@ class SPDFactor:
     """A sparse factorization of a symmetric positive definite K, kept for solves.
 
     SuperLU in symmetric mode (diagonal pivots only) on K or on its symmetric permutation
-    K[perm][:, perm] by a nested-dissection order (:func:`fvf.ordering.nested_dissection`).
+    ``K[perm][:, perm]`` by a nested-dissection order (:func:`fvf.ordering.nested_dissection`).
 
     Attributes
     ----------
