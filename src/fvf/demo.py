@@ -306,28 +306,64 @@ def _fig11(s, story):
 
 
 def _fig12(s, story):
-    """Fig. 12: interpolation of two fields along the flow of v (eq. 68)."""
+    """Fig. 12: interpolation of two fields along the flow of v (eq. 68), on a sphere.
+
+    u0, u1: gradients of two bumps at a0 = R_z(θ/2) e_x and a1 = R_z(−θ/2) e_x; v = θ e_z × x
+    carries a0 to a1 in unit time. Their average has two maxima and a saddle on the near
+    side; the transport interpolant has one maximum, moving along the equator.
+    """
     import fvf
 
     st = story.begin("Interpolation of two fields along a flow (Fig. 12)", _fig12)
-    mesh, v = s.mesh, s.v
-    u0 = s.acap[0]
-    u1 = fvf.Ad(mesh, v, u0, 0.5 * s.times[-1])
-    mid = fvf.interpolate(mesh, v * 0.5 * s.times[-1], u0, u1, 0.5)
+    mesh = fvf.icosphere(4)  # the scene needs a surface where the flow line is known
+    X = mesh.vertices
+    theta, width = 2.4, 0.9
+    a0 = np.array([np.cos(theta / 2), np.sin(theta / 2), 0.0])
+    a1 = np.array([np.cos(theta / 2), -np.sin(theta / 2), 0.0])
+    u0 = fvf.gradient(mesh, np.exp(-((X - a0) ** 2).sum(1) / width**2))  # (m, 3)
+    u1 = fvf.gradient(mesh, np.exp(-((X - a1) ** 2).sum(1) / width**2))
+    v = theta * mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+    ts = np.linspace(0.0, 1.0, 7)
+    us = fvf.interpolate(mesh, v, u0, u1, ts)  # (7, m, 3)
+    average = 0.5 * (u0 + u1)
+
+    def near_side(u):  # singular vertices where the bumps are (x > 0), and their indices
+        ids, ind = fvf.singularities(mesh, u, zero="warn")
+        keep = X[ids, 0] > 0
+        return ids[keep], ind[keep]
+
+    st["numbers"]["Fig. 12 scene"] = "icosphere(4), bumps 2.4 rad apart, v = 2.4 e_z x X"
     st["numbers"]["Fig. 12 singularities: u0, transport midpoint, linear midpoint"] = [
-        len(fvf.singularities(mesh, x, zero="warn")[0]) for x in (u0, mid, 0.5 * (u0 + u1))
+        len(near_side(x)[0]) for x in (u0, us[3], average)
     ]
+    ids, _ = near_side(us[3])
+    if len(ids):
+        p = X[ids[0]]
+        st["numbers"]["Fig. 12 midpoint singularity: height z, angle/theta"] = [
+            round(float(p[2]), 4),
+            round(float(np.arctan2(p[1], p[0]) / theta), 4),
+        ]
     if story.skip_reason is not None:
         story.picture(st, "fig12_frame_*.png, fig12_strip.png, fig12_interpolation.gif", mesh, "")
         return
     import fvf.viz
 
-    ts = np.linspace(0.0, 1.0, 7)
-    us = fvf.interpolate(mesh, v * 0.5 * s.times[-1], u0, u1, ts)
+    side = fvf.viz.View(azimuth=0.0, elevation=10.0, up="z")  # from +x: the bumps' side
+    ids, ind = near_side(average)
+    story.picture(
+        st,
+        "fig12_average.png",
+        mesh,
+        "average (u0 + u1)/2: two maxima and a saddle",
+        field=_directions(mesh, average),
+        singularities=(fvf.singularity_positions(mesh, ids), ind),
+        view=side,
+        max_arrows=700,
+    )
     files = []
     for i, (t, u) in enumerate(zip(ts, us, strict=True)):
         _progress(i, len(ts), "interpolation frames")
-        ids, ind = fvf.singularities(mesh, u, zero="warn")
+        ids, ind = near_side(u)
         files.append(
             story.picture(
                 st,
@@ -338,6 +374,7 @@ def _fig12(s, story):
                 singularities=(fvf.singularity_positions(mesh, ids), ind),
                 size=(480, 360),
                 max_arrows=700,
+                view=side,
             )
         )
     _progress(len(ts), len(ts), "interpolation frames")
