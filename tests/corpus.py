@@ -4,8 +4,9 @@ Three kinds of entries, each a function returning named entries (so nothing is b
 import time and a test can ask for one entry by name):
 
 - :func:`buildable` -- name -> zero-argument builder of a valid :class:`fvf.TriMesh`
-  (boundaries, corners, several components, extreme scales and offsets, rotations,
-  needles, and the shared real meshes with boundary or slivers; the shared ones skip
+  (a single triangle, the 12-vertex icosahedron, boundaries, corners, several components,
+  extreme scales and offsets, rotations, needles, and the shared real meshes with boundary
+  or slivers; the shared ones skip
   cleanly when ``../shared/meshes`` is absent, through ``conftest.load_shared``).
 - :func:`raw` -- name -> :class:`RawEntry`: vertex and face arrays that ``TriMesh`` must
   reject with the documented error type (or, where documented, accept).
@@ -130,6 +131,8 @@ def buildable() -> dict[str, Callable[[], fvf.TriMesh]]:
     """Name -> builder of every valid corpus mesh (generated first, then shared)."""
     R = rotation_matrix()
     return {
+        "single_triangle": lambda: fvf.TriMesh([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]),
+        "icosahedron": lambda: fvf.icosphere(0),
         "icosphere1": lambda: fvf.icosphere(1),
         "disk": lambda: fvf.disk(4, 6),
         "annulus": annulus,
