@@ -15,6 +15,7 @@ from .bracket import ad
 from .calculus import field_product, stiffness, vertex_to_face
 from .connection import ConnectionKind, real_connection_laplacian, tangent_basis_matrix
 from .eigen import smallest_eigenpairs
+from .errors import ParameterError
 from .fields import TangentPolicy, as_face_field
 from .mesh import TriMesh
 
@@ -23,6 +24,17 @@ __all__ = ["rescaling_operator", "rescale", "acap_energy_matrix", "acap_fields"]
 
 def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(np.repeat(mesh.vertex_areas, 3)))
+
+
+def _weight(x, name: str) -> float:
+    """A finite weight >= 0, else :class:`~fvf.errors.ParameterError`."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}") from exc
+    if not (np.isfinite(x) and x >= 0):
+        raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}")
+    return x
 
 
 def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
@@ -64,8 +76,9 @@ def rescale(
     f : float64 (n,)
         A_V-normalized, sign chosen so that ∫f > 0.
     """
+    alpha = _weight(alpha, "alpha")
     F = rescaling_operator(mesh, v, u)
-    E = (F.T @ _vertex_mass3(mesh) @ F + float(alpha) * stiffness(mesh)).tocsr()
+    E = (F.T @ _vertex_mass3(mesh) @ F + alpha * stiffness(mesh)).tocsr()
     E = 0.5 * (E + E.T)
     lam, f = smallest_eigenpairs(E, mesh.vertex_areas, 1)
     f = f[:, 0] * (1.0 if mesh.vertex_areas @ f[:, 0] >= 0 else -1.0)
@@ -86,7 +99,8 @@ def acap_energy_matrix(
     A = ad(mesh, v, tangent="ignore")
     B = tangent_basis_matrix(mesh)
     AB = (A @ B).tocsr()  # (3n, 2m)
-    E = AB.T @ _vertex_mass3(mesh) @ AB + float(lam) * real_connection_laplacian(mesh, kind)
+    lam = _weight(lam, "lam")
+    E = AB.T @ _vertex_mass3(mesh) @ AB + lam * real_connection_laplacian(mesh, kind)
     E = sp.csr_array(E)
     return (0.5 * (E + E.T)).tocsr()
 

@@ -220,6 +220,12 @@ def eigen_residuals(
     X = np.asarray(evecs, dtype=np.float64)
     if X.ndim == 1:
         X = X[:, None]
+    n = W.shape[0]
+    if m.shape != (n,) or X.shape != (n, lam.size):
+        raise SpectralInputError(
+            f"eigen_residuals needs mass ({n},) and evecs ({n}, {lam.size}) for "
+            f"{lam.size} eigenvalues and W {W.shape}; got mass {m.shape}, evecs {X.shape}"
+        )
     nu = spectral_norm_bound(W, m)
     R = W @ X - (m[:, None] * X) * lam[None, :]
     rnorm = np.sqrt(np.einsum("ij,ij->j", R, R / m[:, None]))

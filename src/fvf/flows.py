@@ -41,10 +41,10 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
+from .errors import FlowGrowthWarning, FlowOverflowError, ParameterError, format_indices
 from .expmv import expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
-from .flow import GROWTH_LIMIT, FunctionalFlow, hotspots
+from .flow import GROWTH_LIMIT, FunctionalFlow, flow_times, hotspots
 from .mesh import TriMesh
 from .operators import directional_derivatives
 
@@ -308,7 +308,9 @@ class TransportFlow:
         **options: Any,
     ) -> None:
         if method not in METHODS:
-            raise ValueError(f"unknown flow method {method!r}; choose one of {', '.join(METHODS)}")
+            raise ParameterError(
+                f"unknown flow method {method!r}; choose one of {', '.join(METHODS)}"
+            )
         unknown = set(options) - _OPTIONS[method]
         if unknown:
             allowed = ", ".join(sorted(_OPTIONS[method])) or "none"
@@ -343,7 +345,7 @@ class TransportFlow:
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
-                raise ValueError(f"cayley operator must be 'skew' or 'chapter'; got {kind!r}")
+                raise ParameterError(f"cayley operator must be 'skew' or 'chapter'; got {kind!r}")
             self.cayley_operator = kind
             if kind == "chapter":
                 self._chapter = FunctionalFlow(
@@ -361,7 +363,7 @@ class TransportFlow:
                 if mu > 0:  # h μ / 2 ≤ ½: no pole of the Cayley map near growing modes
                     dt = min(dt, 1.0 / mu)
             if not dt > 0:
-                raise ValueError(f"dt must be positive; got {dt!r}")
+                raise ParameterError(f"dt must be positive; got {dt!r}")
             self.dt = float(dt)
         else:  # spectral
             from .spectral import SpectralBasis
@@ -370,7 +372,9 @@ class TransportFlow:
             if basis is None:
                 basis = SpectralBasis(mesh, int(options.get("k", 50)))
             elif basis.mesh is not mesh:
-                raise ValueError("basis was built on another mesh")
+                raise ParameterError(
+                    "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
+                )
             self.basis = basis
 
     # ------------------------------------------------------------------ growth
@@ -384,12 +388,12 @@ class TransportFlow:
 
         Raises
         ------
-        ValueError
+        ParameterError
             For ``"upwind"`` (it obeys the maximum principle instead: the sup-norm never
             grows) and ``"spectral"``.
         """
         if self.method in ("upwind", "spectral"):
-            raise ValueError(
+            raise ParameterError(
                 f"growth_rate is defined for the chapter, skew and cayley flows, not "
                 f"{self.method!r}"
                 + (" (it obeys the maximum principle instead)" if self.method == "upwind" else "")
@@ -508,11 +512,7 @@ class TransportFlow:
             self.stats = self._chapter.stats
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
-        times = np.asarray(t, dtype=float)
-        if times.ndim > 1 or not np.isfinite(times).all():
-            raise ValueError(f"t must be a finite scalar or 1-D array; got {t!r}")
-        scalar = times.ndim == 0
-        times = np.atleast_1d(times)
+        times, scalar = flow_times(t)
         if self.method in ("skew", "cayley"):
             for extreme in (times.max(), times.min()):
                 if extreme != 0:
@@ -602,7 +602,7 @@ def flow(
 
     Raises
     ------
-    ValueError
+    ParameterError
         Unknown method (the message lists the methods), bad times.
 
     Examples

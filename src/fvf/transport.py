@@ -28,10 +28,16 @@ import scipy.sparse.linalg as sla
 
 from .bracket import ad
 from .calculus import vertex_to_face
-from .errors import FlowGrowthWarning, FlowOverflowError, format_indices
+from .errors import (
+    FieldShapeError,
+    FlowGrowthWarning,
+    FlowOverflowError,
+    ParameterError,
+    format_indices,
+)
 from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field
-from .flow import GROWTH_LIMIT
+from .flow import GROWTH_LIMIT, flow_times
 from .mesh import TriMesh
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
@@ -87,7 +93,7 @@ class TransportOperator(sla.LinearOperator):
     def __init__(self, ad_v: sp.sparray, vertex_to_face_: sp.sparray):
         m, n = vertex_to_face_.shape
         if ad_v.shape != (3 * n, 3 * m):
-            raise ValueError(f"ad_v has shape {ad_v.shape}; expected {(3 * n, 3 * m)}")
+            raise FieldShapeError(f"ad_v has shape {ad_v.shape}; expected {(3 * n, 3 * m)}")
         super().__init__(np.dtype(np.float64), (3 * m, 3 * m))
         if ad_v.format != "bsr" or ad_v.blocksize != (3, 3):
             ad_v = sp.bsr_array(ad_v, blocksize=(3, 3))
@@ -292,11 +298,7 @@ class FieldTransport:
             input's, naming the faces where it is largest.
         """
         u = as_face_field(self.mesh, u, "u")
-        times = np.asarray(t, dtype=float)
-        if times.ndim > 1 or not np.isfinite(times).all():
-            raise ValueError(f"t must be a finite scalar or 1-D array; got {t!r}")
-        scalar = times.ndim == 0
-        times = np.atleast_1d(times)
+        times, scalar = flow_times(t)
         raw, self.stats = expm_action(
             self.operator,
             u.ravel(),
@@ -351,13 +353,12 @@ def interpolate(
     -------
     float64 (m, 3) or (T, m, 3)
     """
-    times = np.asarray(t, dtype=float)
-    if np.any((times < 0) | (times > 1)):
-        raise ValueError(f"interpolation times must lie in [0, 1]; got {t!r}")
+    flat, scalar = flow_times(t)
+    if np.any((flat < 0) | (flat > 1)):
+        raise ParameterError(f"interpolation times must lie in [0, 1]; got {t!r}")
     T = FieldTransport(mesh, v)
     u0 = as_face_field(mesh, u0, "u0")
     u1 = as_face_field(mesh, u1, "u1")
-    flat = np.atleast_1d(times)
     out = np.empty((flat.size,) + u0.shape)
     # the endpoints are the inputs themselves (Ad at t = 0 is the identity): no flow
     out[flat == 0] = u0
@@ -368,4 +369,4 @@ def interpolate(
         a = T(u0, flat[inner]).fields  # (k, m, 3)
         b = T(u1, flat[inner] - 1.0).fields
         out[inner] = (1.0 - s) * a + s * b
-    return out[0] if times.ndim == 0 else out
+    return out[0] if scalar else out
