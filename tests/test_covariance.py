@@ -292,6 +292,14 @@ def test_connection_and_smoothest_fields(pair):
     eN, _ = fvf.smoothest_fields(N, 2)
     eM, _ = fvf.smoothest_fields(M, 2)
     check("energies", eN, eM / s**2)  # measured 5.9e-12
+    check(
+        "L_conn SW",
+        fvf.connection_laplacian(N, "singer_wu"),
+        fvf.connection_laplacian(M, "singer_wu"),
+    )
+    eN, _ = fvf.smoothest_fields(N, 2, "singer_wu")
+    eM, _ = fvf.smoothest_fields(M, 2, "singer_wu")
+    check("energies SW", eN, eM / s**2)
 
 
 def test_killing_energies(pair):

@@ -107,6 +107,7 @@ from .calculus import _freeze, face_rows_csr
 from .errors import FieldShapeError, FvfError
 from .fields import as_face_field
 from .mesh import TriMesh, _cross, _readonly
+from .operators import centered_vertices
 
 __all__ = [
     "ConnectionKind",
@@ -215,7 +216,9 @@ def _singer_wu_geometry(mesh: TriMesh):
     # drop vertex neighbours folded onto each other (no meaningful alignment)
     keep = edge | (np.abs(alpha) > _FOLDED_ALIGNMENT)
     s, t, r = s[keep], t[keep], r[keep]
-    C = mesh.face_centroids
+    # centroids of the centred coordinates: their differences do not depend on where the
+    # mesh sits (absolute centroids far from the origin carry ulp(|X|) errors)
+    C = centered_vertices(mesh)[mesh.faces].mean(axis=1)
     d_s = _frame_coords(mesh, s, C[t] - C[s])
     d_t = _frame_coords(mesh, t, C[s] - C[t])
     # Gaussian kernel, bandwidth = mean squared distance over each face's ring
