@@ -329,7 +329,7 @@ def test_fluid_has_free_slip_walls(small_mesh):
     assert np.abs((u[face] * n).sum(1)).max() <= 1e-12 * np.abs(u).max() * np.abs(n).max()
     res = fvf.ideal_fluid(mesh, omega, fvf.fluid_time_step(mesh, omega), 5)
     assert res.drift()["energy"] <= 1e-10 and res.drift()["enstrophy"] <= 1e-10
-    with pytest.raises(ValueError, match="closed mesh"):
+    with pytest.raises(fvf.ParameterError, match="closed mesh"):
         fvf.ideal_fluid(mesh, omega, 0.01, 1, method="spectral", k=8)
 
 
