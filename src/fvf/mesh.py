@@ -84,9 +84,10 @@ class TriMesh:
     (``docs/boundary.md``). Coincident vertices are not merged: faces that use two copies
     of one point make a valid mesh with a slit (a boundary) there; weld them explicitly
     with :func:`fvf.remove_duplicate_vertices`. A copy that no face uses is an
-    unreferenced vertex (:class:`UnreferencedVertexError`). Derived quantities are cached on first use; every array
-    returned is read-only, and cached sparse operators share read-only buffers, so an
-    accidental in-place change raises instead of corrupting the cache.
+    unreferenced vertex (:class:`UnreferencedVertexError`). Derived quantities are cached
+    on first use; every array returned is read-only, and cached sparse operators share
+    read-only buffers, so an accidental in-place change raises instead of corrupting the
+    cache.
 
     Examples
     --------
