@@ -192,6 +192,9 @@ def raw() -> dict[str, RawEntry]:
         np.vstack([X, X[:1]]), F2, None, "accepted: a mesh with boundary along the split"
     )
     out["duplicated_face"] = RawEntry(X, np.vstack([F, F[:1]]), errors.NonManifoldError, "")
+    out["duplicated_flipped_face"] = RawEntry(
+        X, np.vstack([F, F[:1, ::-1]]), errors.NonManifoldError, "face 0 again, reversed"
+    )
     Ff = F.copy()
     Ff[3] = Ff[3, ::-1]
     out["flipped_face"] = RawEntry(X, Ff, errors.OrientationError, "face 3 reversed")

@@ -1132,6 +1132,7 @@ REPAIRABLE = {
     "duplicate_vertex_unused": (),
     "duplicate_vertex_split": (),
     "duplicated_face": (),
+    "duplicated_flipped_face": (),
     "flipped_face": (),
     "nonmanifold_vertex": (),
     "zero_area_face": (),
