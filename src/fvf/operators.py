@@ -75,8 +75,10 @@ def D_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> 
     -----
     [A_V] D^V_v is skew-symmetric for v = J grad g on a closed mesh (its flow keeps the
     A_V-norm). On a mesh with boundary J grad g has flux through the boundary, and the
-    skew-symmetry (hence norm conservation) fails at boundary vertices; D^V_v itself is
-    assembled the same way, with one-sided averages at the boundary.
+    skew-symmetry (hence norm conservation) fails at boundary vertices, unless g is
+    constant along each boundary loop (v tangent to the boundary, no flux): then it holds
+    exactly. D^V_v itself is assembled the same way, with one-sided averages at the
+    boundary (``docs/boundary.md``).
     """
     v = as_face_field(mesh, v, "v", tangent)
     indptr, indices, _ = mesh.vertex_pattern
