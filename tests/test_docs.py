@@ -35,6 +35,6 @@ def test_readme_first_lines_are_the_two_setup_commands():
     lines = (ROOT / "README.md").read_text().splitlines()
     start = lines.index("```bash")
     cmds = lines[start + 1 : start + 3]
-    assert "fvf demo" in cmds[0] and "pip install ." in cmds[0]
+    assert "fvf demo" in cmds[0] and "pip install '.[viz]'" in cmds[0]  # pictures too
     assert "'.[test]'" in cmds[1] and "pytest" in cmds[1]
     assert start < 5

@@ -25,7 +25,7 @@ from .divergence import dtilde_entries
 from .errors import ParameterError
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
-from .operators import D_V, directional_derivatives
+from .operators import D_V, centered_vertices, directional_derivatives
 
 __all__ = [
     "bracket_V",
@@ -130,7 +130,7 @@ def commutator_field(
 
     Approximately (not exactly) tangent to the surface.
     """
-    return bracket_F(mesh, v, w, tangent) @ mesh.vertices
+    return bracket_F(mesh, v, w, tangent) @ centered_vertices(mesh)  # = D X, as D 1 = 0
 
 
 def bracket_norm(
