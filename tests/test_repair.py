@@ -505,9 +505,6 @@ def test_repair_mesh_cleans_a_messy_scan(rng):
 
 
 # ---------------------------------------------------------------------------- error messages
-_NAMED = pytest.mark.xfail(
-    strict=True, reason="src/fvf/mesh.py's message does not name the repair function yet"
-)
 
 
 @pytest.mark.parametrize(
@@ -518,26 +515,19 @@ _NAMED = pytest.mark.xfail(
             "UnreferencedVertexError",
             "remove_unreferenced_vertices",
         ),
-        pytest.param(
-            lambda: (np.eye(3), [[0, 1, 1]]),
-            "MeshIndexError",
-            "remove_degenerate_faces",
-            marks=_NAMED,
-        ),
+        pytest.param(lambda: (np.eye(3), [[0, 1, 1]]), "MeshIndexError", "remove_degenerate_faces"),
         pytest.param(
             lambda: ([[0, 0, 0], [1, 0, 0], [2, 0, 0.0]], [[0, 1, 2]]),
             "DegenerateFaceError",
             "remove_degenerate_faces",
-            marks=_NAMED,
         ),
         pytest.param(
             lambda: (icosphere_arrays(0)[0], np.vstack([icosphere_arrays(0)[1]] * 2)),
             "NonManifoldError",
             "remove_duplicate_faces",
-            marks=_NAMED,
         ),
-        pytest.param(book, "NonManifoldError", "split_nonmanifold_edges", marks=_NAMED),
-        pytest.param(two_cones, "NonManifoldError", "split_nonmanifold_vertices", marks=_NAMED),
+        pytest.param(book, "NonManifoldError", "split_nonmanifold_edges"),
+        pytest.param(two_cones, "NonManifoldError", "split_nonmanifold_vertices"),
         pytest.param(
             lambda: (
                 icosphere_arrays(0)[0],
@@ -546,7 +536,6 @@ _NAMED = pytest.mark.xfail(
             ),
             "OrientationError",
             "orient_faces",
-            marks=_NAMED,
         ),
     ],
 )

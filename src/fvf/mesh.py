@@ -476,8 +476,8 @@ class TriMesh:
             raise DegenerateFaceError(
                 f"faces {format_indices(bad)} have zero area (collinear or coincident "
                 "vertices), so their normal and gradient are undefined. Fix: remove or "
-                "collapse them (e.g. merge duplicate vertices, then drop the faces) before "
-                "building a TriMesh."
+                "collapse them before building a TriMesh: `fvf.remove_duplicate_vertices(V, F)` "
+                "then `fvf.remove_degenerate_faces(V, F)` (or `fvf.repair_mesh(V, F)`)."
             )
 
     def _validate_topology(self) -> None:
@@ -489,8 +489,8 @@ class TriMesh:
             raise NonManifoldError(
                 f"edges {[tuple(map(int, x)) for x in e[:5]]} ({bad.size} in all) are shared "
                 f"by more than two faces (faces {format_indices(faces)}); duplicated faces "
-                "cause this too. Fix: remove duplicate faces, or split the mesh at those "
-                "edges."
+                "cause this too. Fix: `fvf.remove_duplicate_faces(V, F)` for duplicates, "
+                "otherwise cut the mesh there with `fvf.split_nonmanifold_edges(V, F)`."
             )
         # Orientation: a manifold edge's two faces must traverse it in opposite directions.
         F = self.faces
@@ -504,9 +504,9 @@ class TriMesh:
             raise OrientationError(
                 f"faces {format_indices(faces)} traverse a shared edge in the same direction "
                 f"as their neighbour (edges {format_indices(inconsistent)}), so the normals "
-                "are inconsistent. Fix: orient the faces consistently (flip the offending "
-                "faces' vertex order, e.g. F[i] = F[i, ::-1]); a non-orientable surface "
-                "(Moebius strip) is not supported."
+                "are inconsistent. Fix: `fvf.orient_faces(V, F)` orients every component "
+                "consistently (or flip the offending faces, F[i] = F[i, ::-1]); a "
+                "non-orientable surface (Moebius strip) is not supported."
             )
         self._validate_vertex_fans()
 
@@ -535,7 +535,7 @@ class TriMesh:
             raise NonManifoldError(
                 f"vertices {format_indices(bad)} are non-manifold: their faces form "
                 f"{int(fans[bad].max())} separate fans (two surfaces touch at a vertex). Fix: "
-                "split each such vertex into one copy per fan."
+                "`fvf.split_nonmanifold_vertices(V, F)` gives each fan its own copy."
             )
 
 
@@ -602,7 +602,7 @@ def _validate_arrays(
     if rep.any():
         bad = np.flatnonzero(rep)
         raise MeshIndexError(
-            f"faces {format_indices(bad)} repeat a vertex (degenerate triangles). Fix: drop "
-            "them, e.g. F = F[(F[:,0]!=F[:,1]) & (F[:,1]!=F[:,2]) & (F[:,2]!=F[:,0])]."
+            f"faces {format_indices(bad)} repeat a vertex (degenerate triangles). Fix: "
+            "`fvf.remove_degenerate_faces(V, F)` drops them."
         )
     return X, F
