@@ -88,11 +88,11 @@ def polyscope_status() -> str | None:
     or hangs cannot take the caller down. ``FVF_VIZ_BACKEND=matplotlib`` in the
     environment disables polyscope.
     """
+    if os.environ.get("FVF_VIZ_BACKEND", "").lower() == "matplotlib":
+        return "disabled by FVF_VIZ_BACKEND=matplotlib"  # not cached: the setting may change
     if "polyscope" in _STATUS:
         return _STATUS["polyscope"]
-    if os.environ.get("FVF_VIZ_BACKEND", "").lower() == "matplotlib":
-        reason = "disabled by FVF_VIZ_BACKEND=matplotlib"
-    elif importlib.util.find_spec("polyscope") is None:
+    if importlib.util.find_spec("polyscope") is None:
         reason = f"polyscope is not installed ({INSTALL_HINT})"
     else:
         try:
