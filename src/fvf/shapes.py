@@ -6,11 +6,12 @@ Used by the tests' convergence studies and by examples; all randomness is seeded
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from scipy.spatial import Delaunay
 
 from .mesh import TriMesh
 
-__all__ = ["icosphere", "jittered_sphere", "torus", "disk"]
+__all__ = ["icosphere", "jittered_sphere", "torus", "disk", "midpoint_subdivision"]
 
 
 def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
@@ -60,16 +61,33 @@ def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
     return X / np.linalg.norm(X, axis=1)[:, None], F
 
 
-def _subdivide(X: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One 1-to-4 midpoint subdivision, midpoints pushed to the unit sphere."""
+def midpoint_subdivision(
+    vertices: npt.ArrayLike, faces: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """One 1-to-4 midpoint subdivision of raw arrays (the same surface, 4x the faces).
+
+    Parameters
+    ----------
+    vertices : array_like (n, 3) float
+    faces : array_like (m, 3) int
+
+    Returns
+    -------
+    vertices : float64 (n + E, 3)
+        The old vertices first (same order), then one midpoint per edge (E edges).
+    faces : int64 (4m, 3)
+        Blocks of m: the children at corners 0, 1, 2 of every face, then the middle ones;
+        fine face j comes from face j mod m, with the parent's orientation.
+    """
+    X = np.asarray(vertices, dtype=np.float64)
+    F = np.asarray(faces, dtype=np.int64)
     n = X.shape[0]
     a = F[:, [1, 2, 0]].ravel()  # edge opposite corner i: (v_{i+1}, v_{i+2})
     b = F[:, [2, 0, 1]].ravel()
     key = np.minimum(a, b) * n + np.maximum(a, b)
     uniq, inv = np.unique(key, return_inverse=True)
-    mid = 0.5 * (X[uniq // n] + X[uniq % n])
-    mid /= np.linalg.norm(mid, axis=1)[:, None]
-    e = n + inv.reshape(-1, 3)  # new vertex opposite each corner
+    mid = 0.5 * (X[uniq // n] + X[uniq % n])  # (E, 3)
+    e = n + inv.reshape(-1, 3)  # (m, 3) new vertex opposite each corner
     F2 = np.concatenate(
         [
             np.stack([F[:, 0], e[:, 2], e[:, 1]], axis=1),
@@ -92,7 +110,9 @@ def icosphere(subdivisions: int = 3, radius: float = 1.0) -> TriMesh:
     """
     X, F = _icosahedron()
     for _ in range(int(subdivisions)):
-        X, F = _subdivide(X, F)
+        n = X.shape[0]
+        X, F = midpoint_subdivision(X, F)
+        X[n:] /= np.linalg.norm(X[n:], axis=1)[:, None]  # midpoints pushed to the sphere
     return TriMesh(radius * X, F)
 
 

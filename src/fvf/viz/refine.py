@@ -11,6 +11,7 @@ import numpy.typing as npt
 
 from ..fields import as_face_field
 from ..mesh import TriMesh
+from ..shapes import midpoint_subdivision
 
 __all__ = ["subdivide"]
 
@@ -41,22 +42,7 @@ def subdivide(
     v = None if field is None else as_face_field(mesh, field, "field")
     parent = np.arange(F.shape[0])
     for _ in range(int(levels)):
-        n = X.shape[0]
-        a = F[:, [1, 2, 0]].ravel()  # edge opposite corner i: (v_{i+1}, v_{i+2})
-        b = F[:, [2, 0, 1]].ravel()
-        key = np.minimum(a, b) * n + np.maximum(a, b)
-        uniq, inv = np.unique(key, return_inverse=True)
-        mid = 0.5 * (X[uniq // n] + X[uniq % n])
-        e = n + inv.reshape(-1, 3)  # new vertex opposite each corner
-        F = np.concatenate(
-            [
-                np.stack([F[:, 0], e[:, 2], e[:, 1]], axis=1),
-                np.stack([F[:, 1], e[:, 0], e[:, 2]], axis=1),
-                np.stack([F[:, 2], e[:, 1], e[:, 0]], axis=1),
-                e,
-            ]
-        )
-        X = np.concatenate([X, mid])
+        X, F = midpoint_subdivision(X, F)
         parent = np.tile(parent, 4)
     fine = TriMesh(X, F)
     return fine, (None if v is None else v[parent]), parent
