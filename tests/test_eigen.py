@@ -308,3 +308,15 @@ def test_factor_spd_nd_solves_and_rejects_indefinite(rng):
         eigen.factor_spd((W - 10.0 * sp.diags_array(mass)).tocsc(), "nd")
     with pytest.raises(fvf.eigen.SpectralInputError, match="ordering must be one of"):
         eigen.factor_spd(K, "metis")
+
+
+def test_spd_factor_solves_in_float64_and_ordering_is_validated():
+    mesh = fvf.icosphere(3)
+    W, mass = problem(mesh)
+    K = (W + sp.diags_array(mass)).tocsc()
+    b = np.arange(K.shape[0])  # integers
+    for ordering in ("mmd", "nd"):
+        x = eigen.factor_spd(K, ordering).solve(b)
+        assert x.dtype == np.float64 and np.abs(K @ x - b).max() < 1e-9 * b.max()
+    with pytest.raises(fvf.eigen.SpectralInputError, match="ordering"):
+        smallest_eigenpairs(W, mass, 4, method="dense", ordering="bogus")

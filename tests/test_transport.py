@@ -330,3 +330,13 @@ def test_transport_silent_when_norm_is_kept():
     a = np.repeat(mesh.face_areas, 3)
     ratio = np.sqrt(r.fields.reshape(3, -1) ** 2 @ a) / np.sqrt(a @ u.ravel() ** 2)
     assert np.all(np.abs(ratio - 1) < 0.05)
+
+
+def test_transport_warning_points_at_the_callers_line_and_can_be_silenced():
+    mesh, v, u, h = _lion_transport()
+    with pytest.warns(fvf.FlowGrowthWarning) as rec:
+        fvf.Ad(mesh, v, u, 5 * h)  # through Ad: the warning names this file, not fvf's
+    assert rec[0].filename == __file__
+    fvf.Ad(mesh, v, u, 5 * h, growth_limit=np.inf)  # silenced (warnings are errors here)
+    with pytest.raises(fvf.FlowOverflowError, match="exceeds"):  # refused up front
+        fvf.Ad(mesh, v, u, 1e30)

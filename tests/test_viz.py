@@ -181,6 +181,7 @@ def test_render_texture_and_streamlines(sphere, tmp_path, backend):
 def test_auto_falls_back_to_matplotlib_with_one_warning(sphere, tmp_path, monkeypatch):
     from fvf.viz import backends as b
 
+    monkeypatch.delenv("FVF_VIZ_BACKEND", raising=False)
     monkeypatch.setitem(b._STATUS, "polyscope", "EGL missing (test)")
     monkeypatch.setitem(b._STATUS, "warned", False)
     monkeypatch.setattr(b.importlib.util, "find_spec", lambda name: object())

@@ -588,7 +588,7 @@ def main(argv: list[str] | None = None) -> int:
                 raise
             if isinstance(exc, (Unavailable, ImportError)):
                 status = EXIT_UNAVAILABLE
-            elif isinstance(exc, (FloatingPointError, np.linalg.LinAlgError)):
+            elif isinstance(exc, (FloatingPointError, np.linalg.LinAlgError, RuntimeError)):
                 status = EXIT_FAILED
             elif isinstance(exc, (ValueError, OSError, KeyError)):
                 status = EXIT_BAD_INPUT

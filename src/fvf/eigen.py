@@ -234,9 +234,11 @@ def eigen_residuals(
 
 
 # --------------------------------------------------------------------------- validation
-def _validate(W, mass, k, tol, method) -> tuple[sp.csr_array, np.ndarray, int]:
+def _validate(W, mass, k, tol, method, ordering="auto") -> tuple[sp.csr_array, np.ndarray, int]:
     if method not in METHODS:
         raise SpectralInputError(f"method must be one of {METHODS}; got {method!r}")
+    if ordering not in ORDERINGS:
+        raise SpectralInputError(f"ordering must be one of {ORDERINGS}; got {ordering!r}")
     if not sp.issparse(W):
         W = np.asarray(W)
         if W.ndim != 2:
@@ -339,7 +341,7 @@ def smallest_eigenpairs(
     SpectralFallbackWarning
         The requested (or automatically chosen) method failed and another one was used.
     """
-    W, m, k = _validate(W, mass, k, tol, method)
+    W, m, k = _validate(W, mass, k, tol, method, ordering)
     n = W.shape[0]
     if method == "auto":
         small = n <= DENSE_MAX or (3 * k >= n and n <= DENSE_K_MAX_N)
@@ -467,9 +469,10 @@ class SPDFactor:
 
     def solve(self, B: np.ndarray) -> np.ndarray:
         """K⁻¹ B for B of shape (n,) or (n, p) (float64)."""
+        B = np.asarray(B, dtype=np.float64)
         if self.perm is None:
             return self.lu.solve(B)
-        X = np.empty_like(B)
+        X = np.empty(B.shape)
         X[self.perm] = self.lu.solve(np.asfortranarray(B[self.perm]))
         return X
 

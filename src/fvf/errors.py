@@ -99,6 +99,19 @@ class FlowGrowthWarning(FvfWarning):
     """A flow is estimated (or observed) to grow a function's norm beyond the limit."""
 
 
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for :func:`warnings.warn` that points at the first frame outside
+    the fvf package (the user's call), however deep inside fvf the warning is raised."""
+    import sys
+    from pathlib import Path
+
+    package = str(Path(__file__).resolve().parent)
+    frame, level = sys._getframe(1), 1  # the caller of user_stacklevel() is level 1
+    while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
 def format_indices(idx, limit: int = 8) -> str:
     """Format an index list for an error message: the first few and a count.
 

@@ -427,12 +427,14 @@ MAX_SPAN = 1e15
 
 
 def _norm_inf(A: Any) -> float:
-    """‖A‖_∞ of a sparse or dense A; 0 for a LinearOperator (unknown, not checked)."""
+    """‖A‖_∞ of a sparse or dense A; for a LinearOperator its ``norm_inf`` attribute (an
+    upper bound, e.g. :class:`fvf.transport.TransportOperator`'s) or 0 (unknown)."""
     if sp.issparse(A):
         return float(abs(A).sum(axis=1).max()) if A.nnz else 0.0
     if isinstance(A, np.ndarray):
         return float(np.abs(A).sum(axis=1).max()) if A.size else 0.0
-    return 0.0
+    bound = getattr(A, "norm_inf", 0.0)
+    return float(bound) if isinstance(bound, (int, float)) else 0.0
 
 
 def choose_method(

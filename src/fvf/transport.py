@@ -34,6 +34,7 @@ from .errors import (
     FlowOverflowError,
     ParameterError,
     format_indices,
+    user_stacklevel,
 )
 from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field
@@ -86,6 +87,8 @@ class TransportOperator(sla.LinearOperator):
         ad_v (:func:`fvf.ad`), block sparse with int32 indices.
     vertex_to_face : sparse (m, n)
         I_F^V.
+    norm_inf : float
+        An upper bound on ‖G‖_∞ (that of ad_v), used to refuse out-of-reach times.
     trace : float
         trace(G), exact: Σ_t Σ_{i ∈ t} (I_F^V)_{ti} trace(ad_v block (i, t)).
     """
@@ -108,6 +111,8 @@ class TransportOperator(sla.LinearOperator):
         block_tr = np.einsum("bkk->b", A.data)
         tr = sp.csr_array((block_tr, A.indices, A.indptr), shape=(n, m))
         self.trace = float(self.vertex_to_face.multiply(tr.T).sum())
+        # ‖G‖_∞ ≤ ‖ad_v‖_∞ (I_F^V averages: non-negative rows summing to 1)
+        self.norm_inf = float(abs(A).sum(axis=1).max()) if A.nnz else 0.0
 
     def reset_counts(self) -> None:
         self.n_matvec = self.n_rmatvec = 0
@@ -264,12 +269,12 @@ class FieldTransport:
         warnings.warn(
             f"the transport to t={times[k]:g} grew the field's L2 norm {growth:.3g}x (limit "
             f"{self.growth_limit:g}); the transported field is largest in faces "
-            f"{format_indices(faces)}. Transport along a flow keeps norms up to the flow's "
-            "stretching; growth this large comes from the non-normal discrete generator "
-            "(as for the chapter's function flow, docs/flows.md). Use shorter times or a "
-            "smoother field/mesh; pass growth_limit=np.inf to silence this.",
+            f"{format_indices(faces)}. The continuous transport changes norms only by the "
+            "flow's stretching (strongly near sinks of a compressible v); growth this large "
+            "usually comes from the non-normal discrete generator (docs/notes.md). Use "
+            "shorter times or a smoother field/mesh; pass growth_limit=np.inf to silence this.",
             FlowGrowthWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
     def __call__(self, u: npt.ArrayLike, t: float | npt.ArrayLike) -> TransportResult:
@@ -321,13 +326,20 @@ class FieldTransport:
         return TransportResult(np.stack(out), np.array(normal))
 
 
-def Ad(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike, t: float | npt.ArrayLike) -> np.ndarray:
+def Ad(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    t: float | npt.ArrayLike,
+    *,
+    growth_limit: float = GROWTH_LIMIT,
+) -> np.ndarray:
     """Ad_{Φ_{v,t}} u = exp(t [I_F^V] ad_v) u, projected per face (eq. 67).
 
-    One-off form of :class:`FieldTransport`; returns (m, 3) for a scalar t and (T, m, 3)
-    for an array.
+    One-off form of :class:`FieldTransport` (see there for ``growth_limit``, the warning
+    and the errors); returns (m, 3) for a scalar t and (T, m, 3) for an array.
     """
-    return FieldTransport(mesh, v)(u, t).fields
+    return FieldTransport(mesh, v, growth_limit=growth_limit)(u, t).fields
 
 
 def interpolate(
@@ -336,6 +348,8 @@ def interpolate(
     u0: npt.ArrayLike,
     u1: npt.ArrayLike,
     t: float | npt.ArrayLike,
+    *,
+    growth_limit: float = GROWTH_LIMIT,
 ) -> np.ndarray:
     """u_t = (1 − t) Ad_{Φ_{v,t}} u_0 + t Ad_{Φ_{v,t−1}} u_1, t ∈ [0, 1] (eq. 68).
 
@@ -348,6 +362,8 @@ def interpolate(
     u0, u1 : array_like (m, 3)
     t : float or array_like (T,)
         In [0, 1].
+    growth_limit : float
+        As for :class:`FieldTransport`.
 
     Returns
     -------
@@ -356,7 +372,7 @@ def interpolate(
     flat, scalar = flow_times(t)
     if np.any((flat < 0) | (flat > 1)):
         raise ParameterError(f"interpolation times must lie in [0, 1]; got {t!r}")
-    T = FieldTransport(mesh, v)
+    T = FieldTransport(mesh, v, growth_limit=growth_limit)
     u0 = as_face_field(mesh, u0, "u0")
     u1 = as_face_field(mesh, u1, "u1")
     out = np.empty((flat.size,) + u0.shape)

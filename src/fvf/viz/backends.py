@@ -244,7 +244,9 @@ def render(
                 used = "polyscope-egl"
             except MissingExtraError:
                 raise
-            except Exception as exc:  # polyscope's own errors: fall back
+            except Exception as exc:  # polyscope's own errors: fall back (unless asked for it)
+                if backend == "polyscope-egl":
+                    raise
                 reason = f"polyscope failed: {type(exc).__name__}: {exc}"
                 _STATUS["polyscope"] = reason
         if image is None:
