@@ -78,6 +78,7 @@ def test_growth_warning_fires_on_lion():
         ft = phi(f0, 0.05)
     assert np.abs(ft).max() > 1e3 * np.abs(f0).max()  # and it really does blow up
     msg = str(rec[0].message)
+    assert rec[0].filename == __file__  # the warning points at the user's line
     assert "at vertices [" in msg and "in faces [" in msg
     worst, faces = hotspots(mesh, fvf.div(mesh) @ v.ravel())
     assert f"in faces {fvf.errors.format_indices(faces)}" in msg

@@ -27,7 +27,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .calculus import div
-from .errors import FlowGrowthWarning, FlowOverflowError, ParameterError, format_indices
+from .errors import (
+    FlowGrowthWarning,
+    FlowOverflowError,
+    ParameterError,
+    format_indices,
+    user_stacklevel,
+)
 from .expmv import METHODS, ExpmInputError, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
@@ -211,7 +217,7 @@ class FunctionalFlow:
             "divergence-free field (J grad g), or a smoother/remeshed surface; pass "
             "growth_limit=np.inf to silence this.",
             FlowGrowthWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
     def __call__(self, f: npt.ArrayLike, t: float | npt.ArrayLike) -> np.ndarray:

@@ -41,7 +41,13 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .errors import FlowGrowthWarning, FlowOverflowError, ParameterError, format_indices
+from .errors import (
+    FlowGrowthWarning,
+    FlowOverflowError,
+    ParameterError,
+    format_indices,
+    user_stacklevel,
+)
 from .expmv import expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .flow import GROWTH_LIMIT, FunctionalFlow, flow_times, hotspots
@@ -443,7 +449,7 @@ class TransportFlow:
             "fields use method='upwind' (bounded by [min f_0, max f_0] on every mesh); "
             "pass growth_limit=np.inf to silence this.",
             FlowGrowthWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
     # ------------------------------------------------------------------ helpers
