@@ -85,6 +85,7 @@ __all__ = [
     "expm_action",
     "clear_workspace",
     "choose_method",
+    "check_options",
     "ExpmvCounter",
     "ExpmInputError",
     "KrylovFallbackWarning",
@@ -437,6 +438,16 @@ def _norm_inf(A: Any) -> float:
     return float(bound) if isinstance(bound, (int, float)) else 0.0
 
 
+def check_options(method: str, tol: float) -> tuple[str, float]:
+    """Validated ``(method, tol)`` of :func:`expm_action` (also for the objects that store
+    them for later calls, e.g. :class:`fvf.FunctionalFlow`); raises :class:`ExpmInputError`."""
+    if not isinstance(tol, int | float | np.floating) or not 0 < float(tol) < 1:
+        raise ExpmInputError(f"tol must be a number in (0, 1); got {tol!r}")
+    if method not in METHODS:
+        raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
+    return method, float(tol)
+
+
 def choose_method(
     A: Any,
     t: float | npt.ArrayLike,
@@ -586,11 +597,7 @@ def expm_action(
     """
     Aop, n = _check_operator(A)
     times, scalar = _as_times(t)
-    if not isinstance(tol, int | float | np.floating) or not 0 < float(tol) < 1:
-        raise ExpmInputError(f"tol must be a number in (0, 1); got {tol!r}")
-    tol = float(tol)
-    if method not in METHODS:
-        raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
+    method, tol = check_options(method, tol)
     if m_max is not None and (int(m_max) != m_max or m_max < 1):
         raise ExpmInputError(f"m_max must be a positive integer; got {m_max!r}")
     if norm not in ("max", "inner"):

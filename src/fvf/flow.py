@@ -34,7 +34,7 @@ from .errors import (
     format_indices,
     user_stacklevel,
 )
-from .expmv import METHODS, ExpmInputError, expm_action
+from .expmv import check_options, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
@@ -128,10 +128,7 @@ class FunctionalFlow:
         method: str = "auto",
         tol: float = 1e-10,
     ) -> None:
-        if method not in METHODS:
-            raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
-        if not 0 < tol < 1:
-            raise ExpmInputError(f"tol must lie in (0, 1); got {tol!r}")
+        method, tol = check_options(method, tol)
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
@@ -144,17 +141,21 @@ class FunctionalFlow:
     def is_skew(self) -> bool:
         """Whether [A_V] D^V_v is skew-symmetric to round-off (v = J grad g, closed mesh):
         the flow is then A_V-unitary and the three-term Lanczos recurrence applies."""
-        AD = (sp.diags_array(self.mesh.vertex_areas) @ self.operator).tocsr()
+        AD = self._weighted
         scale = float(abs(AD).max()) if AD.nnz else 0.0
         asym = AD + AD.T
         return scale == 0.0 or float(abs(asym).max() if asym.nnz else 0.0) <= 1e-12 * scale
 
     @cached_property
+    def _weighted(self) -> sp.csr_array:
+        """[A_V] D^V_v (n, n): its symmetric part decides skewness and bounds growth."""
+        return (sp.diags_array(self.mesh.vertex_areas) @ self.operator).tocsr()
+
+    @cached_property
     def _symmetric_part(self) -> sp.csr_array:
         """−½ A^{-1/2} (A D + Dᵀ A) A^{-1/2}: its spectrum bounds the A_V-norm growth."""
-        a = self.mesh.vertex_areas
-        s = sp.diags_array(1.0 / np.sqrt(a))
-        AD = sp.diags_array(a) @ self.operator
+        s = sp.diags_array(1.0 / np.sqrt(self.mesh.vertex_areas))
+        AD = self._weighted
         return (-0.5 * (s @ (AD + AD.T) @ s)).tocsr()
 
     def _extreme_eigenvalue(self, sign: float) -> float:

@@ -36,7 +36,7 @@ from .errors import (
     format_indices,
     user_stacklevel,
 )
-from .expmv import METHODS, ExpmInputError, expm_action
+from .expmv import check_options, expm_action
 from .fields import TangentPolicy, as_face_field
 from .flow import GROWTH_LIMIT, flow_times
 from .mesh import TriMesh
@@ -216,10 +216,7 @@ class FieldTransport:
         tol: float = 1e-10,
         growth_limit: float = GROWTH_LIMIT,
     ):
-        if method not in METHODS:
-            raise ExpmInputError(f"method must be one of {METHODS}; got {method!r}")
-        if not 0 < tol < 1:
-            raise ExpmInputError(f"tol must lie in (0, 1); got {tol!r}")
+        method, tol = check_options(method, tol)
         self.method = method
         self.tol = float(tol)
         self.growth_limit = float(growth_limit)
