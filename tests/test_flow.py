@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import fvf
-from conftest import load_shared, random_tangent_field, rel, smooth_functions
+from conftest import compressible_case, load_shared, random_tangent_field, rel, smooth_functions
 from fvf import chapter as ch
 from fvf.flow import hotspots
 
@@ -60,13 +60,7 @@ def test_divergence_free_flow_keeps_norm(closed):
 
 
 def _lion_setup(name):
-    mesh = load_shared(name)
-    X = mesh.vertices - mesh.vertices.mean(0)
-    X /= np.linalg.norm(X, axis=1).max()
-    mesh = fvf.TriMesh(X, mesh.faces)
-    v = fvf.gradient(mesh, X[:, 0])
-    v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum())
-    return mesh, v, np.sin(3 * X[:, 1]) + X[:, 2]
+    return compressible_case(load_shared(name))
 
 
 def test_growth_warning_fires_on_lion():

@@ -9,7 +9,14 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 import fvf
-from conftest import BOUNDARY_SHARED, CLOSED_SHARED, load_shared, rel, smooth_functions
+from conftest import (
+    BOUNDARY_SHARED,
+    CLOSED_SHARED,
+    compressible_case,
+    load_shared,
+    rel,
+    smooth_functions,
+)
 from fvf.flows import (
     METHODS,
     TransportFlow,
@@ -19,23 +26,12 @@ from fvf.flows import (
 )
 from fvf.flows import flow as flows_flow
 
-
-def _normalized(mesh):
-    """The lion setup of tests/test_flow.py for any mesh: unit radius, v = grad x (unit L2)."""
-    X = mesh.vertices - mesh.vertices.mean(0)
-    X /= np.linalg.norm(X, axis=1).max()
-    mesh = fvf.TriMesh(X, mesh.faces)
-    v = fvf.gradient(mesh, X[:, 0])
-    v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum())
-    return mesh, v, np.sin(3 * X[:, 1]) + X[:, 2]
-
-
 _NORMALIZED = {}
 
 
 def normalized_shared(name):
     if name not in _NORMALIZED:
-        _NORMALIZED[name] = _normalized(load_shared(name))
+        _NORMALIZED[name] = compressible_case(load_shared(name))
     return _NORMALIZED[name]
 
 
