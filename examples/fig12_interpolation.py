@@ -27,12 +27,8 @@ def main() -> None:
         mesh = fvf.icosphere(4)
         print(f"mesh: fvf.icosphere(4) ({mesh.n_vertices} vertices, {mesh.n_faces} faces)")
     X = mesh.vertices
-    theta, s = 2.4, 0.9
-    a0 = np.array([np.cos(theta / 2), np.sin(theta / 2), 0.0])
-    a1 = np.array([np.cos(theta / 2), -np.sin(theta / 2), 0.0])
-    u0 = fvf.gradient(mesh, np.exp(-((X - a0) ** 2).sum(1) / s**2))  # (m, 3)
-    u1 = fvf.gradient(mesh, np.exp(-((X - a1) ** 2).sum(1) / s**2))
-    v = theta * mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+    theta = 2.4
+    u0, u1, v = fvf.examples.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
 
     frames = fvf.interpolate(mesh, v, u0, u1, np.linspace(0.0, 1.0, 5))  # (5, m, 3)
     average = 0.5 * (u0 + u1)

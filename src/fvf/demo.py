@@ -317,12 +317,8 @@ def _fig12(s, story):
     st = story.begin("Interpolation of two fields along a flow (Fig. 12)", _fig12)
     mesh = fvf.icosphere(4)  # the scene needs a surface where the flow line is known
     X = mesh.vertices
-    theta, width = 2.4, 0.9
-    a0 = np.array([np.cos(theta / 2), np.sin(theta / 2), 0.0])
-    a1 = np.array([np.cos(theta / 2), -np.sin(theta / 2), 0.0])
-    u0 = fvf.gradient(mesh, np.exp(-((X - a0) ** 2).sum(1) / width**2))  # (m, 3)
-    u1 = fvf.gradient(mesh, np.exp(-((X - a1) ** 2).sum(1) / width**2))
-    v = theta * mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
+    theta = 2.4
+    u0, u1, v = fvf.examples.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
     ts = np.linspace(0.0, 1.0, 7)
     us = fvf.interpolate(mesh, v, u0, u1, ts)  # (7, m, 3)
     average = 0.5 * (u0 + u1)
