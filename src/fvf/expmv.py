@@ -71,7 +71,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import FlowOverflowError, FvfError, FvfWarning
+from .errors import FlowOverflowError, FvfWarning, ParameterError
 
 try:  # in-place y += A x kernels (scipy's own CSR kernels, no temporary arrays)
     from scipy.sparse import _sparsetools as _st
@@ -86,6 +86,7 @@ __all__ = [
     "clear_workspace",
     "choose_method",
     "check_options",
+    "as_times",
     "ExpmvCounter",
     "ExpmInputError",
     "KrylovFallbackWarning",
@@ -120,8 +121,9 @@ _NONFINITE = (
 )
 
 
-class ExpmInputError(FvfError):
-    """Bad input to :func:`expm_action`: shapes, non-finite values, weights, tol, method."""
+class ExpmInputError(ParameterError):
+    """Bad input to :func:`expm_action` (and to the flows' times): shapes, non-finite
+    values, weights, tol, method. A :class:`~fvf.errors.ParameterError`."""
 
 
 class KrylovFallbackWarning(FvfWarning):
@@ -381,7 +383,9 @@ def _cumtrapz(y: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------ the driver
-def _as_times(t: Any) -> tuple[np.ndarray, bool]:
+def as_times(t: Any) -> tuple[np.ndarray, bool]:
+    """Validated times: (t as a float64 array (T,), whether t was a scalar); raises
+    :class:`ExpmInputError` for non-numeric, 2-D or non-finite t."""
     try:
         times = np.asarray(t, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -596,7 +600,7 @@ def expm_action(
     ((3, 50), True)
     """
     Aop, n = _check_operator(A)
-    times, scalar = _as_times(t)
+    times, scalar = as_times(t)
     method, tol = check_options(method, tol)
     if m_max is not None and (int(m_max) != m_max or m_max < 1):
         raise ExpmInputError(f"m_max must be a positive integer; got {m_max!r}")

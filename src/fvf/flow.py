@@ -30,11 +30,10 @@ from .calculus import div
 from .errors import (
     FlowGrowthWarning,
     FlowOverflowError,
-    ParameterError,
     format_indices,
     user_stacklevel,
 )
-from .expmv import check_options, expm_action
+from .expmv import as_times, check_options, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
@@ -43,20 +42,6 @@ __all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots"]
 
 #: Default bound on the estimated norm growth e^{μ|t|} above which a flow warns.
 GROWTH_LIMIT = 100.0
-
-
-def flow_times(t: float | npt.ArrayLike) -> tuple[np.ndarray, bool]:
-    """Validated flow times: (times (T,) float64, whether t was a scalar).
-
-    Raises :class:`~fvf.errors.ParameterError` for non-numeric, non-finite or 2-D t.
-    """
-    try:
-        times = np.asarray(t, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"t must be a finite number or 1-D array; got {t!r}") from exc
-    if times.ndim > 1 or not np.isfinite(times).all():
-        raise ParameterError(f"t must be a finite scalar or 1-D array; got {t!r}")
-    return np.atleast_1d(times), times.ndim == 0
 
 
 def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarray, np.ndarray]:
@@ -250,7 +235,7 @@ class FunctionalFlow:
             When the estimated growth bound exceeds ``growth_limit``.
         """
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
-        times, scalar = flow_times(t)
+        times, scalar = as_times(t)
         for extreme in (times.max(), times.min()):
             if extreme != 0:
                 self._warn_growth(float(extreme))

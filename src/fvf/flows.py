@@ -48,9 +48,9 @@ from .errors import (
     format_indices,
     user_stacklevel,
 )
-from .expmv import expm_action
+from .expmv import as_times, expm_action
 from .fields import TangentPolicy, as_face_field, as_vertex_function
-from .flow import GROWTH_LIMIT, FunctionalFlow, flow_times, hotspots
+from .flow import GROWTH_LIMIT, FunctionalFlow, hotspots
 from .mesh import TriMesh
 from .operators import directional_derivatives
 
@@ -518,7 +518,7 @@ class TransportFlow:
             self.stats = self._chapter.stats
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
-        times, scalar = flow_times(t)
+        times, scalar = as_times(t)
         if self.method in ("skew", "cayley"):
             for extreme in (times.max(), times.min()):
                 if extreme != 0:

@@ -36,9 +36,9 @@ from .errors import (
     format_indices,
     user_stacklevel,
 )
-from .expmv import check_options, expm_action
+from .expmv import as_times, check_options, expm_action
 from .fields import TangentPolicy, as_face_field
-from .flow import GROWTH_LIMIT, flow_times
+from .flow import GROWTH_LIMIT
 from .mesh import TriMesh
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
@@ -300,7 +300,7 @@ class FieldTransport:
             input's, naming the faces where it is largest.
         """
         u = as_face_field(self.mesh, u, "u")
-        times, scalar = flow_times(t)
+        times, scalar = as_times(t)
         raw, self.stats = expm_action(
             self.operator,
             u.ravel(),
@@ -366,7 +366,7 @@ def interpolate(
     -------
     float64 (m, 3) or (T, m, 3)
     """
-    flat, scalar = flow_times(t)
+    flat, scalar = as_times(t)
     if np.any((flat < 0) | (flat > 1)):
         raise ParameterError(f"interpolation times must lie in [0, 1]; got {t!r}")
     T = FieldTransport(mesh, v, growth_limit=growth_limit)
