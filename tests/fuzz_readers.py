@@ -147,7 +147,7 @@ def run_hypothesis(check: Checker, examples: int) -> None:
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as st
 
-    from test_io import MUTATION
+    from test_io import MUTATION, mutated
 
     base = seeds()
 
@@ -159,16 +159,7 @@ def run_hypothesis(check: Checker, examples: int) -> None:
     )
     @given(k=st.integers(0, len(base) - 1), mutations=st.lists(MUTATION, min_size=1, max_size=8))
     def campaign(k, mutations):
-        data = bytearray(base[k][1:])
-        for op, where, byte in mutations:
-            i = where % (len(data) + 1)
-            if op == "insert":
-                data.insert(i, byte)
-            elif data and op == "delete":
-                del data[i % len(data)]
-            elif data:
-                data[i % len(data)] = byte
-        check(base[k][:1] + bytes(data))
+        check(base[k][:1] + mutated(base[k][1:], mutations))
 
     campaign()
 

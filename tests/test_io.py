@@ -426,6 +426,20 @@ MUTATION = st.tuples(
 )
 
 
+def mutated(base: bytes, mutations) -> bytes:
+    """``base`` after the (op, where, byte) mutations drawn from MUTATION, in order."""
+    data = bytearray(base)
+    for op, where, byte in mutations:
+        k = where % (len(data) + 1)
+        if op == "insert":
+            data.insert(k, byte)
+        elif data and op == "delete":
+            del data[k % len(data)]
+        elif data:
+            data[k % len(data)] = byte
+    return bytes(data)
+
+
 @pytest.fixture(scope="module")
 def fuzz_dir(tmp_path_factory):
     return tmp_path_factory.mktemp("fuzz")
@@ -436,17 +450,9 @@ def fuzz_dir(tmp_path_factory):
 @given(mutations=st.lists(MUTATION, min_size=1, max_size=6))
 def test_fuzz_read_mesh(fuzz_dir, name, mutations):
     """Mutated files either parse to a valid mesh or raise MeshReadError, nothing else."""
-    data = bytearray(FUZZ_BASES[name])
-    for op, where, byte in mutations:
-        k = where % (len(data) + 1)
-        if op == "insert":
-            data.insert(k, byte)
-        elif data and op == "delete":
-            del data[k % len(data)]
-        elif data:
-            data[k % len(data)] = byte
+    data = mutated(FUZZ_BASES[name], mutations)
     path = fuzz_dir / name
-    path.write_bytes(bytes(data))
+    path.write_bytes(data)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PolygonTriangulatedWarning)
         try:
@@ -471,17 +477,9 @@ def test_fuzzed_files_that_load_go_through_report_and_repair(fuzz_dir, name, mut
     from fvf.diagnostics import mesh_report
     from fvf.repair import repair_mesh
 
-    data = bytearray(FUZZ_BASES[name])
-    for op, where, byte in mutations:
-        k = where % (len(data) + 1)
-        if op == "insert":
-            data.insert(k, byte)
-        elif data and op == "delete":
-            del data[k % len(data)]
-        elif data:
-            data[k % len(data)] = byte
+    data = mutated(FUZZ_BASES[name], mutations)
     path = fuzz_dir / f"r_{name}"
-    path.write_bytes(bytes(data))
+    path.write_bytes(data)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PolygonTriangulatedWarning)
         try:
