@@ -17,12 +17,16 @@ from fvf.expmv import (
     ExpmInputError,
     ExpmvCounter,
     KrylovFallbackWarning,
+    chebyshev_degree,
     choose_method,
     clear_workspace,
     expm_action,
+    skew_bound,
 )
 
 TOL = 1e-10
+#: the two methods of expm_action and what each reports for a skew / a general operator
+KRYLOV = {"krylov": ("lanczos", "iom"), "chebyshev": ("chebyshev", "chebyshev")}
 
 try:  # scipy's own OpenBLAS is loaded by now: keep the small dense work single-threaded
     from threadpoolctl import threadpool_limits
@@ -81,29 +85,33 @@ def dense_exp(A, B, times):
 
 
 # ---------------------------------------------------------------- agreement with scipy
+@pytest.mark.parametrize("method", list(KRYLOV))
 @pytest.mark.parametrize("L", [0.1, 1.0, 10.0, 40.0])
-def test_skew_flow_matches_dense_expm(mesh, L):
+def test_skew_flow_matches_dense_expm(mesh, L, method):
     A = _flow_operator(mesh, "skew")
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = L * mesh.mean_edge_length
-    x, info = expm_action(A, b, t, inner=w, return_info=True)
+    x, info = expm_action(A, b, t, inner=w, method=method, return_info=True)
     ref = dense_exp(A, b, t)[0]
-    assert info["method"] == "lanczos" and info["skew"] is True
+    assert info["method"] == KRYLOV[method][0]
+    assert info["skew"] is (True if method == "krylov" else None)
     assert wrel(x, ref, w) <= TOL
     assert maxrel(x, ref) <= TOL
     assert info["error_estimate"] <= TOL
 
 
+@pytest.mark.parametrize("method", list(KRYLOV))
 @pytest.mark.parametrize("L", [0.1, 1.0, 10.0])
-def test_compressible_flow_matches_dense_expm(mesh, L):
+def test_compressible_flow_matches_dense_expm(mesh, L, method):
     A = _flow_operator(mesh, "grad")
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = L * mesh.mean_edge_length
-    x, info = expm_action(A, b, t, inner=w, return_info=True)
+    x, info = expm_action(A, b, t, inner=w, method=method, return_info=True)
     ref = dense_exp(A, b, t)[0]
-    assert info["method"] == "iom" and info["skew"] is False
+    assert info["method"] == KRYLOV[method][1]
+    assert info["skew"] is (False if method == "krylov" else None)
     assert info["wasted_matvecs"] <= 3  # the failed skew check costs a product or two
     assert wrel(x, ref, w) <= TOL
     assert maxrel(x, ref) <= 10 * TOL  # tol is in the A_V norm; max-norm is close
@@ -130,11 +138,12 @@ def test_random_sparse_nonnormal(seed):
     A = (A - 0.3 * A.T).tocsr()
     b = rng.standard_normal(n)
     times = np.array([0.7, -0.4, 2.0, 0.0])
-    x, info = expm_action(A, b, times, return_info=True)
     ref = dense_exp(A, b, times)
-    assert info["method"] == "iom"
-    for k in range(times.size):
-        assert np.linalg.norm(x[k] - ref[k]) <= TOL * np.linalg.norm(ref[k])
+    for method in KRYLOV:
+        x, info = expm_action(A, b, times, method=method, return_info=True)
+        assert info["method"] == KRYLOV[method][1]
+        for k in range(times.size):
+            assert np.linalg.norm(x[k] - ref[k]) <= TOL * np.linalg.norm(ref[k])
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -148,31 +157,34 @@ def test_random_weighted_skew(seed):
     A = (sp.diags_array(1.0 / w) @ S).tocsr()
     B = rng.standard_normal((n, 3))
     times = np.array([3.0, -1.5, 0.25])
-    X, info = expm_action(A, B, times, inner=w, return_info=True)
     ref = dense_exp(A, B, times)
-    assert info["method"] == "lanczos"
-    for k in range(times.size):
-        for c in range(3):
-            assert wrel(X[k, :, c], ref[k, :, c], w) <= TOL
-            assert wnorm(X[k, :, c], w) == pytest.approx(wnorm(B[:, c], w), rel=TOL)
+    for method in KRYLOV:
+        X, info = expm_action(A, B, times, inner=w, method=method, return_info=True)
+        assert info["method"] == KRYLOV[method][0]
+        for k in range(times.size):
+            for c in range(3):
+                assert wrel(X[k, :, c], ref[k, :, c], w) <= TOL
+                assert wnorm(X[k, :, c], w) == pytest.approx(wnorm(B[:, c], w), rel=TOL)
 
 
 # ------------------------------------------------------------------- times and blocks
-def test_array_of_times_unsorted_negative_zero_repeated(mesh):
+@pytest.mark.parametrize("method", list(KRYLOV))
+def test_array_of_times_unsorted_negative_zero_repeated(mesh, method):
     A = _flow_operator(mesh, "skew")
     w = mesh.vertex_areas
     b = _f0(mesh)
     h = mesh.mean_edge_length
     times = h * np.array([3.0, -2.0, 0.0, 7.5, 0.1, -2.0, 3.0, -9.0])
-    x, info = expm_action(A, b, times, inner=w, return_info=True)
+    x, info = expm_action(A, b, times, inner=w, method=method, return_info=True)
     assert x.shape == (times.size, b.size)
     ref = dense_exp(A, b, times)
     for k in range(times.size):
         assert wrel(x[k], ref[k], w) <= TOL
     np.testing.assert_array_equal(x[2], b)  # t = 0 is the identity, exactly
     np.testing.assert_array_equal(x[1], x[5])  # repeated times agree
-    # one pass per sign: the positive times share bases, as do the negative ones
-    assert info["steps"] == 2
+    # Krylov: one pass per sign (the positive times share bases, as do the negative ones);
+    # Chebyshev: one pass for all (J_k(−τ) = (−1)ᵏ J_k(τ))
+    assert info["steps"] == (2 if method == "krylov" else 1)
 
 
 def test_many_times_in_one_pass_cost_about_one_long_time(mesh):
@@ -250,32 +262,37 @@ def test_time_stepping_with_small_basis(mesh):
     t = 10 * mesh.mean_edge_length
     ref = dense_exp(A, b, t)[0]
     for skew in (None, False):
-        x, info = expm_action(A, b, t, inner=w, m_max=12, skew=skew, return_info=True)
+        x, info = expm_action(
+            A, b, t, inner=w, m_max=12, skew=skew, method="krylov", return_info=True
+        )
         assert info["steps"] > 2 and max(info["basis_sizes"]) <= 12
         assert wrel(x, ref, w) <= TOL
     As = _flow_operator(mesh, "skew")
-    x, info = expm_action(As, b, t, inner=w, m_max=12, return_info=True)
+    x, info = expm_action(As, b, t, inner=w, m_max=12, method="krylov", return_info=True)
     assert info["steps"] > 2 and info["method"] == "lanczos"
     assert wrel(x, dense_exp(As, b, t)[0], w) <= TOL
 
 
 # ---------------------------------------------------------------- products and methods
-def test_fewer_products_than_expm_multiply_at_long_times():
+@pytest.mark.parametrize("method", list(KRYLOV))
+def test_fewer_products_than_expm_multiply_at_long_times(method):
     mesh = fvf.icosphere(4)
     A = _flow_operator(mesh, "skew")
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = 10 * mesh.mean_edge_length
-    x, info = expm_action(A, b, t, inner=w, return_info=True)
+    x, info = expm_action(A, b, t, inner=w, method=method, return_info=True)
     counter = ExpmvCounter(A)
     ref = spla.expm_multiply(t * counter, b, traceA=t * A.diagonal().sum())
     assert wrel(x, ref, w) <= TOL
-    # measured: 29 products against 74 (+4 with Aᵀ for the norm estimate)
-    assert info["matvecs"] * 2.2 <= counter.matvecs
-    assert info["matvecs"] * 2.2 <= counter.products
+    # measured: Krylov 29 products, Chebyshev 33 (+6 with |A| for its bound), against
+    # expm_multiply's 74 (+4 with Aᵀ for the norm estimate)
+    spent = info["matvecs"] + info["bound_products"]
+    assert spent * 1.8 <= counter.matvecs
+    assert spent * 1.8 <= counter.products
     # a block of right-hand sides costs the same number of block products
     B = _f0(mesh, 3)
-    _, binfo = expm_action(A, B, t, inner=w, return_info=True)
+    _, binfo = expm_action(A, B, t, inner=w, method=method, return_info=True)
     assert binfo["block_matvecs"] <= info["matvecs"] + 3
 
 
@@ -310,7 +327,13 @@ def test_counter_counts_columns():
 def test_choose_method():
     mesh = fvf.icosphere(2)
     A = _flow_operator(mesh, "skew")
-    assert choose_method(A, 1.0) == "krylov"
+    h = mesh.mean_edge_length
+    R = skew_bound(A)
+    assert choose_method(A, 5.0) == "chebyshev"  # R·t ≥ CHEB_MIN_TAU
+    assert choose_method(A, 0.5 * fvf.expmv.CHEB_MIN_TAU / R, skew_norm=R) == "krylov"
+    assert choose_method(A, 10 * h, skew_norm=1e-3 / h) == "krylov"  # the bound decides
+    assert choose_method(spla.aslinearoperator(A), 1.0) == "krylov"  # no bound
+    assert choose_method(spla.aslinearoperator(A), 5.0, skew_norm=R) == "chebyshev"
     assert choose_method(A, 0.0) == "expm_multiply"
     small = sp.random_array((10, 10), density=0.3, rng=np.random.default_rng(0), format="csr")
     assert choose_method(small, 1.0) == "expm_multiply"
@@ -351,7 +374,7 @@ def test_skew_false_uses_the_general_method(mesh):
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = 5 * mesh.mean_edge_length
-    x, info = expm_action(A, b, t, inner=w, skew=False, return_info=True)
+    x, info = expm_action(A, b, t, inner=w, skew=False, method="krylov", return_info=True)
     assert info["method"] == "iom" and info["wasted_matvecs"] == 0
     assert wrel(x, dense_exp(A, b, t)[0], w) <= TOL
 
@@ -463,10 +486,11 @@ def test_large_n_code_path(mesh, monkeypatch):
     t = 6 * mesh.mean_edge_length
     ref = dense_exp(A, b, t)[0]
     monkeypatch.setattr(fvf.expmv, "_STREAM_N", 1)
-    x, info = expm_action(A, b, t, inner=w, return_info=True)
-    assert info["method"] == "lanczos" and wrel(x, ref, w) <= TOL
+    for method in KRYLOV:
+        x, info = expm_action(A, b, t, inner=w, method=method, return_info=True)
+        assert info["method"] == KRYLOV[method][0] and wrel(x, ref, w) <= TOL
     with pytest.warns(KrylovFallbackWarning):
-        expm_action(_flow_operator(mesh, "grad"), b, t, inner=w, skew=True)
+        expm_action(_flow_operator(mesh, "grad"), b, t, inner=w, skew=True, method="krylov")
 
 
 def test_products_ratio_on_spot_at_ten_edge_lengths():
@@ -509,3 +533,156 @@ def test_out_of_reach_span_and_overflow_raise_flow_overflow(mesh):
     with pytest.raises(fvf.FlowOverflowError), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         expm_action(1e3 * G, b, 1e3 * mesh.mean_edge_length, method="krylov")
+
+
+# ------------------------------------------------------------------ Chebyshev series
+def _dense_skew_norm(A, w):
+    """‖K‖₂, K = (S − Sᵀ)/2, S = D A D⁻¹, D = diag(√w), densely."""
+    s = np.sqrt(w)
+    S = s[:, None] * A.toarray() / s[None, :]
+    return float(np.linalg.norm(0.5 * (S - S.T), 2))
+
+
+@pytest.mark.parametrize("kind", ["skew", "grad"])
+def test_skew_bound_is_a_tightening_upper_bound(mesh, kind):
+    A = _flow_operator(mesh, kind)
+    w = mesh.vertex_areas
+    exact = _dense_skew_norm(A, w)
+    bounds = [skew_bound(A, w, iterations=i) for i in range(7)]
+    assert all(b >= exact * (1 - 1e-12) for b in bounds)  # rigorous (Collatz–Wielandt)
+    assert all(b1 <= b0 * (1 + 1e-12) for b0, b1 in zip(bounds, bounds[1:], strict=False))
+    # iterations = 0 is Gershgorin's bound on M = ½(|S| + |S|ᵀ) off the diagonal
+    s = np.sqrt(w)
+    P = np.abs(s[:, None] * A.toarray() / s[None, :])
+    np.fill_diagonal(P, 0.0)
+    assert bounds[0] == pytest.approx(0.5 * (P + P.T).sum(axis=1).max(), rel=1e-12)
+    assert bounds[6] <= 1.35 * exact  # measured 1.08 (skew) to 1.25 (grad)
+    # every eigenvalue of A lies in the strip |Im z| ≤ bound
+    assert np.abs(np.linalg.eigvals(A.toarray()).imag).max() <= bounds[6] * (1 + 1e-10)
+
+
+def test_skew_bound_edge_cases():
+    assert skew_bound(sp.diags_array(np.arange(5.0))) == 0.0  # diagonal: no skew part
+    S = sp.random_array((40, 40), density=0.2, rng=np.random.default_rng(4), format="csr")
+    K = (S - S.T).tocsr()  # skew-symmetric: ρ(|K|) ≥ ‖K‖₂, the bound is within the gap
+    assert skew_bound(K, iterations=30) >= np.linalg.norm(K.toarray(), 2) * (1 - 1e-12)
+    assert skew_bound(K.toarray()) == pytest.approx(skew_bound(K))
+    for bad in (dict(inner=-np.ones(40)), dict(inner=np.ones(3)), dict(iterations=-1)):
+        with pytest.raises(ExpmInputError):
+            skew_bound(K, **bad)
+    with pytest.raises(ExpmInputError, match="explicit"):
+        skew_bound(spla.aslinearoperator(K))
+
+
+def test_chebyshev_degree_and_coefficients():
+    from scipy.special import jv
+
+    for tau, tol in ((0.3, 1e-10), (7.0, 1e-6), (58.5, 5e-11), (400.0, 1e-14)):
+        m = chebyshev_degree(tau, tol)
+        ks = np.arange(m + 1, m + 400)
+        assert 2 * np.abs(jv(ks, tau)).sum() <= tol  # the tail beyond m is within tol
+        assert 2 * np.abs(jv(ks - 1, tau)).sum() > tol or m <= tau + 1  # and m is the first
+    taus = np.array([3.0, -3.0, 0.0, 11.5, -0.2])
+    C = fvf.expmv._cheb_coefficients(taus, 30)
+    k = np.arange(31)
+    want = np.where(k == 0, 1.0, 2.0) * jv(k[None, :], taus[:, None])
+    np.testing.assert_allclose(C, want, rtol=0, atol=2e-14)
+
+
+@pytest.mark.parametrize("tol", [1e-5, 1e-10, 1e-13])
+def test_chebyshev_meets_tol_with_the_a_priori_degree_on_skew_operators(mesh, tol):
+    A = _flow_operator(mesh, "skew")
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    t = 12 * mesh.mean_edge_length
+    x, info = expm_action(A, b, t, inner=w, method="chebyshev", tol=tol, return_info=True)
+    ref = dense_exp(A, b, t)[0]
+    assert wrel(x, ref, w) <= tol and maxrel(x, ref) <= tol
+    R = info["skew_bound"]
+    assert skew_bound(A, w) <= R <= skew_bound(A, w, iterations=0)
+    # one product per term; the series stops within 3 terms of the a-priori degree
+    m = chebyshev_degree(R * t, fvf.expmv.SAFETY * tol)
+    assert info["matvecs"] == info["basis_sizes"][0] - 1 <= m + 3
+    assert 2 <= info["bound_products"] <= 2 * (fvf.expmv.CHEB_BOUND_ITERATIONS + 1)
+
+
+def test_chebyshev_block_many_times_and_given_bound(mesh):
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    B = _f0(mesh, 3)
+    times = mesh.mean_edge_length * np.linspace(-8, 8, 21)
+    R = skew_bound(A, w, iterations=6)
+    X, info = expm_action(A, B, times, inner=w, skew_norm=R, return_info=True)
+    assert info["method"] == "chebyshev" and info["bound_products"] == 0
+    assert info["matvecs"] == 3 * info["block_matvecs"]  # (n, 3) blocks
+    ref = dense_exp(A, B, times)
+    for k in range(times.size):
+        for c in range(3):
+            assert wrel(X[k, :, c], ref[k, :, c], w) <= TOL
+    # the Gershgorin bound (looser) costs more terms for the same answer
+    _, loose = expm_action(A, B, times, inner=w, skew_norm=skew_bound(A, w, 0), return_info=True)
+    assert loose["block_matvecs"] > info["block_matvecs"]
+
+
+def test_chebyshev_gives_way_to_krylov_on_a_real_spectrum():
+    """Diffusion, A = −M⁻¹L: a real spectrum makes the terms P_k(A/R) grow like 2.4ᵏ; the
+    series detects it and the Krylov method computes the answer."""
+    mesh = fvf.icosphere(3)
+    M = mesh.vertex_areas
+    A = -(sp.diags_array(1.0 / M) @ fvf.stiffness(mesh)).tocsr()
+    b = np.random.default_rng(5).standard_normal(mesh.n_vertices)  # all frequencies
+    t = 0.05
+    assert skew_bound(A, M) * t > fvf.expmv.CHEB_MIN_TAU
+    ref = dense_exp(A, b, t)[0]
+    x, info = expm_action(A, b, t, inner=M, return_info=True)  # auto: silently
+    assert info["method"] in ("lanczos", "iom") and info["wasted_matvecs"] > 0
+    assert wrel(x, ref, M) <= TOL
+    with pytest.warns(KrylovFallbackWarning, match="chebyshev"):
+        y = expm_action(A, b, t, inner=M, method="chebyshev")
+    np.testing.assert_array_equal(x, y)
+
+
+def test_chebyshev_with_a_too_small_bound_is_still_right_or_gives_way(mesh):
+    A = _flow_operator(mesh, "skew")
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    t = 10 * mesh.mean_edge_length
+    ref = dense_exp(A, b, t)[0]
+    small = 0.5 * _dense_skew_norm(A, w)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        x, info = expm_action(
+            A, b, t, inner=w, method="chebyshev", skew_norm=small, return_info=True
+        )
+    assert wrel(x, ref, w) <= TOL
+    if info["method"] != "chebyshev":
+        assert any(issubclass(c.category, KrylovFallbackWarning) for c in caught)
+
+
+def test_chebyshev_bad_inputs(mesh):
+    A = _flow_operator(mesh, "skew")
+    b = _f0(mesh)
+    for bad in (0.0, -1.0, np.nan, np.inf, "big"):
+        with pytest.raises(ExpmInputError, match="skew_norm"):
+            expm_action(A, b, 1.0, skew_norm=bad)
+    with pytest.raises(ExpmInputError, match="skew_norm"):
+        expm_action(spla.aslinearoperator(A), b, 1.0, method="chebyshev")
+    op = spla.aslinearoperator(A)
+    R = skew_bound(A)
+    x, info = expm_action(op, b, 0.3, method="chebyshev", skew_norm=R, return_info=True)
+    assert info["method"] == "chebyshev"
+    assert maxrel(x, dense_exp(A, b, 0.3)[0]) <= TOL
+
+
+def test_bessel_table_against_scipy():
+    from scipy.special import jv
+
+    for x, kmax in (
+        (np.linspace(-87.0, 87.0, 16), 130),
+        (np.array([1e-9, 1e-5, 3.0, 0.0, -2.5]), 200),
+        (np.array([0.5, 1000.0]), 1100),
+    ):
+        J = fvf.expmv._bessel_table(x, kmax)
+        want = jv(np.arange(kmax + 1)[None, :], x[:, None])
+        assert np.isfinite(J).all()
+        np.testing.assert_allclose(J, want, rtol=0, atol=2e-14)

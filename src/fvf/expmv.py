@@ -1,17 +1,31 @@
-"""The action of the matrix exponential, exp(t A) B, by adaptive Krylov time stepping.
+"""The action of the matrix exponential, exp(t A) B, by a Chebyshev series or adaptive
+Krylov time stepping.
 
 :func:`expm_action` computes exp(t_j A) B for many times t_j (any sign and order) and many
 right-hand sides B (n, p) in one pass, without forming exp(A). It is built for the
 functional flows of :mod:`fvf.flow`, Φ_{v,t} f = exp(−t D^V_v) f: A = −D^V_v is sparse
 with about 7 non-zeros per row and, for divergence-free fields v = J grad g, skew-adjoint
-in the A_V inner product ⟨x, y⟩ = xᵀ [A_V] y (CHAPTER.md, "Facts we measured").
+in the A_V inner product ⟨x, y⟩ = xᵀ [A_V] y (CHAPTER.md, "Facts we measured"). Its
+spectrum lies near the imaginary axis, in the strip |Im z| ≤ R of a bound R of the norm
+of its A_V-skew part (:func:`skew_bound`), whatever the field.
 
-Algorithm (Saad 1992; Gallopoulos & Saad 1992; Hochbruck & Lubich 1997; the step control
-of Expokit-type integrators)
-------------------------------------------------------------------------------------------
-Each sign of t is one sweep over the sorted |t_j|. A step starts from the current state y
-and builds a basis u_0 = y/‖y‖, u_1, … of the Krylov space K_m(A, y) with
-A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product ⟨x, y⟩_W = xᵀ diag(w) y of ``inner``.
+Chebyshev series (``method="chebyshev"``; ``"auto"`` from R·max|t| ≥ :data:`CHEB_MIN_TAU`)
+--------------------------------------------------------------------------------------
+exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R) (Jacobi–Anger), with the real three-term
+recurrence P_{k+1} = 2(A/R)P_k + P_{k−1}: one product and no inner products per term, all
+times and columns from the same terms, an a-priori degree (:func:`chebyshev_degree`) that
+is rigorous in the A_V norm for skew-adjoint A, a posteriori checks otherwise, and a
+fallback to the Krylov method when the terms grow (non-normal or real spectra). It needs
+more products than Krylov (R·|t| + O(|Rt|^{1/3} + log 1/tol), R ≥ the spectral radius)
+but runs close to the time of its products; see :func:`_run_chebyshev`.
+
+Krylov time stepping (``method="krylov"``)
+------------------------------------------
+Saad 1992; Gallopoulos & Saad 1992; Hochbruck & Lubich 1997; the step control of
+Expokit-type integrators. Each sign of t is one sweep over the sorted |t_j|. A step
+starts from the current state y and builds a basis u_0 = y/‖y‖, u_1, … of the Krylov
+space K_m(A, y) with A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product
+⟨x, y⟩_W = xᵀ diag(w) y of ``inner``.
 
 * Skew-adjoint A (W A + Aᵀ W = 0): H_m is tridiagonal with zero diagonal and the basis
   comes from a three-term recurrence — one product and three vector passes per basis
@@ -49,7 +63,8 @@ p) and per operator call (``info["block_matvecs"]``). Basis storage is reused be
 calls (see :data:`WORKSPACE_KEEP`, :func:`clear_workspace`).
 
 ``method="auto"`` (:func:`choose_method`) uses :func:`scipy.sparse.linalg.expm_multiply`
-(Al-Mohy & Higham 2011) only for tiny matrices. When ``skew`` is not given, the
+(Al-Mohy & Higham 2011) only for tiny matrices, the Chebyshev series for long times and
+the Krylov method otherwise. When ``skew`` is not given, the
 three-term recurrence is tried first and H_m is checked on the fly (⟨A u_j, u_j⟩_W and
 h_{j−1,j} + h_{j,j−1} must vanish); a non-skew operator then costs one or two wasted
 products before the general method takes over. Small dense work (SVDs, m × m
@@ -70,21 +85,27 @@ import numpy.typing as npt
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy import special
 
 from .errors import FlowOverflowError, FvfWarning, ParameterError
+
+_AXPY = sla.get_blas_funcs("axpy", dtype=np.float64)  # y += a x in place
 
 try:  # in-place y += A x kernels (scipy's own CSR kernels, no temporary arrays)
     from scipy.sparse import _sparsetools as _st
 
     _CSR_MATVEC = _st.csr_matvec
     _CSR_MATVECS = _st.csr_matvecs
+    _CSC_MATVEC = _st.csc_matvec
 except (ImportError, AttributeError):  # pragma: no cover - other scipy versions
-    _CSR_MATVEC = _CSR_MATVECS = None
+    _CSR_MATVEC = _CSR_MATVECS = _CSC_MATVEC = None
 
 __all__ = [
     "expm_action",
     "clear_workspace",
     "choose_method",
+    "skew_bound",
+    "chebyshev_degree",
     "check_options",
     "as_times",
     "ExpmvCounter",
@@ -93,8 +114,8 @@ __all__ = [
     "METHODS",
 ]
 
-Method = Literal["auto", "krylov", "expm_multiply"]
-METHODS = ("auto", "krylov", "expm_multiply")
+Method = Literal["auto", "krylov", "chebyshev", "expm_multiply"]
+METHODS = ("auto", "krylov", "chebyshev", "expm_multiply")
 
 #: Below this many rows ``method="auto"`` uses expm_multiply (a Krylov basis would be
 #: most of the space anyway).
@@ -113,6 +134,15 @@ _STREAM_N = 65536  # from this n on, weighted norms use one fused pass (memory-b
 #: below NOISE·‖H_m‖·t is noise, so tolerances below it are met at that level instead.
 NOISE = 16 * np.finfo(float).eps
 SAFETY = 0.5  # the error estimates aim at SAFETY·tol
+#: Cap on the bytes of the Chebyshev terms kept for one GEMM into the outputs.
+CHEB_MEMORY = 2**28
+#: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R = :func:`skew_bound`).
+CHEB_MIN_TAU = 4.0
+#: The Chebyshev series gives up (for the Krylov method) once its rounding estimate,
+#: NOISE·√k·max|c_k|‖y_k‖/‖B‖, exceeds CHEB_GROWTH·tol.
+CHEB_GROWTH = 1e3
+#: Power steps of the bound R that :func:`expm_action` computes (:func:`skew_bound`).
+CHEB_BOUND_ITERATIONS = 4
 
 
 _NONFINITE = (
@@ -260,16 +290,20 @@ class _CounterAdjoint(spla.LinearOperator):
 class _Operator:
     """y += A x for x, y of shape (n,) or (n, p), counting products."""
 
-    def __init__(self, A: Any, n: int) -> None:
+    def __init__(self, A: Any, n: int, scale: float = 1.0) -> None:
+        """The operator scale·A (a scaled copy of a sparse or dense A's values)."""
         self.n = n
         self.matvecs = 0
         self.calls = 0
         self.csr = None
-        self.A = A
+        self.A = A if scale == 1.0 or sp.issparse(A) else scale * A
         self.inplace = _CSR_MATVEC is not None
         if sp.issparse(A):
             C = A.tocsr() if A.format != "csr" else A
-            if C.dtype != np.float64:
+            data = C.data.astype(np.float64, copy=False) * scale if scale != 1.0 else None
+            if data is not None:
+                C = sp.csr_array((data, C.indices, C.indptr), shape=C.shape)
+            elif C.dtype != np.float64:
                 C = C.astype(np.float64)
             self.csr = C
             self.nnz = C.nnz
@@ -286,8 +320,10 @@ class _Operator:
         C = self.csr
         if C is not None and self.inplace:
             try:
-                if x.ndim == 1:
-                    _CSR_MATVEC(self.n, self.n, C.indptr, C.indices, C.data, x, y)
+                if cols == 1:  # the vector kernel is ~2x faster than the 1-column one
+                    _CSR_MATVEC(
+                        self.n, self.n, C.indptr, C.indices, C.data, x.reshape(-1), y.reshape(-1)
+                    )
                 else:
                     n = self.n
                     _CSR_MATVECS(n, n, cols, C.indptr, C.indices, C.data, x.ravel(), y.reshape(-1))
@@ -435,7 +471,11 @@ def _norm_inf(A: Any) -> float:
     """‖A‖_∞ of a sparse or dense A; for a LinearOperator its ``norm_inf`` attribute (an
     upper bound, e.g. :class:`fvf.transport.TransportOperator`'s) or 0 (unknown)."""
     if sp.issparse(A):
-        return float(abs(A).sum(axis=1).max()) if A.nnz else 0.0
+        if not A.nnz:
+            return 0.0
+        C = A.tocsr() if A.format != "csr" else A
+        absC = sp.csr_array((np.abs(C.data), C.indices, C.indptr), shape=C.shape)
+        return float((absC @ np.ones(C.shape[1])).max())
     if isinstance(A, np.ndarray):
         return float(np.abs(A).sum(axis=1).max()) if A.size else 0.0
     bound = getattr(A, "norm_inf", 0.0)
@@ -458,19 +498,24 @@ def choose_method(
     n_rhs: int = 1,
     *,
     skew: bool | None = None,
-) -> Literal["krylov", "expm_multiply"]:
+    inner: npt.ArrayLike | None = None,
+    skew_norm: float | None = None,
+) -> Literal["krylov", "chebyshev", "expm_multiply"]:
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
+    * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
+      ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. Its terms cost one product
+      and one vector copy, against three to four vector passes per basis vector for the
+      three-term Krylov recurrence (twenty in the general case) plus the step control; it
+      needs more products (R·|t| + O(log 1/tol), R ≥ the spectral radius) but runs at
+      1.0–1.2× the time of its products (``benchmarks/bench_expmv.py``). If its series
+      fails its checks (strongly non-normal A), the Krylov method takes over.
     * otherwise ``"krylov"``. Measured on flows of unit-speed fields on spot meshes (6k,
       94k and 1.5M faces; ``benchmarks/bench_expmv.py``, tol 1e-10), the Krylov method
-      needs 1.5–3.5× fewer products than expm_multiply at t = 0.1 mean edge lengths,
-      1.7–4.8× at 1 and 3.3–9.4× at 10 (20–36× for 16 output times, which
-      expm_multiply chains): its Taylor steps scale with |t|·‖A‖₁ and its norm estimates
-      spend products with Aᵀ, where the three-term recurrence needs about |t|·ρ(A) +
-      O(log 1/tol). It was faster in wall time in all cases but two on the 6k mesh
-      (compressible field: 8 right-hand sides at t = 0.1, where expm_multiply's block
-      products win, 0.6×; one right-hand side at t = 1, a tie).
+      needs 1.5–3.5× fewer products than expm_multiply at t = 0.1 mean edge lengths and
+      1.7–4.8× at 1: its Taylor steps scale with |t|·‖A‖₁ and its norm estimates spend
+      products with Aᵀ.
 
     Parameters
     ----------
@@ -480,16 +525,49 @@ def choose_method(
         Number of right-hand sides (columns of B).
     skew : bool or None
         Whether A is skew-adjoint in the inner product of the call (None: unknown).
+    inner : array_like (n,), optional
+        Weights of the inner product (for the bound R).
+    skew_norm : float, optional
+        An upper bound R of ‖K‖_W (see :func:`skew_bound`); computed when needed.
 
     Returns
     -------
-    {"krylov", "expm_multiply"}
+    {"krylov", "chebyshev", "expm_multiply"}
     """
-    n = A.shape[0]
-    times = np.atleast_1d(np.asarray(t, dtype=float))
+    Aop, _ = _check_operator(A)
+    times, _ = as_times(t)
+    w = None if inner is None else np.asarray(inner, dtype=float)
+    return _choose(Aop, times, skew_norm, w, n_rhs)[0]
+
+
+def _choose(
+    Aop: Any,
+    times: np.ndarray,
+    skew_norm: float | None,
+    w: np.ndarray | None,
+    p: int = 1,
+    info: dict | None = None,
+) -> tuple[str, float | None]:
+    """(method of "auto", the bound R if it was computed or given)."""
+    n = Aop.shape[0]
     if n < SMALL_N or not np.any(times != 0):
-        return "expm_multiply"
-    return "krylov"
+        return "expm_multiply", skew_norm
+    if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
+        return "krylov", None
+    R = _bound(Aop, w, times, p, info) if skew_norm is None else float(skew_norm)
+    if R > 0 and R * float(np.abs(times).max()) >= CHEB_MIN_TAU:
+        return "chebyshev", R
+    return "krylov", R
+
+
+def _bound(Aop: Any, w: np.ndarray | None, times: np.ndarray, p: int, info: dict | None) -> float:
+    """:func:`skew_bound` with power steps while they pay for themselves on this call
+    (records the products with |A| in ``info["bound_products"]``)."""
+    span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
+    R, products = _skew_bound(Aop, w, CHEB_BOUND_ITERATIONS, span)
+    if info is not None:
+        info["bound_products"] = products
+    return R
 
 
 def expm_action(
@@ -504,6 +582,7 @@ def expm_action(
     norm: Literal["max", "inner"] = "max",
     m_max: int | None = None,
     max_memory: float = MAX_MEMORY,
+    skew_norm: float | None = None,
     return_info: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
     """exp(t_j A) B for one or many times t_j and one or many right-hand sides.
@@ -534,9 +613,12 @@ def expm_action(
         three-term recurrence and check it on the fly. True: use it; if the operator turns
         out not to be skew, warn (:class:`KrylovFallbackWarning`) and use the general
         method. False: the general method (incomplete orthogonalization).
-    method : {"auto", "krylov", "expm_multiply"}
-        "auto" follows :func:`choose_method`. "expm_multiply" chains
-        :func:`scipy.sparse.linalg.expm_multiply` over the sorted times of each sign.
+    method : {"auto", "krylov", "chebyshev", "expm_multiply"}
+        "auto" follows :func:`choose_method`. "krylov": adaptive Krylov time stepping.
+        "chebyshev": the Chebyshev series in A/R (see Notes); if it fails its checks,
+        warns (:class:`KrylovFallbackWarning`) and uses the Krylov method.
+        "expm_multiply" chains :func:`scipy.sparse.linalg.expm_multiply` over the sorted
+        times of each sign.
     norm : {"max", "inner"}
         Norm(s) of the error control (see ``tol``); "max" costs a few more products.
     m_max : int, optional
@@ -546,6 +628,12 @@ def expm_action(
     max_memory : float
         Cap on the bytes of a Krylov basis (default 4 GiB); columns of B are processed in
         groups that fit.
+    skew_norm : float, optional
+        For the Chebyshev series: an upper bound R of ‖K‖_W, the norm of A's skew-adjoint
+        part in the inner product, so that A's spectrum lies in the strip |Im z| ≤ R.
+        Default: :func:`skew_bound` (Gershgorin, about 1.5× ‖K‖_W on flow operators).
+        A tighter bound saves products; one below ‖K‖_W makes the series grow, which its
+        checks detect (then the Krylov method is used).
     return_info : bool
         Also return a dict of statistics.
 
@@ -559,17 +647,19 @@ def expm_action(
         ``matvecs``: column products with A (a product on an (n, p) block counts p; for
         expm_multiply, products with A and Aᵀ, counted through :class:`ExpmvCounter`);
         ``block_matvecs``: operator calls; ``steps``: Krylov bases built;
-        ``basis_sizes``: their sizes; ``error_estimate``: the largest accumulated
-        relative error estimate over the columns (None for expm_multiply); ``skew``:
-        what was used; ``wasted_matvecs``: products of a failed three-term attempt
-        (included in ``matvecs``).
+        ``basis_sizes``: their sizes (for "chebyshev", the number of terms);
+        ``error_estimate``: the largest accumulated relative error estimate over the
+        columns (None for expm_multiply); ``skew``: what was used; ``wasted_matvecs``:
+        products of a failed three-term or Chebyshev attempt (included in ``matvecs``);
+        ``skew_bound``: R, for "chebyshev"; ``bound_products``: products with |A| spent
+        on R (:func:`skew_bound`; not included in ``matvecs``).
 
     Raises
     ------
     ExpmInputError
         Non-square, complex or non-numeric A; B of the wrong shape; non-finite A, B, t
         or weights; weights ≤ 0; tol outside (0, 1); unknown method, norm or skew value;
-        m_max < 1.
+        m_max < 1; skew_norm not a finite number > 0.
     FlowOverflowError
         (also a FloatingPointError) The recurrence produced inf/NaN (a LinearOperator
         returned them, or the solution overflowed), or max|t| · ‖A‖_∞ exceeds
@@ -578,13 +668,22 @@ def expm_action(
     Warns
     -----
     KrylovFallbackWarning
-        ``skew=True`` but A is not skew-adjoint.
+        ``skew=True`` but A is not skew-adjoint, or ``method="chebyshev"`` but its series
+        failed its checks.
 
     Notes
     -----
     The exponential of A is never formed; the work is the products, O(n) per basis
     vector (O(n · :data:`IOM_WINDOW`) in the general case) and small dense matrices. See
-    the module docstring for the algorithm. For non-normal A (compressible fields) the
+    the module docstring for the algorithm.
+
+    The Chebyshev series (Tal-Ezer & Kosloff 1984; Bergamaschi & Vianello 2000): with the
+    spectrum of A in the strip |Im z| ≤ R, the Jacobi–Anger expansion
+    exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R), P_{k+1} = 2(A/R)P_k + P_{k−1}, is a
+    real three-term recurrence: one product and one copy per term, no inner products
+    except near the end, every time of either sign from the same terms. For W-skew A it
+    is rigorous in the W norm (‖P_k(A/R)‖_W ≤ 1); for non-normal A it is checked a
+    posteriori (see :func:`_run_chebyshev`). For non-normal A (compressible fields) the
     error of an early step can be amplified by the later ones beyond the solution's own
     growth; single-step solves (the default m_max covers about 100 mean edge lengths of
     unit-speed transport) are not affected.
@@ -608,6 +707,12 @@ def expm_action(
         raise ExpmInputError(f"norm must be 'max' or 'inner'; got {norm!r}")
     if skew not in (None, True, False):
         raise ExpmInputError(f"skew must be None, True or False; got {skew!r}")
+    if skew_norm is not None and not (
+        isinstance(skew_norm, int | float | np.floating)
+        and math.isfinite(skew_norm)
+        and skew_norm > 0
+    ):
+        raise ExpmInputError(f"skew_norm must be a finite number > 0; got {skew_norm!r}")
     try:
         Barr = np.asarray(B)
     except (TypeError, ValueError) as exc:
@@ -642,9 +747,6 @@ def expm_action(
     B2 = np.ascontiguousarray(B2, dtype=np.float64)
     p = B2.shape[1]
 
-    if method == "auto":
-        method = choose_method(Aop, times, p, skew=skew)
-
     out = np.empty((times.size, n, p))
     info: dict[str, Any] = {
         "method": None,
@@ -655,7 +757,13 @@ def expm_action(
         "error_estimate": 0.0,
         "skew": skew,
         "wasted_matvecs": 0,
+        "bound_products": 0,
     }
+    bound = None if skew_norm is None else float(skew_norm)
+    explicit = method == "chebyshev"
+    if method == "auto":
+        method, bound = _choose(Aop, times, bound, w, p, info)
+
     a_norm = _norm_inf(Aop)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
@@ -672,10 +780,36 @@ def expm_action(
     elif method == "expm_multiply":
         _run_expm_multiply(Aop, B2, times, out, info, count=return_info)
     else:
-        with np.errstate(over="ignore", invalid="ignore"):  # inf/NaN raise FlowOverflowError
-            _run_krylov(
-                Aop, n, B2, times, out, info, tol, w, skew, m_max, max_memory, norm == "max"
-            )
+        if method == "chebyshev":
+            if bound is None:
+                if isinstance(Aop, spla.LinearOperator):
+                    raise ExpmInputError(
+                        "method='chebyshev' on a LinearOperator needs skew_norm (a bound of "
+                        "the norm of its skew-adjoint part)"
+                    )
+                bound = _bound(Aop, w, times, p, info)
+            method = "krylov" if bound == 0.0 else method  # A is W-symmetric: no strip
+        if method == "chebyshev":
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    _run_chebyshev(Aop, n, B2, times, out, info, tol, w, norm == "max", bound)
+            except _ChebyshevFailed as exc:
+                if explicit:
+                    warnings.warn(
+                        f"method='chebyshev' failed ({exc}); used the Krylov method.",
+                        KrylovFallbackWarning,
+                        stacklevel=2,
+                    )
+                info["wasted_matvecs"] += info["matvecs"]
+                method = "krylov"
+        if method == "krylov":
+            done, calls = info["matvecs"], info["block_matvecs"]
+            with np.errstate(over="ignore", invalid="ignore"):  # inf/NaN: FlowOverflowError
+                _run_krylov(
+                    Aop, n, B2, times, out, info, tol, w, skew, m_max, max_memory, norm == "max"
+                )
+            info["matvecs"] += done
+            info["block_matvecs"] += calls
 
     if is_complex:
         q = p // 2
@@ -722,6 +856,313 @@ def _run_expm_multiply(
     if op is not None:
         info["matvecs"] = op.products
         info["block_matvecs"] = op.calls
+
+
+# -------------------------------------------------------------------- Chebyshev series
+def skew_bound(
+    A: Any, inner: npt.ArrayLike | None = None, iterations: int = CHEB_BOUND_ITERATIONS
+) -> float:
+    """A rigorous upper bound of ‖K‖_W, K the skew-adjoint part of A in the W inner product.
+
+    With S = D A D⁻¹, D = diag(√w), the W-skew part of A is similar to K = (S − Sᵀ)/2;
+    every eigenvalue of A, and the imaginary part of every point of A's numerical range in
+    the W inner product, lies in [−‖K‖₂, ‖K‖₂]. Since K is skew-symmetric,
+    ‖K‖₂ = ρ(K) ≤ ρ(|K|) ≤ ρ(M) with M = ½(|S| + |S|ᵀ) off the diagonal (|K_ij| ≤ M_ij),
+    and for any positive d the Collatz–Wielandt bound ρ(M) ≤ maxᵢ (M d)ᵢ / dᵢ holds. d = 1
+    gives Gershgorin's bound; each of ``iterations`` power steps d ← M d tightens it (two
+    products with |A|; 2·(iterations + 1) in all). For A = −D^V_v of a unit-speed field
+    on the 94k-face spot mesh: Gershgorin 1.49× ‖K‖₂ (v = J grad y) and 1.51×
+    (v = grad y); after 2 steps 1.15× and 1.24×, after 4 steps 1.10× and 1.18×; the limit
+    ρ(M) is 1.06× and 1.13×.
+
+    Parameters
+    ----------
+    A : sparse array/matrix or ndarray, shape (n, n), real
+    inner : array_like (n,), optional
+        Positive weights w of the inner product (default: all ones).
+    iterations : int
+        Power steps (≥ 0).
+
+    Returns
+    -------
+    float
+        The bound (≥ 0; 0 for a diagonal A).
+    """
+    Aop, n = _check_operator(A)
+    if isinstance(Aop, spla.LinearOperator):
+        raise ExpmInputError("skew_bound needs an explicit (sparse or dense) matrix")
+    w = None
+    if inner is not None:
+        w = np.asarray(inner, dtype=float)
+        if w.shape != (n,) or not np.isfinite(w).all() or (w <= 0).any():
+            raise ExpmInputError(f"inner must be {n} finite weights > 0")
+    if int(iterations) != iterations or iterations < 0:
+        raise ExpmInputError(f"iterations must be an integer >= 0; got {iterations!r}")
+    return _skew_bound(Aop, w, int(iterations))[0]
+
+
+def _skew_bound(
+    A: Any, w: np.ndarray | None, iterations: int = CHEB_BOUND_ITERATIONS, span: float = math.inf
+) -> tuple[float, int]:
+    """(bound, products with |A| spent). With a finite ``span`` (max|t| × columns), the
+    power steps stop early once a step saves fewer terms (≈ span × the bound's decrease)
+    than the two products it costs."""
+    n = A.shape[0]
+    if n == 0:
+        return 0.0, 0
+    M = sp.csr_array(A) if not sp.issparse(A) else A.tocsr()
+    M.sum_duplicates()
+    indptr, indices, absdata = M.indptr, M.indices, np.abs(M.data)
+    diag = np.abs(M.diagonal())
+    s = np.ones(n) if w is None else np.sqrt(w)
+    kernels = _CSR_MATVEC is not None and _CSC_MATVEC is not None
+    absA = None if kernels else sp.csr_array((absdata, indices, indptr), shape=(n, n))
+
+    def apply(d: np.ndarray) -> np.ndarray:
+        """M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with diagonal)."""
+        u, v = np.zeros(n), np.zeros(n)
+        if kernels:
+            _CSR_MATVEC(n, n, indptr, indices, absdata, d / s, u)
+            _CSC_MATVEC(n, n, indptr, indices, absdata, d * s, v)  # CSR of |A| = CSC of |A|ᵀ
+        else:  # pragma: no cover - other scipy versions
+            u, v = absA @ (d / s), absA.T @ (d * s)
+        return 0.5 * (s * u + v / s) - diag * d
+
+    d = np.ones(n)
+    best = math.inf
+    products = 0
+    for _ in range(iterations + 1):
+        Md = apply(d)
+        products += 2
+        bound = float(np.max(Md / d))
+        gain, best = best - bound, min(best, bound)
+        top = float(Md.max())
+        if not top > 0 or not math.isfinite(top) or gain * span < 2.0:
+            break
+        d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
+    return max(best, 0.0), products
+
+
+def chebyshev_degree(tau: float, tol: float) -> int:
+    """Terms of the series exp(iτx) = J₀(τ) + 2 Σ iᵏ J_k(τ) T_k(x) needed for an error
+    below ``tol`` on [−1, 1]: the smallest m ≥ |τ| with 2 Σ_{k>m} |J_k(τ)| ≤ tol."""
+    tau = abs(float(tau))
+    ks = np.arange(int(tau) + 1, int(tau + 12 * tau ** (1 / 3) + 60))
+    tail = 2.0 * np.cumsum(np.abs(special.jv(ks, tau))[::-1])[::-1]  # tail[i] = Σ_{k≥ks[i]}
+    ok = np.flatnonzero(tail <= tol)
+    return int(ks[ok[0]] - 1) if ok.size else int(ks[-1])
+
+
+def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
+    """J_k(x_j) for k = 0..kmax and real x (T,): (T, kmax + 1) float64.
+
+    Miller's backward recurrence J_{k−1} = (2k/x) J_k − J_{k+1} from an order well past
+    the turning point k ≈ |x| (where J decays superexponentially), normalized by
+    J₀ + 2 Σ J_{2k} = 1; columns that grow past 1e200 are rescaled on the way. Accurate to
+    a few ulps of max|J| (checked against scipy.special.jv in the tests); one vectorized
+    pass for all x, where jv costs a few µs per value.
+    """
+    x = np.asarray(x, dtype=float)
+    out = np.zeros((x.size, kmax + 1))
+    a = np.abs(x)
+    live = a > 0
+    out[~live, 0] = 1.0
+    if not live.any():
+        return out
+    a = a[live]
+    amax = float(a.max())
+    inv = 2.0 / a
+    tab = np.empty((kmax + 1, a.size))
+    f_next = np.zeros(a.size)  # f_{k+1}
+    f = np.full(a.size, 1e-200)  # f_k
+    even = np.zeros(a.size)  # Σ f_{2j}, j ≥ 1
+    for k in range(int(max(kmax, amax) + 12.0 * amax ** (1 / 3) + 30), 0, -1):
+        if k <= kmax:
+            tab[k] = f
+        if not k & 1:
+            even += f
+        f, f_next = (k * inv) * f - f_next, f
+        if np.abs(f).max() > 1e200:
+            big = np.abs(f) > 1e200
+            f[big] *= 1e-200
+            f_next[big] *= 1e-200
+            even[big] *= 1e-200
+            if k <= kmax:
+                tab[k:, big] *= 1e-200
+    tab[0] = f
+    tab /= f + 2.0 * even
+    t = tab.T
+    t[x[live] < 0, 1::2] *= -1.0  # J_k(−x) = (−1)ᵏ J_k(x)
+    out[live] = t
+    return out
+
+
+def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
+    """c_k(τ_j) = J_k(τ_j) (k = 0), 2 J_k(τ_j) (k ≥ 1) for k ≤ kmax: (T, kmax + 1).
+
+    Bessel functions of the distinct |τ| only (J_k(−τ) = (−1)ᵏ J_k(τ)): scipy's jv for up
+    to three of them, else :func:`_bessel_table` (jv costs a few µs per value). The table
+    is built to the expected degree and extended on demand.
+    """
+    mags, inv = np.unique(np.abs(taus), return_inverse=True)
+    if mags.size <= 3:
+        J = special.jv(np.arange(kmax + 1)[None, :], mags[:, None])
+    else:
+        J = _bessel_table(mags, kmax)
+    J = J[inv.ravel()]
+    J[taus < 0, 1::2] *= -1.0
+    J[:, 1:] *= 2.0
+    return J
+
+
+class _ChebyshevFailed(Exception):
+    """Internal: the series did not converge or cancelled beyond the tolerance."""
+
+
+def _run_chebyshev(
+    Aop: Any,
+    n: int,
+    B2: np.ndarray,
+    times: np.ndarray,
+    out: np.ndarray,
+    info: dict,
+    tol: float,
+    w: np.ndarray | None,
+    maxnorm: bool,
+    bound: float,
+) -> None:
+    """Fill out (T, n, p) with exp(t_j A) B2 by the Chebyshev series in A/R (R = bound).
+
+    With A ≈ iR·x (x ∈ [−1, 1] on A's spectrum), the Jacobi–Anger expansion gives
+    exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R), with P₀ = I, P₁ = A/R and the real
+    three-term recurrence P_{k+1} = 2 (A/R) P_k + P_{k−1} (P_k(ix) = iᵏ T_k(x)). All times
+    (either sign: J_k(−τ) = (−1)ᵏ J_k(τ)) and all columns share the vectors y_k = P_k B;
+    the outputs are accumulated by one GEMM per chunk of 16–64 terms (for one time, each term
+    at once, while it is in cache). A term costs one product and one copy. For
+    W-skew-adjoint A and R ≥ ‖A‖_W,
+    ‖P_k(A/R)‖_W = max|T_k| ≤ 1, so the truncation error is at most
+    2 Σ_{k>m} |J_k(Rt)| ‖B‖_W. Otherwise (non-normal A) the terms may grow before they
+    decay; the series is controlled a posteriori: it stops at the first m beyond the
+    a-priori degree (:func:`chebyshev_degree`, less two) where the last two terms
+    |c_k| ‖y_k‖ are within SAFETY·tol and decaying, and the rounding
+    error is estimated as NOISE·√m·max_k |c_k| ‖y_k‖. Both are checked against the
+    outputs' own norms at the end; raises _ChebyshevFailed if they miss tol.
+    """
+    p = B2.shape[1]
+    T = times.size
+    R = float(bound)
+    taus = times * R
+    tau_max = float(np.abs(taus).max())
+    k_cap = int(1.5 * tau_max + 12 * tau_max ** (1 / 3) + 80)
+    budget = SAFETY * tol
+    # the a-priori degree for W-normal A (within 2 terms of where the series stops):
+    # the terms are measured at every step from there on, and at every 8th before
+    k_check = chebyshev_degree(tau_max, budget) - 2
+    coef = _cheb_coefficients(taus, k_check + 8)  # (T, K): c_k(τ_j), extended if needed
+    op = _Operator(Aop, n, scale=2.0 / R)
+    try:
+        ones = np.ones(n) if w is None else None
+        nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
+        inf0 = np.abs(B2).max(axis=0) if maxnorm else None
+        # T = 1: each term is added to the output at once, while it is in cache, and
+        # y_{k+1} overwrites y_{k−1} (two vectors, no copies); T > 1: chunks of terms, one
+        # GEMM each into the T outputs, and y_{k+1} starts as a copy of y_{k−1}.
+        chunk = 2
+        if T > 1:
+            chunk = max(3, min(int(np.clip(4 * T, 16, 64)), int(CHEB_MEMORY // (8.0 * n * p))))
+        buf = np.empty((chunk, n, p))  # y_{k0} … y_{k0 + filled − 1} (T > 1)
+        flat = buf.reshape(chunk, n * p)
+        acc = out.reshape(T, n * p)
+        acc[:] = 0.0
+        np.copyto(buf[0], B2)
+        buf[1].fill(0.0)
+        op.accumulate(buf[0], buf[1])
+        buf[1] *= 0.5  # y_1 = (A/R) B
+        if T == 1:
+            acc[0] += coef[0, 0] * flat[0]
+            _AXPY(flat[1], acc[0], a=coef[0, 1])
+        cur_i = 1  # slot of y_k
+        bufs, flats, step = [buf[0], buf[1]], [flat[0], flat[1]], op.accumulate
+        tmp = np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
+        k0, start, filled, k = 0, 0, 2, 1  # T > 1: slots [start, filled) not yet added
+        peak = np.ones(p)  # largest |c_k| ‖y_k‖ / ‖B‖ seen (rounding ≈ NOISE × peak)
+        last = np.full((T, p), np.inf)  # the previous term, relative to ‖B‖
+        tail = last
+        while True:
+            cur = buf[cur_i]
+            if k >= k_check or k % 8 == 0:
+                rel = _safe_div(np.sqrt(_wnorm2(cur, w, tmp)), nu0)  # (p,)
+                if maxnorm:
+                    big = np.maximum(cur.max(axis=0), -cur.min(axis=0))
+                    rel = np.maximum(rel, _safe_div(big, inf0))
+                if not np.isfinite(rel).all():
+                    raise FlowOverflowError(_NONFINITE)
+                term = np.abs(coef[:, k])[:, None] * rel[None, :]  # (T, p)
+                peak = np.maximum(peak, term.max(axis=0))
+                if float(peak.max()) * NOISE * math.sqrt(k) > CHEB_GROWTH * tol:
+                    # terms this large cancel beyond tol unless the solution itself is as
+                    # large (strongly non-normal A, or a real spectrum): let Krylov do it
+                    raise _ChebyshevFailed(
+                        f"the terms grew to {float(peak.max()):.3g} x the initial value at "
+                        f"degree {k} (rounding beyond tol)"
+                    )
+                tail = term + last
+                if k >= k_check and np.all((tail <= budget) & (term <= 0.5 * last)):
+                    break
+                last = term
+            if k > k_cap:
+                raise _ChebyshevFailed(f"no convergence after {k} terms (R·max|t| = {tau_max:.3g})")
+            if k + 2 >= coef.shape[1]:
+                coef = _cheb_coefficients(taus, k_cap + 2)
+            if T == 1:  # y_{k+1} = 2 (A/R) y_k + y_{k−1}, in the slot of y_{k−1}
+                # terms up to the next measured one, with no other work
+                stop = min(k_check if k < k_check else k + 1, (k // 8 + 1) * 8, k_cap + 1)
+                stop = max(min(stop, coef.shape[1] - 2), k + 1)
+                c0, out0 = coef[0], acc[0]
+                while k < stop:
+                    cur_i = 1 - cur_i
+                    step(bufs[1 - cur_i], bufs[cur_i])
+                    k += 1
+                    _AXPY(flats[cur_i], out0, a=c0[k])
+                continue
+            if filled == chunk:  # add the chunk, keep y_{k−1}, y_k in slots 0 and 1
+                acc += coef[:, k0 + start : k0 + chunk] @ flat[start:]
+                np.copyto(buf[0], buf[chunk - 2])
+                np.copyto(buf[1], buf[chunk - 1])
+                k0, start, filled = k - 1, 2, 2
+            np.copyto(buf[filled], buf[filled - 2])
+            op.accumulate(buf[filled - 1], buf[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
+            cur_i = filled
+            filled += 1
+            k += 1
+        if T > 1:
+            acc += coef[:, k0 + start : k0 + filled] @ flat[start:filled]
+        if not np.isfinite(acc).all():
+            raise FlowOverflowError(_NONFINITE)
+        # the estimates were relative to B; the outputs' own norms decide
+        rounding = peak * NOISE * math.sqrt(k)  # (p,)
+        nf = np.sqrt(np.einsum("tnp,n,tnp->tp", out, w if w is not None else ones, out))
+        rel_out = _safe_div(np.broadcast_to(nu0, nf.shape), nf)
+        if maxnorm:
+            rel_out = np.maximum(
+                rel_out, _safe_div(np.broadcast_to(inf0, nf.shape), np.abs(out).max(axis=1))
+            )
+        err = (tail + rounding[None, :]) * rel_out
+        err[nf == 0] = 0.0
+        worst = float(err.max()) if err.size else 0.0
+        if worst > tol:
+            raise _ChebyshevFailed(
+                f"error estimate {worst:.3g} > tol = {tol:.3g} "
+                f"(rounding {float(rounding.max()):.3g})"
+            )
+    finally:
+        info["matvecs"] += op.matvecs
+        info["block_matvecs"] += op.calls
+    info["method"] = "chebyshev"
+    info["steps"] += 1
+    info["basis_sizes"].append(k + 1)
+    info["error_estimate"] = worst
+    info["skew_bound"] = R
 
 
 # ------------------------------------------------------------------------ Krylov sweeps

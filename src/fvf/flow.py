@@ -2,9 +2,11 @@
 
 f(t) = Φ_{v,t} f_0 solves df/dt = −D^V_v f (eq. 43): the function is carried along the
 flow of v. The exponential is never formed; its action on vectors is computed by
-:func:`fvf.expmv.expm_action` (adaptive Krylov time stepping in the A_V inner product,
-all requested times and all columns in one pass; ``method="expm_multiply"`` selects
-:func:`scipy.sparse.linalg.expm_multiply`, Al-Mohy & Higham 2011, chained over the times).
+:func:`fvf.expmv.expm_action` (a Chebyshev series in D^V_v/R, R a bound of the spectrum's
+extent along the imaginary axis, or adaptive Krylov time stepping in the A_V inner
+product; all requested times and all columns in one pass; ``method="expm_multiply"``
+selects :func:`scipy.sparse.linalg.expm_multiply`, Al-Mohy & Higham 2011, chained over
+the times).
 
 Growth. For rotated gradients v = J grad g, [A_V] D^V_v is skew-symmetric and the flow
 keeps the A_V-norm. For other fields the discrete flow can grow a function's norm by
@@ -33,7 +35,7 @@ from .errors import (
     format_indices,
     user_stacklevel,
 )
-from .expmv import as_times, check_options, expm_action
+from .expmv import as_times, check_options, expm_action, skew_bound
 from .fields import TangentPolicy, as_face_field, as_vertex_function
 from .mesh import TriMesh
 from .operators import D_V
@@ -71,9 +73,10 @@ class FunctionalFlow:
         ‖f(t)‖/‖f_0‖ exceeds this.
     tangent : {"project", "raise", "ignore"}
         What to do with a normal component of v (see :func:`fvf.fields.as_face_field`).
-    method : {"auto", "krylov", "expm_multiply"}
-        Exponential action (:func:`fvf.expmv.expm_action`); "auto" uses the Krylov
-        method except on tiny meshes (:func:`fvf.expmv.choose_method`).
+    method : {"auto", "krylov", "chebyshev", "expm_multiply"}
+        Exponential action (:func:`fvf.expmv.expm_action`); "auto" uses the Chebyshev
+        series for t beyond a few edge lengths, the Krylov method for shorter times and
+        expm_multiply on tiny meshes (:func:`fvf.expmv.choose_method`).
     tol : float
         Target relative error of the exponential action (default 1e-10).
 
@@ -121,6 +124,12 @@ class FunctionalFlow:
         self.method = method
         self.tol = float(tol)
         self.stats: dict = {}
+
+    @cached_property
+    def skew_norm(self) -> float:
+        """Upper bound R of the norm of D^V_v's A_V-skew part (:func:`fvf.expmv.skew_bound`):
+        the spectrum lies in |Im z| ≤ R. Computed once, for the Chebyshev series."""
+        return skew_bound(self.operator, self.mesh.vertex_areas)
 
     @cached_property
     def is_skew(self) -> bool:
@@ -247,6 +256,7 @@ class FunctionalFlow:
             inner=self.mesh.vertex_areas,
             skew=True if self.is_skew else None,
             method=self.method,
+            skew_norm=(self.skew_norm or None) if self.method in ("auto", "chebyshev") else None,
             return_info=True,
         )
         if not np.isfinite(out).all():
