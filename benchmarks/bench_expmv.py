@@ -22,9 +22,11 @@ Runs, for t = 0.1, 1, 10 mean edge lengths: one right-hand side at one time ("1 
 block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times spread over
 (0, t] ("16 t").
 
-Columns. "K" is expm_action with its default ``method="auto"``: the Chebyshev series
-(``cheb``) from R·t ≥ 4 on, R = fvf.expmv.skew_bound, else the Krylov method (``lanczos``
-for skew-adjoint A, ``iom`` otherwise); column ``method`` says which ran.
+Columns. "K" is expm_action with its default ``method="auto"``, called as
+fvf.FunctionalFlow calls it (``skew=True`` for J grad y): the Chebyshev series (``cheb``)
+from R·t ≥ 4 on, R = fvf.expmv.skew_bound, except for several times of a skew operator,
+else the Krylov method (``lanczos`` for skew-adjoint A, ``iom`` otherwise); column
+``method`` says which ran.
 
 - ``K prod``: column products of expm_action at tol = 1e-10 (a product with an (n, 8)
   block counts 8), plus the products with |A| spent on the Chebyshev bound R (6, counted
@@ -150,7 +152,7 @@ def wnorm(x, w) -> float:
     return float(np.sqrt(np.einsum("i,i...->...", w, x * x).sum()))
 
 
-def run_case(A, w, B, times, reps, t_mv, t_mm) -> dict:
+def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
     """One configuration: expm_action vs expm_multiply on exp(tA)B."""
     scalar = np.ndim(times) == 0
     tlist = np.atleast_1d(times)
@@ -164,10 +166,11 @@ def run_case(A, w, B, times, reps, t_mv, t_mm) -> dict:
     t_em, em = best(lambda: em_chain(A, B, tlist), em_reps, budget=2.0)
     ref = em[0] if scalar else em
     # expm_action at tol and at 1e-14
-    t_k, x = best(lambda: expm_action(A, B, times, inner=w, tol=TOL), reps)
-    t_kry, _ = best(lambda: expm_action(A, B, times, inner=w, tol=TOL, method="krylov"), reps)
-    x, info = expm_action(A, B, times, inner=w, tol=TOL, return_info=True)
-    _, info14 = expm_action(A, B, times, inner=w, tol=1e-14, return_info=True)
+    kw = dict(inner=w, skew=skew)
+    t_k, x = best(lambda: expm_action(A, B, times, tol=TOL, **kw), reps)
+    t_kry, _ = best(lambda: expm_action(A, B, times, tol=TOL, method="krylov", **kw), reps)
+    x, info = expm_action(A, B, times, tol=TOL, return_info=True, **kw)
+    _, info14 = expm_action(A, B, times, tol=1e-14, return_info=True, **kw)
     x_sc = x if not scalar else x[None]
     errs_w = [wnorm(x_sc[k] - em[k], w) / wnorm(em[k], w) for k in range(len(tlist))]
     errs_m = [np.abs(x_sc[k] - em[k]).max() / np.abs(em[k]).max() for k in range(len(tlist))]
@@ -298,7 +301,8 @@ def main() -> None:
                     (f"{N_TIMES} t", initial(mesh, 1), t * np.arange(1, N_TIMES + 1) / N_TIMES),
                 ]
                 for label, B, times in configs:
-                    r = run_case(A, w, B, times, reps, t_mv, t_mm)
+                    skew = True if name == "skew" else None  # as fvf.FunctionalFlow does
+                    r = run_case(A, w, B, times, reps, t_mv, t_mm, skew)
                     summary.append((m, name, L, label, r))
                     print_row(
                         [

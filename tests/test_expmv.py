@@ -335,6 +335,10 @@ def test_choose_method():
     assert choose_method(spla.aslinearoperator(A), 1.0) == "krylov"  # no bound
     assert choose_method(spla.aslinearoperator(A), 5.0, skew_norm=R) == "chebyshev"
     assert choose_method(A, 0.0) == "expm_multiply"
+    # several outputs of a skew operator: Lanczos needs fewer vectors to combine
+    assert choose_method(A, [5.0, 2.0], skew=True) == "krylov"
+    assert choose_method(A, [5.0, -5.0], skew=True) == "chebyshev"  # one |t|
+    assert choose_method(A, [5.0, 2.0]) == "chebyshev"
     small = sp.random_array((10, 10), density=0.3, rng=np.random.default_rng(0), format="csr")
     assert choose_method(small, 1.0) == "expm_multiply"
     b = np.arange(10.0)
