@@ -24,7 +24,7 @@ block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times sprea
 
 Columns. "K" is expm_action with its default ``method="auto"``, called as
 fvf.FunctionalFlow calls it (``skew=True`` for J grad y): the Chebyshev series (``cheb``)
-from R·t ≥ 4 on, R = fvf.expmv.skew_bound, except for several times of a skew operator,
+from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for several times of a skew operator,
 else the Krylov method (``lanczos`` for skew-adjoint A, ``iom`` otherwise); column
 ``method`` says which ran.
 

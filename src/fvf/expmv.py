@@ -137,7 +137,7 @@ SAFETY = 0.5  # the error estimates aim at SAFETY·tol
 #: Cap on the bytes of the Chebyshev terms kept for one GEMM into the outputs.
 CHEB_MEMORY = 2**28
 #: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R = :func:`skew_bound`).
-CHEB_MIN_TAU = 4.0
+CHEB_MIN_TAU = 20.0
 #: The Chebyshev series gives up (for the Krylov method) once its rounding estimate,
 #: NOISE·√k·max|c_k|‖y_k‖/‖B‖, exceeds CHEB_GROWTH·tol.
 CHEB_GROWTH = 1e3
