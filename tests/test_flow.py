@@ -78,6 +78,11 @@ def test_growth_warning_fires_on_lion():
     assert f"in faces {fvf.errors.format_indices(faces)}" in msg
     # the named faces are exactly those around the named vertices
     assert np.array_equal(faces, np.flatnonzero(np.isin(mesh.faces, worst).any(axis=1)))
+    # a flow that may grow goes straight to Krylov ("auto"): no Chebyshev terms to waste
+    assert phi.stats["method"] == "iom" and phi.stats["wasted_matvecs"] <= 3
+    cheb = fvf.FunctionalFlow(mesh, v, method="chebyshev")
+    with pytest.warns(fvf.FlowGrowthWarning), pytest.warns(fvf.expmv.KrylovFallbackWarning):
+        assert rel(cheb(f0, 0.05), ft) < 1e-8  # its terms grew too: it gave way
     assert set(worst) <= set(mesh.faces[faces].ravel())
 
 

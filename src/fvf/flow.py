@@ -196,10 +196,11 @@ class FunctionalFlow:
         f = np.asarray(f, dtype=float)
         return float(np.sqrt(np.einsum("i,i...->...", self.mesh.vertex_areas, f * f).sum()))
 
-    def _warn_growth(self, t_extreme: float) -> None:
+    def _warn_growth(self, t_extreme: float) -> bool:
+        """Warn if the growth bound to ``t_extreme`` exceeds growth_limit; return whether."""
         bound = self.growth_bound(t_extreme)
         if bound <= self.growth_limit:
-            return
+            return False
         divv = div(self.mesh) @ self.field.ravel()
         worst, faces = hotspots(self.mesh, divv if t_extreme >= 0 else -divv)
         warnings.warn(
@@ -214,6 +215,7 @@ class FunctionalFlow:
             FlowGrowthWarning,
             stacklevel=user_stacklevel(),
         )
+        return True
 
     def __call__(self, f: npt.ArrayLike, t: float | npt.ArrayLike) -> np.ndarray:
         """Φ_{v,t} f for one time or an array of times.
@@ -245,9 +247,13 @@ class FunctionalFlow:
         """
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
+        grows = False
         for extreme in (times.max(), times.min()):
             if extreme != 0:
-                self._warn_growth(float(extreme))
+                grows |= self._warn_growth(float(extreme))
+        # a flow that may grow past growth_limit makes the Chebyshev terms grow as well:
+        # "auto" goes straight to the Krylov method, which has no such terms
+        method = "krylov" if grows and self.method == "auto" else self.method
         out, self.stats = expm_action(
             -self.operator,
             f0,
@@ -255,8 +261,8 @@ class FunctionalFlow:
             tol=self.tol,
             inner=self.mesh.vertex_areas,
             skew=True if self.is_skew else None,
-            method=self.method,
-            skew_norm=(self.skew_norm or None) if self.method in ("auto", "chebyshev") else None,
+            method=method,
+            skew_norm=(self.skew_norm or None) if method in ("auto", "chebyshev") else None,
             return_info=True,
         )
         if not np.isfinite(out).all():
