@@ -144,7 +144,7 @@ CHEB_GROWTH = 1e3
 #: For a declared skew operator (``skew=True``), "auto" uses Lanczos below this many rows.
 CHEB_SKEW_MIN_N = 16384
 #: Power steps of the bound R that :func:`expm_action` computes (:func:`skew_bound`).
-CHEB_BOUND_ITERATIONS = 4
+CHEB_BOUND_ITERATIONS = 8
 
 
 _NONFINITE = (
