@@ -344,8 +344,9 @@ def test_choose_method_for_skew_operators(monkeypatch):
     A = _flow_operator(fvf.icosphere(2), "skew")
     monkeypatch.setattr(fvf.expmv, "CHEB_SKEW_MIN_N", 100)  # as if the mesh were large
     assert choose_method(A, [50.0, 20.0], skew=True) == "krylov"  # several outputs
-    assert choose_method(A, [50.0, -50.0, 0.0], skew=True) == "chebyshev"  # one |t| ≠ 0
-    assert choose_method(A, 50.0, 4, skew=True) == "chebyshev"
+    assert choose_method(A, [50.0, -50.0, 0.0], 4, skew=True) == "chebyshev"  # one |t| ≠ 0
+    assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # one right-hand side
+    assert choose_method(A, 50.0, 4) == "chebyshev"  # not declared skew
     small = sp.random_array((10, 10), density=0.3, rng=np.random.default_rng(0), format="csr")
     assert choose_method(small, 1.0) == "expm_multiply"
     b = np.arange(10.0)

@@ -506,11 +506,12 @@ def choose_method(
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
-    * ``skew=True`` and several distinct |t| or n < :data:`CHEB_SKEW_MIN_N`: ``"krylov"``
-      (Lanczos). It needs 1.2–1.4× fewer vectors than the series, its extra vector passes
-      are cheap while the vectors are in cache, and every output combines all the
-      vectors: at 94k faces and 16 times it was 1.2–1.8× faster than the series, at 6k
-      faces and one time as fast (with 65 products against 77 + 10).
+    * ``skew=True``, unless a block of several right-hand sides on n ≥
+      :data:`CHEB_SKEW_MIN_N` rows has one |t|: ``"krylov"`` (Lanczos, which also keeps
+      the norm to round-off). It needs 1.2–1.4× fewer vectors than the series and, for
+      one right-hand side, was as fast or faster (6k, 94k and 1.5M faces, one time: 0.97,
+      0.96 and 0.83× the series' time; 16 times: 1.0–1.8× faster, every output being a
+      combination of all the vectors). On blocks of 8 the series was 1.2–1.5× faster.
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
       ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
@@ -561,8 +562,9 @@ def _choose(
     n = Aop.shape[0]
     if n < SMALL_N or not np.any(times != 0):
         return "expm_multiply", skew_norm
-    if skew is True and (n < CHEB_SKEW_MIN_N or np.unique(np.abs(times[times != 0])).size > 1):
-        return "krylov", skew_norm  # Lanczos: fewer vectors, as fast here (docstring)
+    several = np.unique(np.abs(times[times != 0])).size > 1
+    if skew is True and (p == 1 or n < CHEB_SKEW_MIN_N or several):
+        return "krylov", skew_norm  # Lanczos: fewer vectors, as fast or faster (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
     R = _bound(Aop, w, times, p, info) if skew_norm is None else float(skew_norm)
