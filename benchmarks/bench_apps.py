@@ -24,7 +24,13 @@ work and Python overhead).
 
 ACAP: ``acap_fields(mesh, v, 1e-2, k=4)`` with v = J grad y (unit L2 norm), run in a child
 process with a time limit (``--acap-timeout``); its stages are printed as they finish, so a
-run that hits the limit still reports the assembly.
+run that hits the limit still reports the assembly. ``--acap-solver`` picks the eigensolver
+(auto: the direct factorization below 120k faces, the multilevel LOBPCG of
+``fvf.multilevel`` from there on); the table gives time, peak RSS, the largest relative
+residual of the 4 pairs and the LOBPCG iterations. The ACAP sizes alone, e.g. at 375k and
+1.5M faces with the multilevel solver::
+
+    .venv/bin/python benchmarks/bench_apps.py --acap-only --sizes 4e5,1.5e6
 """
 
 from __future__ import annotations
@@ -137,14 +143,15 @@ def bench_transport(V: np.ndarray, F: np.ndarray, formed: bool) -> dict:
 
 
 # ------------------------------------------------------------------------------ ACAP
-def acap_child(path: str) -> None:
+def acap_child(path: str, solver: str = "auto") -> None:
     """Stages of acap_fields on a fresh mesh, one JSON line each as it finishes."""
     from threadpoolctl import threadpool_limits
 
     from fvf.bracket import ad
-    from fvf.commuting import acap_energy_matrix
+    from fvf.commuting import ACAP_MULTILEVEL_MIN_FACES, acap_energy_matrix
     from fvf.connection import real_connection_laplacian, tangent_basis_matrix
-    from fvf.eigen import smallest_eigenpairs
+    from fvf.eigen import eigen_residuals, smallest_eigenpairs
+    from fvf.multilevel import face_field_eigenpairs
 
     with threadpool_limits(1):
         d = np.load(path)
@@ -172,17 +179,39 @@ def acap_child(path: str) -> None:
         t0 = time.perf_counter()
         E = acap_energy_matrix(mesh, v, 1e-2)
         emit(stage="E_B assembly (all)", t=time.perf_counter() - t0, nnz=int(E.nnz))
+        mass = np.repeat(mesh.face_areas, 2)
+        if solver == "auto":
+            solver = "multilevel" if mesh.n_faces >= ACAP_MULTILEVEL_MIN_FACES else "direct"
         t0 = time.perf_counter()
-        lam, X = smallest_eigenpairs(E, np.repeat(mesh.face_areas, 2), 4)
-        emit(stage="eigensolve", t=time.perf_counter() - t0, lam=[float(x) for x in lam])
+        info: dict = {}
+        if solver == "multilevel":
+            lam, X = face_field_eigenpairs(mesh, E, 4, info=info)
+        else:
+            lam, X = smallest_eigenpairs(E, mass, 4)
+        t = time.perf_counter() - t0
+        res = eigen_residuals(E, mass, lam, X)
+        emit(
+            stage="eigensolve",
+            solver=solver,
+            t=t,
+            lam=[float(x) for x in lam],
+            res=[float(x) for x in res],
+            **{
+                key: (val if not isinstance(val, np.ndarray) else val.tolist())
+                for key, val in info.items()
+                if key != "residuals"
+            },
+        )
         emit(stage="peak RSS", bytes=peak_rss())
 
 
-def bench_acap(V: np.ndarray, F: np.ndarray, timeout: float) -> tuple[list[dict], str]:
+def bench_acap(
+    V: np.ndarray, F: np.ndarray, timeout: float, solver: str = "auto"
+) -> tuple[list[dict], str]:
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "mesh.npz")
         np.savez(path, V=V, F=F)
-        cmd = [sys.executable, os.path.abspath(__file__), ACAP_CHILD_FLAG, path]
+        cmd = [sys.executable, os.path.abspath(__file__), ACAP_CHILD_FLAG, path, solver]
         status = "ok"
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
@@ -200,7 +229,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="only the two small sizes")
     ap.add_argument("--sizes", default="1e4,1e5,1e6", help="target face counts")
-    ap.add_argument("--acap-timeout", type=float, default=300.0, help="seconds per ACAP run")
+    ap.add_argument("--acap-timeout", type=float, default=1800.0, help="seconds per ACAP run")
+    ap.add_argument(
+        "--acap-solver",
+        default="auto",
+        choices=("auto", "direct", "multilevel"),
+        help="eigensolver of acap_fields (auto: multilevel from 120k faces)",
+    )
+    ap.add_argument("--acap-only", action="store_true", help="skip the transport benchmark")
     ap.add_argument("--no-acap", action="store_true")
     ap.add_argument(
         "--no-formed", action="store_true", help="skip forming G (2.7 GB at 1.5M faces)"
@@ -233,14 +269,17 @@ def main() -> None:
         V, F = spot_level(level)
         m = F.shape[0]
         print(f"\n== spot x{4**level}: n = {V.shape[0]:,}, m = {m:,} faces ==", flush=True)
-        r = bench_transport(V, F, formed=not args.no_formed)
-        print(
-            f"  FieldTransport build {fmt_time(r['build'])}; "
-            f"factors {fmt_bytes(r['factor_bytes'])} "
-            f"(+ ad_vᵀ, same size); one product G {fmt_time(r['one'])}, Gᵀ "
-            f"{fmt_time(r['one_adj'])}",
-            flush=True,
-        )
+        if args.acap_only:
+            r: dict = dict(runs=[])
+        else:
+            r = bench_transport(V, F, formed=not args.no_formed)
+            print(
+                f"  FieldTransport build {fmt_time(r['build'])}; "
+                f"factors {fmt_bytes(r['factor_bytes'])} "
+                f"(+ ad_vᵀ, same size); one product G {fmt_time(r['one'])}, Gᵀ "
+                f"{fmt_time(r['one_adj'])}",
+                flush=True,
+            )
         for run in r["runs"]:
             trows.append(
                 [
@@ -269,30 +308,31 @@ def main() -> None:
                 ]
             )
         if not args.no_acap:
-            stages, status = bench_acap(V, F, args.acap_timeout)
+            stages, status = bench_acap(V, F, args.acap_timeout, args.acap_solver)
             acap.append((m, stages, status))
             for s in stages:
                 print(f"  ACAP {s}", flush=True)
             print(f"  ACAP status: {status}", flush=True)
 
-    print(
-        "\n== Ad transport: fvf.expmv.expm_action (krylov, the default) vs scipy expm_multiply"
-        " (G as a LinearOperator, exact trace); rel diff = max|krylov - expm_multiply| / max| |"
-    )
-    print_table(
-        [
-            "faces",
-            "t (10 h̄)",
-            "action",
-            "wall",
-            "prod G",
-            "prod Gᵀ",
-            "one product",
-            "wall/floor",
-            "rel diff",
-        ],
-        trows,
-    )
+    if trows:
+        print(
+            "\n== Ad transport: fvf.expmv.expm_action (krylov, the default) vs scipy expm_multiply"
+            " (G as a LinearOperator, exact trace); rel diff = max|krylov - expm_multiply| / max| |"
+        )
+        print_table(
+            [
+                "faces",
+                "t (10 h̄)",
+                "action",
+                "wall",
+                "prod G",
+                "prod Gᵀ",
+                "one product",
+                "wall/floor",
+                "rel diff",
+            ],
+            trows,
+        )
     if frows:
         print("\n  G formed as a sparse matrix (not used by FieldTransport), for comparison:")
         print_table(
@@ -314,26 +354,46 @@ def main() -> None:
                 else "-"
             )
             rss = fmt_bytes(by["peak RSS"]["bytes"]) if "peak RSS" in by else "-"
+            eig = by.get("eigensolve", {})
             rows.append(
                 [
                     f"{m:,}",
+                    eig.get("solver", "-"),
                     t("ad_v"),
                     t("L_conn + B"),
                     t("E_B assembly (all)"),
                     t("eigensolve"),
                     total,
                     rss,
+                    f"{max(eig['res']):.1e}" if "res" in eig else "-",
+                    str(eig.get("iterations", "-")),
                     status,
                 ]
             )
         print_table(
-            ["faces", "ad_v", "L_conn+B", "E_B all", "eigensolve", "total", "peak RSS", "status"],
+            [
+                "faces",
+                "solver",
+                "ad_v",
+                "L_conn+B",
+                "E_B all",
+                "eigensolve",
+                "total",
+                "peak RSS",
+                "max res",
+                "LOBPCG its",
+                "status",
+            ],
             rows,
+        )
+        print(
+            "  max res: largest relative residual of the 4 pairs (fvf.eigen.eigen_residuals; "
+            "both solvers target 1e-8)"
         )
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 3 and sys.argv[1] == ACAP_CHILD_FLAG:
-        acap_child(sys.argv[2])
+    if len(sys.argv) in (3, 4) and sys.argv[1] == ACAP_CHILD_FLAG:
+        acap_child(*sys.argv[2:])
     else:
         main()

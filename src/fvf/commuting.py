@@ -7,6 +7,9 @@ output is a vertex field measured in the A_V inner product:
 
 from __future__ import annotations
 
+import warnings
+from typing import Literal
+
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -14,12 +17,20 @@ import scipy.sparse as sp
 from .bracket import ad
 from .calculus import field_product, stiffness, vertex_to_face
 from .connection import ConnectionKind, real_connection_laplacian, tangent_basis_matrix
-from .eigen import smallest_eigenpairs
+from .eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
 from .errors import ParameterError
 from .fields import TangentPolicy, as_face_field
 from .mesh import TriMesh
 
 __all__ = ["rescaling_operator", "rescale", "acap_energy_matrix", "acap_fields"]
+
+AcapSolver = Literal["auto", "direct", "multilevel"]
+ACAP_SOLVERS = ("auto", "direct", "multilevel")
+#: ``solver="auto"`` uses the multilevel eigensolver from this many faces on.
+ACAP_MULTILEVEL_MIN_FACES = 120_000
+#: ``solver="auto"`` falls back to the direct solver up to this many faces only (its
+#: factor took 10.5 GB at 375k faces and grows ~4.5x per 4x faces).
+ACAP_DIRECT_MAX_FACES = 400_000
 
 
 def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
@@ -113,6 +124,9 @@ def acap_fields(
     *,
     kind: ConnectionKind = "knoppel",
     tangent: TangentPolicy = "project",
+    solver: AcapSolver = "auto",
+    tol: float = 1e-8,
+    seed: int = 0,
 ) -> np.ndarray:
     """As-commuting-as-possible fields: the k smallest eigenvectors of E_B (§4.4.2).
 
@@ -128,24 +142,94 @@ def acap_fields(
         Weight λ of the connection energy (:func:`acap_energy_matrix`).
     k : int
         Number of fields.
+    kind : {"knoppel", "singer_wu"}
+        Connection Laplacian (:func:`fvf.real_connection_laplacian`).
+    tangent : {"project", "ignore", "warn", "raise"}
+        What to do with normal components of v (:func:`fvf.as_face_field`).
+    solver : {"auto", "direct", "multilevel"}
+        Eigensolver of E_B x = μ [A_F] x. ``"direct"``: :func:`fvf.smallest_eigenpairs`
+        (shift-invert on a sparse factorization; memory grows ~4.5x per 4x faces).
+        ``"multilevel"``: :func:`fvf.multilevel.face_field_eigenpairs` (LOBPCG
+        preconditioned by smoothed-aggregation multigrid; memory linear in m).
+        ``"auto"``: multilevel from :data:`ACAP_MULTILEVEL_MIN_FACES` faces on, else
+        direct; if the multilevel solve fails, a
+        :class:`~fvf.eigen.SpectralFallbackWarning` is emitted and the direct path runs
+        (up to :data:`ACAP_DIRECT_MAX_FACES` faces; beyond, SpectralSolveError).
+    tol : float
+        Bound on every eigenpair's relative residual (:func:`fvf.eigen.eigen_residuals`),
+        for both solvers.
+    seed : int
+        Seed of the solvers' random start vectors / power iterations.
 
     Returns
     -------
     float64 (k, m, 3)
         Tangent, unit L2 norm (eq. 26), ordered by increasing energy.
+
+    Raises
+    ------
+    ParameterError
+        Unknown ``solver``, bad ``lam``.
+    SpectralInputError
+        Bad k or tol.
+    SpectralSolveError
+        The chosen solver failed (``"auto"``: both failed).
+
     Notes
     -----
-    Cost (one thread, refined spot mesh, k = 4, ``benchmarks/bench_apps.py`` on a shared
-    2-core machine): E_B has about 52 entries per face and assembles in 0.1 s / 2.6 s /
-    16 s at 5.9k / 94k / 375k faces. The eigensolve (:func:`fvf.smallest_eigenpairs`, a
-    sparse factorization of E_B − σ[A_F] under a nested-dissection ordering,
-    :mod:`fvf.ordering`) takes 0.8 s at 5.9k, 39 s at 94k (peak memory 2.3 GB) and 500 s
-    at 375k faces (10 GB); the factor grows about 4.5x per 4x faces, so 1.5M faces would
-    need about 40 GB (with minimum-degree ordering it did not finish at 94k faces).
+    Cost (one thread, refined spot mesh, v = J grad y, λ = 10⁻², k = 4,
+    ``benchmarks/bench_apps.py --acap-only`` on a shared 2-core machine): E_B has about 52
+    entries per face and assembles in 1.0 s / 3.1 s / 25 s at 94k / 375k / 1.5M faces.
+    The direct eigensolve (:func:`fvf.smallest_eigenpairs`, a sparse factorization of
+    E_B − σ[A_F] under a nested-dissection ordering, :mod:`fvf.ordering`) takes 0.8 s at
+    5.9k, 21 s at 94k (peak memory 2.4 GB) and 190–500 s at 375k faces (10.5 GB); the
+    factor grows about 4.5x per 4x faces, so 1.5M faces would need about 40 GB.
+
+    The multilevel solver (:mod:`fvf.multilevel`: smoothed-aggregation multigrid with a
+    face-pair block smoother, preconditioning block LOBPCG) stops when every pair meets
+    ``tol`` and also has ‖E_B x − μ[A_F]x‖ ≤ 10⁻³ μ_k (:data:`fvf.multilevel.RTOL`); the
+    ``tol`` measure alone is too weak for an iterative solver on fine meshes. Against the
+    direct solver the eigenvalues agree to ≤ 1.5e-9 / 1.1e-9 / 4.1e-10 / 2.5e-10
+    (relative) and the 4-dimensional eigenspaces to a sine of the largest principal angle
+    ≤ 1.8e-5 / 1.1e-5 / 4.9e-6 / 5.3e-6 at 5.9k / 23k / 94k / 375k faces, in 32 / 33 / 42 /
+    49 LOBPCG iterations. Eigensolve time and peak memory: 25 s and 0.7 GB at 94k faces,
+    92 s and 2.1 GB at 375k; 549 s (45 s setup, 58 iterations) and 7.8 GB at 1,499,136
+    faces, under 10 min with the assembly (there the eigenvalues agree to 1e-10 with a
+    second run at rtol = 10⁻⁴). Iterations grow with 1/λ (stronger anisotropy of
+    ‖ad_v w‖²): on small test meshes λ = 10⁻³ needed 100–300 iterations, which is why the
+    direct solver stays the default below :data:`ACAP_MULTILEVEL_MIN_FACES`.
     """
+    if solver not in ACAP_SOLVERS:
+        raise ParameterError(f"solver must be one of {ACAP_SOLVERS}; got {solver!r}")
     v = as_face_field(mesh, v, "v", tangent)
     E = acap_energy_matrix(mesh, v, lam, kind)
     mass = np.repeat(mesh.face_areas, 2)
-    _, X = smallest_eigenpairs(E, mass, int(k))
+    use_ml = solver == "multilevel" or (
+        solver == "auto" and mesh.n_faces >= ACAP_MULTILEVEL_MIN_FACES
+    )
+    X = None
+    if use_ml:
+        from .multilevel import face_field_eigenpairs
+
+        try:
+            _, X = face_field_eigenpairs(mesh, E, k, tol=tol, seed=seed)
+        except SpectralSolveError as exc:
+            if solver == "multilevel":
+                raise
+            if mesh.n_faces > ACAP_DIRECT_MAX_FACES:
+                raise SpectralSolveError(
+                    f"acap_fields: the multilevel eigensolver failed ({exc}), and the direct "
+                    f"solver would need tens of GB at {mesh.n_faces} faces. Fix: a larger "
+                    "lam (the iteration slows down as lam/|v|^2 gets small), a coarser mesh, "
+                    "or solver='direct' on a machine with the memory."
+                ) from exc
+            warnings.warn(
+                f"acap_fields: the multilevel eigensolver failed ({exc}); using the direct "
+                "solver instead",
+                SpectralFallbackWarning,
+                stacklevel=2,
+            )
+    if X is None:
+        _, X = smallest_eigenpairs(E, mass, k, tol=tol, seed=seed)
     B = tangent_basis_matrix(mesh)
-    return (B @ X).T.reshape(int(k), mesh.n_faces, 3)
+    return (B @ X).T.reshape(X.shape[1], mesh.n_faces, 3)
