@@ -42,6 +42,7 @@ GROUPS = {
     "Spectral and design": [
         "eigen",
         "ordering",
+        "multilevel",
         "spectral",
         "killing",
         "fmaps",
