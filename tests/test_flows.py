@@ -188,14 +188,17 @@ def test_cayley_step_follows_the_discrete_law(jittered):
 @pytest.mark.parametrize("name", ["spot.obj", "faust_r_tr_reg_001.off", "lion-00.off"])
 @pytest.mark.parametrize("method", ["chapter", "skew", "cayley"])
 def test_rotated_gradient_flows_keep_the_norm(name, method):
-    """For v = J grad g every method but upwind keeps ‖f‖_{A_V} (chapter to 1e-10)."""
+    """For v = J grad g every method but upwind keeps ‖f‖_{A_V}: the chapter's and the
+    skew flow to round-off (the operator is known to be skew, so the exponential action
+    is Lanczos, exactly unitary), Cayley to its solves' accuracy."""
     mesh = load_shared(name)
     f, g, _ = smooth_functions(mesh)
     v = fvf.rotate(mesh, fvf.gradient(mesh, g))
     v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum() / mesh.total_area)
     t = 0.2 * np.sqrt(mesh.total_area)
     ft = flows_flow(mesh, v, f, t, method=method)
-    assert abs(sq_norm(mesh, ft) / sq_norm(mesh, f) - 1) < 2e-10
+    drift = abs(sq_norm(mesh, ft) / sq_norm(mesh, f) - 1)
+    assert drift < (1e-13 if method in ("chapter", "skew") else 2e-10)  # measured ≤ 1e-14
 
 
 # ---------------------------------------------------------------------------- lion

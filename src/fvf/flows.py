@@ -348,6 +348,11 @@ class TransportFlow:
         elif method == "skew":
             self.operator = skew_operator(mesh, self.field, tangent="ignore")
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
+            # [A_V] S + Sᵀ [A_V] = −[A_V][div v] and S_ii = −½ (div v)_i: S is A_V-skew
+            # exactly when its diagonal vanishes; then "auto" uses Lanczos (norm to round-off)
+            scale = float(abs(self.operator).max()) if self.operator.nnz else 0.0
+            diag = float(np.abs(self.operator.diagonal()).max()) if mesh.n_vertices else 0.0
+            self._expm["skew"] = True if diag <= 1e-12 * scale else None
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
