@@ -699,3 +699,13 @@ def test_bessel_table_against_scipy():
         want = jv(np.arange(kmax + 1)[None, :], x[:, None])
         assert np.isfinite(J).all()
         np.testing.assert_allclose(J, want, rtol=0, atol=2e-14)
+
+
+def test_bessel_row_against_scipy():
+    from scipy.special import jv
+
+    for x, kmax in ((0.0, 10), (1e-9, 50), (0.37, 40), (58.5, 140), (1000.0, 1100)):
+        want = jv(np.arange(kmax + 1), x)
+        got = fvf.expmv._bessel_row(x, kmax)
+        assert np.isfinite(got).all()
+        np.testing.assert_allclose(got, want, rtol=0, atol=2e-14)
