@@ -140,8 +140,6 @@ CHEB_MIN_TAU = 20.0
 #: The Chebyshev series gives up (for the Krylov method) once its rounding estimate,
 #: NOISE·√k·max|c_k|‖y_k‖/‖B‖, exceeds CHEB_GROWTH·tol.
 CHEB_GROWTH = 1e3
-#: For a declared skew operator (``skew=True``), "auto" uses Lanczos below this many rows.
-CHEB_SKEW_MIN_N = 16384
 #: Power steps of the bound R that :func:`expm_action` computes (:func:`skew_bound`).
 CHEB_BOUND_ITERATIONS = 8
 
@@ -505,12 +503,12 @@ def choose_method(
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
-    * ``skew=True``, unless a block of several right-hand sides on n ≥
-      :data:`CHEB_SKEW_MIN_N` rows has one |t|: ``"krylov"`` (Lanczos, which also keeps
-      the norm to round-off). It needs 1.2–1.4× fewer vectors than the series and, for
-      one right-hand side, was as fast or faster (6k, 94k and 1.5M faces, one time: 0.97,
-      0.96 and 0.83× the series' time; 16 times: 1.0–1.8× faster, every output being a
-      combination of all the vectors). On blocks of 8 the series was 1.2–1.5× faster.
+    * ``skew=True``, unless a block of several right-hand sides has one |t|: ``"krylov"``
+      (Lanczos, which also keeps the norm to round-off). It needs 1.2–1.4× fewer vectors
+      than the series; for one right-hand side it was as fast at 6k–23k faces (within
+      ±15 %) and faster at 94k–1.5M (0.83–0.96× the series' time); for 16 times 1.0–1.8×
+      faster, every output being a combination of all the vectors. On blocks of 8 the
+      series was 1.2–1.5× faster.
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
       ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
@@ -562,7 +560,7 @@ def _choose(
     if n < SMALL_N or not np.any(times != 0):
         return "expm_multiply", skew_norm
     several = np.unique(np.abs(times[times != 0])).size > 1
-    if skew is True and (p == 1 or n < CHEB_SKEW_MIN_N or several):
+    if skew is True and (p == 1 or several):
         return "krylov", skew_norm  # Lanczos: fewer vectors, as fast or faster (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
