@@ -224,3 +224,13 @@ def test_agrees_with_direct_at_94k_faces():
     np.testing.assert_allclose(lam, lam_d, rtol=1e-8)
     assert _sin_angles(X, X_d, mass).max() < 1e-4
     assert np.all(eigen_residuals(E, mass, lam, X) <= 1e-8)
+
+
+def test_integral_float_k_still_works():
+    mesh = fvf.icosphere(2)
+    v = _field(mesh)
+    a = acap_fields(mesh, v, LAM, 2.0)
+    b = acap_fields(mesh, v, LAM, 2)
+    np.testing.assert_array_equal(a, b)
+    with pytest.raises(SpectralInputError):
+        acap_fields(mesh, v, LAM, 2.5)

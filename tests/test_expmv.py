@@ -707,3 +707,48 @@ def test_bessel_row_against_scipy():
         got = fvf.expmv._bessel_row(x, kmax)
         assert np.isfinite(got).all()
         np.testing.assert_allclose(got, want, rtol=0, atol=2e-14)
+
+
+def test_chebyshev_tiny_times_beside_long_ones(mesh):
+    """|Rt| ≈ 1e-120 once overflowed the Bessel recurrence (NaN coefficients, a silent
+    fall-back to Krylov after k_cap wasted products)."""
+    A = _flow_operator(mesh, "skew")
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    times = np.array([1e-120, 30.0 * mesh.mean_edge_length, -1e-30, 2e-9])
+    x, info = expm_action(A, b, times, inner=w, method="chebyshev", return_info=True)
+    assert info["method"] == "chebyshev" and info["wasted_matvecs"] == 0
+    ref = dense_exp(A, b, times)
+    for k in range(times.size):
+        assert wrel(x[k], ref[k], w) <= TOL
+    J = fvf.expmv._bessel_table(np.array([1e-200, -1e-9, 5.0, 20.0]), 40)
+    assert np.isfinite(J).all() and J[0, 0] == 1.0 and J[1, 1] == pytest.approx(-5e-10)
+
+
+def test_chebyshev_small_chunks_with_many_times_and_columns(mesh, monkeypatch):
+    """Chunks of 3–7 terms (a flush at nearly every step) give the same answer."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    B = _f0(mesh, 3)
+    times = mesh.mean_edge_length * np.array([9.0, -4.0, 0.0, 9.0, 2.5])
+    ref = dense_exp(A, B, times)
+    n = A.shape[0]
+    for chunk in (3, 4, 7):
+        monkeypatch.setattr(fvf.expmv, "CHEB_MEMORY", chunk * 8.0 * n * 3)
+        X = expm_action(A, B, times, inner=w, method="chebyshev")
+        for k in range(times.size):
+            for c in range(3):
+                assert wrel(X[k, :, c], ref[k, :, c], w) <= TOL
+
+
+def test_skew_bound_leaves_the_input_alone():
+    rng = np.random.default_rng(7)
+    r, c = rng.integers(0, 30, 200), rng.integers(0, 30, 200)
+    A = sp.csr_array((rng.standard_normal(200), (r, c)), shape=(30, 30))  # duplicates
+    before = (A.data.copy(), A.indices.copy(), A.indptr.copy(), A.has_canonical_format)
+    skew_bound(A)
+    expm_action(A, np.ones(30), 40.0)
+    after = (A.data, A.indices, A.indptr, A.has_canonical_format)
+    for x, y in zip(before[:3], after[:3], strict=True):
+        np.testing.assert_array_equal(x, y)
+    assert before[3] == after[3]

@@ -201,6 +201,8 @@ def acap_fields(
     """
     if solver not in ACAP_SOLVERS:
         raise ParameterError(f"solver must be one of {ACAP_SOLVERS}; got {solver!r}")
+    if isinstance(k, float | np.floating) and float(k).is_integer():
+        k = int(k)  # k = 2.0 worked before the solver choice; keep it working
     v = as_face_field(mesh, v, "v", tangent)
     E = acap_energy_matrix(mesh, v, lam, kind)
     mass = np.repeat(mesh.face_areas, 2)

@@ -13,8 +13,8 @@ Chebyshev series (``method="chebyshev"``; ``"auto"`` from R·max|t| ≥ :data:`C
 --------------------------------------------------------------------------------------
 exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R) (Jacobi–Anger), with the real three-term
 recurrence P_{k+1} = 2(A/R)P_k + P_{k−1}: one product and no inner products per term, all
-times and columns from the same terms, an a-priori degree (:func:`chebyshev_degree`) that
-is rigorous in the A_V norm for skew-adjoint A, a posteriori checks otherwise, and a
+times and columns from the same terms, a stop on the measured last terms near the degree
+that is a rigorous bound in the A_V norm for skew-adjoint A (:func:`chebyshev_degree`), and a
 fallback to the Krylov method when the terms grow (non-normal or real spectra). It needs
 more products than Krylov (R·|t| + O(|Rt|^{1/3} + log 1/tol), R ≥ the spectral radius)
 but runs close to the time of its products; see :func:`_run_chebyshev`.
@@ -920,8 +920,10 @@ def _skew_bound(
     n = A.shape[0]
     if n == 0:
         return 0.0, 0
-    M = sp.csr_array(A) if not sp.issparse(A) else A.tocsr()
-    M.sum_duplicates()
+    M = sp.csr_array(A)  # a new object: the caller's matrix is not touched
+    if not M.has_canonical_format:
+        M = M.copy()
+        M.sum_duplicates()
     indptr, indices, absdata = M.indptr, M.indices, np.abs(M.data)
     diag = np.abs(M.diagonal())
     s = np.ones(n) if w is None else np.sqrt(w)
@@ -964,6 +966,11 @@ def chebyshev_degree(tau: float, tol: float) -> int:
     return int(tau) + int(ok[0]) if ok.size else top
 
 
+#: Below this |x| the Bessel recurrences would overflow in one step (2k/|x| · 1e200); the
+#: leading terms of the series are exact to round-off there.
+_BESSEL_TINY = 1e-8
+
+
 def _bessel_row(x: float, kmax: int) -> np.ndarray:
     """J_k(x) for k = 0..kmax and one real x ≥ 0: (kmax + 1,) float64.
 
@@ -971,8 +978,12 @@ def _bessel_row(x: float, kmax: int) -> np.ndarray:
     ``scipy.special.jv`` value costs a few µs (this runs on every call of the series).
     """
     tab = [0.0] * (kmax + 1)
-    if x == 0.0:
-        tab[0] = 1.0
+    if x < _BESSEL_TINY:  # J₀ = 1 − x²/4, J₁ = x/2, J₂ = x²/8: exact to O(x³) here
+        tab[0] = 1.0 - 0.25 * x * x
+        if kmax >= 1:
+            tab[1] = 0.5 * x
+        if kmax >= 2:
+            tab[2] = 0.125 * x * x
         return np.array(tab)
     inv, f_next, f, even = 2.0 / x, 0.0, 1e-200, 0.0
     for k in range(int(max(kmax, x) + 12.0 * x ** (1 / 3) + 30), 0, -1):
@@ -1001,8 +1012,10 @@ def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     out = np.zeros((x.size, kmax + 1))
     a = np.abs(x)
-    live = a > 0
-    out[~live, 0] = 1.0
+    live = a >= _BESSEL_TINY
+    for i in np.flatnonzero(~live):  # tiny |x|: the leading terms (a step would overflow)
+        out[i] = _bessel_row(float(a[i]), kmax)
+        out[i, 1::2] *= np.sign(x[i]) if x[i] != 0 else 1.0
     if not live.any():
         return out
     a = a[live]
@@ -1135,6 +1148,8 @@ def _run_chebyshev(
                 if not np.isfinite(rel).all():
                     raise FlowOverflowError(_NONFINITE)
                 term = np.abs(coef[:, k])[:, None] * rel[None, :]  # (T, p)
+                if not np.isfinite(term).all():  # coefficients: a defect, not an overflow
+                    raise _ChebyshevFailed("non-finite series coefficients")
                 peak = np.maximum(peak, term.max(axis=0))
                 if float(peak.max()) * NOISE * math.sqrt(k) > CHEB_GROWTH * tol:
                     # terms this large cancel beyond tol unless the solution itself is as
