@@ -125,6 +125,14 @@ def test_auto_falls_back_to_direct_with_warning(spot, monkeypatch):
     np.testing.assert_allclose(out, ref)
     with pytest.raises(SpectralSolveError, match="forced failure"):
         acap_fields(mesh, v, LAM, 2, solver="multilevel")
+
+    # a failed coarse Cholesky (LinAlgError) falls back the same way
+    def singular(*args, **kw):
+        raise np.linalg.LinAlgError("coarse matrix not positive definite")
+
+    monkeypatch.setattr(ml, "face_field_eigenpairs", singular)
+    with pytest.warns(SpectralFallbackWarning, match="not positive definite"):
+        np.testing.assert_allclose(acap_fields(mesh, v, LAM, 2), ref)
     # beyond what the direct solver can hold, "auto" says so instead of trying
     monkeypatch.setattr(commuting, "ACAP_DIRECT_MAX_FACES", 1000)
     with pytest.raises(SpectralSolveError, match="tens of GB.*Fix: a larger lam"):

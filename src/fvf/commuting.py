@@ -215,7 +215,7 @@ def acap_fields(
 
         try:
             _, X = face_field_eigenpairs(mesh, E, k, tol=tol, seed=seed)
-        except SpectralSolveError as exc:
+        except (SpectralSolveError, np.linalg.LinAlgError) as exc:  # LinAlgError: coarse
             if solver == "multilevel":
                 raise
             if mesh.n_faces > ACAP_DIRECT_MAX_FACES:
