@@ -769,11 +769,6 @@ def expm_action(
         "wasted_matvecs": 0,
         "bound_products": 0,
     }
-    bound = None if skew_norm is None else float(skew_norm)
-    explicit = method == "chebyshev"
-    if method == "auto":
-        method, bound = _choose(Aop, times, bound, w, p, info, skew)
-
     a_norm = _norm_inf(Aop)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
@@ -782,6 +777,10 @@ def expm_action(
             "so many steps that each underflows relative to t. Shorten t or rescale A "
             "(for a flow, a field of speed s for time t moves s*t)."
         )
+    bound = None if skew_norm is None else float(skew_norm)
+    explicit = method == "chebyshev"
+    if method == "auto":  # after the check above: the bound is not spent on a refusal
+        method, bound = _choose(Aop, times, bound, w, p, info, skew)
     if n == 0 or p == 0:
         out[:] = 0.0
     elif a_norm == 0.0 and not isinstance(Aop, spla.LinearOperator):
@@ -1111,7 +1110,6 @@ def _run_chebyshev(
     coef = _cheb_coefficients(taus, k_check + 8)  # (T, K): c_k(τ_j), extended if needed
     op = _Operator(Aop, n, scale=2.0 / R)
     try:
-        ones = np.ones(n) if w is None else None
         nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
         inf0 = np.abs(B2).max(axis=0) if maxnorm else None
         # T = 1: each term is added to the output at once, while it is in cache, and
@@ -1133,7 +1131,7 @@ def _run_chebyshev(
             _AXPY(flat[1], acc[0], a=coef[0, 1])
         cur_i = 1  # slot of y_k
         bufs, flats, step = [buf[0], buf[1]], [flat[0], flat[1]], op.accumulate
-        tmp = np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
+        tmp = _norm_workspace(n, p, w)
         k0, start, filled, k = 0, 0, 2, 1  # T > 1: slots [start, filled) not yet added
         peak = np.ones(p)  # largest |c_k| ‖y_k‖ / ‖B‖ seen (rounding ≈ NOISE × peak)
         last = np.full((T, p), np.inf)  # the previous term, relative to ‖B‖
@@ -1193,7 +1191,7 @@ def _run_chebyshev(
             raise FlowOverflowError(_NONFINITE)
         # the estimates were relative to B; the outputs' own norms decide
         rounding = peak * NOISE * math.sqrt(k)  # (p,)
-        nf = np.sqrt(np.einsum("tnp,n,tnp->tp", out, w if w is not None else ones, out))
+        nf = np.sqrt(np.stack([_wnorm2(o, w) for o in out]))  # (T, p) outputs' W-norms
         rel_out = _safe_div(np.broadcast_to(nu0, nf.shape), nf)
         if maxnorm:
             rel_out = np.maximum(
@@ -1342,7 +1340,7 @@ class _Lanczos:
             self.b1: list[float] = []
             self.nu[0, 0] = self.nu1[0]
         else:
-            self.tmp = np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
+            self.tmp = _norm_workspace(n, p, w)
             self.nu[0] = np.sqrt(_wnorm2(V[0], w, self.tmp))
             self.inv_nu = _safe_div(np.ones(p), self.nu[0])
             self.inv_nu_prev = np.zeros(p)
@@ -1596,6 +1594,12 @@ def _wdot(
     if tmp is not None:
         return w @ np.multiply(X, Y, out=tmp)
     return np.einsum("n,nc,nc->c", w, X, Y)
+
+
+def _norm_workspace(n: int, p: int, w: np.ndarray | None) -> np.ndarray | None:
+    """The temporary (n, p) of :func:`_wdot` / :func:`_wnorm2`: for weighted norms of
+    blocks small enough to stay in cache; None (one fused einsum pass) otherwise."""
+    return np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
 
 
 def _wnorm2(X: np.ndarray, w: np.ndarray | None, tmp: np.ndarray | None = None) -> np.ndarray:

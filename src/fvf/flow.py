@@ -254,6 +254,11 @@ class FunctionalFlow:
         # a flow that may grow past growth_limit makes the Chebyshev terms grow as well:
         # "auto" goes straight to the Krylov method, which has no such terms
         method = "krylov" if grows and self.method == "auto" else self.method
+        # the cached bound R, for operators whose "auto" always needs it: a skew operator
+        # gets Lanczos for one column or several times, and its blocks bound themselves
+        bound = None
+        if method in ("auto", "chebyshev") and not self.is_skew:
+            bound = self.skew_norm or None
         out, self.stats = expm_action(
             -self.operator,
             f0,
@@ -262,7 +267,7 @@ class FunctionalFlow:
             inner=self.mesh.vertex_areas,
             skew=True if self.is_skew else None,
             method=method,
-            skew_norm=(self.skew_norm or None) if method in ("auto", "chebyshev") else None,
+            skew_norm=bound,
             return_info=True,
         )
         if not np.isfinite(out).all():
