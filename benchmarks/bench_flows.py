@@ -93,15 +93,6 @@ def f_poly(p):
     return p[:, 0] + 0.5 * p[:, 1] * p[:, 2] + 0.3 * p[:, 0] ** 2 * p[:, 1]
 
 
-def normalized(mesh):
-    X = mesh.vertices - mesh.vertices.mean(0)
-    X /= np.linalg.norm(X, axis=1).max()
-    mesh = fvf.TriMesh(X, mesh.faces)
-    v = fvf.gradient(mesh, X[:, 0])
-    v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum())
-    return mesh, v, np.sin(3 * X[:, 1]) + X[:, 2]
-
-
 def norm(mesh, f):
     return float(np.sqrt(mesh.vertex_areas @ (f * f)))
 
@@ -112,7 +103,7 @@ def options_for(method, basis):
 
 def run_mesh(name, mesh, is_sphere, counter, repeats, methods):
     rows = []
-    mesh_n, v, f0 = normalized(mesh)
+    mesh_n, v, f0 = fvf.examples.compressible_case(mesh)
     basis = {}
     if "spectral" in methods:
         tb, basis["n"] = best(lambda: fvf.SpectralBasis(mesh_n, 50), 1)

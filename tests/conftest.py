@@ -128,16 +128,3 @@ def rel(a, b) -> float:
     d = abs(d).max() if sp.issparse(d) else np.abs(d).max()
     s = abs(b).max() if sp.issparse(b) else np.abs(b).max()
     return float(d / max(s, 1e-300))
-
-
-def compressible_case(mesh):
-    """CHAPTER.md's lion case on any mesh: the mesh centred and scaled to unit radius,
-    v = grad x with unit L2 norm, f0 = sin 3y + z. Returns (mesh, v (m, 3), f0 (n,))."""
-    import fvf
-
-    X = mesh.vertices - mesh.vertices.mean(0)
-    X /= np.linalg.norm(X, axis=1).max()
-    mesh = fvf.TriMesh(X, mesh.faces)
-    v = fvf.gradient(mesh, X[:, 0])
-    v /= np.sqrt((mesh.face_areas * (v * v).sum(1)).sum())
-    return mesh, v, np.sin(3 * X[:, 1]) + X[:, 2]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import fvf
-from conftest import compressible_case, load_shared, random_tangent_field, rel, smooth_functions
+from conftest import load_shared, random_tangent_field, rel, smooth_functions
 from fvf import chapter as ch
 from fvf.flow import hotspots
 
@@ -60,7 +60,7 @@ def test_divergence_free_flow_keeps_norm(closed):
 
 
 def _lion_setup(name):
-    return compressible_case(load_shared(name))
+    return fvf.examples.compressible_case(load_shared(name))
 
 
 def test_growth_warning_fires_on_lion():

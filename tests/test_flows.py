@@ -12,7 +12,6 @@ import fvf
 from conftest import (
     BOUNDARY_SHARED,
     CLOSED_SHARED,
-    compressible_case,
     load_shared,
     rel,
     smooth_functions,
@@ -31,7 +30,7 @@ _NORMALIZED = {}
 
 def normalized_shared(name):
     if name not in _NORMALIZED:
-        _NORMALIZED[name] = compressible_case(load_shared(name))
+        _NORMALIZED[name] = fvf.examples.compressible_case(load_shared(name))
     return _NORMALIZED[name]
 
 

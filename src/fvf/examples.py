@@ -1,4 +1,5 @@
-"""Built-in meshes shipped with the package, and the fields of the chapter's Fig. 12 scene."""
+"""Built-in meshes shipped with the package, the fields of the chapter's Fig. 12 scene, and
+the compressible (lion) case of CHAPTER.md's measured facts."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 from .mesh import TriMesh
 
-__all__ = ["spot", "spot_path", "fig12_fields"]
+__all__ = ["spot", "spot_path", "fig12_fields", "compressible_case"]
 
 
 def spot_path() -> str:
@@ -56,3 +57,32 @@ def fig12_fields(
     u1 = gradient(mesh, np.exp(-((X - a1) ** 2).sum(1) / width**2))
     v = theta * mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
     return u0, u1, v
+
+
+def compressible_case(mesh: TriMesh) -> tuple[TriMesh, np.ndarray, np.ndarray]:
+    """CHAPTER.md's lion case ("Facts we measured") on any mesh.
+
+    The mesh is centred and scaled to unit radius; v = grad x with unit L2 norm
+    (Σ_f |v_f|² area_f = 1); f0 = sin 3y + z. On lion-00 the chapter's flow of f0 along v
+    reaches ±1e17 by t = 0.1; the tests and ``benchmarks/bench_flows.py`` run it on every
+    mesh.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+
+    Returns
+    -------
+    mesh : TriMesh
+        The centred, scaled copy.
+    v : ndarray float64 (m, 3)
+    f0 : ndarray float64 (n,)
+    """
+    from .calculus import gradient
+
+    X = mesh.vertices - mesh.vertices.mean(0)
+    X = X / np.linalg.norm(X, axis=1).max()
+    scaled = TriMesh(X, mesh.faces)
+    v = gradient(scaled, X[:, 0])
+    v = v / np.sqrt((scaled.face_areas * (v * v).sum(1)).sum())
+    return scaled, v, np.sin(3 * X[:, 1]) + X[:, 2]
