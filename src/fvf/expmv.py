@@ -73,6 +73,7 @@ exponentials) is best run with single-threaded BLAS (``threadpoolctl``).
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import warnings
@@ -128,7 +129,11 @@ IOM_WINDOW = 4
 #: so that a basis of the needed size fits.
 MAX_MEMORY = 2**32
 _GRID = 64  # quadrature points for the error integral over a step
-_STREAM_N = 65536  # from this n on, weighted norms use one fused pass (memory-bound sizes)
+#: From these sizes on, weighted norms use one fused einsum pass instead of a product into a
+#: temporary and a BLAS dot (measured crossovers: ~10k entries for vectors, n = 100k for
+#: blocks of 8 columns).
+_STREAM_N = 10_000  # vectors: n
+_STREAM_BLOCK = 2**19  # blocks (n, p), p > 1: n·p
 #: Rounding floor of the error estimates, per unit time and per unit of ‖H_m‖: an estimate
 #: below NOISE·‖H_m‖·t is noise, so tolerances below it are met at that level instead.
 NOISE = 16 * np.finfo(float).eps
@@ -142,6 +147,9 @@ CHEB_MIN_TAU = 20.0
 CHEB_GROWTH = 1e3
 #: Power steps of the bound R that :func:`expm_action` computes (:func:`skew_bound`).
 CHEB_BOUND_ITERATIONS = 8
+#: The Chebyshev series measures its terms at every CHEB_CHECK_EVERY-th step (a check costs
+#: a few vector passes; a failing series wastes at most this many products more).
+CHEB_CHECK_EVERY = 16
 
 
 _NONFINITE = (
@@ -294,43 +302,57 @@ class _Operator:
         self.n = n
         self.matvecs = 0
         self.calls = 0
-        self.csr = None
+        self.csr = None  # (indptr, indices, data) of scale·A, for scipy's in-place kernels
         self.A = A if scale == 1.0 or sp.issparse(A) else scale * A
         self.inplace = _CSR_MATVEC is not None
         if sp.issparse(A):
             C = A.tocsr() if A.format != "csr" else A
-            data = C.data.astype(np.float64, copy=False) * scale if scale != 1.0 else None
-            if data is not None:
-                C = sp.csr_array((data, C.indices, C.indptr), shape=C.shape)
-            elif C.dtype != np.float64:
-                C = C.astype(np.float64)
-            self.csr = C
+            data = C.data.astype(np.float64, copy=False)
+            self.csr = (C.indptr, C.indices, data * scale if scale != 1.0 else data)
             self.nnz = C.nnz
         elif isinstance(A, np.ndarray):
             self.nnz = A.size
         else:
             self.nnz = None  # LinearOperator: cost unknown
 
+    def kernel(self, cols: int) -> Callable[[np.ndarray, np.ndarray], None]:
+        """``f(x, y)``: y += A x on flat C-contiguous x, y of n·cols entries, with no
+        checks and no counting (the caller records them with :meth:`count`)."""
+        if self.csr is None or not self.inplace:
+            shape = (self.n,) if cols == 1 else (self.n, cols)
+            return lambda x, y: self._product(x.reshape(shape), y.reshape(shape))
+        indptr, indices, data = self.csr
+        if cols == 1:  # the vector kernel is ~2x faster than the 1-column one
+            return functools.partial(_CSR_MATVEC, self.n, self.n, indptr, indices, data)
+        return functools.partial(_CSR_MATVECS, self.n, self.n, cols, indptr, indices, data)
+
+    def count(self, calls: int, cols: int) -> None:
+        """Record ``calls`` products on ``cols`` columns made through :meth:`kernel`."""
+        self.calls += calls
+        self.matvecs += calls * cols
+
     def accumulate(self, x: np.ndarray, y: np.ndarray) -> None:
-        """y += A x (x, y C-contiguous, same shape (n,) or (n, p))."""
+        """y += A x (x, y C-contiguous, same shape (n,) or (n, p)), counted."""
+        self.count(1, 1 if x.ndim == 1 else x.shape[1])
+        self._product(x, y)
+
+    def _product(self, x: np.ndarray, y: np.ndarray) -> None:
+        """y += A x, not counted."""
         cols = 1 if x.ndim == 1 else x.shape[1]
-        self.matvecs += cols
-        self.calls += 1
-        C = self.csr
-        if C is not None and self.inplace:
+        if self.csr is not None and self.inplace:
+            indptr, indices, data = self.csr
             try:
-                if cols == 1:  # the vector kernel is ~2x faster than the 1-column one
-                    _CSR_MATVEC(
-                        self.n, self.n, C.indptr, C.indices, C.data, x.reshape(-1), y.reshape(-1)
-                    )
+                if cols == 1:
+                    _CSR_MATVEC(self.n, self.n, indptr, indices, data, x.reshape(-1), y.reshape(-1))
                 else:
                     n = self.n
-                    _CSR_MATVECS(n, n, cols, C.indptr, C.indices, C.data, x.ravel(), y.reshape(-1))
+                    _CSR_MATVECS(n, n, cols, indptr, indices, data, x.ravel(), y.reshape(-1))
                 return
             except (TypeError, ValueError):  # pragma: no cover - kernel signature changed
                 self.inplace = False
-        if C is not None:
-            y += C @ x
+        if self.csr is not None:  # pragma: no cover - other scipy versions
+            indptr, indices, data = self.csr
+            y += sp.csr_array((data, indices, indptr), shape=(self.n, self.n)) @ x
         elif isinstance(self.A, np.ndarray):
             y += self.A @ x
         elif x.ndim == 1:
@@ -466,15 +488,53 @@ def _check_operator(A: Any) -> tuple[Any, int]:
 MAX_SPAN = 1e15
 
 
-def _norm_inf(A: Any) -> float:
-    """‖A‖_∞ of a sparse or dense A; for a LinearOperator its ``norm_inf`` attribute (an
-    upper bound, e.g. :class:`fvf.transport.TransportOperator`'s) or 0 (unknown)."""
+@dataclass(frozen=True)
+class _AbsCsr:
+    """|A| of an explicit (sparse or dense) A as CSR arrays, with |diag A|: what ‖A‖_∞ and
+    the bound R read, built once per call. Duplicate entries are kept: |a| + |b| ≥ |a + b|,
+    so both stay upper bounds (the diagonal sums them first, which only loosens R)."""
+
+    n: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray  # (nnz,) |a_ij|
+    diag: np.ndarray  # (n,) |a_ii|
+
+    @classmethod
+    def of(cls, A: Any) -> _AbsCsr:
+        M = A.tocsr() if sp.issparse(A) else sp.csr_array(A)  # the caller's A is untouched
+        return cls(M.shape[0], M.indptr, M.indices, np.abs(M.data), np.abs(M.diagonal()))
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        """|A| x (x (n,) float64)."""
+        y = np.zeros(self.n)
+        if _CSR_MATVEC is not None:
+            _CSR_MATVEC(self.n, self.n, self.indptr, self.indices, self.data, x, y)
+        else:  # pragma: no cover - other scipy versions
+            y = self._csr() @ x
+        return y
+
+    def rmatvec(self, x: np.ndarray) -> np.ndarray:
+        """|A|ᵀ x (x (n,) float64): the CSR arrays of |A| are the CSC arrays of |A|ᵀ."""
+        y = np.zeros(self.n)
+        if _CSC_MATVEC is not None:
+            _CSC_MATVEC(self.n, self.n, self.indptr, self.indices, self.data, x, y)
+        else:  # pragma: no cover - other scipy versions
+            y = self._csr().T @ x
+        return y
+
+    def _csr(self) -> sp.csr_array:  # pragma: no cover - other scipy versions
+        return sp.csr_array((self.data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+def _norm_inf(A: Any, absA: _AbsCsr | None = None) -> float:
+    """‖A‖_∞ of a sparse or dense A (from ``absA`` = |A| when given); for a LinearOperator
+    its ``norm_inf`` attribute (an upper bound, e.g.
+    :class:`fvf.transport.TransportOperator`'s) or 0 (unknown)."""
+    if absA is not None:
+        return float(absA.matvec(np.ones(absA.n)).max()) if absA.n else 0.0
     if sp.issparse(A):
-        if not A.nnz:
-            return 0.0
-        C = A.tocsr() if A.format != "csr" else A
-        absC = sp.csr_array((np.abs(C.data), C.indices, C.indptr), shape=C.shape)
-        return float((absC @ np.ones(C.shape[1])).max())
+        return _norm_inf(A, _AbsCsr.of(A)) if A.nnz else 0.0
     if isinstance(A, np.ndarray):
         return float(np.abs(A).sum(axis=1).max()) if A.size else 0.0
     bound = getattr(A, "norm_inf", 0.0)
@@ -554,8 +614,10 @@ def _choose(
     p: int = 1,
     info: dict | None = None,
     skew: bool | None = None,
+    absA: _AbsCsr | None = None,
 ) -> tuple[str, float | None]:
-    """(method of "auto", the bound R if it was computed or given)."""
+    """(method of "auto", the bound R if it was computed or given); ``absA``: |A| if the
+    caller has it."""
     n = Aop.shape[0]
     if n < SMALL_N or not np.any(times != 0):
         return "expm_multiply", skew_norm
@@ -564,17 +626,25 @@ def _choose(
         return "krylov", skew_norm  # Lanczos: fewer vectors, as fast or faster (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
-    R = _bound(Aop, w, times, p, info) if skew_norm is None else float(skew_norm)
+    R = _bound(Aop, w, times, p, info, absA) if skew_norm is None else float(skew_norm)
     if R > 0 and R * float(np.abs(times).max()) >= CHEB_MIN_TAU:
         return "chebyshev", R
     return "krylov", R
 
 
-def _bound(Aop: Any, w: np.ndarray | None, times: np.ndarray, p: int, info: dict | None) -> float:
+def _bound(
+    Aop: Any,
+    w: np.ndarray | None,
+    times: np.ndarray,
+    p: int,
+    info: dict | None,
+    absA: _AbsCsr | None = None,
+) -> float:
     """:func:`skew_bound` with power steps while they pay for themselves on this call
     (records the products with |A| in ``info["bound_products"]``)."""
     span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
-    R, products = _skew_bound(Aop, w, CHEB_BOUND_ITERATIONS, span)
+    absA = _AbsCsr.of(Aop) if absA is None else absA
+    R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span)
     if info is not None:
         info["bound_products"] = products
     return R
@@ -769,7 +839,8 @@ def expm_action(
         "wasted_matvecs": 0,
         "bound_products": 0,
     }
-    a_norm = _norm_inf(Aop)
+    absA = _AbsCsr.of(Aop) if sp.issparse(Aop) else None  # |A|, shared with the bound R
+    a_norm = _norm_inf(Aop, absA)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
         raise FlowOverflowError(
@@ -780,7 +851,7 @@ def expm_action(
     bound = None if skew_norm is None else float(skew_norm)
     explicit = method == "chebyshev"
     if method == "auto":  # after the check above: the bound is not spent on a refusal
-        method, bound = _choose(Aop, times, bound, w, p, info, skew)
+        method, bound = _choose(Aop, times, bound, w, p, info, skew, absA)
     if n == 0 or p == 0:
         out[:] = 0.0
     elif a_norm == 0.0 and not isinstance(Aop, spla.LinearOperator):
@@ -796,7 +867,7 @@ def expm_action(
                         "method='chebyshev' on a LinearOperator needs skew_norm (a bound of "
                         "the norm of its skew-adjoint part)"
                     )
-                bound = _bound(Aop, w, times, p, info)
+                bound = _bound(Aop, w, times, p, info, absA)
             method = "krylov" if bound == 0.0 else method  # A is W-symmetric: no strip
         if method == "chebyshev":
             try:
@@ -907,43 +978,33 @@ def skew_bound(
             raise ExpmInputError(f"inner must be {n} finite weights > 0")
     if int(iterations) != iterations or iterations < 0:
         raise ExpmInputError(f"iterations must be an integer >= 0; got {iterations!r}")
-    return _skew_bound(Aop, w, int(iterations))[0]
+    return _skew_bound(_AbsCsr.of(Aop), w, int(iterations))[0]
 
 
 def _skew_bound(
-    A: Any, w: np.ndarray | None, iterations: int = CHEB_BOUND_ITERATIONS, span: float = math.inf
+    absA: _AbsCsr,
+    w: np.ndarray | None,
+    iterations: int = CHEB_BOUND_ITERATIONS,
+    span: float = math.inf,
 ) -> tuple[float, int]:
-    """(bound, products with |A| spent). With a finite ``span`` (max|t| × columns), the
-    power steps stop early once a step saves fewer terms (≈ span × the bound's decrease)
-    than the two products it costs."""
-    n = A.shape[0]
+    """(bound, products with |A| spent) from |A| (:class:`_AbsCsr`). With a finite
+    ``span`` (max|t| × columns), the power steps stop early once a step saves fewer terms
+    (≈ span × the bound's decrease) than the two products it costs."""
+    n = absA.n
     if n == 0:
         return 0.0, 0
-    M = sp.csr_array(A)  # a new object: the caller's matrix is not touched
-    if not M.has_canonical_format:
-        M = M.copy()
-        M.sum_duplicates()
-    indptr, indices, absdata = M.indptr, M.indices, np.abs(M.data)
-    diag = np.abs(M.diagonal())
     s = np.ones(n) if w is None else np.sqrt(w)
-    kernels = _CSR_MATVEC is not None and _CSC_MATVEC is not None
-    absA = None if kernels else sp.csr_array((absdata, indices, indptr), shape=(n, n))
-
-    def apply(d: np.ndarray) -> np.ndarray:
-        """M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with diagonal)."""
-        u, v = np.zeros(n), np.zeros(n)
-        if kernels:
-            _CSR_MATVEC(n, n, indptr, indices, absdata, d / s, u)
-            _CSC_MATVEC(n, n, indptr, indices, absdata, d * s, v)  # CSR of |A| = CSC of |A|ᵀ
-        else:  # pragma: no cover - other scipy versions
-            u, v = absA @ (d / s), absA.T @ (d * s)
-        return 0.5 * (s * u + v / s) - diag * d
-
+    inv_s = 1.0 / s
     d = np.ones(n)
     best = math.inf
     products = 0
     for _ in range(iterations + 1):
-        Md = apply(d)
+        # M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with its diagonal)
+        Md = absA.matvec(d * inv_s)
+        Md *= s
+        Md += absA.rmatvec(d * s) * inv_s
+        Md *= 0.5
+        Md -= absA.diag * d
         products += 2
         bound = float(np.max(Md / d))
         gain, best = best - bound, min(best, bound)
@@ -958,11 +1019,20 @@ def chebyshev_degree(tau: float, tol: float) -> int:
     """Terms of the series exp(iτx) = J₀(τ) + 2 Σ iᵏ J_k(τ) T_k(x) needed for an error
     below ``tol`` on [−1, 1]: the smallest m ≥ |τ| with 2 Σ_{k>m} |J_k(τ)| ≤ tol."""
     tau = abs(float(tau))
-    top = int(tau + 12 * tau ** (1 / 3) + 60)
-    J = np.abs(_bessel_row(tau, top)[int(tau) + 1 :])  # J_k for k = ⌊τ⌋+1 … top
+    return _degree(np.abs(_bessel_row(tau, _degree_top(tau))), tau, tol)
+
+
+def _degree_top(tau: float) -> int:
+    """An order beyond which 2 Σ_{k>m} |J_k(τ)| is far below any tolerance (τ ≥ 0)."""
+    return int(tau + 12 * tau ** (1 / 3) + 60)
+
+
+def _degree(absJ: np.ndarray, tau: float, tol: float) -> int:
+    """:func:`chebyshev_degree` from |J_k(τ)| for k = 0 … top, (top + 1,)."""
+    J = absJ[int(tau) + 1 :]  # |J_k| for k = ⌊τ⌋+1 … top
     tail = 2.0 * np.cumsum(J[::-1])[::-1]  # tail[i] = 2 Σ_{k ≥ ⌊τ⌋+1+i} |J_k|
     ok = np.flatnonzero(tail <= tol)
-    return int(tau) + int(ok[0]) if ok.size else top
+    return int(tau) + int(ok[0]) if ok.size else absJ.size - 1
 
 
 #: Below this |x| the Bessel recurrences would overflow in one step (2k/|x| · 1e200); the
@@ -973,30 +1043,29 @@ _BESSEL_TINY = 1e-8
 def _bessel_row(x: float, kmax: int) -> np.ndarray:
     """J_k(x) for k = 0..kmax and one real x ≥ 0: (kmax + 1,) float64.
 
-    :func:`_bessel_table`'s recurrence on Python floats: about 0.2 µs a step, where one
+    :func:`_bessel_table`'s recurrence on Python floats: about 0.15 µs a step, where one
     ``scipy.special.jv`` value costs a few µs (this runs on every call of the series).
     """
-    tab = [0.0] * (kmax + 1)
     if x < _BESSEL_TINY:  # J₀ = 1 − x²/4, J₁ = x/2, J₂ = x²/8: exact to O(x³) here
-        tab[0] = 1.0 - 0.25 * x * x
-        if kmax >= 1:
-            tab[1] = 0.5 * x
-        if kmax >= 2:
-            tab[2] = 0.125 * x * x
-        return np.array(tab)
-    inv, f_next, f, even = 2.0 / x, 0.0, 1e-200, 0.0
-    for k in range(int(max(kmax, x) + 12.0 * x ** (1 / 3) + 30), 0, -1):
-        if k <= kmax:
-            tab[k] = f
-        if not k & 1:
-            even += f
+        tab = np.zeros(kmax + 1)
+        tab[: min(kmax, 2) + 1] = [1.0 - 0.25 * x * x, 0.5 * x, 0.125 * x * x][: kmax + 1]
+        return tab
+    start = int(min(kmax, x + 12.0 * x ** (1 / 3))) + 30  # J_start < 1e-20 · max|J|
+    inv, f_next, f = 2.0 / x, 0.0, 1e-200
+    vals = []  # f_start, f_{start−1}, …, f_1
+    for k in range(start, 0, -1):
+        vals.append(f)
         f, f_next = k * inv * f - f_next, f
         if abs(f) > 1e200:  # rescale (entries far below underflow harmlessly)
-            f, f_next, even = f * 1e-200, f_next * 1e-200, even * 1e-200
-            if k <= kmax:
-                tab[k:] = [t * 1e-200 for t in tab[k:]]
-    tab[0] = f
-    return np.array(tab) / (f + 2.0 * even)
+            f, f_next = f * 1e-200, f_next * 1e-200
+            vals = [v * 1e-200 for v in vals]
+    vals.append(f)
+    J = np.array(vals[::-1])  # f_0 … f_start
+    J /= J[0] + 2.0 * J[2::2].sum()  # J₀ + 2 Σ J_{2k} = 1
+    tab = np.zeros(kmax + 1)
+    top = min(kmax, start)
+    tab[: top + 1] = J[: top + 1]
+    return tab
 
 
 def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
@@ -1020,11 +1089,11 @@ def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
     a = a[live]
     amax = float(a.max())
     inv = 2.0 / a
-    tab = np.empty((kmax + 1, a.size))
+    tab = np.zeros((kmax + 1, a.size))  # orders beyond the start stay 0 (below 1e-20)
     f_next = np.zeros(a.size)  # f_{k+1}
     f = np.full(a.size, 1e-200)  # f_k
     even = np.zeros(a.size)  # Σ f_{2j}, j ≥ 1
-    for k in range(int(max(kmax, amax) + 12.0 * amax ** (1 / 3) + 30), 0, -1):
+    for k in range(int(min(kmax, amax + 12.0 * amax ** (1 / 3))) + 30, 0, -1):
         if k <= kmax:
             tab[k] = f
         if not k & 1:
@@ -1049,12 +1118,13 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
     """c_k(τ_j) = J_k(τ_j) (k = 0), 2 J_k(τ_j) (k ≥ 1) for k ≤ kmax: (T, kmax + 1).
 
     Bessel functions of the distinct |τ| only (J_k(−τ) = (−1)ᵏ J_k(τ)): one scalar
-    recurrence (:func:`_bessel_row`) each for up to three of them, else the vectorized
-    :func:`_bessel_table`. The table is built to the expected degree and extended on
-    demand.
+    recurrence (:func:`_bessel_row`) each, or the vectorized :func:`_bessel_table` when
+    its steps (a few µs each, one per order up to the largest |τ|'s) cost less than the
+    scalar ones (~0.4 µs, one per order up to each |τ|'s own start; measured).
     """
     mags, inv = np.unique(np.abs(taus), return_inverse=True)
-    if mags.size <= 3:
+    steps = np.minimum(kmax, mags + 12.0 * np.cbrt(mags)) + 30.0  # (distinct,) per row
+    if 0.4 * float(steps.sum()) <= 4.5 * float(steps.max()):
         J = np.stack([_bessel_row(float(x), kmax) for x in mags])
     else:
         J = _bessel_table(mags, kmax)
@@ -1091,11 +1161,15 @@ def _run_chebyshev(
     W-skew-adjoint A and R ≥ ‖A‖_W,
     ‖P_k(A/R)‖_W = max|T_k| ≤ 1, so the truncation error is at most
     2 Σ_{k>m} |J_k(Rt)| ‖B‖_W. Otherwise (non-normal A) the terms may grow before they
-    decay; the series is controlled a posteriori: it stops at the first m beyond the
-    a-priori degree (:func:`chebyshev_degree`, less two) where the last two terms
-    |c_k| ‖y_k‖ are within SAFETY·tol and decaying, and the rounding
-    error is estimated as NOISE·√m·max_k |c_k| ‖y_k‖. Both are checked against the
-    outputs' own norms at the end; raises _ChebyshevFailed if they miss tol.
+    decay; the series is controlled a posteriori: the terms are measured at every
+    :data:`CHEB_CHECK_EVERY`-th step (growth beyond what rounding allows stops the series)
+    and from the a-priori degree (:func:`chebyshev_degree`, less two) on. It stops at the
+    first measured m with the last two measured terms |c_k| ‖y_k‖ within SAFETY·tol and
+    decaying; while they are not, the next measurement is at the a-priori degree for
+    SAFETY·tol / (‖y_m‖/‖B‖), less two (terms that grew by non-normality need more
+    coefficient decay), or the next step. The rounding error is estimated as
+    NOISE·√m·max_k |c_k| ‖y_k‖. Both are checked against the outputs' own norms at the
+    end; raises _ChebyshevFailed if they miss tol.
     """
     p = B2.shape[1]
     T = times.size
@@ -1104,14 +1178,23 @@ def _run_chebyshev(
     tau_max = float(np.abs(taus).max())
     k_cap = int(1.5 * tau_max + 12 * tau_max ** (1 / 3) + 80)
     budget = SAFETY * tol
-    # the a-priori degree for W-normal A (within 2 terms of where the series stops):
-    # the terms are measured at every step from there on, and at every 8th before
-    k_check = chebyshev_degree(tau_max, budget) - 2
-    coef = _cheb_coefficients(taus, k_check + 8)  # (T, K): c_k(τ_j), extended if needed
+    # one Bessel pass gives the coefficients and the a-priori degree for W-normal A
+    # (within 2 terms of where the series stops): the terms are measured at every step
+    # from there on, and at every CHEB_CHECK_EVERY-th before
+    coef = _cheb_coefficients(taus, _degree_top(tau_max))  # (T, K): c_k(τ_j), extended later
+    if not np.isfinite(coef).all():  # a defect, not an overflow
+        raise _ChebyshevFailed("non-finite series coefficients")
+    row = 0.5 * np.abs(coef[int(np.argmax(np.abs(taus)))])  # |J_k(τ_max)| (k ≥ 1)
+    row[0] *= 2.0
+    next_check = _degree(row, tau_max, budget) - 2
+    absc = np.abs(coef)
     op = _Operator(Aop, n, scale=2.0 / R)
+    mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
     try:
         nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
-        inf0 = np.abs(B2).max(axis=0) if maxnorm else None
+        inv_nu0 = _safe_div(np.ones(p), nu0)
+        inf0 = np.abs(B2).max(axis=0) if maxnorm else None  # (p,)
+        inv_inf0 = _safe_div(np.ones(p), inf0) if maxnorm else None
         # T = 1: each term is added to the output at once, while it is in cache, and
         # y_{k+1} overwrites y_{k−1} (two vectors, no copies); T > 1: chunks of terms, one
         # GEMM each into the T outputs, and y_{k+1} starts as a copy of y_{k−1}.
@@ -1124,32 +1207,31 @@ def _run_chebyshev(
         acc[:] = 0.0
         np.copyto(buf[0], B2)
         buf[1].fill(0.0)
-        op.accumulate(buf[0], buf[1])
+        mv(flat[0], flat[1])
+        op.count(1, p)
         buf[1] *= 0.5  # y_1 = (A/R) B
         if T == 1:
             acc[0] += coef[0, 0] * flat[0]
             _AXPY(flat[1], acc[0], a=coef[0, 1])
         cur_i = 1  # slot of y_k
-        bufs, flats, step = [buf[0], buf[1]], [flat[0], flat[1]], op.accumulate
         tmp = _norm_workspace(n, p, w)
+        tmp_abs = np.empty((n, p)) if maxnorm else None
         k0, start, filled, k = 0, 0, 2, 1  # T > 1: slots [start, filled) not yet added
         peak = np.ones(p)  # largest |c_k| ‖y_k‖ / ‖B‖ seen (rounding ≈ NOISE × peak)
         last = np.full((T, p), np.inf)  # the previous term, relative to ‖B‖
         tail = last
+        grow_limit = CHEB_GROWTH * tol / NOISE
         while True:
-            cur = buf[cur_i]
-            if k >= k_check or k % 8 == 0:
-                rel = _safe_div(np.sqrt(_wnorm2(cur, w, tmp)), nu0)  # (p,)
+            if k >= next_check or k % CHEB_CHECK_EVERY == 0:
+                cur = buf[cur_i]
+                rel = np.sqrt(_wnorm2(cur, w, tmp)) * inv_nu0  # (p,) ‖y_k‖ / ‖B‖
                 if maxnorm:
-                    big = np.maximum(cur.max(axis=0), -cur.min(axis=0))
-                    rel = np.maximum(rel, _safe_div(big, inf0))
-                if not np.isfinite(rel).all():
+                    rel = np.maximum(rel, np.abs(cur, out=tmp_abs).max(axis=0) * inv_inf0)
+                if not math.isfinite(float(rel.sum())):
                     raise FlowOverflowError(_NONFINITE)
-                term = np.abs(coef[:, k])[:, None] * rel[None, :]  # (T, p)
-                if not np.isfinite(term).all():  # coefficients: a defect, not an overflow
-                    raise _ChebyshevFailed("non-finite series coefficients")
+                term = absc[:, k, None] * rel  # (T, p)
                 peak = np.maximum(peak, term.max(axis=0))
-                if float(peak.max()) * NOISE * math.sqrt(k) > CHEB_GROWTH * tol:
+                if float(peak.max()) * math.sqrt(k) > grow_limit:
                     # terms this large cancel beyond tol unless the solution itself is as
                     # large (strongly non-normal A, or a real spectrum): let Krylov do it
                     raise _ChebyshevFailed(
@@ -1157,23 +1239,32 @@ def _run_chebyshev(
                         f"degree {k} (rounding beyond tol)"
                     )
                 tail = term + last
-                if k >= k_check and np.all((tail <= budget) & (term <= 0.5 * last)):
-                    break
+                if k >= next_check:
+                    if bool(((tail <= budget) & (term <= 0.5 * last)).all()):
+                        break
+                    # not yet (the terms grew: non-normal A): the degree for the grown
+                    # terms, less two, is where to look next
+                    grown = budget / max(float(rel.max()), 1.0)
+                    next_check = max(k + 1, _degree(row, tau_max, grown) - 2)
                 last = term
             if k > k_cap:
                 raise _ChebyshevFailed(f"no convergence after {k} terms (R·max|t| = {tau_max:.3g})")
             if k + 2 >= coef.shape[1]:
                 coef = _cheb_coefficients(taus, k_cap + 2)
+                absc = np.abs(coef)
             if T == 1:  # y_{k+1} = 2 (A/R) y_k + y_{k−1}, in the slot of y_{k−1}
                 # terms up to the next measured one, with no other work
-                stop = min(k_check if k < k_check else k + 1, (k // 8 + 1) * 8, k_cap + 1)
+                every = CHEB_CHECK_EVERY
+                stop = min(next_check if k < next_check else k + 1, (k // every + 1) * every)
+                stop = min(stop, k_cap + 1)
                 stop = max(min(stop, coef.shape[1] - 2), k + 1)
                 c0, out0 = coef[0], acc[0]
+                op.count(stop - k, p)
                 while k < stop:
                     cur_i = 1 - cur_i
-                    step(bufs[1 - cur_i], bufs[cur_i])
+                    mv(flat[1 - cur_i], flat[cur_i])
                     k += 1
-                    _AXPY(flats[cur_i], out0, a=c0[k])
+                    _AXPY(flat[cur_i], out0, a=c0[k])
                 continue
             if filled == chunk:  # add the chunk, keep y_{k−1}, y_k in slots 0 and 1
                 acc += coef[:, k0 + start : k0 + chunk] @ flat[start:]
@@ -1181,7 +1272,8 @@ def _run_chebyshev(
                 np.copyto(buf[1], buf[chunk - 1])
                 k0, start, filled = k - 1, 2, 2
             np.copyto(buf[filled], buf[filled - 2])
-            op.accumulate(buf[filled - 1], buf[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
+            mv(flat[filled - 1], flat[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
+            op.count(1, p)
             cur_i = filled
             filled += 1
             k += 1
@@ -1191,7 +1283,10 @@ def _run_chebyshev(
             raise FlowOverflowError(_NONFINITE)
         # the estimates were relative to B; the outputs' own norms decide
         rounding = peak * NOISE * math.sqrt(k)  # (p,)
-        nf = np.sqrt(np.stack([_wnorm2(o, w) for o in out]))  # (T, p) outputs' W-norms
+        if w is None:  # (T, p) outputs' W-norms
+            nf = np.sqrt(np.einsum("tnp,tnp->tp", out, out))
+        else:
+            nf = np.sqrt(np.einsum("tnp,n,tnp->tp", out, w, out))
         rel_out = _safe_div(np.broadcast_to(nu0, nf.shape), nf)
         if maxnorm:
             rel_out = np.maximum(
@@ -1599,7 +1694,8 @@ def _wdot(
 def _norm_workspace(n: int, p: int, w: np.ndarray | None) -> np.ndarray | None:
     """The temporary (n, p) of :func:`_wdot` / :func:`_wnorm2`: for weighted norms of
     blocks small enough to stay in cache; None (one fused einsum pass) otherwise."""
-    return np.empty((n, p)) if w is not None and n * p < _STREAM_N else None
+    small = n < _STREAM_N if p == 1 else n * p < _STREAM_BLOCK
+    return np.empty((n, p)) if w is not None and small else None
 
 
 def _wnorm2(X: np.ndarray, w: np.ndarray | None, tmp: np.ndarray | None = None) -> np.ndarray:
