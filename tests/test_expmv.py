@@ -338,12 +338,18 @@ def test_choose_method():
     assert choose_method(A, [50.0, 20.0]) == "chebyshev"
 
 
-def test_choose_method_for_skew_operators():
-    """A declared skew operator: Lanczos for one right-hand side or several outputs."""
+def test_choose_method_for_skew_operators(monkeypatch):
+    """A declared skew operator: Lanczos for several outputs, and for one right-hand side
+    from CHEB_SKEW_MIN_N on."""
     A = _flow_operator(fvf.icosphere(2), "skew")
+    assert A.shape[0] < fvf.expmv.CHEB_SKEW_MIN_N
     assert choose_method(A, [50.0, 20.0], 4, skew=True) == "krylov"  # several outputs
+    assert choose_method(A, [50.0, 20.0], 1, skew=True) == "krylov"
     assert choose_method(A, [50.0, -50.0, 0.0], 4, skew=True) == "chebyshev"  # one |t| ≠ 0
-    assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # one right-hand side
+    assert choose_method(A, 50.0, 1, skew=True) == "chebyshev"  # small n: the series
+    monkeypatch.setattr(fvf.expmv, "CHEB_SKEW_MIN_N", A.shape[0])
+    assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # large n: Lanczos
+    assert choose_method(A, 50.0, 4, skew=True) == "chebyshev"  # blocks: the series
     assert choose_method(A, 50.0, 4) == "chebyshev"  # not declared skew
     small = sp.random_array((10, 10), density=0.3, rng=np.random.default_rng(0), format="csr")
     assert choose_method(small, 1.0) == "expm_multiply"
@@ -752,3 +758,61 @@ def test_skew_bound_leaves_the_input_alone():
     for x, y in zip(before[:3], after[:3], strict=True):
         np.testing.assert_array_equal(x, y)
     assert before[3] == after[3]
+
+
+@pytest.mark.parametrize("p", [1, 3])
+@pytest.mark.parametrize("tol", [1e-6, TOL])
+def test_chebyshev_of_a_declared_skew_operator_keeps_the_norm(mesh, p, tol):
+    """skew=True: the series' outputs are rescaled to the W-norm of B's columns, so the
+    norm is kept to round-off (as Lanczos does) and the error stays within tol."""
+    A = _flow_operator(mesh, "skew")
+    w = mesh.vertex_areas
+    B = _f0(mesh, p)
+    times = np.array([20.0, -35.0]) * mesh.mean_edge_length
+    kw = dict(inner=w, method="chebyshev", tol=tol)
+    X, info = expm_action(A, B, times, skew=True, return_info=True, **kw)
+    assert info["method"] == "chebyshev" and info["wasted_matvecs"] == 0
+    ref = dense_exp(A, B, times)
+    n = B.shape[0]
+    B2 = B.reshape(n, -1)
+    X2, ref2 = X.reshape(2, n, -1), ref.reshape(2, n, -1)
+    Y2 = expm_action(A, B, times, **kw).reshape(2, n, -1)  # undeclared: no rescaling
+    drift = []
+    for k in range(times.size):
+        for c in range(B2.shape[1]):
+            assert abs(wnorm(X2[k, :, c], w) / wnorm(B2[:, c], w) - 1) < 1e-14
+            assert wrel(X2[k, :, c], ref2[k, :, c], w) <= tol
+            drift.append(abs(wnorm(Y2[k, :, c], w) / wnorm(B2[:, c], w) - 1))
+    if tol == 1e-6:  # the series alone drifts far above round-off at this tolerance
+        assert 1e-11 < max(drift) <= tol
+
+
+def test_chebyshev_checks_a_skew_declaration(mesh):
+    """skew=True on a compressible flow: the series refuses to rescale (⟨A b, b⟩_W ≠ 0)
+    and the Krylov method warns and computes the answer."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    t = 25 * mesh.mean_edge_length
+    assert choose_method(A, t, skew=True, inner=w) == "chebyshev"
+    with pytest.warns(KrylovFallbackWarning, match="not skew-adjoint"):
+        x, info = expm_action(A, b, t, inner=w, skew=True, return_info=True)
+    assert info["method"] == "iom" and 0 < info["wasted_matvecs"] <= 3  # 1 + Lanczos its 2
+    assert wrel(x, dense_exp(A, b, t)[0], w) <= TOL
+
+
+def test_chebyshev_coefficients_for_many_times_use_either_recurrence():
+    """Rows (Python floats) or the vectorized table, whichever is cheaper: both match
+    scipy's jv, including tiny, zero, repeated and negative τ."""
+    from scipy.special import jv
+
+    rng = np.random.default_rng(3)
+    for taus in (
+        rng.uniform(-60.0, 60.0, 5),  # few: rows
+        np.concatenate([rng.uniform(-60.0, 60.0, 60), [0.0, 1e-12, 7.0, 7.0, -7.0]]),  # table
+    ):
+        kmax = fvf.expmv._degree_top(float(np.abs(taus).max()))
+        C = fvf.expmv._cheb_coefficients(taus, kmax)
+        k = np.arange(kmax + 1)
+        want = np.where(k == 0, 1.0, 2.0) * jv(k[None, :], taus[:, None])
+        np.testing.assert_allclose(C, want, rtol=0, atol=4e-14)

@@ -142,6 +142,10 @@ SAFETY = 0.5  # the error estimates aim at SAFETY·tol
 CHEB_MEMORY = 2**28
 #: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R = :func:`skew_bound`).
 CHEB_MIN_TAU = 20.0
+#: ``method="auto"`` with ``skew=True``, one right-hand side and one time: Lanczos from this
+#: n on, the series below it (where Lanczos' fixed per-call work costs more than the
+#: series' extra products; measured crossover between 23k and 94k faces on spot).
+CHEB_SKEW_MIN_N = 20_000
 #: The Chebyshev series gives up (for the Krylov method) once its rounding estimate,
 #: NOISE·√k·max|c_k|‖y_k‖/‖B‖, exceeds CHEB_GROWTH·tol.
 CHEB_GROWTH = 1e3
@@ -563,12 +567,14 @@ def choose_method(
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
-    * ``skew=True``, unless a block of several right-hand sides has one |t|: ``"krylov"``
-      (Lanczos, which also keeps the norm to round-off). It needs 1.2–1.4× fewer vectors
-      than the series; for one right-hand side it was as fast at 6k–23k faces (within
-      ±15 %) and faster at 94k–1.5M (0.83–0.96× the series' time); for 16 times 1.0–1.8×
-      faster, every output being a combination of all the vectors. On blocks of 8 the
-      series was 1.2–1.5× faster.
+    * ``skew=True`` with several times, or with one right-hand side and one time from
+      n = :data:`CHEB_SKEW_MIN_N` on: ``"krylov"`` (Lanczos, which also keeps the norm
+      to round-off). It needs 1.2–1.4× fewer vectors than the series; with one
+      right-hand side it was 0.92× the series' time at 94k faces and 0.83× at 1.5M, for
+      16 times 0.75–0.9× (6k–94k faces), every output being a combination of all the
+      vectors. Below that n, its fixed per-call work (small dense exponentials for the
+      step control) made it slower than the series (1.2–1.3× at 6k–23k faces); on
+      blocks of 8 the series was 1.2–1.5× faster at every size.
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
       ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
@@ -622,8 +628,8 @@ def _choose(
     if n < SMALL_N or not np.any(times != 0):
         return "expm_multiply", skew_norm
     several = np.unique(np.abs(times[times != 0])).size > 1
-    if skew is True and (p == 1 or several):
-        return "krylov", skew_norm  # Lanczos: fewer vectors, as fast or faster (docstring)
+    if skew is True and (several or (p == 1 and n >= CHEB_SKEW_MIN_N)):
+        return "krylov", skew_norm  # Lanczos: fewer vectors, faster there (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
     R = _bound(Aop, w, times, p, info, absA) if skew_norm is None else float(skew_norm)
@@ -872,7 +878,9 @@ def expm_action(
         if method == "chebyshev":
             try:
                 with np.errstate(over="ignore", invalid="ignore"):
-                    _run_chebyshev(Aop, n, B2, times, out, info, tol, w, norm == "max", bound)
+                    _run_chebyshev(
+                        Aop, n, B2, times, out, info, tol, w, norm == "max", bound, skew is True
+                    )
             except _ChebyshevFailed as exc:
                 if explicit:
                     warnings.warn(
@@ -1119,16 +1127,19 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
 
     Bessel functions of the distinct |τ| only (J_k(−τ) = (−1)ᵏ J_k(τ)): one scalar
     recurrence (:func:`_bessel_row`) each, or the vectorized :func:`_bessel_table` when
-    its steps (a few µs each, one per order up to the largest |τ|'s) cost less than the
-    scalar ones (~0.4 µs, one per order up to each |τ|'s own start; measured).
+    its steps (~7 µs each, one per order up to the largest |τ|'s) cost less than the
+    scalar ones (~0.25 µs, one per order up to each |τ|'s own start; measured).
     """
-    mags, inv = np.unique(np.abs(taus), return_inverse=True)
-    steps = np.minimum(kmax, mags + 12.0 * np.cbrt(mags)) + 30.0  # (distinct,) per row
-    if 0.4 * float(steps.sum()) <= 4.5 * float(steps.max()):
-        J = np.stack([_bessel_row(float(x), kmax) for x in mags])
+    if taus.size == 1:
+        J = _bessel_row(abs(float(taus[0])), kmax)[None, :]
     else:
-        J = _bessel_table(mags, kmax)
-    J = J[inv.ravel()]
+        mags, inv = np.unique(np.abs(taus), return_inverse=True)
+        steps = np.minimum(kmax, mags + 12.0 * np.cbrt(mags)) + 30.0  # (distinct,) per row
+        if 0.25 * float(steps.sum()) <= 7.0 * float(steps.max()):
+            J = np.stack([_bessel_row(float(x), kmax) for x in mags])
+        else:
+            J = _bessel_table(mags, kmax)
+        J = J[inv.ravel()]
     J[taus < 0, 1::2] *= -1.0
     J[:, 1:] *= 2.0
     return J
@@ -1149,8 +1160,15 @@ def _run_chebyshev(
     w: np.ndarray | None,
     maxnorm: bool,
     bound: float,
+    keep_norm: bool = False,
 ) -> None:
     """Fill out (T, n, p) with exp(t_j A) B2 by the Chebyshev series in A/R (R = bound).
+
+    ``keep_norm`` (A declared W-skew, so exp(tA) is W-unitary): the series aims at tol/2
+    and every output column is rescaled to the W-norm of its column of B, which keeps the
+    norm to round-off, as the Lanczos recurrence does, and at most doubles the error.
+    ⟨A B, B⟩_W = 0 is checked first (raises _ChebyshevFailed: the Krylov method then
+    checks, warns and proceeds as for a wrong ``skew=True``).
 
     With A ≈ iR·x (x ∈ [−1, 1] on A's spectrum), the Jacobi–Anger expansion gives
     exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R), with P₀ = I, P₁ = A/R and the real
@@ -1177,6 +1195,8 @@ def _run_chebyshev(
     taus = times * R
     tau_max = float(np.abs(taus).max())
     k_cap = int(1.5 * tau_max + 12 * tau_max ** (1 / 3) + 80)
+    if keep_norm:
+        tol = 0.5 * tol
     budget = SAFETY * tol
     # one Bessel pass gives the coefficients and the a-priori degree for W-normal A
     # (within 2 terms of where the series stops): the terms are measured at every step
@@ -1210,6 +1230,13 @@ def _run_chebyshev(
         mv(flat[0], flat[1])
         op.count(1, p)
         buf[1] *= 0.5  # y_1 = (A/R) B
+        if keep_norm:  # ⟨A B, B⟩_W = 0 for W-skew A; the Lanczos path's limit (per unit R)
+            diag = np.abs(_wdot(buf[1], buf[0], w)) * inv_nu0 * inv_nu0  # (p,)
+            limit = max(0.1 * tol / float(np.abs(times).max()) / R, 1e-12)
+            if float(diag.max()) > limit:
+                raise _ChebyshevFailed(
+                    f"skew=True but |<A b, b>_W| / (R ||b||^2) = {float(diag.max()):.3g}"
+                )
         if T == 1:
             acc[0] += coef[0, 0] * flat[0]
             _AXPY(flat[1], acc[0], a=coef[0, 1])
@@ -1300,6 +1327,9 @@ def _run_chebyshev(
                 f"error estimate {worst:.3g} > tol = {tol:.3g} "
                 f"(rounding {float(rounding.max()):.3g})"
             )
+        if keep_norm:  # (T, p) factors ‖B_c‖_W / ‖X_jc‖_W; zero outputs stay zero
+            out *= _safe_div(np.broadcast_to(nu0, nf.shape), nf)[:, None, :]
+            worst *= 2.0
     finally:
         info["matvecs"] += op.matvecs
         info["block_matvecs"] += op.calls
