@@ -577,6 +577,33 @@ def test_skew_bound_is_a_tightening_upper_bound(mesh, kind):
     assert np.abs(np.linalg.eigvals(A.toarray()).imag).max() <= bounds[6] * (1 + 1e-10)
 
 
+def test_skew_bound_of_a_declared_skew_operator_costs_one_product_per_step(mesh):
+    """For W-skew A, |S| is symmetric: P d alone gives the same (rigorous) bound at half the
+    products; a non-zero diagonal (not skew) falls back to both products."""
+    A = _flow_operator(mesh, "skew")
+    w = mesh.vertex_areas
+    absA = fvf.expmv._AbsCsr.of(A)
+    exact = _dense_skew_norm(A, w)
+    for it in (0, 3, 8):
+        R2, p2 = fvf.expmv._skew_bound(absA, w, it)
+        R1, p1 = fvf.expmv._skew_bound(absA, w, it, skew=True)
+        assert (p1, p2) == (it + 1, 2 * (it + 1))
+        assert R1 == pytest.approx(R2, rel=3e-12) and R1 >= exact * (1 - 1e-12)
+    B = (A + sp.diags_array(np.full(A.shape[0], 1e-3))).tocsr()  # not skew: a diagonal
+    _, p_diag = fvf.expmv._skew_bound(fvf.expmv._AbsCsr.of(B), w, 3, skew=True)
+    assert p_diag == 8
+    _, info = expm_action(
+        A,
+        _f0(mesh),
+        30 * mesh.mean_edge_length,
+        inner=w,
+        skew=True,
+        method="chebyshev",
+        return_info=True,
+    )
+    assert 1 <= info["bound_products"] <= fvf.expmv.CHEB_BOUND_ITERATIONS + 1
+
+
 def test_skew_bound_edge_cases():
     assert skew_bound(sp.diags_array(np.arange(5.0))) == 0.0  # diagonal: no skew part
     S = sp.random_array((40, 40), density=0.2, rng=np.random.default_rng(4), format="csr")
