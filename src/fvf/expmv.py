@@ -1470,6 +1470,8 @@ class _Lanczos:
         self.m = 0
         if p == 1:
             self.V1 = V[:, :, 0]
+            self.mv = op.kernel(1)  # y += A x on vectors, counted here
+            self.bsum1 = 0.0
             self.stream = n >= _STREAM_N
             self.tmp = None if self.stream or w is None else np.empty(n)
             x = self.V1[0]
@@ -1485,7 +1487,8 @@ class _Lanczos:
 
     def mean_beta(self) -> float:
         """Largest mean of the coefficients β over the columns (≈ half the spectral radius)."""
-        return float(np.max(self.bsum)) / max(self.m, 1)
+        top = self.bsum1 if self.p == 1 else float(np.max(self.bsum))
+        return top / max(self.m, 1)
 
     def extend(self) -> None:
         """Add one vector (one product with A on the block)."""
@@ -1502,7 +1505,8 @@ class _Lanczos:
         else:
             c = b1[j - 1] * nu[j] / nu[j - 1] if nu[j - 1] > 0 else 0.0
             np.multiply(V[j - 1], c, out=vn)
-        self.op.accumulate(V[j], vn)
+        self.mv(V[j], vn)
+        self.op.count(1, 1)
         if w is None:
             wv = vn
             nz = math.sqrt(float(np.dot(vn, vn)))
@@ -1532,7 +1536,7 @@ class _Lanczos:
         nu.append(nz)
         self.beta[j, 0] = b
         self.nu[j + 1, 0] = nz
-        self.bsum[0] += b
+        self.bsum1 += b
         self.m = j + 1
 
     def _extend_block(self) -> None:
@@ -1569,6 +1573,8 @@ class _Lanczos:
 
     def broken(self) -> bool:
         """True when every column hit an invariant subspace (β = 0): the basis is exact."""
+        if self.p == 1:
+            return self.b1[-1] == 0.0
         return bool((self.beta[self.m - 1] == 0).all())
 
 
