@@ -843,3 +843,16 @@ def test_chebyshev_coefficients_for_many_times_use_either_recurrence():
         k = np.arange(kmax + 1)
         want = np.where(k == 0, 1.0, 2.0) * jv(k[None, :], taus[:, None])
         np.testing.assert_allclose(C, want, rtol=0, atol=4e-14)
+
+
+def test_column_maxima_by_row_groups():
+    """_absmax groups rows by 64 (numpy's axis-0 reduction is slow for small p): it must
+    equal the plain reduction for every shape, with or without a temporary."""
+    rng = np.random.default_rng(4)
+    for n, p in ((1, 1), (5, 3), (64, 2), (128, 8), (1000, 1), (1000, 8), (4097, 5)):
+        X = rng.standard_normal((n, p))
+        X[rng.integers(n), rng.integers(p)] = -50.0  # the largest entry is negative
+        want = np.abs(X).max(axis=0)
+        np.testing.assert_array_equal(fvf.expmv._absmax(X), want)
+        tmp = np.empty((n, p))
+        np.testing.assert_array_equal(fvf.expmv._absmax(X, tmp), want)
