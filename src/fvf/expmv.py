@@ -1244,9 +1244,9 @@ def _run_chebyshev(
         mv(flat[0], flat[1])
         op.count(1, p)
         buf[1] *= 0.5  # y_1 = (A/R) B
-        if keep_norm:  # ⟨A B, B⟩_W = 0 for W-skew A; the Lanczos path's limit (per unit R)
+        if keep_norm and tau_max > 0:  # ⟨A B, B⟩_W = 0 for W-skew A; Lanczos' limit per R
             diag = np.abs(_wdot(buf[1], buf[0], w)) * inv_nu0 * inv_nu0  # (p,)
-            limit = max(0.1 * tol / float(np.abs(times).max()) / R, 1e-12)
+            limit = max(0.1 * tol / tau_max, 1e-12)  # 0.1·tol/(max|t|·R)
             if float(diag.max()) > limit:
                 raise _ChebyshevFailed(
                     f"skew=True but |<A b, b>_W| / (R ||b||^2) = {float(diag.max()):.3g}"
