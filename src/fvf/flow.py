@@ -255,7 +255,8 @@ class FunctionalFlow:
         # "auto" goes straight to the Krylov method, which has no such terms
         method = "krylov" if grows and self.method == "auto" else self.method
         # the cached bound R, for operators whose "auto" always needs it: a skew operator
-        # gets Lanczos for one column or several times, and its blocks bound themselves
+        # gets Lanczos for several times or large meshes, and otherwise bounds itself at
+        # one product per power step
         bound = None
         if method in ("auto", "chebyshev") and not self.is_skew:
             bound = self.skew_norm or None
