@@ -911,3 +911,18 @@ def test_empty_inputs():
     assert expm_action(Z, np.ones(0), 1.0).shape == (0,)
     assert expm_action(Z, np.ones((0, 2)), [1.0, 2.0]).shape == (2, 0, 2)
     np.testing.assert_array_equal(fvf.expmv._absmax(np.empty((0, 3))), np.zeros(3))
+
+
+def test_lanczos_skew_check_is_not_fooled_by_a_near_breakdown():
+    """A random 80 × 80 skew matrix run to m = 128 > n: near the breakdown β_j is tiny,
+    and its round-off once tripped the skew check (a false KrylovFallbackWarning)."""
+    rng = np.random.default_rng(0)
+    M = sp.random_array((80, 80), density=0.1, rng=rng)
+    S = (M - M.T).tocsr()
+    b = rng.standard_normal(80)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KrylovFallbackWarning)
+        x, info = expm_action(S, b, 40.0, skew=True, tol=1e-13, return_info=True)
+    assert info["method"] == "lanczos" and info["wasted_matvecs"] == 0
+    ref = dense_exp(S, b, 40.0)[0]
+    assert np.linalg.norm(x - ref) / np.linalg.norm(ref) < 1e-12  # the rounding floor

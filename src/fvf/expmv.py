@@ -1550,7 +1550,7 @@ class _Lanczos:
             off = 0.0
             if j and nu[j] * nu[j - 1] > 0:
                 off = abs(float(dot(V[j - 1]))) / (nu[j] * nu[j - 1])
-            _check_skew(diag, off, b, self.limit)
+            _check_skew(diag, off, max(b, self.bsum1 / max(j, 1)), self.limit)
         if nz > 1e150 or 0.0 < nz < 1e-150:  # keep the unnormalized vectors in range
             vn *= 1.0 / nz
             nz = 1.0
@@ -1581,7 +1581,8 @@ class _Lanczos:
             off = (
                 np.abs(_wdot(Vn, V[j - 1], w, self.tmp)) * inv_nu * self.inv_nu_prev if j else b * 0
             )
-            _check_skew(float(diag.max()), float(off.max()), float(b.max()), self.limit)
+            scale = max(float(b.max()), float(self.bsum.max()) / max(j, 1))
+            _check_skew(float(diag.max()), float(off.max()), scale, self.limit)
         if hi > 1e150 or 0.0 < lo < 1e-150:  # keep the unnormalized vectors in range
             big = (nz > 1e150) | ((nz < 1e-150) & (nz > 0))
             np.multiply(Vn, np.where(big, _safe_div(np.ones(p), nz), 1.0), out=Vn)
@@ -1814,7 +1815,9 @@ def _check_skew(diag: float, off: float, scale: float, limit: float) -> None:
     ``diag`` = |⟨A u_j, u_j⟩_W| (0 for a W-skew-adjoint A and any unit u_j), ``off`` =
     |⟨A u_j + β_{j−1} u_{j−1}, u_{j−1}⟩_W| = |h_{j−1,j} + h_{j,j−1}| (0 up to the local
     orthogonality of consecutive Lanczos vectors, which rounding keeps at ~1e-15 even when
-    global orthogonality is lost). Both are measured against ``scale`` = β_j.
+    global orthogonality is lost). Both are measured against ``scale``, the larger of β_j
+    and the mean of the earlier β (their rounding is relative to the operator's size; near
+    a breakdown β_j alone is tiny and made round-off look like a non-skew operator).
     """
     if max(diag, off) > max(limit, 1e-12 * scale):
         raise _NotSkew(f"|⟨A u, u⟩_W| = {diag:.3g}, |h_(j-1,j) + h_(j,j-1)| = {off:.3g} for unit u")
