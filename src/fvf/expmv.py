@@ -1157,7 +1157,8 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
     Bessel functions of the distinct |τ| only (J_k(−τ) = (−1)ᵏ J_k(τ)): one scalar
     recurrence (:func:`_bessel_row`) each, or the vectorized :func:`_bessel_table` when
     its steps (~7 µs each, one per order up to the largest |τ|'s) cost less than the
-    scalar ones (~0.25 µs, one per order up to each |τ|'s own start; measured).
+    scalar ones (~0.25 µs, one per order up to each |τ|'s own start; measured). Raises
+    _ChebyshevFailed on non-finite values (a defect, not an overflow of the series).
     """
     if taus.size == 1:
         J = _bessel_row(abs(float(taus[0])), kmax)[None, :]
@@ -1171,6 +1172,8 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
         J = J[inv.ravel()]
     J[taus < 0, 1::2] *= -1.0
     J[:, 1:] *= 2.0
+    if not np.isfinite(J).all():
+        raise _ChebyshevFailed("non-finite series coefficients")
     return J
 
 
@@ -1234,8 +1237,6 @@ def _run_chebyshev(
     # (within 2 terms of where the series stops): the terms are measured at every step
     # from there on, and at every CHEB_CHECK_EVERY-th before
     coef = _cheb_coefficients(taus, _degree_top(tau_max))  # (T, K): c_k(τ_j), extended later
-    if not np.isfinite(coef).all():  # a defect, not an overflow
-        raise _ChebyshevFailed("non-finite series coefficients")
     row = 0.5 * np.abs(coef[int(np.argmax(np.abs(taus)))])  # |J_k(τ_max)| (k ≥ 1)
     row[0] *= 2.0
     next_check = _degree(row, tau_max, budget) - 2
@@ -1346,7 +1347,8 @@ def _run_chebyshev(
             nf = np.sqrt(np.einsum("tnp,tnp->tp", out, out))
         else:
             nf = np.sqrt(np.einsum("tnp,n,tnp->tp", out, w, out))
-        rel_out = _safe_div(np.broadcast_to(nu0, nf.shape), nf)
+        ratio = _safe_div(np.broadcast_to(nu0, nf.shape), nf)  # (T, p) ‖B_c‖_W / ‖X_jc‖_W
+        rel_out = ratio
         if maxnorm:
             out_inf = np.stack([_absmax(o) for o in out])  # (T, p)
             rel_out = np.maximum(rel_out, _safe_div(np.broadcast_to(inf0, nf.shape), out_inf))
@@ -1359,10 +1361,9 @@ def _run_chebyshev(
                 f"(rounding {float(rounding.max()):.3g})"
             )
         if keep_norm:  # rescale to ‖B_c‖_W where estimate + correction stay within tol
-            scale = _safe_div(np.broadcast_to(nu0, nf.shape), nf)  # (T, p); 0 -> 0
-            fix = np.abs(scale - 1.0)  # the correction, relative to ‖X_jc‖_W
+            fix = np.abs(ratio - 1.0)  # the correction, relative to ‖X_jc‖_W
             ok = (err + fix <= tol) & (nf > 0)
-            out *= np.where(ok, scale, 1.0)[:, None, :]
+            out *= np.where(ok, ratio, 1.0)[:, None, :]
             worst = float(np.where(ok, err + fix, err).max()) if err.size else 0.0
     finally:
         info["matvecs"] += op.matvecs
