@@ -210,10 +210,8 @@ def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
     ref = em[0] if scalar else em
     # expm_action at tol and at 1e-14
     kw = dict(inner=w, skew=skew)
-    block = p > 1 and skew is not False  # block products (series, Lanczos) or per column
-    t_k, t_near = best_with_floor(
-        lambda: expm_action(A, B, times, tol=TOL, **kw), A, p if block else 1, reps
-    )
+    # between the runs, products on the call's p columns (blocks for the series and Lanczos)
+    t_k, t_near = best_with_floor(lambda: expm_action(A, B, times, tol=TOL, **kw), A, p, reps)
     t_kry, _ = best(lambda: expm_action(A, B, times, tol=TOL, method="krylov", **kw), reps)
     x, info = expm_action(A, B, times, tol=TOL, return_info=True, **kw)
     _, info14 = expm_action(A, B, times, tol=1e-14, return_info=True, **kw)
@@ -223,10 +221,10 @@ def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
     k_prod = info["matvecs"] + info["bound_products"]
     # the fastest product seen, before the runs or between them (the larger floor ratio)
     if p > 1 and info["method"] in ("lanczos", "chebyshev"):  # block products on (n, p)
-        t_mm = min(t_mm, t_near) if block else t_mm
+        t_mm = min(t_mm, t_near)
         floor = info["block_matvecs"] * t_mm + info["bound_products"] * t_mv
     else:  # single-column products (the general method runs the columns one by one)
-        t_mv = min(t_mv, t_near) if not block else t_mv
+        t_mv = min(t_mv, t_near) if p == 1 else t_mv
         floor = k_prod * t_mv
     return {
         "growth": wnorm(em[-1] if not scalar else ref, w) / wnorm(B, w),
