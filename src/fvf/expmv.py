@@ -87,6 +87,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from . import _kernels
 from .errors import FlowOverflowError, FvfWarning, ParameterError
 
 _AXPY = sla.get_blas_funcs("axpy", dtype=np.float64)  # y += a x in place
@@ -315,12 +316,16 @@ class _Operator:
         self.matvecs = 0
         self.calls = 0
         self.csr = None  # (indptr, indices, data) of scale·A, for scipy's in-place kernels
+        self.fused = None  # the same with unsigned index views, for fvf._kernels (numba)
         self.A = A if scale == 1.0 or sp.issparse(A) else scale * A
         if sp.issparse(A):
             C = A.tocsr() if A.format != "csr" else A
             data = C.data.astype(np.float64, copy=False)
             self.csr = (C.indptr, C.indices, data * scale if scale != 1.0 else data)
             self.nnz = C.nnz
+            views = _kernels.csr_views(C.indptr, C.indices)
+            if views is not None and self.csr[2].flags.c_contiguous:
+                self.fused = (*views, self.csr[2])
         elif isinstance(A, np.ndarray):
             self.nnz = A.size
         else:
@@ -1243,6 +1248,8 @@ def _run_chebyshev(
     absc = np.abs(coef)
     op = _Operator(Aop, n, scale=2.0 / R)
     mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
+    fused = op.fused  # numba's fused kernels (fvf._kernels), or None
+    ones, s2 = np.ones(p), np.zeros(p)
     try:
         nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
         inv_nu0 = _safe_div(np.ones(p), nu0)
@@ -1320,6 +1327,14 @@ def _run_chebyshev(
                 stop = max(min(stop, coef.shape[1] - 2), k + 1)
                 c0, out0 = coef[0], acc[0]
                 op.count(stop - k, p)
+                if fused is not None:  # product and axpy in one pass (numba)
+                    while k < stop:
+                        cur_i = 1 - cur_i
+                        k += 1
+                        _kernels.term_accumulate(
+                            fused, flat[1 - cur_i], flat[cur_i], out0, c0[k], p
+                        )
+                    continue
                 while k < stop:
                     cur_i = 1 - cur_i
                     mv(flat[1 - cur_i], flat[cur_i])
@@ -1331,8 +1346,21 @@ def _run_chebyshev(
                 np.copyto(buf[0], buf[chunk - 2])
                 np.copyto(buf[1], buf[chunk - 1])
                 k0, start, filled = k - 1, 2, 2
-            np.copyto(buf[filled], buf[filled - 2])
-            mv(flat[filled - 1], flat[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
+            if fused is not None:  # copy and product in one pass (numba)
+                _kernels.term_combine(
+                    fused,
+                    flat[filled - 1],
+                    flat[filled - 2],
+                    ones,
+                    flat[filled],
+                    ones,
+                    s2,
+                    p,
+                    False,
+                )
+            else:
+                np.copyto(buf[filled], buf[filled - 2])
+                mv(flat[filled - 1], flat[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
             op.count(1, p)
             cur_i = filled
             filled += 1
@@ -1488,6 +1516,11 @@ class _Lanczos:
         self.op, self.w, self.V, self.limit = op, w, V, limit
         m_cap1, n, p = V.shape
         self.p = p
+        self.fused = op.fused  # numba: scaled copy, product and norm in one pass
+        if self.fused is not None:
+            self.wk = np.ones(n) if w is None else np.ascontiguousarray(w, dtype=np.float64)
+            self.s2 = np.zeros(p)
+            self.c = np.zeros(p)
         self.beta = np.zeros((m_cap1 - 1, p))
         self.nu = np.zeros((m_cap1, p))
         self.m = 0
@@ -1523,22 +1556,29 @@ class _Lanczos:
     def _extend1(self) -> None:
         j, V, w, nu, b1 = self.m, self.V1, self.w, self.nu1, self.b1
         vn = V[j + 1]
-        if j == 0:
-            vn.fill(0.0)
-        else:
-            c = b1[j - 1] * nu[j] / nu[j - 1] if nu[j - 1] > 0 else 0.0
-            np.multiply(V[j - 1], c, out=vn)
-        self.mv(V[j], vn)
+        c = b1[j - 1] * nu[j] / nu[j - 1] if j and nu[j - 1] > 0 else 0.0
         self.op.count(1, 1)
-        if w is None:
-            wv = vn
-            nz = math.sqrt(float(np.dot(vn, vn)))
-        elif self.stream:  # large n: one read of w and vn, no temporary
-            wv = None
-            nz = math.sqrt(float(np.einsum("i,i,i->", w, vn, vn)))
-        else:  # small n (in cache): BLAS dot beats einsum's generic loop
-            wv = np.multiply(w, vn, out=self.tmp)
-            nz = math.sqrt(float(np.dot(wv, vn)))
+        if self.fused is not None:  # numba: scaled copy, product and norm in one pass
+            self.c[0] = c
+            prev = V[j - 1] if j else V[j]  # (ignored for j = 0: c = 0)
+            _kernels.term_combine(self.fused, V[j], prev, self.c, vn, self.wk, self.s2, 1, True)
+            wv = vn if w is None else None  # for the checks' inner products below
+            nz = math.sqrt(float(self.s2[0]))
+        else:
+            if j == 0:
+                vn.fill(0.0)
+            else:
+                np.multiply(V[j - 1], c, out=vn)
+            self.mv(V[j], vn)
+            if w is None:
+                wv = vn
+                nz = math.sqrt(float(np.dot(vn, vn)))
+            elif self.stream:  # large n: one read of w and vn, no temporary
+                wv = None
+                nz = math.sqrt(float(np.einsum("i,i,i->", w, vn, vn)))
+            else:  # small n (in cache): BLAS dot beats einsum's generic loop
+                wv = np.multiply(w, vn, out=self.tmp)
+                nz = math.sqrt(float(np.dot(wv, vn)))
         if not math.isfinite(nz):
             raise FlowOverflowError(_NONFINITE)
         b = nz / nu[j] if nu[j] > 0 else 0.0
@@ -1566,12 +1606,22 @@ class _Lanczos:
         j, V, w, p = self.m, self.V, self.w, self.p
         nu, beta = self.nu, self.beta
         Vn = V[j + 1]
-        if j == 0:
-            Vn.fill(0.0)
+        if self.fused is not None:  # numba: scaled copy, product and norms in one pass
+            np.copyto(self.c, self.coef if j else 0.0)
+            prev = V[j - 1] if j else V[j]  # (ignored for j = 0: c = 0)
+            fl = (V[j].reshape(-1), prev.reshape(-1), Vn.reshape(-1))
+            _kernels.term_combine(
+                self.fused, fl[0], fl[1], self.c, fl[2], self.wk, self.s2, p, True
+            )
+            self.op.count(1, p)
+            nz = np.sqrt(self.s2)
         else:
-            np.multiply(V[j - 1], self.coef, out=Vn)
-        self.op.accumulate(V[j], Vn)
-        nz = np.sqrt(_wnorm2(Vn, w, self.tmp))
+            if j == 0:
+                Vn.fill(0.0)
+            else:
+                np.multiply(V[j - 1], self.coef, out=Vn)
+            self.op.accumulate(V[j], Vn)
+            nz = np.sqrt(_wnorm2(Vn, w, self.tmp))
         lo, hi = float(nz.min()), float(nz.max())
         if not math.isfinite(hi):
             raise FlowOverflowError(_NONFINITE)

@@ -1,0 +1,147 @@
+"""fvf._kernels: the fused numba kernels of the exponential action, against dense algebra
+and against the numpy/scipy path they replace (``FVF_NUMBA=0`` / ``ENABLED = False``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import fvf
+from fvf import _kernels
+from fvf.expmv import expm_action
+
+pytest.importorskip("numba")
+if not _kernels.ENABLED:  # pragma: no cover - FVF_NUMBA=0 in the environment
+    pytest.skip("the fused kernels are disabled (FVF_NUMBA=0)", allow_module_level=True)
+
+
+def _random_csr(n: int, rng, index_dtype) -> sp.csr_array:
+    A = sp.random_array((n, n), density=0.1, random_state=rng, format="csr") + sp.eye_array(n)
+    A = sp.csr_array(A)
+    A.indptr, A.indices = A.indptr.astype(index_dtype), A.indices.astype(index_dtype)
+    return A
+
+
+def _fused(A: sp.csr_array):
+    views = _kernels.csr_views(A.indptr, A.indices)
+    assert views is not None
+    return (*views, A.data)
+
+
+@pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
+@pytest.mark.parametrize("p", [1, 3])
+def test_term_accumulate_matches_dense(rng, index_dtype, p):
+    n = 40
+    A = _random_csr(n, rng, index_dtype)
+    X, Y, O = (rng.standard_normal((n, p)) for _ in range(3))
+    y, out = Y.copy(), O.copy()
+    _kernels.term_accumulate(_fused(A), X.ravel(), y.reshape(-1), out.reshape(-1), 0.7, p)
+    ref_y = Y + A.toarray() @ X
+    np.testing.assert_allclose(y, ref_y, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(out, O + 0.7 * ref_y, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
+@pytest.mark.parametrize("p", [1, 3])
+@pytest.mark.parametrize("norms", [True, False])
+def test_term_combine_matches_dense(rng, index_dtype, p, norms):
+    n = 40
+    A = _random_csr(n, rng, index_dtype)
+    X, P = rng.standard_normal((n, p)), rng.standard_normal((n, p))
+    c, w = rng.standard_normal(p), rng.uniform(0.5, 2.0, n)
+    y, s2 = np.full((n, p), np.nan), np.full(p, np.nan)
+    _kernels.term_combine(_fused(A), X.ravel(), P.ravel(), c, y.reshape(-1), w, s2, p, norms)
+    ref = P * c + A.toarray() @ X
+    np.testing.assert_allclose(y, ref, rtol=0, atol=1e-13)
+    want = np.einsum("i,iq,iq->q", w, ref, ref) if norms else np.zeros(p)
+    np.testing.assert_allclose(s2, want, rtol=1e-13, atol=0)
+
+
+def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
+    A = sp.csr_array(sp.eye_array(5))
+    ip, ix = _kernels.csr_views(A.indptr, A.indices)
+    assert ip.dtype.kind == ix.dtype.kind == "u"
+    assert np.shares_memory(ip, A.indptr) and np.shares_memory(ix, A.indices)
+    assert _kernels.csr_views(A.indptr.astype(float), A.indices) is None
+    assert _kernels.csr_views(A.indptr, np.repeat(A.indices, 2)[::2]) is None  # strided
+    monkeypatch.setattr(_kernels, "ENABLED", False)
+    assert _kernels.csr_views(A.indptr, A.indices) is None
+
+
+def _spy(monkeypatch) -> dict:
+    """Count the calls of the fused kernels (an agreement test must run them)."""
+    calls = {"n": 0}
+    for name in ("term_accumulate", "term_combine"):
+        real = getattr(_kernels, name)
+
+        def wrapped(*args, _real=real):
+            calls["n"] += 1
+            return _real(*args)
+
+        monkeypatch.setattr(_kernels, name, wrapped)
+    return calls
+
+
+def _flow_operator(kind: str):
+    mesh = fvf.examples.spot()
+    grad = fvf.gradient(mesh, mesh.vertices[:, 1])
+    v = fvf.rotate(mesh, grad) if kind == "skew" else grad
+    v = v / np.linalg.norm(v, axis=1).max()
+    A = (-fvf.D_V(mesh, v, tangent="ignore")).tocsr()
+    return mesh, A
+
+
+CASES = [  # (field, p, number of times, method that runs)
+    ("skew", 1, 1, "chebyshev"),
+    ("skew", 4, 1, "chebyshev"),
+    ("skew", 1, 5, "lanczos"),
+    ("grad", 1, 1, "chebyshev"),
+    ("grad", 1, 5, "chebyshev"),
+    ("grad", 3, 1, "chebyshev"),
+]
+
+
+@pytest.mark.parametrize(("kind", "p", "T", "expected"), CASES)
+def test_fused_and_scipy_paths_agree(monkeypatch, rng, kind, p, T, expected):
+    """The same result (to round-off, far below tol) with the same products, for every
+    recurrence that uses a fused kernel: the series for one and several times and blocks,
+    Lanczos for one column."""
+    mesh, A = _flow_operator(kind)
+    w = mesh.vertex_areas
+    B = rng.standard_normal((A.shape[0], p)) if p > 1 else rng.standard_normal(A.shape[0])
+    t = 10 * mesh.mean_edge_length * (np.linspace(-1, 1, T) if T > 1 else 1.0)
+    skew = True if kind == "skew" else None
+    calls = _spy(monkeypatch)
+    x1, i1 = expm_action(A, B, t, inner=w, skew=skew, tol=1e-10, return_info=True)
+    assert calls["n"] >= i1["block_matvecs"] - 10  # all terms but the first and the bound's
+    monkeypatch.setattr(_kernels, "ENABLED", False)
+    calls["n"] = 0
+    x0, i0 = expm_action(A, B, t, inner=w, skew=skew, tol=1e-10, return_info=True)
+    assert calls["n"] == 0
+    assert i1["method"] == i0["method"] == expected
+    assert i1["matvecs"] == i0["matvecs"]
+    assert np.abs(x1 - x0).max() <= 1e-12 * np.abs(x0).max()
+
+
+def test_fused_lanczos_block_and_euclidean_agree(monkeypatch, rng):
+    """Lanczos on a block (the block kernel with per-column coefficients) and with no
+    weights (the kernel's norms then use unit weights)."""
+    _, A = _flow_operator("skew")
+    n = A.shape[0]
+    w = fvf.examples.spot().vertex_areas
+    S = sp.diags_array(np.sqrt(w)) @ A @ sp.diags_array(1 / np.sqrt(w))  # Euclidean-skew
+    B = rng.standard_normal((n, 3))
+    t = np.array([0.01, 0.03, 0.05])
+    for op, inner in ((A, w), (sp.csr_array(S), None)):
+        kw = dict(inner=inner, skew=True, method="krylov", tol=1e-10, return_info=True)
+        with monkeypatch.context() as mp:
+            calls = _spy(mp)
+            x1, i1 = expm_action(op, B, t, **kw)
+            assert calls["n"] == i1["block_matvecs"]
+            mp.setattr(_kernels, "ENABLED", False)
+            x0, i0 = expm_action(op, B, t, **kw)
+            assert calls["n"] == i1["block_matvecs"]
+        assert i1["method"] == i0["method"] == "lanczos"
+        assert i1["matvecs"] == i0["matvecs"]
+        assert np.abs(x1 - x0).max() <= 1e-12 * np.abs(x0).max()
