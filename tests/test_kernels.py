@@ -8,6 +8,7 @@ import pytest
 import scipy.sparse as sp
 
 import fvf
+import fvf.expmv
 from fvf import _kernels
 from fvf.expmv import expm_action
 
@@ -44,18 +45,59 @@ def test_term_accumulate_matches_dense(rng, index_dtype, p):
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
 @pytest.mark.parametrize("p", [1, 3])
-@pytest.mark.parametrize("norms", [True, False])
+@pytest.mark.parametrize("norms", [0, 1, 2])
 def test_term_combine_matches_dense(rng, index_dtype, p, norms):
     n = 40
     A = _random_csr(n, rng, index_dtype)
     X, P = rng.standard_normal((n, p)), rng.standard_normal((n, p))
     c, w = rng.standard_normal(p), rng.uniform(0.5, 2.0, n)
-    y, s2 = np.full((n, p), np.nan), np.full(p, np.nan)
+    y, s2 = np.full((n, p), np.nan), np.full((3, p), np.nan)
     _kernels.term_combine(_fused(A), X.ravel(), P.ravel(), c, y.reshape(-1), w, s2, p, norms)
     ref = P * c + A.toarray() @ X
     np.testing.assert_allclose(y, ref, rtol=0, atol=1e-13)
-    want = np.einsum("i,iq,iq->q", w, ref, ref) if norms else np.zeros(p)
-    np.testing.assert_allclose(s2, want, rtol=1e-13, atol=0)
+    want = np.zeros((3, p))
+    if norms:
+        want[0] = np.einsum("i,iq,iq->q", w, ref, ref)
+    if norms == 2:
+        want[1] = np.einsum("i,iq,iq->q", w, ref, X)
+        want[2] = np.einsum("i,iq,iq->q", w, ref, P)
+    np.testing.assert_allclose(s2, want, rtol=1e-12, atol=1e-12)
+
+
+def test_abs_stats_match_numpy_and_flag_non_finite(rng):
+    A = _random_csr(30, rng, np.int32)
+    A.data -= 0.5  # both signs
+    dense = np.abs(A.toarray())
+    got = _kernels.abs_stats(_fused(A))
+    want = (dense.sum(axis=1).max(), np.diag(dense).max(), dense.max())
+    np.testing.assert_allclose(got, want, rtol=1e-14)
+    A.data[7] = np.inf
+    assert all(np.isnan(_kernels.abs_stats(_fused(A))))
+
+
+@pytest.mark.parametrize("sym", [True, False])
+def test_power_step_matches_the_numpy_step(rng, sym):
+    """One pass gives what the two scipy products of fvf.expmv._AbsCsr give."""
+    from fvf.expmv import _AbsCsr, _FusedAbs
+
+    A = _random_csr(50, rng, np.int64)
+    A.data -= 0.5
+    s = np.sqrt(rng.uniform(0.5, 2.0, 50))
+    d = rng.uniform(0.1, 1.0, 50)
+    ref = _AbsCsr.of(A).step(d, s, 1 / s, sym)
+    got = _FusedAbs.of(A).step(d, s, 1 / s, sym)
+    np.testing.assert_allclose(got[0], ref[0], rtol=1e-13)
+    np.testing.assert_allclose(got[1:], ref[1:], rtol=1e-13)
+
+
+@pytest.mark.parametrize("kind", ["skew", "grad"])
+def test_skew_bound_is_the_same_on_both_paths(monkeypatch, kind):
+    mesh, A = _flow_operator(kind)
+    w = mesh.vertex_areas
+    R1 = fvf.expmv.skew_bound(A, inner=w)
+    monkeypatch.setattr(_kernels, "ENABLED", False)
+    R0 = fvf.expmv.skew_bound(A, inner=w)
+    assert R1 == pytest.approx(R0, rel=1e-12)
 
 
 def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
@@ -72,7 +114,7 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 def _spy(monkeypatch) -> dict:
     """Count the calls of the fused kernels (an agreement test must run them)."""
     calls = {"n": 0}
-    for name in ("term_accumulate", "term_combine"):
+    for name in ("term_accumulate", "term_combine"):  # the recurrences' kernels
         real = getattr(_kernels, name)
 
         def wrapped(*args, _real=real):

@@ -34,7 +34,14 @@ except ImportError:  # pragma: no cover - depends on the environment
 #: True when the fused kernels are compiled with numba and used by :mod:`fvf.expmv`.
 ENABLED = njit is not None
 
-__all__ = ["ENABLED", "csr_views", "term_accumulate", "term_combine"]
+__all__ = [
+    "ENABLED",
+    "csr_views",
+    "term_accumulate",
+    "term_combine",
+    "abs_stats",
+    "power_step",
+]
 
 
 def csr_views(indptr: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -82,20 +89,28 @@ def _term_accumulate(indptr, indices, data, x, y, out, c, p):  # pragma: no cove
 
 
 def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pragma: no cover
+    # norms: 0 none, 1 Σ w y², 2 also Σ w y x and Σ w y prev (rows of s2)
     n = indptr.shape[0] - 1
-    for q in range(p):
-        s2[q] = 0.0
+    s2[:] = 0.0
     if p == 1:
         c0 = c[0]
-        acc = 0.0
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
         for i in range(n):
             s = c0 * prev[i]
             for k in range(indptr[i], indptr[i + 1]):
                 s += data[k] * x[indices[k]]
             y[i] = s
             if norms:
-                acc += w[i] * s * s
-        s2[0] = acc
+                ws = w[i] * s
+                a0 += ws * s
+                if norms == 2:
+                    a1 += ws * x[i]
+                    a2 += ws * prev[i]
+        s2[0, 0] = a0
+        s2[1, 0] = a1
+        s2[2, 0] = a2
     else:
         for i in range(n):
             b = i * p
@@ -109,12 +124,73 @@ def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pra
             if norms:
                 wi = w[i]
                 for q in range(p):
-                    s2[q] += wi * y[b + q] * y[b + q]
+                    ws = wi * y[b + q]
+                    s2[0, q] += ws * y[b + q]
+                    if norms == 2:
+                        s2[1, q] += ws * x[b + q]
+                        s2[2, q] += ws * prev[b + q]
+
+
+def _abs_stats(indptr, indices, data):  # pragma: no cover - jitted
+    n = indptr.shape[0] - 1
+    top = 0.0  # max row sum
+    total = 0.0  # Σ|a|: inf or NaN when an entry is
+    dmax = 0.0  # max |a_ii| (duplicates summed)
+    amax = 0.0  # max |a_ij|
+    for i in range(n):
+        s = 0.0
+        di = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            a = abs(data[k])
+            s += a
+            amax = max(amax, a)
+            if indices[k] == i:
+                di += a
+        top = max(top, s)
+        dmax = max(dmax, di)
+        total += s
+    bad = 0.0 * total  # 0, or NaN when some entry is not finite
+    return top + bad, dmax + bad, amax + bad
+
+
+def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: no cover
+    # P = diag(s)|A|diag(1/s). sym: md = P d. Else md = ½(P d + Pᵀ d) − |diag A| d, with
+    # Pᵀ d = diag(1/s)|A|ᵀ diag(s) d scattered from the rows into g (dg: |diag A|, summed
+    # over duplicate entries). Returns (max md/d, max md).
+    n = indptr.shape[0] - 1
+    if not sym:
+        g[:] = 0.0
+        dg[:] = 0.0
+    for i in range(n):
+        acc = 0.0
+        xi = d[i] * s[i]
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            a = abs(data[k])
+            acc += a * (d[j] * inv_s[j])
+            if not sym:
+                g[j] += a * xi
+                if j == i:
+                    dg[i] += a
+        md[i] = acc * s[i]
+    ratio = 0.0
+    top = 0.0
+    for i in range(n):
+        if not sym:
+            md[i] = 0.5 * (md[i] + g[i] * inv_s[i]) - dg[i] * d[i]
+        r = md[i] / d[i]
+        if r > ratio:
+            ratio = r
+        if md[i] > top:
+            top = md[i]
+    return ratio, top
 
 
 if ENABLED:  # pragma: no cover - depends on the environment
     _term_accumulate = njit(cache=True, nogil=True)(_term_accumulate)
     _term_combine = njit(cache=True, nogil=True)(_term_combine)
+    _abs_stats = njit(cache=True, nogil=True)(_abs_stats)
+    _power_step = njit(cache=True, nogil=True)(_power_step)
 
 
 def term_accumulate(
@@ -151,7 +227,7 @@ def term_combine(
     norms: bool,
 ) -> None:
     """y ← diag(c) prev + A x (column q of prev scaled by c[q]), in one pass over A's rows,
-    and, when ``norms``, s2[q] ← Σ_i w_i y[i, q]².
+    with weighted inner products of y when asked.
 
     Parameters
     ----------
@@ -161,10 +237,59 @@ def term_combine(
         Flat C-contiguous vectors; y must alias neither x nor prev.
     c : float64 (p,)
     w : float64 (n,)
-        Weights of the norms (ones for Euclidean); read only when ``norms``.
-    s2 : float64 (p,)
-        Output: the squared weighted column norms of y (zeros when not ``norms``).
+        Weights of the inner products (ones for Euclidean); read only when ``norms``.
+    s2 : float64 (3, p)
+        Output, per column q: Σ_i w_i y_iq² (``norms`` ≥ 1), Σ_i w_i y_iq x_iq and
+        Σ_i w_i y_iq prev_iq (``norms`` = 2); zeros where not asked.
     p : int
-    norms : bool
+    norms : int
+        0, 1 or 2.
     """
-    _term_combine(csr[0], csr[1], csr[2], x, prev, c, y, w, s2, int(p), bool(norms))
+    _term_combine(csr[0], csr[1], csr[2], x, prev, c, y, w, s2, int(p), int(norms))
+
+
+def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, float]:
+    """(‖A‖_∞ = max_i Σ_j |a_ij|, max_i |a_ii|, max |a_ij|) in one pass over A; all three
+    NaN when an entry is not finite. Duplicate entries add up, as in products.
+
+    Parameters
+    ----------
+    csr : (indptr, indices, data)
+        As for :func:`term_accumulate`.
+    """
+    top, dmax, amax = _abs_stats(csr[0], csr[1], csr[2])
+    return float(top), float(dmax), float(amax)
+
+
+def power_step(
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray],
+    s: np.ndarray,
+    inv_s: np.ndarray,
+    d: np.ndarray,
+    sym: bool,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[float, float]:
+    """One Collatz–Wielandt step of :func:`fvf.expmv.skew_bound`, in one pass over A's rows.
+
+    With P = diag(s) |A| diag(1/s): M d = P d when ``sym`` (|S| symmetric, A declared
+    skew), else M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same pass (the
+    transposed one scattered from the rows).
+
+    Parameters
+    ----------
+    csr : (indptr, indices, data)
+        A in CSR, as for :func:`term_accumulate` (|a_ij| is taken on the fly).
+    s, inv_s : float64 (n,)
+        √w and 1/√w.
+    d : float64 (n,)
+        The positive iterate.
+    sym : bool
+    work : (float64 (n,), float64 (n,), float64 (n,))
+        Output M d, then two work arrays (not read when ``sym``).
+
+    Returns
+    -------
+    (max_i (M d)_i / d_i, max_i (M d)_i) : (float, float)
+    """
+    r, top = _power_step(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
+    return float(r), float(top)

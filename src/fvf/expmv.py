@@ -539,13 +539,71 @@ class _AbsCsr:
     def _csr(self) -> sp.csr_array:  # pragma: no cover - other scipy versions
         return sp.csr_array((self.data, self.indices, self.indptr), shape=(self.n, self.n))
 
+    def norm_inf(self) -> float:
+        return float(self.matvec(np.ones(self.n)).max()) if self.n else 0.0
 
-def _norm_inf(A: Any, absA: _AbsCsr | None = None) -> float:
+    def diag_max(self) -> float:
+        """max |a_ii| and max |a_ij| (for the skew test of :func:`_skew_bound`)."""
+        return float(self.diag.max(initial=0.0)), float(self.data.max(initial=0.0))
+
+    def step(
+        self, d: np.ndarray, s: np.ndarray, inv_s: np.ndarray, sym: bool
+    ) -> tuple[np.ndarray, float, float]:
+        """(M d, max (M d)/d, max M d) for :func:`_skew_bound`: M = P (``sym``) or
+        ½(P + Pᵀ) − |diag A|, P = diag(s)|A|diag(1/s)."""
+        Md = self.matvec(d * inv_s)
+        Md *= s
+        if not sym:
+            Md += self.rmatvec(d * s) * inv_s
+            Md *= 0.5
+            Md -= self.diag * d
+        return Md, float(np.max(Md / d)), float(Md.max())
+
+
+class _FusedAbs:
+    """What :class:`_AbsCsr` gives, from A's own CSR arrays by fvf._kernels (numba): no
+    copy of |A|, the statistics in one pass, a power step in one pass over the rows
+    (both products of the non-symmetric step from the same pass)."""
+
+    def __init__(self, csr: tuple[np.ndarray, np.ndarray, np.ndarray], n: int) -> None:
+        self.csr, self.n = csr, n
+        self._norm, dmax, amax = _kernels.abs_stats(csr)
+        self._diag = (dmax, amax)
+        self._work: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @classmethod
+    def of(cls, A: Any) -> _FusedAbs | None:
+        """For a sparse A whose CSR arrays the kernels read; None otherwise."""
+        if not (_kernels.ENABLED and sp.issparse(A)):
+            return None
+        C = A.tocsr() if A.format != "csr" else A
+        views = _kernels.csr_views(C.indptr, C.indices)
+        data = C.data
+        if views is None or data.dtype != np.float64 or not data.flags.c_contiguous:
+            return None
+        return cls((*views, data), C.shape[0])
+
+    def norm_inf(self) -> float:
+        return self._norm
+
+    def diag_max(self) -> float:
+        return self._diag
+
+    def step(
+        self, d: np.ndarray, s: np.ndarray, inv_s: np.ndarray, sym: bool
+    ) -> tuple[np.ndarray, float, float]:
+        if self._work is None:
+            self._work = (np.empty(self.n), np.empty(self.n), np.empty(self.n))
+        ratio, top = _kernels.power_step(self.csr, s, inv_s, d, sym, self._work)
+        return self._work[0], ratio, top  # (the caller copies what it keeps)
+
+
+def _norm_inf(A: Any, absA: _AbsCsr | _FusedAbs | None = None) -> float:
     """‖A‖_∞ of a sparse or dense A (from ``absA`` = |A| when given); for a LinearOperator
     its ``norm_inf`` attribute (an upper bound, e.g.
     :class:`fvf.transport.TransportOperator`'s) or 0 (unknown)."""
     if absA is not None:
-        return float(absA.matvec(np.ones(absA.n)).max()) if absA.n else 0.0
+        return absA.norm_inf()
     if sp.issparse(A):
         return _norm_inf(A, _AbsCsr.of(A)) if A.nnz else 0.0
     if isinstance(A, np.ndarray):
@@ -634,7 +692,7 @@ def _choose(
     p: int = 1,
     info: dict | None = None,
     skew: bool | None = None,
-    absA: _AbsCsr | None = None,
+    absA: _AbsCsr | _FusedAbs | None = None,
     tol: float = 1e-10,
 ) -> tuple[str, float | None]:
     """(method of "auto", the bound R if it was computed or given); ``absA``: |A| if the
@@ -660,14 +718,14 @@ def _bound(
     times: np.ndarray,
     p: int,
     info: dict | None,
-    absA: _AbsCsr | None = None,
+    absA: _AbsCsr | _FusedAbs | None = None,
     skew: bool | None = None,
 ) -> float:
     """:func:`skew_bound` with power steps while they pay for themselves on this call
     (records the products with |A| in ``info["bound_products"]``); for ``skew=True``
     with one product per step (see :func:`_skew_bound`)."""
     span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
-    absA = _AbsCsr.of(Aop) if absA is None else absA
+    absA = (_FusedAbs.of(Aop) or _AbsCsr.of(Aop)) if absA is None else absA
     R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True)
     if info is not None:
         info["bound_products"] = products
@@ -868,7 +926,8 @@ def expm_action(
         "wasted_matvecs": 0,
         "bound_products": 0,
     }
-    absA = _AbsCsr.of(Aop) if sp.issparse(Aop) else None  # |A|, shared with the bound R
+    # |A|, shared by ‖A‖_∞ and the bound R (read from A's own arrays with numba)
+    absA = (_FusedAbs.of(Aop) or _AbsCsr.of(Aop)) if sp.issparse(Aop) else None
     a_norm = _norm_inf(Aop, absA)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
@@ -1009,11 +1068,11 @@ def skew_bound(
             raise ExpmInputError(f"inner must be {n} finite weights > 0")
     if int(iterations) != iterations or iterations < 0:
         raise ExpmInputError(f"iterations must be an integer >= 0; got {iterations!r}")
-    return _skew_bound(_AbsCsr.of(Aop), w, int(iterations))[0]
+    return _skew_bound(_FusedAbs.of(Aop) or _AbsCsr.of(Aop), w, int(iterations))[0]
 
 
 def _skew_bound(
-    absA: _AbsCsr,
+    absA: _AbsCsr | _FusedAbs,
     w: np.ndarray | None,
     iterations: int = CHEB_BOUND_ITERATIONS,
     span: float = math.inf,
@@ -1032,7 +1091,8 @@ def _skew_bound(
     n = absA.n
     if n == 0:
         return 0.0, 0
-    sym = skew and float(absA.diag.max()) <= 1e-12 * float(absA.data.max(initial=0.0))
+    dmax, amax = absA.diag_max()
+    sym = skew and dmax <= 1e-12 * amax
     per_step = 1 if sym else 2
     s = np.ones(n) if w is None else np.sqrt(w)
     inv_s = 1.0 / s
@@ -1041,16 +1101,9 @@ def _skew_bound(
     products = 0
     for _ in range(iterations + 1):
         # M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with its diagonal)
-        Md = absA.matvec(d * inv_s)
-        Md *= s
-        if not sym:
-            Md += absA.rmatvec(d * s) * inv_s
-            Md *= 0.5
-            Md -= absA.diag * d
+        Md, bound, top = absA.step(d, s, inv_s, sym)
         products += per_step
-        bound = float(np.max(Md / d))
         gain, best = best - bound, min(best, bound)
-        top = float(Md.max())
         if not top > 0 or not math.isfinite(top) or gain * span < per_step:
             break
         d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
@@ -1249,7 +1302,7 @@ def _run_chebyshev(
     op = _Operator(Aop, n, scale=2.0 / R)
     mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
     fused = op.fused  # numba's fused kernels (fvf._kernels), or None
-    ones, s2 = np.ones(p), np.zeros(p)
+    ones, s2 = np.ones(p), np.zeros((3, p))
     try:
         nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
         inv_nu0 = _safe_div(np.ones(p), nu0)
@@ -1519,7 +1572,7 @@ class _Lanczos:
         self.fused = op.fused  # numba: scaled copy, product and norm in one pass
         if self.fused is not None:
             self.wk = np.ones(n) if w is None else np.ascontiguousarray(w, dtype=np.float64)
-            self.s2 = np.zeros(p)
+            self.s2 = np.zeros((3, p))
             self.c = np.zeros(p)
         self.beta = np.zeros((m_cap1 - 1, p))
         self.nu = np.zeros((m_cap1, p))
@@ -1558,12 +1611,15 @@ class _Lanczos:
         vn = V[j + 1]
         c = b1[j - 1] * nu[j] / nu[j - 1] if j and nu[j - 1] > 0 else 0.0
         self.op.count(1, 1)
-        if self.fused is not None:  # numba: scaled copy, product and norm in one pass
+        check = j < 3 or j % 8 == 7  # H_m's new column is checked (below)
+        dots = None
+        if self.fused is not None:  # numba: scaled copy, product, norm and dots in one pass
             self.c[0] = c
             prev = V[j - 1] if j else V[j]  # (ignored for j = 0: c = 0)
-            _kernels.term_combine(self.fused, V[j], prev, self.c, vn, self.wk, self.s2, 1, True)
-            wv = vn if w is None else None  # for the checks' inner products below
-            nz = math.sqrt(float(self.s2[0]))
+            s2 = self.s2
+            _kernels.term_combine(self.fused, V[j], prev, self.c, vn, self.wk, s2, 1, 1 + check)
+            nz = math.sqrt(float(s2[0, 0]))
+            dots = (float(s2[1, 0]), float(s2[2, 0]))  # <vn, V[j]>_W, <vn, V[j-1]>_W
         else:
             if j == 0:
                 vn.fill(0.0)
@@ -1582,15 +1638,17 @@ class _Lanczos:
         if not math.isfinite(nz):
             raise FlowOverflowError(_NONFINITE)
         b = nz / nu[j] if nu[j] > 0 else 0.0
-        if j < 3 or j % 8 == 7:
+        if check:
+            if dots is None:
 
-            def dot(x):
-                return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
+                def dot(x):
+                    return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
 
-            diag = abs(float(dot(V[j]))) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
+                dots = (float(dot(V[j])), float(dot(V[j - 1])) if j else 0.0)
+            diag = abs(dots[0]) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
             off = 0.0
             if j and nu[j] * nu[j - 1] > 0:
-                off = abs(float(dot(V[j - 1]))) / (nu[j] * nu[j - 1])
+                off = abs(dots[1]) / (nu[j] * nu[j - 1])
             _check_skew(diag, off, max(b, self.bsum1 / max(j, 1)), self.limit)
         if nz > 1e150 or 0.0 < nz < 1e-150:  # keep the unnormalized vectors in range
             vn *= 1.0 / nz
@@ -1606,15 +1664,19 @@ class _Lanczos:
         j, V, w, p = self.m, self.V, self.w, self.p
         nu, beta = self.nu, self.beta
         Vn = V[j + 1]
-        if self.fused is not None:  # numba: scaled copy, product and norms in one pass
+        check = j < 3 or j % 8 == 7  # H_m's new column is checked (below)
+        dots = None
+        if self.fused is not None:  # numba: scaled copy, product, norms and dots in one pass
             np.copyto(self.c, self.coef if j else 0.0)
             prev = V[j - 1] if j else V[j]  # (ignored for j = 0: c = 0)
             fl = (V[j].reshape(-1), prev.reshape(-1), Vn.reshape(-1))
+            s2 = self.s2
             _kernels.term_combine(
-                self.fused, fl[0], fl[1], self.c, fl[2], self.wk, self.s2, p, True
+                self.fused, fl[0], fl[1], self.c, fl[2], self.wk, s2, p, 1 + check
             )
             self.op.count(1, p)
-            nz = np.sqrt(self.s2)
+            nz = np.sqrt(s2[0])
+            dots = (s2[1].copy(), s2[2].copy())  # (p,) <Vn, V[j]>_W, <Vn, V[j-1]>_W
         else:
             if j == 0:
                 Vn.fill(0.0)
@@ -1627,11 +1689,11 @@ class _Lanczos:
             raise FlowOverflowError(_NONFINITE)
         inv_nu = self.inv_nu  # 1/ν_j (0 for a zero column)
         b = nz * inv_nu
-        if j < 3 or j % 8 == 7:
-            diag = np.abs(_wdot(Vn, V[j], w, self.tmp)) * inv_nu * inv_nu
-            off = (
-                np.abs(_wdot(Vn, V[j - 1], w, self.tmp)) * inv_nu * self.inv_nu_prev if j else b * 0
-            )
+        if check:
+            if dots is None:
+                dots = (_wdot(Vn, V[j], w, self.tmp), _wdot(Vn, V[j - 1], w, self.tmp) if j else 0)
+            diag = np.abs(dots[0]) * inv_nu * inv_nu
+            off = np.abs(dots[1]) * inv_nu * self.inv_nu_prev if j else b * 0
             scale = max(float(b.max()), float(self.bsum.max()) / max(j, 1))
             _check_skew(float(diag.max()), float(off.max()), scale, self.limit)
         if hi > 1e150 or 0.0 < lo < 1e-150:  # keep the unnormalized vectors in range
