@@ -45,12 +45,14 @@ else the Krylov method (``lanczos`` for skew-adjoint A, ``iom`` otherwise); colu
 - ``K wall`` / ``EM wall``: best wall times (expm_multiply on the sparse matrix itself).
 - ``floor``: K products × the time of one sparse product ``A @ x`` (for 8-column runs
   with block products, Chebyshev or Lanczos, block products × the time of ``A @ X`` with
-  X (n, 8), which is cheaper per column), both best-of, measured before the runs and
-  again between the repetitions of the K run (the fastest is used: the shared machine's
-  speed drifts by up to 1.5x between minutes).
-  ``K/floor`` = K wall / floor. ``K/(fl+out)``: the same against floor + the time of one
-  GEMM (T, m) @ (m, n·p) forming T outputs from m vectors, work that any method producing
-  T outputs from m vectors does and that the products floor leaves out (0 for one time).
+  X (n, 8), which is cheaper per column; the bound's products at the one-column time).
+  The products are timed (best of 3) right after each K run, so that a run and its floor
+  come from the same stretch of this shared machine, whose speed drifts by up to 1.5x
+  between minutes; ``floor`` is the median over these rounds and ``K/floor`` the median
+  of the rounds' ratios (K wall is the best run). ``K/(fl+out)``: the same against
+  floor + the time of one GEMM (T, m) @ (m, n·p) forming T outputs from m vectors, work
+  that any method producing T outputs from m vectors does and that the products floor
+  leaves out (0 for one time).
 - ``Kry wall``: the Krylov method's wall time (``method="krylov"``), for comparison: the
   Chebyshev series spends more products than Krylov at lower cost each.
 
@@ -124,20 +126,23 @@ def product_time(A, cols: int, reps: int | None = None, budget: float = 2.0) -> 
     return best(lambda: A @ x, reps, budget=budget)[0]
 
 
-def best_with_floor(
+def rounds_with_floor(
     fn: Callable[[], object], A, cols: int, reps: int, budget: float = 4.0
-) -> tuple[float, float]:
-    """(best wall time of fn(), best time of one product on ``cols`` columns), measured
-    alternately, so that the floor comes from the same stretch of this shared machine as
-    the run it is compared with."""
-    t_fn, t_prod = math.inf, math.inf
+) -> list[tuple[float, float, float]]:
+    """Rounds of (wall time of one fn(), best of 3 products on ``cols`` columns, best of 3
+    products on one column), each product timed right after the run, so that a run and
+    its floor come from the same stretch of this shared machine (its speed drifts by up
+    to 1.5x between minutes). At least one round, up to ``reps`` within ``budget`` s."""
+    out = []
     start = time.perf_counter()
     for _ in range(reps):
-        t_fn = min(t_fn, best(fn, 1)[0])
-        t_prod = min(t_prod, product_time(A, cols, reps=10, budget=0.5))
+        t_fn = best(fn, 1)[0]
+        t_cols = product_time(A, cols, reps=3, budget=0.5)
+        t_one = product_time(A, 1, reps=3, budget=0.5) if cols > 1 else t_cols
+        out.append((t_fn, t_cols, t_one))
         if time.perf_counter() - start > budget:
             break
-    return t_fn, t_prod
+    return out
 
 
 def fields(mesh):
@@ -190,7 +195,7 @@ def output_time(m: int, T: int, B) -> float:
     return best(lambda: C @ Y, 5, budget=1.0)[0]
 
 
-def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
+def run_case(A, w, B, times, reps, skew) -> dict:
     """One configuration: expm_action vs expm_multiply on exp(tA)B."""
     scalar = np.ndim(times) == 0
     tlist = np.atleast_1d(times)
@@ -215,8 +220,10 @@ def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
     ref = em[0] if scalar else em
     # expm_action at tol and at 1e-14
     kw = dict(inner=w, skew=skew)
-    # between the runs, products on the call's p columns (blocks for the series and Lanczos)
-    t_k, t_near = best_with_floor(lambda: expm_action(A, B, times, tol=TOL, **kw), A, p, reps)
+    # each run with the products timed right after it, on the call's p columns (blocks for
+    # the series and Lanczos) and on one (the bound's products)
+    rounds = rounds_with_floor(lambda: expm_action(A, B, times, tol=TOL, **kw), A, p, reps)
+    t_k = min(r[0] for r in rounds)
     t_kry, _ = best(lambda: expm_action(A, B, times, tol=TOL, method="krylov", **kw), reps)
     x, info = expm_action(A, B, times, tol=TOL, return_info=True, **kw)
     _, info14 = expm_action(A, B, times, tol=1e-14, return_info=True, **kw)
@@ -224,13 +231,18 @@ def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
     errs_w = [wnorm(x_sc[k] - em[k], w) / wnorm(em[k], w) for k in range(len(tlist))]
     errs_m = [np.abs(x_sc[k] - em[k]).max() / np.abs(em[k]).max() for k in range(len(tlist))]
     k_prod = info["matvecs"] + info["bound_products"]
-    # the fastest product seen, before the runs or between them (the larger floor ratio)
-    if p > 1 and info["method"] in ("lanczos", "chebyshev"):  # block products on (n, p)
-        t_mm = min(t_mm, t_near)
-        floor = info["block_matvecs"] * t_mm + info["bound_products"] * t_mv
-    else:  # single-column products (the general method runs the columns one by one)
-        t_mv = min(t_mv, t_near) if p == 1 else t_mv
-        floor = k_prod * t_mv
+
+    def floor_of(t_cols: float, t_one: float) -> float:
+        if p > 1 and info["method"] in ("lanczos", "chebyshev"):  # block products on (n, p)
+            return info["block_matvecs"] * t_cols + info["bound_products"] * t_one
+        return k_prod * t_one  # single-column products (the general method: column by column)
+
+    # the median over the rounds of (run / its own floor); floor: the median floor
+    floors = [floor_of(tc, to) for _, tc, to in rounds]
+    k_floor = float(np.median([r[0] / f for r, f in zip(rounds, floors, strict=True)]))
+    floor = float(np.median(floors))
+    t_out = output_time(info["block_matvecs"], tlist.size, B)
+    k_out = float(np.median([r[0] / (f + t_out) for r, f in zip(rounds, floors, strict=True)]))
     return {
         "growth": wnorm(em[-1] if not scalar else ref, w) / wnorm(B, w),
         "k_prod": k_prod,
@@ -249,8 +261,9 @@ def run_case(A, w, B, times, reps, t_mv, t_mm, skew) -> dict:
         "t_kry": t_kry,
         "t_em": t_em,
         "floor": floor,
-        "k_floor": t_k / floor,
-        "k_out": t_k / (floor + output_time(info["block_matvecs"], tlist.size, B)),
+        "k_floor": k_floor,
+        "k_out": k_out,
+        "rounds": len(rounds),
         "method": {"chebyshev": "cheb"}.get(info["method"], info["method"]),
     }
 
@@ -363,7 +376,7 @@ def main() -> None:
                 ]
                 for label, B, times in configs:
                     skew = True if name == "skew" else None  # as fvf.FunctionalFlow does
-                    r = run_case(A, w, B, times, reps, t_mv, t_mm, skew)
+                    r = run_case(A, w, B, times, reps, skew)
                     summary.append((m, name, L, label, r))
                     print_row(
                         [

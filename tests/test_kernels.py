@@ -187,3 +187,22 @@ def test_fused_lanczos_block_and_euclidean_agree(monkeypatch, rng):
         assert i1["method"] == i0["method"] == "lanczos"
         assert i1["matvecs"] == i0["matvecs"]
         assert np.abs(x1 - x0).max() <= 1e-12 * np.abs(x0).max()
+
+
+def test_bessel_rows_match_scipy_and_the_python_rows(monkeypatch):
+    from scipy.special import jv
+
+    from fvf.expmv import _bessel_row, _cheb_coefficients, _degree_top
+
+    x = np.array([1e-7, 0.3, 2.4, 38.9, 200.0, 1500.0])
+    kmax = _degree_top(float(x.max()))
+    got = _kernels.bessel_rows(x, kmax)
+    ref = jv(np.arange(kmax + 1)[None, :], x[:, None])
+    assert np.abs(got - ref).max() <= 1e-13
+    rows = np.stack([_bessel_row(float(v), kmax) for v in x])
+    assert np.abs(got - rows).max() <= 1e-15
+    taus = np.array([-3.0, 0.5, 3.0, 40.0, 0.5])  # signs, repeats
+    c1 = _cheb_coefficients(taus, 90)
+    monkeypatch.setattr(_kernels, "ENABLED", False)
+    c0 = _cheb_coefficients(taus, 90)
+    assert np.abs(c1 - c0).max() <= 1e-15

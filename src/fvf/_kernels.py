@@ -41,6 +41,7 @@ __all__ = [
     "term_combine",
     "abs_stats",
     "power_step",
+    "bessel_rows",
 ]
 
 
@@ -153,6 +154,38 @@ def _abs_stats(indptr, indices, data):  # pragma: no cover - jitted
     return top + bad, dmax + bad, amax + bad
 
 
+def _bessel_rows(x, start, kmax, out):  # pragma: no cover - jitted
+    # Miller's backward recurrence f_{k−1} = (2k/x) f_k − f_{k+1} from f_start = 1e-200 for
+    # each x_j > 0, rescaled by 1e-200 whenever it passes 1e200, normalized by
+    # f₀ + 2 Σ f_{2k} = 1; out[j, k] = J_k(x_j) for k ≤ min(kmax, start_j), 0 beyond.
+    T = x.shape[0]
+    buf = np.empty(int(start.max()) + 1)
+    for j in range(T):
+        inv = 2.0 / x[j]
+        s = start[j]
+        f_next = 0.0
+        f = 1e-200
+        even = 0.0
+        for k in range(s, 0, -1):
+            buf[k] = f
+            if k % 2 == 0:
+                even += f
+            f, f_next = k * inv * f - f_next, f
+            if abs(f) > 1e200:
+                f *= 1e-200
+                f_next *= 1e-200
+                even *= 1e-200
+                for i in range(k, s + 1):
+                    buf[i] *= 1e-200
+        buf[0] = f
+        norm = 1.0 / (f + 2.0 * even)
+        top = min(kmax, s)
+        for k in range(top + 1):
+            out[j, k] = buf[k] * norm
+        for k in range(top + 1, kmax + 1):
+            out[j, k] = 0.0
+
+
 def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: no cover
     # P = diag(s)|A|diag(1/s). sym: md = P d. Else md = ½(P d + Pᵀ d) − |diag A| d, with
     # Pᵀ d = diag(1/s)|A|ᵀ diag(s) d scattered from the rows into g (dg: |diag A|, summed
@@ -191,6 +224,7 @@ if ENABLED:  # pragma: no cover - depends on the environment
     _term_combine = njit(cache=True, nogil=True)(_term_combine)
     _abs_stats = njit(cache=True, nogil=True)(_abs_stats)
     _power_step = njit(cache=True, nogil=True)(_power_step)
+    _bessel_rows = njit(cache=True, nogil=True)(_bessel_rows)
 
 
 def term_accumulate(
@@ -293,3 +327,17 @@ def power_step(
     """
     r, top = _power_step(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
     return float(r), float(top)
+
+
+def bessel_rows(x: np.ndarray, kmax: int) -> np.ndarray:
+    """J_k(x_j) for k = 0..kmax: (T, kmax + 1) float64, for x (T,) float64, each x_j ≥ 1e-8.
+
+    The recurrence of :func:`fvf.expmv._bessel_row` (Miller's, from the order
+    x + 12 x^{1/3} + 30, past the turning point), compiled: ~5 ns a step instead of
+    ~0.25 µs on Python floats.
+    """
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    start = (x + 12.0 * np.cbrt(x)).astype(np.int64) + 30
+    out = np.empty((x.size, int(kmax) + 1))
+    _bessel_rows(x, start, int(kmax), out)
+    return out

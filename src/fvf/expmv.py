@@ -1218,7 +1218,14 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
     scalar ones (~0.25 µs, one per order up to each |τ|'s own start; measured). Raises
     _ChebyshevFailed on non-finite values (a defect, not an overflow of the series).
     """
-    if taus.size == 1:
+    mags = np.abs(taus)
+    if _kernels.ENABLED and float(mags.min()) >= _BESSEL_TINY:  # compiled rows (numba)
+        if taus.size == 1:
+            J = _kernels.bessel_rows(mags, kmax)
+        else:
+            mags, inv = np.unique(mags, return_inverse=True)
+            J = _kernels.bessel_rows(mags, kmax)[inv.ravel()]
+    elif taus.size == 1:
         J = _bessel_row(abs(float(taus[0])), kmax)[None, :]
     else:
         mags, inv = np.unique(np.abs(taus), return_inverse=True)
