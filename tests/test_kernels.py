@@ -41,6 +41,13 @@ def test_term_accumulate_matches_dense(rng, index_dtype, p):
     ref_y = Y + A.toarray() @ X
     np.testing.assert_allclose(y, ref_y, rtol=0, atol=1e-13)
     np.testing.assert_allclose(out, O + 0.7 * ref_y, rtol=0, atol=1e-13)
+    if p == 1:  # with the norms of y measured in the same pass
+        w = rng.uniform(0.5, 2.0, n)
+        y, out, s2 = Y.copy(), O.copy(), np.full((2, 1), np.nan)
+        _kernels.term_accumulate(_fused(A), X.ravel(), y.ravel(), out.ravel(), 0.7, 1, w, s2)
+        np.testing.assert_allclose(y, ref_y, rtol=0, atol=1e-13)
+        want = [np.sum(w * ref_y[:, 0] ** 2), np.abs(ref_y).max()]
+        np.testing.assert_allclose(s2[:, 0], want, rtol=1e-13)
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])

@@ -45,6 +45,9 @@ __all__ = [
 ]
 
 
+_NO_W, _NO_NORMS = np.zeros(1), np.zeros((2, 1))  # (not read)
+
+
 def csr_views(indptr: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """Unsigned views (no copy) of a CSR matrix's index arrays, or None.
 
@@ -68,15 +71,24 @@ def csr_views(indptr: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.n
     return out[0], out[1]
 
 
-def _term_accumulate(indptr, indices, data, x, y, out, c, p):  # pragma: no cover - jitted
+def _term_accumulate(indptr, indices, data, x, y, out, c, p, w, s2, norms):  # pragma: no cover
+    # norms (p = 1 only): s2[0, 0] = Σ w y², s2[1, 0] = max |y|
     n = indptr.shape[0] - 1
     if p == 1:
+        a0 = 0.0
+        a1 = 0.0
         for i in range(n):
             s = y[i]
             for k in range(indptr[i], indptr[i + 1]):
                 s += data[k] * x[indices[k]]
             y[i] = s
             out[i] += c * s
+            if norms:
+                a0 += w[i] * s * s
+                a1 = max(a1, abs(s))
+        if norms:
+            s2[0, 0] = a0
+            s2[1, 0] = a1
     else:
         for i in range(n):
             b = i * p
@@ -234,8 +246,11 @@ def term_accumulate(
     out: np.ndarray,
     c: float,
     p: int,
+    w: np.ndarray | None = None,
+    s2: np.ndarray | None = None,
 ) -> None:
-    """y ← y + A x, then out ← out + c y, in one pass over A's rows.
+    """y ← y + A x, then out ← out + c y, in one pass over A's rows; with ``w`` and ``s2``
+    (p = 1 only) also s2[0, 0] ← Σ_i w_i y_i² and s2[1, 0] ← max_i |y_i|.
 
     Parameters
     ----------
@@ -245,8 +260,15 @@ def term_accumulate(
         Flat C-contiguous vectors (p columns interleaved); x must not alias y.
     c : float
     p : int
+    w : float64 (n,), optional
+        Weights of the norm (ones for Euclidean).
+    s2 : float64 (2, p), optional
+        Output of the norms.
     """
-    _term_accumulate(csr[0], csr[1], csr[2], x, y, out, float(c), int(p))
+    norms = w is not None and s2 is not None and p == 1
+    if not norms:
+        w, s2 = _NO_W, _NO_NORMS
+    _term_accumulate(csr[0], csr[1], csr[2], x, y, out, float(c), int(p), w, s2, norms)
 
 
 def term_combine(

@@ -58,6 +58,12 @@ space K_m(A, y) with A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product
   superlinearly; checks start there and follow the observed decay, spaced by the cost of
   a check relative to a product.
 
+With numba installed (``pip install 'fvf[fast]'``), :mod:`fvf._kernels` fuses each
+product of the series and of the three-term recurrence with the vector work around it
+(axpy, scaled copy, weighted norm and inner products), does the bound's power steps in one
+pass over A, and compiles the Bessel recurrences; the results and product counts are
+those of the numpy/scipy path (``FVF_NUMBA=0``) to round-off.
+
 Products are counted per column (``info["matvecs"]``; a product on an (n, p) block counts
 p) and per operator call (``info["block_matvecs"]``). Basis storage is reused between
 calls (see :data:`WORKSPACE_KEEP`, :func:`clear_workspace`).
@@ -700,7 +706,7 @@ def _choose(
     n = Aop.shape[0]
     if n < SMALL_N or not np.any(times != 0):
         return "expm_multiply", skew_norm
-    several = np.unique(np.abs(times[times != 0])).size > 1
+    several = times.size > 1 and np.unique(np.abs(times[times != 0])).size > 1
     if skew is True and (several or (p == 1 and n >= CHEB_SKEW_MIN_N)):
         return "krylov", skew_norm  # Lanczos: fewer vectors, faster there (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
@@ -1124,10 +1130,20 @@ def _degree_top(tau: float) -> int:
 
 def _degree(absJ: np.ndarray, tau: float, tol: float) -> int:
     """:func:`chebyshev_degree` from |J_k(τ)| for k = 0 … top, (top + 1,)."""
+    return _degree_from(_tails(absJ, tau), tau, tol)
+
+
+def _tails(absJ: np.ndarray, tau: float) -> np.ndarray:
+    """tail[i] = 2 Σ_{k ≥ ⌊τ⌋+1+i} |J_k| from |J_k(τ)| for k = 0 … top (non-increasing)."""
     J = absJ[int(tau) + 1 :]  # |J_k| for k = ⌊τ⌋+1 … top
-    tail = 2.0 * np.cumsum(J[::-1])[::-1]  # tail[i] = 2 Σ_{k ≥ ⌊τ⌋+1+i} |J_k|
-    ok = np.flatnonzero(tail <= tol)
-    return int(tau) + int(ok[0]) if ok.size else absJ.size - 1
+    tail = 2.0 * np.cumsum(J[::-1])[::-1]
+    return np.append(tail, 0.0)  # (top − ⌊τ⌋ + 1,): beyond top the table holds zeros
+
+
+def _degree_from(tail: np.ndarray, tau: float, tol: float) -> int:
+    """:func:`_degree` from the precomputed :func:`_tails` (one search per tol)."""
+    i = int(np.searchsorted(-tail, -tol, side="left"))  # first i with tail[i] ≤ tol
+    return int(tau) + min(i, tail.size - 1)
 
 
 #: Below this |x| the Bessel recurrences would overflow in one step (2k/|x| · 1e200); the
@@ -1304,7 +1320,8 @@ def _run_chebyshev(
     coef = _cheb_coefficients(taus, _degree_top(tau_max))  # (T, K): c_k(τ_j), extended later
     row = 0.5 * np.abs(coef[int(np.argmax(np.abs(taus)))])  # |J_k(τ_max)| (k ≥ 1)
     row[0] *= 2.0
-    next_check = _degree(row, tau_max, budget) - 2
+    tails = _tails(row, tau_max)
+    next_check = _degree_from(tails, tau_max, budget) - 2
     absc = np.abs(coef)
     op = _Operator(Aop, n, scale=2.0 / R)
     mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
@@ -1348,12 +1365,21 @@ def _run_chebyshev(
         last = np.full((T, p), np.inf)  # the previous term, relative to ‖B‖
         tail = last
         grow_limit = CHEB_GROWTH * tol / NOISE
+        # one column, one time, numba: the term before a measurement also measures y_k
+        fused_norms = fused is not None and T == 1 and p == 1
+        wk = (np.ones(n) if w is None else w) if fused_norms else None
+        norms_k = -1  # the k whose norms s2 holds
         while True:
             if k >= next_check or k % CHEB_CHECK_EVERY == 0:
                 cur = buf[cur_i]
-                rel = np.sqrt(_wnorm2(cur, w, tmp)) * inv_nu0  # (p,) ‖y_k‖ / ‖B‖
-                if maxnorm:
-                    rel = np.maximum(rel, _absmax(cur, tmp_abs) * inv_inf0)
+                if norms_k == k:  # (1,) ‖y_k‖_W, max|y_k| from the kernel
+                    rel = math.sqrt(float(s2[0, 0])) * inv_nu0
+                    if maxnorm:
+                        rel = np.maximum(rel, float(s2[1, 0]) * inv_inf0)
+                else:
+                    rel = np.sqrt(_wnorm2(cur, w, tmp)) * inv_nu0  # (p,) ‖y_k‖ / ‖B‖
+                    if maxnorm:
+                        rel = np.maximum(rel, _absmax(cur, tmp_abs) * inv_inf0)
                 if not math.isfinite(float(rel.sum())):
                     raise FlowOverflowError(_NONFINITE)
                 term = absc[:, k, None] * rel  # (T, p)
@@ -1372,7 +1398,7 @@ def _run_chebyshev(
                     # not yet (the terms grew: non-normal A): the degree for the grown
                     # terms, less two, is where to look next
                     grown = budget / max(float(rel.max()), 1.0)
-                    next_check = max(k + 1, _degree(row, tau_max, grown) - 2)
+                    next_check = max(k + 1, _degree_from(tails, tau_max, grown) - 2)
                 last = term
             if k > k_cap:
                 raise _ChebyshevFailed(f"no convergence after {k} terms (R·max|t| = {tau_max:.3g})")
@@ -1388,12 +1414,18 @@ def _run_chebyshev(
                 c0, out0 = coef[0], acc[0]
                 op.count(stop - k, p)
                 if fused is not None:  # product and axpy in one pass (numba)
-                    while k < stop:
+                    while k < stop - 1:
                         cur_i = 1 - cur_i
                         k += 1
                         _kernels.term_accumulate(
                             fused, flat[1 - cur_i], flat[cur_i], out0, c0[k], p
                         )
+                    cur_i = 1 - cur_i  # the last term before a measurement: with norms
+                    k += 1
+                    _kernels.term_accumulate(
+                        fused, flat[1 - cur_i], flat[cur_i], out0, c0[k], p, wk, s2
+                    )
+                    norms_k = k if fused_norms else -1
                     continue
                 while k < stop:
                     cur_i = 1 - cur_i
