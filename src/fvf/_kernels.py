@@ -20,19 +20,30 @@ installed; :data:`ENABLED` says which is in use.
 
 from __future__ import annotations
 
+import importlib.util
 import os
+from collections.abc import Callable
 
 import numpy as np
 
-try:  # pragma: no cover - depends on the environment
-    if os.environ.get("FVF_NUMBA", "1").strip().lower() in ("0", "false", "no", "off"):
-        raise ImportError("disabled by FVF_NUMBA")
-    from numba import njit
-except ImportError:  # pragma: no cover - depends on the environment
-    njit = None
-
 #: True when the fused kernels are compiled with numba and used by :mod:`fvf.expmv`.
-ENABLED = njit is not None
+#: numba itself is imported, and each kernel compiled (or loaded from numba's disk cache),
+#: on first use: ``import fvf`` does not pay numba's 0.3 s import.
+ENABLED = os.environ.get("FVF_NUMBA", "1").strip().lower() not in ("0", "false", "no", "off")
+ENABLED = ENABLED and importlib.util.find_spec("numba") is not None
+
+_COMPILED: dict[Callable, Callable] = {}
+
+
+def _jit(fn: Callable) -> Callable:
+    """The numba-compiled ``fn`` (compiled, or loaded from the disk cache, once)."""
+    out = _COMPILED.get(fn)
+    if out is None:
+        from numba import njit  # pragma: no cover - depends on the environment
+
+        out = _COMPILED[fn] = njit(cache=True, nogil=True)(fn)
+    return out
+
 
 __all__ = [
     "ENABLED",
@@ -231,14 +242,6 @@ def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: 
     return ratio, top
 
 
-if ENABLED:  # pragma: no cover - depends on the environment
-    _term_accumulate = njit(cache=True, nogil=True)(_term_accumulate)
-    _term_combine = njit(cache=True, nogil=True)(_term_combine)
-    _abs_stats = njit(cache=True, nogil=True)(_abs_stats)
-    _power_step = njit(cache=True, nogil=True)(_power_step)
-    _bessel_rows = njit(cache=True, nogil=True)(_bessel_rows)
-
-
 def term_accumulate(
     csr: tuple[np.ndarray, np.ndarray, np.ndarray],
     x: np.ndarray,
@@ -268,7 +271,7 @@ def term_accumulate(
     norms = w is not None and s2 is not None and p == 1
     if not norms:
         w, s2 = _NO_W, _NO_NORMS
-    _term_accumulate(csr[0], csr[1], csr[2], x, y, out, float(c), int(p), w, s2, norms)
+    _jit(_term_accumulate)(csr[0], csr[1], csr[2], x, y, out, float(c), int(p), w, s2, norms)
 
 
 def term_combine(
@@ -301,7 +304,7 @@ def term_combine(
     norms : int
         0, 1 or 2.
     """
-    _term_combine(csr[0], csr[1], csr[2], x, prev, c, y, w, s2, int(p), int(norms))
+    _jit(_term_combine)(csr[0], csr[1], csr[2], x, prev, c, y, w, s2, int(p), int(norms))
 
 
 def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, float]:
@@ -313,7 +316,7 @@ def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, fl
     csr : (indptr, indices, data)
         As for :func:`term_accumulate`.
     """
-    top, dmax, amax = _abs_stats(csr[0], csr[1], csr[2])
+    top, dmax, amax = _jit(_abs_stats)(csr[0], csr[1], csr[2])
     return float(top), float(dmax), float(amax)
 
 
@@ -347,7 +350,7 @@ def power_step(
     -------
     (max_i (M d)_i / d_i, max_i (M d)_i) : (float, float)
     """
-    r, top = _power_step(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
+    r, top = _jit(_power_step)(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
     return float(r), float(top)
 
 
@@ -361,5 +364,5 @@ def bessel_rows(x: np.ndarray, kmax: int) -> np.ndarray:
     x = np.ascontiguousarray(x, dtype=np.float64)
     start = (x + 12.0 * np.cbrt(x)).astype(np.int64) + 30
     out = np.empty((x.size, int(kmax) + 1))
-    _bessel_rows(x, start, int(kmax), out)
+    _jit(_bessel_rows)(x, start, int(kmax), out)
     return out
