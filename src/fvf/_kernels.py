@@ -5,9 +5,14 @@ or two more passes over its vectors (a scaled copy, an axpy into the output, a n
 1/6–1/4 of a product on large meshes. With numba installed (``pip install 'fvf[fast]'``)
 these kernels do the product and that extra work in the same pass over the rows:
 
-- :func:`term_accumulate`: y ← y + A x, then out ← out + c y (a Chebyshev term for one time);
-- :func:`term_combine`: y ← diag(c) prev + A x, with the W-norms Σ_i w_i y_iq² of its p
-  columns when asked (a Lanczos vector; a Chebyshev term for several times with c = 1).
+- :func:`term_accumulate`: y ← y + A x, then out ← out + c y (a Chebyshev term for one
+  time), with ‖y‖_W and max|y| when asked;
+- :func:`term_combine`: y ← diag(c) prev + A x, with the W-norms of its p columns and their
+  W-inner products with x and prev when asked (a Lanczos vector and its skew check; a
+  Chebyshev term for several times, with c = 1);
+- :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
+  one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
+- :func:`bessel_rows`: Miller's recurrence for the series' coefficients.
 
 Vectors are flat C-contiguous float64 arrays of n·p entries, column q of row i at i·p + q.
 The index arrays are unsigned views of the matrix's own (see :func:`csr_views`): an
