@@ -25,9 +25,9 @@ def _random_csr(n: int, rng, index_dtype) -> sp.csr_array:
 
 
 def _fused(A: sp.csr_array):
-    views = _kernels.csr_views(A.indptr, A.indices)
-    assert views is not None
-    return (*views, A.data)
+    csr = _kernels.csr_views(A.indptr, A.indices, A.data)
+    assert csr is not None
+    return csr
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
@@ -109,13 +109,16 @@ def test_skew_bound_is_the_same_on_both_paths(monkeypatch, kind):
 
 def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
     A = sp.csr_array(sp.eye_array(5))
-    ip, ix = _kernels.csr_views(A.indptr, A.indices)
+    ip, ix, data = _kernels.csr_views(A.indptr, A.indices, A.data)
     assert ip.dtype.kind == ix.dtype.kind == "u"
     assert np.shares_memory(ip, A.indptr) and np.shares_memory(ix, A.indices)
-    assert _kernels.csr_views(A.indptr.astype(float), A.indices) is None
-    assert _kernels.csr_views(A.indptr, np.repeat(A.indices, 2)[::2]) is None  # strided
+    assert data is A.data
+    assert _kernels.csr_views(A.indptr.astype(float), A.indices, A.data) is None
+    assert _kernels.csr_views(A.indptr, np.repeat(A.indices, 2)[::2], A.data) is None  # strided
+    assert _kernels.csr_views(A.indptr, A.indices, A.data.astype(np.float32)) is None
+    assert _kernels.csr_views(A.indptr, A.indices, np.repeat(A.data, 2)[::2]) is None
     monkeypatch.setattr(_kernels, "ENABLED", False)
-    assert _kernels.csr_views(A.indptr, A.indices) is None
+    assert _kernels.csr_views(A.indptr, A.indices, A.data) is None
 
 
 def _spy(monkeypatch) -> dict:

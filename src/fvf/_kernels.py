@@ -64,27 +64,31 @@ __all__ = [
 _NO_W, _NO_NORMS = np.zeros(1), np.zeros((2, 1))  # (not read)
 
 
-def csr_views(indptr: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Unsigned views (no copy) of a CSR matrix's index arrays, or None.
+def csr_views(
+    indptr: np.ndarray, indices: np.ndarray, data: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The ``csr`` argument of the kernels for a CSR matrix's arrays (no copy), or None.
 
     Parameters
     ----------
     indptr, indices : int32 or int64 (n + 1,), (nnz,)
         Row pointers and column indices (non-negative, as scipy guarantees).
+    data : float64 (nnz,)
 
     Returns
     -------
-    (uint32 or uint64 (n + 1,), uint32 or uint64 (nnz,)), or None when the kernels are
-    disabled or the arrays are not C-contiguous signed 32- or 64-bit integers.
+    (uint32 or uint64 (n + 1,), uint32 or uint64 (nnz,), float64 (nnz,)): unsigned views of
+    the index arrays and ``data`` itself; None when the kernels are disabled or the arrays
+    are not C-contiguous signed 32- or 64-bit integers and float64 values.
     """
-    if not ENABLED:
+    if not ENABLED or data.dtype != np.float64 or not data.flags.c_contiguous:
         return None
     out = []
     for a in (indptr, indices):
         if a.dtype not in (np.int32, np.int64) or not a.flags.c_contiguous:
             return None
         out.append(a.view(np.uint32 if a.dtype == np.int32 else np.uint64))
-    return out[0], out[1]
+    return out[0], out[1], data
 
 
 def _term_accumulate(indptr, indices, data, x, y, out, c, p, w, s2, norms):  # pragma: no cover
@@ -263,15 +267,15 @@ def term_accumulate(
     Parameters
     ----------
     csr : (indptr, indices, data)
-        A (n, n) in CSR with unsigned index views (:func:`csr_views`) and float64 data.
+        A (n, n) in CSR, as :func:`csr_views` gives it (unsigned index views, float64).
     x, y, out : float64 (n·p,)
         Flat C-contiguous vectors (p columns interleaved); x must not alias y.
     c : float
     p : int
     w : float64 (n,), optional
         Weights of the norm (ones for Euclidean).
-    s2 : float64 (2, p), optional
-        Output of the norms.
+    s2 : float64 (k ≥ 2, p), optional
+        Output of the norms (rows 0 and 1).
     """
     norms = w is not None and s2 is not None and p == 1
     if not norms:
@@ -288,7 +292,7 @@ def term_combine(
     w: np.ndarray,
     s2: np.ndarray,
     p: int,
-    norms: bool,
+    norms: int,
 ) -> None:
     """y ← diag(c) prev + A x (column q of prev scaled by c[q]), in one pass over A's rows,
     with weighted inner products of y when asked.

@@ -329,9 +329,7 @@ class _Operator:
             data = C.data.astype(np.float64, copy=False)
             self.csr = (C.indptr, C.indices, data * scale if scale != 1.0 else data)
             self.nnz = C.nnz
-            views = _kernels.csr_views(C.indptr, C.indices)
-            if views is not None and self.csr[2].flags.c_contiguous:
-                self.fused = (*views, self.csr[2])
+            self.fused = _kernels.csr_views(*self.csr)
         elif isinstance(A, np.ndarray):
             self.nnz = A.size
         else:
@@ -548,7 +546,7 @@ class _AbsCsr:
     def norm_inf(self) -> float:
         return float(self.matvec(np.ones(self.n)).max()) if self.n else 0.0
 
-    def diag_max(self) -> float:
+    def diag_max(self) -> tuple[float, float]:
         """max |a_ii| and max |a_ij| (for the skew test of :func:`_skew_bound`)."""
         return float(self.diag.max(initial=0.0)), float(self.data.max(initial=0.0))
 
@@ -580,19 +578,16 @@ class _FusedAbs:
     @classmethod
     def of(cls, A: Any) -> _FusedAbs | None:
         """For a sparse A whose CSR arrays the kernels read; None otherwise."""
-        if not (_kernels.ENABLED and sp.issparse(A)):
+        if not sp.issparse(A):
             return None
         C = A.tocsr() if A.format != "csr" else A
-        views = _kernels.csr_views(C.indptr, C.indices)
-        data = C.data
-        if views is None or data.dtype != np.float64 or not data.flags.c_contiguous:
-            return None
-        return cls((*views, data), C.shape[0])
+        csr = _kernels.csr_views(C.indptr, C.indices, C.data)
+        return None if csr is None else cls(csr, C.shape[0])
 
     def norm_inf(self) -> float:
         return self._norm
 
-    def diag_max(self) -> float:
+    def diag_max(self) -> tuple[float, float]:
         return self._diag
 
     def step(
@@ -604,6 +599,12 @@ class _FusedAbs:
         return self._work[0], ratio, top  # (the caller copies what it keeps)
 
 
+def _abs_of(A: Any) -> _AbsCsr | _FusedAbs:
+    """|A| of an explicit A for ‖A‖_∞ and the bound R: read from A's own arrays by the
+    fused kernels where they apply, else built as :class:`_AbsCsr`."""
+    return _FusedAbs.of(A) or _AbsCsr.of(A)
+
+
 def _norm_inf(A: Any, absA: _AbsCsr | _FusedAbs | None = None) -> float:
     """‖A‖_∞ of a sparse or dense A (from ``absA`` = |A| when given); for a LinearOperator
     its ``norm_inf`` attribute (an upper bound, e.g.
@@ -611,7 +612,7 @@ def _norm_inf(A: Any, absA: _AbsCsr | _FusedAbs | None = None) -> float:
     if absA is not None:
         return absA.norm_inf()
     if sp.issparse(A):
-        return _norm_inf(A, _AbsCsr.of(A)) if A.nnz else 0.0
+        return _norm_inf(A, _abs_of(A)) if A.nnz else 0.0
     if isinstance(A, np.ndarray):
         return float(np.abs(A).sum(axis=1).max()) if A.size else 0.0
     bound = getattr(A, "norm_inf", 0.0)
@@ -731,7 +732,7 @@ def _bound(
     (records the products with |A| in ``info["bound_products"]``); for ``skew=True``
     with one product per step (see :func:`_skew_bound`)."""
     span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
-    absA = (_FusedAbs.of(Aop) or _AbsCsr.of(Aop)) if absA is None else absA
+    absA = _abs_of(Aop) if absA is None else absA
     R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True)
     if info is not None:
         info["bound_products"] = products
@@ -932,8 +933,7 @@ def expm_action(
         "wasted_matvecs": 0,
         "bound_products": 0,
     }
-    # |A|, shared by ‖A‖_∞ and the bound R (read from A's own arrays with numba)
-    absA = (_FusedAbs.of(Aop) or _AbsCsr.of(Aop)) if sp.issparse(Aop) else None
+    absA = _abs_of(Aop) if sp.issparse(Aop) else None  # shared by ‖A‖_∞ and the bound R
     a_norm = _norm_inf(Aop, absA)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
@@ -1074,7 +1074,7 @@ def skew_bound(
             raise ExpmInputError(f"inner must be {n} finite weights > 0")
     if int(iterations) != iterations or iterations < 0:
         raise ExpmInputError(f"iterations must be an integer >= 0; got {iterations!r}")
-    return _skew_bound(_FusedAbs.of(Aop) or _AbsCsr.of(Aop), w, int(iterations))[0]
+    return _skew_bound(_abs_of(Aop), w, int(iterations))[0]
 
 
 def _skew_bound(
