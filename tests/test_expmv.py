@@ -926,3 +926,82 @@ def test_lanczos_skew_check_is_not_fooled_by_a_near_breakdown():
     assert info["method"] == "lanczos" and info["wasted_matvecs"] == 0
     ref = dense_exp(S, b, 40.0)[0]
     assert np.linalg.norm(x - ref) / np.linalg.norm(ref) < 1e-12  # the rounding floor
+
+
+def _partial_sum_errors(A, b, t, R, w, kmax, ref):
+    """Errors (the larger of W and max norm) of the series' partial sums S_k against ref,
+    k = 0 … kmax, for one t."""
+    coef = fvf.expmv._cheb_coefficients(np.array([R * t]), kmax + 1)[0]
+    y_prev, y = b, (A @ b) / R
+    S = coef[0] * y_prev + coef[1] * y
+    errs = [np.inf, max(wrel(S, ref, w), maxrel(S, ref))]
+    for k in range(2, kmax + 1):
+        y_prev, y = y, 2.0 * (A @ y) / R + y_prev
+        S = S + coef[k] * y
+        errs.append(max(wrel(S, ref, w), maxrel(S, ref)))
+    return np.array(errs)
+
+
+@pytest.mark.parametrize("kind, skew", [("skew", True), ("skew", None), ("grad", None)])
+@pytest.mark.parametrize("tol", [1e-6, 1e-10])
+def test_chebyshev_stops_within_two_terms_of_the_first_accurate_partial_sum(mesh, kind, skew, tol):
+    """The stop (estimate of the tail relative to the output, docs/notes.md session 7)
+    is within two terms of the first partial sum whose error (W and max norm) is within
+    SAFETY·tol, and its error is within tol. The rule before stopped up to 8 terms later
+    (the last two summed terms relative to B: max|X| is 1.5–60 max|B| for compressible
+    flows)."""
+    A = _flow_operator(mesh, kind)
+    w = mesh.vertex_areas
+    b = np.exp(-4.0 * np.sum((mesh.vertices - mesh.vertices[0]) ** 2, axis=1))  # a bump
+    t = -12 * mesh.mean_edge_length
+    x, info = expm_action(
+        A, b, t, inner=w, skew=skew, tol=tol, method="chebyshev", return_info=True
+    )
+    k_used = info["basis_sizes"][0] - 1
+    ref = dense_exp(A, b, t)[0]
+    errs = _partial_sum_errors(A, b, t, info["skew_bound"], w, k_used + 4, ref)
+    assert max(wrel(x, ref, w), maxrel(x, ref)) <= tol
+    k_first = int(np.argmax(errs <= fvf.expmv.SAFETY * tol))
+    assert errs[k_first] <= fvf.expmv.SAFETY * tol
+    assert k_used <= k_first + 2, (k_used, k_first)
+    assert info["error_estimate"] >= errs[k_used] or skew  # declared: the norm is rescaled
+
+
+@pytest.mark.parametrize("kind", ["skew", "grad"])
+def test_chebyshev_stop_on_spot_at_ten_edge_lengths(kind):
+    """As above on spot (2930 vertices, expm_multiply as the reference) for the fields of
+    benchmarks/bench_expmv.py (J grad y and grad y): grad y concentrates f (max|X| ≈ 40
+    max|B|) and its terms grow 1e4-fold in the max norm before they decay. The rule
+    before stopped 5 terms after the first accurate partial sum (98 against 93)."""
+    mesh = fvf.examples.spot()
+    w = mesh.vertex_areas
+    v = fvf.gradient(mesh, mesh.vertices[:, 1])
+    v = fvf.rotate(mesh, v) if kind == "skew" else v
+    A = -fvf.D_V(mesh, v / np.linalg.norm(v, axis=1).max())
+    X = mesh.vertices - mesh.vertices.mean(0)
+    X = X / np.abs(X).max()
+    b = np.sin(3 * X[:, 0]) + X[:, 1] * np.cos(2 * X[:, 2])
+    t = 10 * mesh.mean_edge_length
+    tol = 1e-10
+    x, info = expm_action(A, b, t, inner=w, tol=tol, method="chebyshev", return_info=True)
+    ref = spla.expm_multiply(t * A, b, traceA=t * A.diagonal().sum())
+    k_used = info["basis_sizes"][0] - 1
+    errs = _partial_sum_errors(A, b, t, info["skew_bound"], w, k_used + 4, ref)
+    k_first = int(np.argmax(errs <= fvf.expmv.SAFETY * tol))
+    assert errs[k_first] <= fvf.expmv.SAFETY * tol
+    assert max(wrel(x, ref, w), maxrel(x, ref)) <= tol
+    assert k_used <= k_first + 2, (k_used, k_first)
+    assert info["error_estimate"] >= errs[k_used]
+
+
+def test_series_tail_estimate():
+    absc = np.array([[1.0, 0.5, 0.1, 0.01, 0.001, 0.0]])  # (T, K) = (1, 6)
+    base, growth = np.array([[2.0]]), np.array([1.0])
+    est, decaying = fvf.expmv._series_tail(absc, 2, base, growth)
+    assert est[0, 0] == pytest.approx(2.0 * 0.011) and decaying[0, 0]  # 0.01 ≤ ½ 0.1
+    est, decaying = fvf.expmv._series_tail(absc, 2, base, np.array([6.0]))
+    assert est[0, 0] == pytest.approx(2.0 * (0.01 * 36 + 0.001 * 216)) and not decaying[0, 0]
+    est, _ = fvf.expmv._series_tail(absc, 2, base, np.array([0.2]))  # growth below 1: 1
+    assert est[0, 0] == pytest.approx(2.0 * 0.011)
+    est, _ = fvf.expmv._series_tail(absc, 2, base, growth, bounded=np.array([[5.0]]))
+    assert est[0, 0] == pytest.approx(5.0 * 0.011)  # the rigorous bound is larger
