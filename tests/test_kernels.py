@@ -32,22 +32,31 @@ def _fused(A: sp.csr_array):
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
 @pytest.mark.parametrize("p", [1, 3])
-def test_term_accumulate_matches_dense(rng, index_dtype, p):
+@pytest.mark.parametrize("terms", [1, 2, 5])
+def test_term_run_matches_dense(rng, index_dtype, p, terms):
+    """term_run's terms (the rows of Y swapping roles) against dense algebra."""
     n = 40
     A = _random_csr(n, rng, index_dtype)
-    X, Y, O = (rng.standard_normal((n, p)) for _ in range(3))
-    y, out = Y.copy(), O.copy()
-    _kernels.term_accumulate(_fused(A), X.ravel(), y.reshape(-1), out.reshape(-1), 0.7, p)
-    ref_y = Y + A.toarray() @ X
-    np.testing.assert_allclose(y, ref_y, rtol=0, atol=1e-13)
-    np.testing.assert_allclose(out, O + 0.7 * ref_y, rtol=0, atol=1e-13)
-    if p == 1:  # with the norms of y measured in the same pass
-        w = rng.uniform(0.5, 2.0, n)
-        y, out, s2 = Y.copy(), O.copy(), np.full((2, 1), np.nan)
-        _kernels.term_accumulate(_fused(A), X.ravel(), y.ravel(), out.ravel(), 0.7, 1, w, s2)
-        np.testing.assert_allclose(y, ref_y, rtol=0, atol=1e-13)
-        want = [np.sum(w * ref_y[:, 0] ** 2), np.abs(ref_y).max()]
-        np.testing.assert_allclose(s2[:, 0], want, rtol=1e-13)
+    Ad = A.toarray()
+    Y0, O = rng.standard_normal((2, n, p)), rng.standard_normal((n, p))
+    coef = rng.standard_normal(2 * terms)[::2]  # a strided view
+    for cur in (0, 1):
+        Y, out = Y0.copy(), O.copy()
+        _kernels.term_run(_fused(A), Y.reshape(2, -1), cur, out.reshape(-1), coef, p)
+        ref, ref_out = Y0.copy(), O.copy()
+        for t in range(terms):
+            src, dst = (cur + t) % 2, (cur + t + 1) % 2
+            ref[dst] = ref[dst] + Ad @ ref[src]
+            ref_out += coef[t] * ref[dst]
+        np.testing.assert_allclose(Y, ref, rtol=1e-13, atol=1e-12)
+        np.testing.assert_allclose(out, ref_out, rtol=1e-13, atol=1e-12)
+        if p == 1:  # with the norms of the last term measured in its pass
+            w = rng.uniform(0.5, 2.0, n)
+            Y, out, s2 = Y0.copy(), O.copy(), np.full((2, 1), np.nan)
+            _kernels.term_run(_fused(A), Y.reshape(2, -1), cur, out.ravel(), coef, 1, w, s2)
+            last = ref[(cur + terms) % 2]
+            want = [np.sum(w * last[:, 0] ** 2), np.abs(last).max()]
+            np.testing.assert_allclose(s2[:, 0], want, rtol=1e-13)
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
@@ -122,13 +131,13 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 
 
 def _spy(monkeypatch) -> dict:
-    """Count the calls of the fused kernels (an agreement test must run them)."""
-    calls = {"n": 0}
-    for name in ("term_accumulate", "term_combine"):  # the recurrences' kernels
+    """Count the products of the fused kernels (an agreement test must run them)."""
+    calls = {"n": 0}  # products done by the kernels (term_run: one per coefficient)
+    for name in ("term_run", "term_combine"):  # the recurrences' kernels
         real = getattr(_kernels, name)
 
-        def wrapped(*args, _real=real):
-            calls["n"] += 1
+        def wrapped(*args, _real=real, _name=name):
+            calls["n"] += len(args[4]) if _name == "term_run" else 1
             return _real(*args)
 
         monkeypatch.setattr(_kernels, name, wrapped)

@@ -1515,18 +1515,12 @@ def _run_chebyshev(
                 stop = max(min(stop, coef.shape[1] - 2), k + 1)
                 c0, out0 = coef[0], acc[0]
                 op.count(stop - k, p)
-                if fused is not None:  # product and axpy in one pass (numba)
-                    while k < stop - 1:
+                if fused is not None:  # the run of terms in one call, each term's
+                    # product and axpy in one pass, the last one's norms too (numba)
+                    _kernels.term_run(fused, flat, cur_i, out0, c0[k + 1 : stop + 1], p, wk, s2)
+                    if (stop - k) % 2:
                         cur_i = 1 - cur_i
-                        k += 1
-                        _kernels.term_accumulate(
-                            fused, flat[1 - cur_i], flat[cur_i], out0, c0[k], p
-                        )
-                    cur_i = 1 - cur_i  # the last term before a measurement: with norms
-                    k += 1
-                    _kernels.term_accumulate(
-                        fused, flat[1 - cur_i], flat[cur_i], out0, c0[k], p, wk, s2
-                    )
+                    k = stop
                     norms_k = k if fused_norms else -1
                     continue
                 while k < stop:
