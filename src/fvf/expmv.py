@@ -1261,15 +1261,18 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
 def _inverse_norms(X: np.ndarray, w: np.ndarray | None, maxnorm: bool) -> np.ndarray:
     """1 / ‖X[t, :, c]‖_W and 1 / max|X[t, :, c]| (0 for zero columns): (2, T, p) (the
     second row ones when not ``maxnorm``)."""
-    if w is None:
-        nw = np.sqrt(np.einsum("tnp,tnp->tp", X, X))
+    T, n, p = X.shape
+    norms = np.ones((2, T, p))
+    if T == 1:  # one time: the small-n BLAS paths of _wnorm2 (a few µs each)
+        norms[0, 0] = _wnorm2(X[0], w)
+    elif w is None:
+        norms[0] = np.einsum("tnp,tnp->tp", X, X)
     else:
-        nw = np.sqrt(np.einsum("tnp,n,tnp->tp", X, w, X))
-    inv = np.ones((2,) + nw.shape)
-    inv[0] = _safe_div(inv[0], nw)
+        norms[0] = np.einsum("tnp,n,tnp->tp", X, w, X)
+    np.sqrt(norms[0], out=norms[0])
     if maxnorm:
-        inv[1] = _safe_div(inv[1], np.stack([_absmax(x) for x in X]))
-    return inv
+        norms[1] = np.abs(X).max(axis=1) if p == 1 else [_absmax(x) for x in X]
+    return _safe_div(np.ones_like(norms), norms)
 
 
 #: Coefficients past the last term that :func:`_series_tail` sums (they decay
@@ -1322,7 +1325,7 @@ def _series_tail(
     still within the estimate (docs/notes.md, session 7).
     """
     c = absc[:, k + 1 : k + 1 + _TAIL_TERMS]  # (T, L)
-    g = np.clip(growth, 1.0, 10.0)  # (p,) (10^65: no overflow)
+    g = np.minimum(np.maximum(growth, 1.0), 10.0)  # (p,) (10^65: no overflow)
     powers = g[None, :] ** np.arange(2, c.shape[1] + 2)[:, None]  # (L, p)
     est = (c @ powers) * base  # (T, p)
     if bounded is not None:
