@@ -1922,10 +1922,16 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
             if m < m_cap and not lz.broken():
                 if next_check is None:
                     # The error stalls until m ≈ (spectral radius)·τ ≈ 2·mean(β)·τ (the
-                    # coefficients settle near half the spectral radius), then decays.
-                    if m < max(4, 2.0 * lz.mean_beta() * tau_rem + 3):
+                    # coefficients settle near half the spectral radius), then decays:
+                    # about as the Chebyshev series for that radius does (the first check
+                    # passed within 1–3 vectors of its degree at 6k–94k faces, where the
+                    # decay from here needed two more checks, of 15–20 products each
+                    # at 6k faces)
+                    rho_tau = 2.0 * lz.mean_beta() * tau_rem
+                    if m < max(4, rho_tau + 3):
                         continue
-                elif m < next_check:
+                    next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - 2)
+                if m < next_check:
                     continue
             # error estimate over the remaining interval (relative to ‖y‖, per column)
             beta = lz.beta
