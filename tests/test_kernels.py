@@ -225,3 +225,12 @@ def test_bessel_rows_match_scipy_and_the_python_rows(monkeypatch):
     monkeypatch.setattr(_kernels, "ENABLED", False)
     c0 = _cheb_coefficients(taus, 90)
     assert np.abs(c1 - c0).max() <= 1e-15
+
+
+def test_chebyshev_degree_compiled_and_python_agree(monkeypatch):
+    taus = [1e-3, 0.7, 12.0, 41.8, 150.0, 900.0]
+    tols = [1e-4, 5e-11, 1e-15]
+    fast = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
+    monkeypatch.setattr(_kernels, "ENABLED", False)
+    slow = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
+    assert fast == slow
