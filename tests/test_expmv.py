@@ -1019,14 +1019,14 @@ def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch):
     b = _f0(mesh)
     times = 10 * mesh.mean_edge_length * np.arange(1, 17) / 16
     checks = []
-    real = fvf.expmv._SkewExp
+    real = fvf.expmv._skew_exp
 
     def spy(beta):
         checks.append(beta.shape[0] + 1)
         return real(beta)
 
-    monkeypatch.setattr(fvf.expmv, "_SkewExp", spy)
+    monkeypatch.setattr(fvf.expmv, "_skew_exp", spy)
     X, info = expm_action(A, b, times, inner=w, skew=True, return_info=True)
-    assert info["method"] == "lanczos" and len(checks) <= 2, checks
+    assert info["method"] == "lanczos" and 1 <= len(checks) <= 2, checks
     ref = spla.expm_multiply(times[-1] * A, b, traceA=times[-1] * A.diagonal().sum())
     assert max(wrel(X[-1], ref, w), maxrel(X[-1], ref)) <= TOL

@@ -234,3 +234,26 @@ def test_chebyshev_degree_compiled_and_python_agree(monkeypatch):
     monkeypatch.setattr(_kernels, "ENABLED", False)
     slow = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
     assert fast == slow
+
+
+@pytest.mark.parametrize("m", [1, 2, 7, 40])
+def test_skew_exp_series_matches_svd_and_dense(rng, m):
+    """Lanczos' small exponentials by the compiled series (numba) against the SVD path and
+    scipy.linalg.expm, for several columns and times of either sign and zero."""
+    import scipy.linalg as la
+
+    p = 3
+    beta = rng.uniform(0.2, 3.0, (m - 1, p))
+    beta[:, 2] *= 1e-3  # a nearly zero H
+    s = np.array([0.0, 0.3, -1.7, 5.0, -12.0, 1e-10])
+    fast = fvf.expmv._SkewExpSeries(beta)
+    svd = fvf.expmv._SkewExp(beta)
+    E = fast.e1(s)
+    np.testing.assert_allclose(E, svd.e1(s), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(fast.last(s), svd.last(s), rtol=0, atol=1e-13)
+    for c in range(p):
+        H = np.zeros((m, m))
+        for j in range(m - 1):
+            H[j + 1, j], H[j, j + 1] = beta[j, c], -beta[j, c]
+        for g, sg in enumerate(s):
+            np.testing.assert_allclose(E[c, g], la.expm(sg * H)[:, 0], rtol=0, atol=1e-13)

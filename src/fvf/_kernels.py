@@ -13,7 +13,9 @@ these kernels do the product and that extra work in the same pass over the rows:
   Chebyshev term for several times, with c = 1);
 - :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
   one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
-- :func:`bessel_rows`: Miller's recurrence for the series' coefficients.
+- :func:`bessel_rows`: Miller's recurrence for the series' coefficients;
+  :func:`skew_chebyshev_basis`: the same series' vectors for the small skew tridiagonal
+  matrices of Lanczos (its error checks and outputs, instead of an SVD each).
 
 Vectors are flat C-contiguous float64 arrays of n·p entries, column q of row i at i·p + q.
 The index arrays are unsigned views of the matrix's own (see :func:`csr_views`): an
@@ -59,6 +61,7 @@ __all__ = [
     "abs_stats",
     "power_step",
     "bessel_rows",
+    "skew_chebyshev_basis",
 ]
 
 
@@ -241,6 +244,29 @@ def _bessel_rows(x, start, kmax, out):  # pragma: no cover - jitted
             out[j, k] = 0.0
 
 
+def _skew_chebyshev_basis(beta, r, P):  # pragma: no cover - jitted
+    # P[c, k] = P_k(H_c / r_c) e_1, P_0 = I, P_1 = H/r, P_{k+1} = 2 (H/r) P_k + P_{k−1},
+    # H_c skew tridiagonal: (H x)_i = β_{i−1} x_{i−1} − β_i x_{i+1} (β = beta[:, c])
+    p, K1, m = P.shape
+    for c in range(p):
+        inv = 1.0 / r[c]
+        for k in range(K1):
+            for i in range(m):
+                P[c, k, i] = 0.0
+        P[c, 0, 0] = 1.0
+        for k in range(K1 - 1):
+            for i in range(m):
+                h = 0.0
+                if i > 0:
+                    h += beta[i - 1, c] * P[c, k, i - 1]
+                if i < m - 1:
+                    h -= beta[i, c] * P[c, k, i + 1]
+                if k == 0:
+                    P[c, 1, i] = inv * h
+                else:
+                    P[c, k + 1, i] = 2.0 * inv * h + P[c, k - 1, i]
+
+
 def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: no cover
     # P = diag(s)|A|diag(1/s). sym: md = P d. Else md = ½(P d + Pᵀ d) − |diag A| d, with
     # Pᵀ d = diag(1/s)|A|ᵀ diag(s) d scattered from the rows into g (dg: |diag A|, summed
@@ -396,6 +422,29 @@ def power_step(
     """
     r, top = _jit(_power_step)(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
     return float(r), float(top)
+
+
+def skew_chebyshev_basis(beta: np.ndarray, r: np.ndarray, kmax: int) -> np.ndarray:
+    """The Chebyshev vectors P_k(H_c / r_c) e_1 of small skew tridiagonal matrices.
+
+    Parameters
+    ----------
+    beta : float64 (m − 1, p)
+        Column c holds the sub-diagonal β of H_c (H[j+1, j] = β_j = −H[j, j+1]).
+    r : float64 (p,)
+        Scales r_c > 0 (r_c ≥ ‖H_c‖ keeps every vector within norm 1).
+    kmax : int
+
+    Returns
+    -------
+    float64 (p, kmax + 1, m)
+        P_0 = I, P_1 = H/r, P_{k+1} = 2 (H/r) P_k + P_{k−1} applied to e_1, so that
+        exp(s H) e_1 = J₀(rs) e_1 + 2 Σ_{k≥1} J_k(rs) P_k(H/r) e_1 (Jacobi–Anger).
+    """
+    beta = np.ascontiguousarray(beta, dtype=np.float64)
+    out = np.empty((beta.shape[1], int(kmax) + 1, beta.shape[0] + 1))
+    _jit(_skew_chebyshev_basis)(beta, np.ascontiguousarray(r, dtype=np.float64), out)
+    return out
 
 
 def bessel_rows(x: np.ndarray, kmax: int) -> np.ndarray:
