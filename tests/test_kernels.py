@@ -133,11 +133,15 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 def _spy(monkeypatch) -> dict:
     """Count the products of the fused kernels (an agreement test must run them)."""
     calls = {"n": 0}  # products done by the kernels (term_run: one per coefficient)
-    for name in ("term_run", "term_combine"):  # the recurrences' kernels
+    for name in ("term_run", "term_chain", "term_combine"):  # the recurrences' kernels
         real = getattr(_kernels, name)
 
         def wrapped(*args, _real=real, _name=name):
-            calls["n"] += len(args[4]) if _name == "term_run" else 1
+            # term_run: one product per coefficient; term_chain: ``count``; else one
+            if _name == "term_run":
+                calls["n"] += len(args[4])
+            else:
+                calls["n"] += args[3] if _name == "term_chain" else 1
             return _real(*args)
 
         monkeypatch.setattr(_kernels, name, wrapped)
@@ -257,3 +261,19 @@ def test_skew_exp_series_matches_svd_and_dense(rng, m):
             H[j + 1, j], H[j, j + 1] = beta[j, c], -beta[j, c]
         for g, sg in enumerate(s):
             np.testing.assert_allclose(E[c, g], la.expm(sg * H)[:, 0], rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
+@pytest.mark.parametrize("p", [1, 3])
+def test_term_chain_matches_dense(rng, index_dtype, p):
+    """term_chain's run of terms Y[f] = Y[f − 2] + A Y[f − 1] against dense algebra; the
+    slots before f0 and after the run are left alone."""
+    n, chunk = 40, 7
+    A = _random_csr(n, rng, index_dtype)
+    Y0 = rng.standard_normal((chunk, n, p))
+    Y = Y0.copy()
+    _kernels.term_chain(_fused(A), Y.reshape(chunk, -1), 3, 3, p)
+    ref = Y0.copy()
+    for f in range(3, 6):
+        ref[f] = ref[f - 2] + A.toarray() @ ref[f - 1]
+    np.testing.assert_allclose(Y, ref, rtol=1e-13, atol=1e-12)

@@ -8,9 +8,10 @@ these kernels do the product and that extra work in the same pass over the rows:
 - :func:`term_run`: y ← y + A x, then out ← out + c y, for a run of terms with x and y
   (the two rows of one array) swapping roles: the Chebyshev terms for one time, with
   ‖y‖_W and max|y| of the last when asked;
+- :func:`term_chain`: y_{k+1} ← y_{k−1} + A y_k for a run of terms kept side by side (the
+  Chebyshev terms for several times);
 - :func:`term_combine`: y ← diag(c) prev + A x, with the W-norms of its p columns and their
-  W-inner products with x and prev when asked (a Lanczos vector and its skew check; a
-  Chebyshev term for several times, with c = 1);
+  W-inner products with x and prev when asked (a Lanczos vector and its skew check);
 - :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
   one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
 - :func:`bessel_rows`: Miller's recurrence for the series' coefficients;
@@ -57,6 +58,7 @@ __all__ = [
     "ENABLED",
     "csr_views",
     "term_run",
+    "term_chain",
     "term_combine",
     "abs_stats",
     "power_step",
@@ -145,6 +147,38 @@ def _term_run_block(indptr, indices, data, Y, cur, out, coef, p):  # pragma: no 
                     dst[b + q] += a * src[jb + q]
             for q in range(p):
                 out[b + q] += c * dst[b + q]
+
+
+def _term_chain(indptr, indices, data, Y, f0, count):  # pragma: no cover - jitted
+    # one column: Y[f] ← Y[f − 2] + A Y[f − 1] for f = f0 … f0 + count − 1
+    n = indptr.shape[0] - 1
+    for f in range(f0, f0 + count):
+        src = Y[f - 1]
+        prev = Y[f - 2]
+        dst = Y[f]
+        for i in range(n):
+            s = prev[i]
+            for k in range(indptr[i], indptr[i + 1]):
+                s += data[k] * src[indices[k]]
+            dst[i] = s
+
+
+def _term_chain_block(indptr, indices, data, Y, f0, count, p):  # pragma: no cover
+    # _term_chain for p > 1 interleaved columns
+    n = indptr.shape[0] - 1
+    for f in range(f0, f0 + count):
+        src = Y[f - 1]
+        prev = Y[f - 2]
+        dst = Y[f]
+        for i in range(n):
+            b = i * p
+            for q in range(p):
+                dst[b + q] = prev[b + q]
+            for k in range(indptr[i], indptr[i + 1]):
+                a = data[k]
+                jb = indices[k] * p
+                for q in range(p):
+                    dst[b + q] += a * src[jb + q]
 
 
 def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pragma: no cover
@@ -342,6 +376,27 @@ def term_run(
     if not norms:
         w, s2 = _NO_W, _NO_NORMS
     _jit(_term_run)(csr[0], csr[1], csr[2], Y, int(cur), out, coef, w, s2, norms)
+
+
+def term_chain(
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray], Y: np.ndarray, f0: int, count: int, p: int
+) -> None:
+    """Y[f] ← Y[f − 2] + A Y[f − 1] for f = f0 … f0 + count − 1, each in one pass over A's
+    rows, in one call (the Chebyshev terms for several times, kept for one GEMM into
+    the outputs).
+
+    Parameters
+    ----------
+    csr : (indptr, indices, data)
+        A (n, n) in CSR, as :func:`csr_views` gives it.
+    Y : float64 (chunk, n·p)
+        The terms (p columns interleaved), C-contiguous; f0 ≥ 2, f0 + count ≤ chunk.
+    f0, count, p : int
+    """
+    if p > 1:
+        _jit(_term_chain_block)(csr[0], csr[1], csr[2], Y, int(f0), int(count), int(p))
+    else:
+        _jit(_term_chain)(csr[0], csr[1], csr[2], Y, int(f0), int(count))
 
 
 def term_combine(

@@ -1472,7 +1472,7 @@ def _run_chebyshev(
     op = _Operator(Aop, n, scale=2.0 / R)
     mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
     fused = op.fused  # numba's fused kernels (fvf._kernels), or None
-    ones, s2 = np.ones(p), np.zeros((3, p))
+    s2 = np.zeros((3, p))  # norms of the last term (numba, one column)
     try:
         nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
         inv_nu0 = _safe_div(np.ones(p), nu0)
@@ -1575,14 +1575,14 @@ def _run_chebyshev(
             if k + 2 >= coef.shape[1]:
                 coef = _cheb_coefficients(taus, k_cap + 2)
                 absc = np.abs(coef)
+            # the terms up to the next measured one, with no other work
+            every = CHEB_CHECK_EVERY
+            stop = min(next_check if k < next_check else k + 1, (k // every + 1) * every)
+            stop = min(stop, k_cap + 1)
+            stop = max(min(stop, coef.shape[1] - 2), k + 1)
+            op.count(stop - k, p)
             if T == 1:  # y_{k+1} = 2 (A/R) y_k + y_{k−1}, in the slot of y_{k−1}
-                # terms up to the next measured one, with no other work
-                every = CHEB_CHECK_EVERY
-                stop = min(next_check if k < next_check else k + 1, (k // every + 1) * every)
-                stop = min(stop, k_cap + 1)
-                stop = max(min(stop, coef.shape[1] - 2), k + 1)
                 c0, out0 = coef[0], acc[0]
-                op.count(stop - k, p)
                 if fused is not None:  # the run of terms in one call, each term's
                     # product and axpy in one pass, the last one's norms too (numba)
                     _kernels.term_run(fused, flat, cur_i, out0, c0[k + 1 : stop + 1], p, wk, s2)
@@ -1597,30 +1597,22 @@ def _run_chebyshev(
                     k += 1
                     _AXPY(flat[cur_i], out0, a=c0[k])
                 continue
-            if filled == chunk:  # add the chunk, keep y_{k−1}, y_k in slots 0 and 1
-                acc += coef[:, k0 + start : k0 + chunk] @ flat[start:]
-                np.copyto(buf[0], buf[chunk - 2])
-                np.copyto(buf[1], buf[chunk - 1])
-                k0, start, filled = k - 1, 2, 2
-            if fused is not None:  # copy and product in one pass (numba)
-                _kernels.term_combine(
-                    fused,
-                    flat[filled - 1],
-                    flat[filled - 2],
-                    ones,
-                    flat[filled],
-                    ones,
-                    s2,
-                    p,
-                    False,
-                )
-            else:
-                np.copyto(buf[filled], buf[filled - 2])
-                mv(flat[filled - 1], flat[filled])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
-            op.count(1, p)
-            cur_i = filled
-            filled += 1
-            k += 1
+            while k < stop:  # T > 1: into the next slots of the chunk, y_{k+1} = y_{k−1} + …
+                if filled == chunk:  # add the chunk, keep y_{k−1}, y_k in slots 0 and 1
+                    acc += coef[:, k0 + start : k0 + chunk] @ flat[start:]
+                    np.copyto(buf[0], buf[chunk - 2])
+                    np.copyto(buf[1], buf[chunk - 1])
+                    k0, start, filled = k - 1, 2, 2
+                run = min(stop - k, chunk - filled)
+                if fused is not None:  # copy and product in one pass, the run in one call
+                    _kernels.term_chain(fused, flat, filled, run, p)
+                else:
+                    for f in range(filled, filled + run):
+                        np.copyto(buf[f], buf[f - 2])
+                        mv(flat[f - 1], flat[f])  # y_{k+1} = 2 (A/R) y_k + y_{k−1}
+                filled += run
+                k += run
+            cur_i = filled - 1
         if T > 1:
             acc += coef[:, k0 + start : k0 + filled] @ flat[start:filled]
         if not np.isfinite(acc).all():
