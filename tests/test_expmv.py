@@ -1030,3 +1030,16 @@ def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch):
     assert info["method"] == "lanczos" and 1 <= len(checks) <= 2, checks
     ref = spla.expm_multiply(times[-1] * A, b, traceA=times[-1] * A.diagonal().sum())
     assert max(wrel(X[-1], ref, w), maxrel(X[-1], ref)) <= TOL
+
+
+def test_add_product_in_place(rng):
+    acc = rng.standard_normal((5, 30))
+    C = rng.standard_normal((5, 9))[:, 2:6]  # a column slice, as of the coefficient table
+    F = rng.standard_normal((4, 30))
+    want = acc + C @ F
+    before = acc
+    fvf.expmv._add_product(acc, C, F)
+    assert acc is before
+    np.testing.assert_allclose(acc, want, rtol=1e-14, atol=1e-14)
+    fvf.expmv._add_product(acc, C[:, :0], F[:0])  # nothing to add
+    np.testing.assert_allclose(acc, want, rtol=1e-14, atol=1e-14)

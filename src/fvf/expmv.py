@@ -97,6 +97,22 @@ from . import _kernels
 from .errors import FlowOverflowError, FvfWarning, ParameterError
 
 _AXPY = sla.get_blas_funcs("axpy", dtype=np.float64)  # y += a x in place
+_GEMM = sla.get_blas_funcs("gemm", dtype=np.float64)
+
+
+def _add_product(acc: np.ndarray, C: np.ndarray, F: np.ndarray) -> None:
+    """acc += C @ F in place by one GEMM with β = 1 (no temporary and no second pass
+    over acc; 0.8x the time of ``acc += C @ F`` for (16, 64) @ (64, 3k)).
+
+    acc (T, N) and F (m, N) C-contiguous, C (T, m): on the transposes, which BLAS sees
+    as Fortran-ordered, acc.T += F.T @ C.T.
+    """
+    if F.shape[0] == 0:
+        return
+    res = _GEMM(1.0, F.T, C.T, 1.0, acc.T, overwrite_c=True)
+    if not np.shares_memory(res, acc):  # pragma: no cover - acc not contiguous
+        acc += res.T
+
 
 try:  # in-place y += A x kernels (scipy's own CSR kernels, no temporary arrays)
     from scipy.sparse import _sparsetools as _st
@@ -1330,6 +1346,9 @@ def _inverse_norms(X: np.ndarray, w: np.ndarray | None, maxnorm: bool) -> np.nda
     norms = np.ones((2, T, p))
     if T == 1:  # one time: the small-n BLAS paths of _wnorm2 (a few µs each)
         norms[0, 0] = _wnorm2(X[0], w)
+    elif p == 1:  # squares and one GEMV (2x faster than einsum's 3-operand loop)
+        sq = np.square(X.reshape(T, n))
+        norms[0, :, 0] = sq.sum(axis=1) if w is None else sq @ w
     elif w is None:
         norms[0] = np.einsum("tnp,tnp->tp", X, X)
     else:
@@ -1537,7 +1556,7 @@ def _run_chebyshev(
                     # their norms make the estimates relative to the outputs (as tol is),
                     # not to B (compressible flows concentrate f: max|X| up to 60 max|B|)
                     if T > 1:  # add the pending terms to the outputs
-                        acc += coef[:, k0 + start : k0 + filled] @ flat[start:filled]
+                        _add_product(acc, coef[:, k0 + start : k0 + filled], flat[start:filled])
                         start = filled
                     inv_out = _inverse_norms(out, w, maxnorm)
                 rel_out = None
@@ -1599,7 +1618,7 @@ def _run_chebyshev(
                 continue
             while k < stop:  # T > 1: into the next slots of the chunk, y_{k+1} = y_{k−1} + …
                 if filled == chunk:  # add the chunk, keep y_{k−1}, y_k in slots 0 and 1
-                    acc += coef[:, k0 + start : k0 + chunk] @ flat[start:]
+                    _add_product(acc, coef[:, k0 + start : k0 + chunk], flat[start:])
                     np.copyto(buf[0], buf[chunk - 2])
                     np.copyto(buf[1], buf[chunk - 1])
                     k0, start, filled = k - 1, 2, 2
@@ -1614,7 +1633,7 @@ def _run_chebyshev(
                 k += run
             cur_i = filled - 1
         if T > 1:
-            acc += coef[:, k0 + start : k0 + filled] @ flat[start:filled]
+            _add_product(acc, coef[:, k0 + start : k0 + filled], flat[start:filled])
         if not np.isfinite(acc).all():
             raise FlowOverflowError(_NONFINITE)
         # the outputs' own norms decide: the rounding was relative to B, the tail to the
