@@ -133,16 +133,23 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 def _spy(monkeypatch) -> dict:
     """Count the products of the fused kernels (an agreement test must run them)."""
     calls = {"n": 0}  # products done by the kernels (term_run: one per coefficient)
-    for name in ("term_run", "term_chain", "term_combine"):  # the recurrences' kernels
+    kernels = ("term_run", "term_chain", "term_combine", "lanczos_run")  # the recurrences'
+    for name in kernels:
         real = getattr(_kernels, name)
 
         def wrapped(*args, _real=real, _name=name):
-            # term_run: one product per coefficient; term_chain: ``count``; else one
+            out = _real(*args)
+            # term_run: one product per coefficient; term_chain: ``count``; lanczos_run:
+            # the vectors it finished; term_combine: one
             if _name == "term_run":
                 calls["n"] += len(args[4])
+            elif _name == "term_chain":
+                calls["n"] += args[3]
+            elif _name == "lanczos_run":
+                calls["n"] += int(args[9][1]) - args[5]
             else:
-                calls["n"] += args[3] if _name == "term_chain" else 1
-            return _real(*args)
+                calls["n"] += 1
+            return out
 
         monkeypatch.setattr(_kernels, name, wrapped)
     return calls
@@ -277,3 +284,44 @@ def test_term_chain_matches_dense(rng, index_dtype, p):
     for f in range(3, 6):
         ref[f] = ref[f - 2] + A.toarray() @ ref[f - 1]
     np.testing.assert_allclose(Y, ref, rtol=1e-13, atol=1e-12)
+
+
+def _lanczos_coefficients(A, b, w, m, fused: bool, monkeypatch):
+    monkeypatch.setattr(_kernels, "ENABLED", fused)
+    op = fvf.expmv._Operator(A, A.shape[0])
+    V = np.zeros((m + 1, A.shape[0], 1))
+    V[0, :, 0] = b
+    lz = fvf.expmv._Lanczos(op, w, V, limit=1e-9)
+    lz.extend_to(m)
+    return lz, V
+
+
+def test_lanczos_run_matches_the_numpy_recurrence(monkeypatch, rng):
+    """The compiled run of Lanczos vectors (one column) against the numpy/scipy path:
+    the same β, ν and vectors, and the same stop at an exact breakdown."""
+    n = 60
+    S = sp.random_array((n, n), density=0.1, rng=rng, format="csr")
+    w = rng.uniform(0.5, 2.0, n)
+    A = sp.csr_array(sp.diags_array(1.0 / w) @ (S - S.T))  # W-skew
+    b = rng.standard_normal(n)
+    fast, Vf = _lanczos_coefficients(A, b, w, 30, True, monkeypatch)
+    assert fast.op.fused is not None and fast.m == 30 and fast.op.matvecs == 30
+    slow, Vs = _lanczos_coefficients(A, b, w, 30, False, monkeypatch)
+    np.testing.assert_allclose(fast.beta, slow.beta, rtol=1e-12)
+    np.testing.assert_allclose(fast.nu, slow.nu, rtol=1e-12)
+    # (later vectors drift apart as rounding differences grow, as Lanczos' do: 3e-10 by 23)
+    np.testing.assert_allclose(Vf[:13], Vs[:13], rtol=0, atol=1e-11 * np.abs(Vs[:13]).max())
+    assert fast.mean_beta() == pytest.approx(slow.mean_beta(), rel=1e-12)
+    # a rotation of the first two coordinates: the Krylov space of e_0 has dimension 2
+    R = sp.csr_array(([1.0, -1.0], ([1, 0], [0, 1])), shape=(n, n))
+    e0 = np.eye(n)[0]
+    for fused in (True, False):
+        lz, _ = _lanczos_coefficients(R, e0, None, 10, fused, monkeypatch)
+        assert lz.m == 2 and lz.broken() and lz.beta[1, 0] == 0.0
+
+
+def test_lanczos_run_reports_a_non_skew_operator(monkeypatch, rng):
+    n = 40
+    A = sp.csr_array(sp.random_array((n, n), density=0.2, rng=rng) + sp.eye_array(n))
+    with pytest.raises(fvf.expmv._NotSkew):
+        _lanczos_coefficients(A, rng.standard_normal(n), None, 10, True, monkeypatch)

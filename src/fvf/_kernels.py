@@ -11,7 +11,9 @@ these kernels do the product and that extra work in the same pass over the rows:
 - :func:`term_chain`: y_{k+1} ← y_{k−1} + A y_k for a run of terms kept side by side (the
   Chebyshev terms for several times);
 - :func:`term_combine`: y ← diag(c) prev + A x, with the W-norms of its p columns and their
-  W-inner products with x and prev when asked (a Lanczos vector and its skew check);
+  W-inner products with x and prev when asked (a Lanczos vector of a block and its skew
+  check); :func:`lanczos_run`: a run of Lanczos vectors of one column with their norms
+  and skew checks, in one call;
 - :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
   one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
 - :func:`bessel_rows`: Miller's recurrence for the series' coefficients;
@@ -60,6 +62,7 @@ __all__ = [
     "term_run",
     "term_chain",
     "term_combine",
+    "lanczos_run",
     "abs_stats",
     "power_step",
     "bessel_rows",
@@ -222,6 +225,76 @@ def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pra
                     if norms == 2:
                         s2[1, q] += ws * x[b + q]
                         s2[2, q] += ws * prev[b + q]
+
+
+def _lanczos_run(  # pragma: no cover - jitted
+    indptr, indices, data, V, w, nu, beta, j0, j1, bsum, limit, res
+):
+    # Lanczos vectors j0 … j1 − 1 of one column (see lanczos_run); res[:6] = status,
+    # j reached, Σβ, and for status 2: diag, off, scale
+    n = indptr.shape[0] - 1
+    status = 0
+    j = j0
+    while j < j1:
+        c = 0.0
+        if j > 0 and nu[j - 1] > 0:
+            c = beta[j - 1] * nu[j] / nu[j - 1]
+        x = V[j]
+        prev = V[j - 1] if j > 0 else V[j]  # (c = 0 for j = 0)
+        vn = V[j + 1]
+        check = j < 3 or j % 8 == 7
+        s0 = 0.0
+        d1 = 0.0
+        d2 = 0.0
+        if check:  # (written apart: a test in the row loop slows every vector)
+            for i in range(n):
+                a = c * prev[i]
+                for k in range(indptr[i], indptr[i + 1]):
+                    a += data[k] * x[indices[k]]
+                vn[i] = a
+                wa = w[i] * a
+                s0 += wa * a
+                d1 += wa * x[i]
+                d2 += wa * prev[i]
+        else:
+            for i in range(n):
+                a = c * prev[i]
+                for k in range(indptr[i], indptr[i + 1]):
+                    a += data[k] * x[indices[k]]
+                vn[i] = a
+                s0 += w[i] * a * a
+        nz = np.sqrt(s0)
+        if not np.isfinite(nz):
+            status = 1
+            break
+        b = nz / nu[j] if nu[j] > 0 else 0.0
+        if check:
+            diag = abs(d1) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
+            off = 0.0
+            if j > 0 and nu[j] * nu[j - 1] > 0:
+                off = abs(d2) / (nu[j] * nu[j - 1])
+            scale = max(b, bsum / max(j, 1))
+            if max(diag, off) > max(limit, 1e-12 * scale):
+                res[3] = diag
+                res[4] = off
+                res[5] = scale
+                status = 2
+                break
+        if nz > 1e150 or (nz > 0 and nz < 1e-150):  # keep the vectors in range
+            inv = 1.0 / nz
+            for i in range(n):
+                vn[i] *= inv
+            nz = 1.0
+        beta[j] = b
+        nu[j + 1] = nz
+        bsum += b
+        j += 1
+        if b == 0.0:
+            status = 3
+            break
+    res[0] = status
+    res[1] = j
+    res[2] = bsum
 
 
 def _abs_stats(indptr, indices, data):  # pragma: no cover - jitted
@@ -430,6 +503,49 @@ def term_combine(
         0, 1 or 2.
     """
     _jit(_term_combine)(csr[0], csr[1], csr[2], x, prev, c, y, w, s2, int(p), int(norms))
+
+
+def lanczos_run(
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray],
+    V: np.ndarray,
+    w: np.ndarray,
+    nu: np.ndarray,
+    beta: np.ndarray,
+    j0: int,
+    j1: int,
+    bsum: float,
+    limit: float,
+    res: np.ndarray,
+) -> None:
+    """Vectors j0 … j1 − 1 of fvf.expmv's unnormalized Lanczos recurrence for one column,
+    in one call: y_{j+1} = A y_j + c y_{j−1}, c = β_{j−1} ν_j / ν_{j−1}, in one pass over
+    A's rows with ν_{j+1} = ‖y_{j+1}‖_W, β_j = ν_{j+1} / ν_j, and for j < 3 and every 8th
+    vector the skew checks |⟨A u_j, u_j⟩_W| and |h_{j−1,j} + h_{j,j−1}| against
+    max(limit, 1e-12 · scale) (see fvf.expmv._check_skew). A vector whose norm leaves
+    [1e-150, 1e150] is rescaled to norm 1.
+
+    Parameters
+    ----------
+    csr : (indptr, indices, data)
+        A (n, n) in CSR, as :func:`csr_views` gives it.
+    V : float64 (m_cap + 1, n)
+        The vectors; V[0 … j0] are given.
+    w : float64 (n,)
+        Weights of the inner product (ones for Euclidean).
+    nu, beta : float64 (m_cap + 1,), (m_cap,)
+        ν_0 … ν_{j0} and β_0 … β_{j0 − 1} given; filled on.
+    j0, j1 : int
+    bsum : float
+        Σ β_0 … β_{j0 − 1}.
+    limit : float
+    res : float64 (≥ 6,)
+        Output: res[0] the status (0 done; 1 a non-finite norm; 2 the skew check failed,
+        with diag, off and scale in res[3:6]; 3 a breakdown β = 0), res[1] the first
+        vector not finished (j1 when done), res[2] the new Σβ.
+    """
+    _jit(_lanczos_run)(
+        csr[0], csr[1], csr[2], V, w, nu, beta, int(j0), int(j1), float(bsum), float(limit), res
+    )
 
 
 def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, float]:

@@ -1774,8 +1774,9 @@ class _Lanczos:
 
     y_j = ν_j u_j with known ν_j (no normalization pass over the vectors), so that
     y_{j+1} = ν_j β_j u_{j+1}; β_j = ‖y_{j+1}‖_W / ν_j. One instance per Krylov step, on
-    the basis storage V (m_cap + 1, n, p) whose V[0] holds the start vectors. p = 1 runs on
-    Python floats (few numpy calls per vector: this path is what small meshes pay).
+    the basis storage V (m_cap + 1, n, p) whose V[0] holds the start vectors. p = 1 runs in
+    compiled runs of vectors with numba (:meth:`extend_to`), else on Python floats (few
+    numpy calls per vector: this path is what small meshes pay).
     Every 8th vector (and the first three) it checks that H_m is skew tridiagonal.
     """
 
@@ -1788,6 +1789,7 @@ class _Lanczos:
             self.wk = np.ones(n) if w is None else np.ascontiguousarray(w, dtype=np.float64)
             self.s2 = np.zeros((3, p))
             self.c = np.zeros(p)
+            self.res = np.zeros(6)  # lanczos_run's status
         self.beta = np.zeros((m_cap1 - 1, p))
         self.nu = np.zeros((m_cap1, p))
         self.m = 0
@@ -1813,6 +1815,34 @@ class _Lanczos:
         top = self.bsum1 if self.p == 1 else float(np.max(self.bsum))
         return top / max(self.m, 1)
 
+    def extend_to(self, target: int) -> None:
+        """Add vectors up to ``target`` (fewer at a breakdown): for one column with numba
+        one call of the compiled run (:func:`fvf._kernels.lanczos_run`: the Python work
+        per vector was ~8 µs, a third of a product at 6k faces), else one
+        :meth:`extend` each."""
+        if self.p == 1 and self.fused is not None:
+            j0 = self.m
+            if target <= j0:
+                return
+            res = self.res
+            nu, beta = self.nu[:, 0], self.beta[:, 0]  # (views: filled in place)
+            _kernels.lanczos_run(
+                self.fused, self.V1, self.wk, nu, beta, j0, target, self.bsum1, self.limit, res
+            )
+            j, status = int(res[1]), int(res[0])
+            self.op.count(j - j0 + (status in (1, 2)), 1)  # (a failed vector's product too)
+            self.m, self.bsum1 = j, float(res[2])
+            if status == 1:
+                raise FlowOverflowError(_NONFINITE)
+            if status == 2:
+                _check_skew(float(res[3]), float(res[4]), float(res[5]), self.limit)
+                raise _NotSkew("the skew check failed")  # pragma: no cover - raised above
+            return
+        while self.m < target:
+            self.extend()
+            if self.broken():
+                return
+
     def extend(self) -> None:
         """Add one vector (one product with A on the block)."""
         if self.p == 1:
@@ -1821,44 +1851,35 @@ class _Lanczos:
             self._extend_block()
 
     def _extend1(self) -> None:
+        """One vector of one column on the numpy/scipy path (numba: :meth:`extend_to`)."""
         j, V, w, nu, b1 = self.m, self.V1, self.w, self.nu1, self.b1
         vn = V[j + 1]
         c = b1[j - 1] * nu[j] / nu[j - 1] if j and nu[j - 1] > 0 else 0.0
         self.op.count(1, 1)
         check = j < 3 or j % 8 == 7  # H_m's new column is checked (below)
-        dots = None
-        if self.fused is not None:  # numba: scaled copy, product, norm and dots in one pass
-            self.c[0] = c
-            prev = V[j - 1] if j else V[j]  # (ignored for j = 0: c = 0)
-            s2 = self.s2
-            _kernels.term_combine(self.fused, V[j], prev, self.c, vn, self.wk, s2, 1, 1 + check)
-            nz = math.sqrt(float(s2[0, 0]))
-            dots = (float(s2[1, 0]), float(s2[2, 0]))  # <vn, V[j]>_W, <vn, V[j-1]>_W
+        if j == 0:
+            vn.fill(0.0)
         else:
-            if j == 0:
-                vn.fill(0.0)
-            else:
-                np.multiply(V[j - 1], c, out=vn)
-            self.mv(V[j], vn)
-            if w is None:
-                wv = vn
-                nz = math.sqrt(float(np.dot(vn, vn)))
-            elif self.stream:  # large n: one read of w and vn, no temporary
-                wv = None
-                nz = math.sqrt(float(np.einsum("i,i,i->", w, vn, vn)))
-            else:  # small n (in cache): BLAS dot beats einsum's generic loop
-                wv = np.multiply(w, vn, out=self.tmp)
-                nz = math.sqrt(float(np.dot(wv, vn)))
+            np.multiply(V[j - 1], c, out=vn)
+        self.mv(V[j], vn)
+        if w is None:
+            wv = vn
+            nz = math.sqrt(float(np.dot(vn, vn)))
+        elif self.stream:  # large n: one read of w and vn, no temporary
+            wv = None
+            nz = math.sqrt(float(np.einsum("i,i,i->", w, vn, vn)))
+        else:  # small n (in cache): BLAS dot beats einsum's generic loop
+            wv = np.multiply(w, vn, out=self.tmp)
+            nz = math.sqrt(float(np.dot(wv, vn)))
         if not math.isfinite(nz):
             raise FlowOverflowError(_NONFINITE)
         b = nz / nu[j] if nu[j] > 0 else 0.0
         if check:
-            if dots is None:
 
-                def dot(x):
-                    return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
+            def dot(x):
+                return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
 
-                dots = (float(dot(V[j])), float(dot(V[j - 1])) if j else 0.0)
+            dots = (float(dot(V[j])), float(dot(V[j - 1])) if j else 0.0)
             diag = abs(dots[0]) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
             off = 0.0
             if j and nu[j] * nu[j - 1] > 0:
@@ -1923,8 +1944,6 @@ class _Lanczos:
 
     def broken(self) -> bool:
         """True when every column hit an invariant subspace (β = 0): the basis is exact."""
-        if self.p == 1:
-            return self.b1[-1] == 0.0
         return bool((self.beta[self.m - 1] == 0).all())
 
 
@@ -1993,7 +2012,13 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
         last_check: tuple[int, float] | None = None
         next_check = None  # None: from the Lanczos coefficients (see below)
         while True:
-            lz.extend()
+            # to the next point where a check may be due: the start of the decay at the
+            # mean β so far, or the next check
+            if next_check is None:
+                target = max(4, math.ceil(2.0 * lz.mean_beta() * tau_rem + 3))
+            else:
+                target = next_check
+            lz.extend_to(min(max(target, lz.m + 1), m_cap))
             m = lz.m
             if m < m_cap and not lz.broken():
                 if next_check is None:
