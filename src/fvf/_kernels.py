@@ -489,7 +489,7 @@ def term_combine(
     Parameters
     ----------
     csr : (indptr, indices, data)
-        As for :func:`term_accumulate`.
+        As for :func:`term_run`.
     x, prev, y : float64 (n·p,)
         Flat C-contiguous vectors; y must alias neither x nor prev.
     c : float64 (p,)
@@ -555,7 +555,7 @@ def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, fl
     Parameters
     ----------
     csr : (indptr, indices, data)
-        As for :func:`term_accumulate`.
+        As for :func:`term_run`.
     """
     top, dmax, amax = _jit(_abs_stats)(csr[0], csr[1], csr[2])
     return float(top), float(dmax), float(amax)
@@ -578,7 +578,7 @@ def power_step(
     Parameters
     ----------
     csr : (indptr, indices, data)
-        A in CSR, as for :func:`term_accumulate` (|a_ij| is taken on the fly).
+        A in CSR, as for :func:`term_run` (|a_ij| is taken on the fly).
     s, inv_s : float64 (n,)
         √w and 1/√w.
     d : float64 (n,)

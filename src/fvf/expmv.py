@@ -34,7 +34,8 @@ space K_m(A, y) with A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product
   sparse product on an (n, p) block. exp(s H_m) e_1 is exact and cheap for any s: with
   D = diag(iᵏ), D⁻¹ H_m D = −i T_m, T_m symmetric tridiagonal with zero diagonal, whose
   eigen-decomposition is an SVD of a bidiagonal matrix of half the size (see
-  :class:`_SkewExp`).
+  :class:`_SkewExp`); with numba, the Chebyshev series of H_m itself, compiled, makes an
+  error check 1.6–4.8× cheaper (m = 50–110, :class:`_SkewExpSeries`).
 * Otherwise: incomplete orthogonalization (each vector is W-orthogonalized against the
   last :data:`IOM_WINDOW` ones, so a basis vector costs O(n) work, not O(n m)); H_m is
   banded Hessenberg and its small exponentials are dense (scipy.linalg.expm). The Krylov
@@ -472,8 +473,8 @@ class _SkewExpSeries:
 
     P_k the real three-term recurrence of :func:`_run_chebyshev` (‖P_k(H/r)‖ ≤ 1), summed
     to the order x + 12 x^{1/3} + 60, x = r·max|s| (the tail is far below round-off). An
-    error check then costs ~30 µs where the SVD of :class:`_SkewExp` costs 130–400 µs
-    (m = 50–80), the price of 6–20 products at 6k faces.
+    error check then costs ~100 µs where with the SVD of :class:`_SkewExp` it costs
+    160–540 µs (m = 50–110; 6–20 products at 6k faces).
 
     Parameters
     ----------
@@ -2031,7 +2032,10 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
                     rho_tau = 2.0 * lz.mean_beta() * tau_rem
                     if m < max(4, rho_tau + 3):
                         continue
-                    next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - 2)
+                    # (where a check costs less than a product, from 8 vectors before it:
+                    # the degree overshot by 4 at 1.5M faces)
+                    lead = 2 if _check_gap(op, p, m) > 1 else 8
+                    next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - lead)
                 if m < next_check:
                     continue
             # error estimate over the remaining interval (relative to ‖y‖, per column)
@@ -2186,9 +2190,14 @@ def _check_gap(op: _Operator, p: int, m: int = 48, dense: bool = False) -> int:
 
     ≈ sqrt(check cost / product cost): checks at every vector on large meshes, every few
     on small ones (an overshoot costs about gap/2 products, the checks cost/gap each).
-    A check costs an SVD of size m/2 (skew case) or a dense m × m exponential.
+    A check costs a small skew exponential per column (measured for m = 50–110: 100–115 µs
+    by the compiled series with numba, 160–540 µs by the SVD without; one model for
+    both, so that both paths take the same steps) or a dense m × m exponential.
     """
-    check = (3e-5 + 3e-8 * m * m) * p if not dense else 1e-4 + 1.5e-7 * m * m
+    if dense:
+        check = 1e-4 + 1.5e-7 * m * m
+    else:
+        check = 1e-4 * p
     return max(1, int(round(math.sqrt(check / op.product_cost(p)))))
 
 
