@@ -340,12 +340,15 @@ def test_choose_method():
 
 def test_choose_method_for_skew_operators(monkeypatch):
     """A declared skew operator: Lanczos for several outputs, and for one right-hand side
-    from CHEB_SKEW_MIN_N on."""
+    with numba's kernels, or from CHEB_SKEW_MIN_N on without them."""
     A = _flow_operator(fvf.icosphere(2), "skew")
     assert A.shape[0] < fvf.expmv.CHEB_SKEW_MIN_N
     assert choose_method(A, [50.0, 20.0], 4, skew=True) == "krylov"  # several outputs
     assert choose_method(A, [50.0, 20.0], 1, skew=True) == "krylov"
     assert choose_method(A, [50.0, -50.0, 0.0], 4, skew=True) == "chebyshev"  # one |t| ≠ 0
+    monkeypatch.setattr(fvf._kernels, "ENABLED", True)
+    assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # compiled Lanczos
+    monkeypatch.setattr(fvf._kernels, "ENABLED", False)
     assert choose_method(A, 50.0, 1, skew=True) == "chebyshev"  # small n: the series
     monkeypatch.setattr(fvf.expmv, "CHEB_SKEW_MIN_N", A.shape[0])
     assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # large n: Lanczos
@@ -824,9 +827,10 @@ def test_chebyshev_checks_a_skew_declaration(mesh):
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = 25 * mesh.mean_edge_length
-    assert choose_method(A, t, skew=True, inner=w) == "chebyshev"
-    with pytest.warns(KrylovFallbackWarning, match="not skew-adjoint"):
-        x, info = expm_action(A, b, t, inner=w, skew=True, return_info=True)
+    with pytest.warns(KrylovFallbackWarning) as record:
+        x, info = expm_action(A, b, t, inner=w, skew=True, method="chebyshev", return_info=True)
+    said = " ".join(str(r.message) for r in record)
+    assert "|<A b, b>_W|" in said and "not skew-adjoint" in said  # the series, then Lanczos
     assert info["method"] == "iom" and 0 < info["wasted_matvecs"] <= 3  # 1 + Lanczos its 2
     assert wrel(x, dense_exp(A, b, t)[0], w) <= TOL
 
@@ -885,9 +889,10 @@ def test_auto_keeps_the_series_above_its_rounding_floor():
     so "auto" does not spend the products (review: 230 of 336 were wasted)."""
     A = _flow_operator(fvf.icosphere(2), "skew")
     t = 40 * fvf.icosphere(2).mean_edge_length
-    assert choose_method(A, t, skew=True, tol=1e-10) == "chebyshev"
-    assert choose_method(A, t, skew=True, tol=1e-14) == "krylov"
-    assert choose_method(A, t, 4, tol=1e-14) == "krylov"
+    assert choose_method(A, t, 4, skew=True, tol=1e-10) == "chebyshev"
+    assert choose_method(A, t, 4, skew=True, tol=1e-14) == "krylov"
+    assert choose_method(A, t, tol=1e-10) == "chebyshev"
+    assert choose_method(A, t, tol=1e-14) == "krylov"
 
 
 def test_bessel_recurrences_below_the_turning_point():

@@ -174,9 +174,12 @@ SAFETY = 0.5  # the error estimates aim at SAFETY·tol
 CHEB_MEMORY = 2**28
 #: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R = :func:`skew_bound`).
 CHEB_MIN_TAU = 20.0
-#: ``method="auto"`` with ``skew=True``, one right-hand side and one time: Lanczos from this
-#: n on, the series below it (where Lanczos' fixed per-call work costs more than the
-#: series' extra products; measured crossover between 23k and 94k faces on spot).
+#: ``method="auto"`` with ``skew=True``, one right-hand side and one time, on the
+#: numpy/scipy path (``fvf._kernels.ENABLED`` false): Lanczos from this n on, the series
+#: below it (where Lanczos' per-call work costs more than the series' extra products:
+#: the series was 0.8x Lanczos' time at 6k faces; crossover between 23k and 94k). With
+#: numba's kernels Lanczos is used from :data:`SMALL_N` on (0.88-0.91x the series' time
+#: at 6k faces, 0.98x at 23k; session 7).
 CHEB_SKEW_MIN_N = 20_000
 #: The Chebyshev series gives up (for the Krylov method) once its rounding estimate,
 #: NOISE·√k·max|c_k|‖y_k‖/‖B‖, exceeds CHEB_GROWTH·tol.
@@ -720,13 +723,14 @@ def choose_method(
     """The method ``expm_action(..., method="auto")`` uses for these inputs.
 
     * n < :data:`SMALL_N`, or every t is 0: ``"expm_multiply"`` (nothing to win).
-    * ``skew=True`` with several times, or with one right-hand side and one time from
-      n = :data:`CHEB_SKEW_MIN_N` on: ``"krylov"`` (Lanczos, which also keeps the norm
-      to round-off). It needs 1.2–1.4× fewer vectors than the series; with one
-      right-hand side it was 0.92× the series' time at 94k faces and 0.83× at 1.5M, for
-      16 times 0.75–0.9× (6k–94k faces), every output being a combination of all the
-      vectors. Below that n, its fixed per-call work (small dense exponentials for the
-      step control) made it as slow or slower than the series (up to 1.3× at 6k–23k); on
+    * ``skew=True`` with several times, or with one right-hand side and one time (with
+      numba's kernels; without them from n = :data:`CHEB_SKEW_MIN_N` on): ``"krylov"``
+      (Lanczos, which also keeps the norm to round-off). It needs 1.2–1.4× fewer vectors
+      than the series; with one right-hand side it was 0.88–0.91× the series' time at
+      6k faces, 0.92× at 94k and 0.83× at 1.5M, for 16 times 0.8× (6k–23k faces),
+      every output being a combination of all the vectors. Without the kernels its
+      per-call work (small dense exponentials for the step control, Python work per
+      vector) made it slower than the series below ~20k vertices (1.25× at 6k); on
       blocks of 8 the series was 1.2–1.5× faster at every size.
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
       ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
@@ -787,7 +791,8 @@ def _choose(
         return "expm_multiply", skew_norm
     mags = np.abs(times[times != 0])
     several = mags.size > 1 and bool(mags.min() != mags.max())  # distinct |t| > 0
-    if skew is True and (several or (p == 1 and n >= CHEB_SKEW_MIN_N)):
+    lanczos_min_n = SMALL_N if _kernels.ENABLED else CHEB_SKEW_MIN_N
+    if skew is True and (several or (p == 1 and n >= lanczos_min_n)):
         return "krylov", skew_norm  # Lanczos: fewer vectors, faster there (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
