@@ -495,23 +495,13 @@ class _SkewExpSeries:
 
     def _coefficients(self, s: np.ndarray) -> np.ndarray:
         """c_k(r_c s_g): (p, G, K + 1), the vectors computed to the order they need."""
-        x = np.abs(s)[None, :] * self.r[:, None]  # (p, G)
-        top = float(x.max()) if x.size else 0.0
+        x = s[None, :] * self.r[:, None]  # (p, G)
+        top = float(np.abs(x).max()) if x.size else 0.0
         if self.P is None or top > self.x_top:
             self.P = _kernels.skew_chebyshev_basis(self.beta, self.r, _degree_top(top))
             self.x_top = top
         K = self.P.shape[1] - 1
-        J = np.zeros(x.shape + (K + 1,))
-        big = x >= _BESSEL_TINY
-        if big.any():
-            J[big] = _kernels.bessel_rows(x[big], K)
-        tiny = x[~big]  # J₀ = 1 − x²/4, J₁ = x/2, J₂ = x²/8: exact to O(x³) here
-        J[~big, 0] = 1.0 - 0.25 * tiny * tiny
-        J[~big, 1] = 0.5 * tiny
-        J[~big, 2] = 0.125 * tiny * tiny
-        J[:, :, 1:] *= 2.0
-        J[:, s < 0, 1::2] *= -1.0  # J_k(−x) = (−1)ᵏ J_k(x)
-        return J
+        return _cheb_coefficients(x.ravel(), K).reshape(x.shape + (K + 1,))
 
     def e1(self, s: np.ndarray) -> np.ndarray:
         """[exp(s H) e_1] for the times s (K,): (p, K, m)."""
@@ -1204,10 +1194,7 @@ def chebyshev_degree(tau: float, tol: float) -> int:
     """Terms of the series exp(iτx) = J₀(τ) + 2 Σ iᵏ J_k(τ) T_k(x) needed for an error
     below ``tol`` on [−1, 1]: the smallest m ≥ |τ| with 2 Σ_{k>m} |J_k(τ)| ≤ tol."""
     tau = abs(float(tau))
-    top = _degree_top(tau)
-    if _kernels.ENABLED and tau >= _BESSEL_TINY:  # compiled row (numba): ~20x faster
-        return _degree(np.abs(_kernels.bessel_rows(np.array([tau]), top)[0]), tau, tol)
-    return _degree(np.abs(_bessel_row(tau, top)), tau, tol)
+    return _degree(np.abs(_bessel(np.array([tau]), _degree_top(tau))[0]), tau, tol)
 
 
 def _degree_top(tau: float) -> int:
@@ -1312,32 +1299,42 @@ def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
     return out
 
 
-def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
-    """c_k(τ_j) = J_k(τ_j) (k = 0), 2 J_k(τ_j) (k ≥ 1) for k ≤ kmax: (T, kmax + 1).
+def _bessel(mags: np.ndarray, kmax: int) -> np.ndarray:
+    """J_k(x_j) for k = 0..kmax and x_j ≥ 0 (mags (T,)): (T, kmax + 1) float64, a new array.
 
-    Bessel functions of the distinct |τ| only (J_k(−τ) = (−1)ᵏ J_k(τ)): one scalar
-    recurrence (:func:`_bessel_row`) each, or the vectorized :func:`_bessel_table` when
-    its steps (~7 µs each, one per order up to the largest |τ|'s) cost less than the
-    scalar ones (~0.25 µs, one per order up to each |τ|'s own start; measured). Raises
-    _ChebyshevFailed on non-finite values (a defect, not an overflow of the series).
+    With numba, compiled rows (:func:`fvf._kernels.bessel_rows`, ~5 ns a step), x below
+    :data:`_BESSEL_TINY` by :func:`_bessel_row`'s series. Otherwise the distinct x only:
+    one scalar recurrence (:func:`_bessel_row`) each, or the vectorized
+    :func:`_bessel_table` when its steps (~7 µs each, one per order up to the largest
+    x's) cost less than the scalar ones (~0.25 µs, one per order up to each x's own
+    start; measured).
     """
-    mags = np.abs(taus)
-    if _kernels.ENABLED and float(mags.min()) >= _BESSEL_TINY:  # compiled rows (numba)
-        if taus.size == 1:
-            J = _kernels.bessel_rows(mags, kmax)
-        else:
-            mags, inv = np.unique(mags, return_inverse=True)
-            J = _kernels.bessel_rows(mags, kmax)[inv.ravel()]
-    elif taus.size == 1:
-        J = _bessel_row(abs(float(taus[0])), kmax)[None, :]
+    if _kernels.ENABLED:
+        big = mags >= _BESSEL_TINY
+        if big.all():
+            return _kernels.bessel_rows(mags, kmax)
+        J = np.empty((mags.size, kmax + 1))
+        if big.any():
+            J[big] = _kernels.bessel_rows(mags[big], kmax)
+        J[~big] = [_bessel_row(float(x), kmax) for x in mags[~big]]
+        return J
+    if mags.size == 1:
+        return _bessel_row(float(mags[0]), kmax)[None, :]
+    mags, inv = np.unique(mags, return_inverse=True)
+    steps = np.minimum(kmax, mags + 12.0 * np.cbrt(mags)) + 30.0  # (distinct,) per row
+    if 0.25 * float(steps.sum()) <= 7.0 * float(steps.max()):
+        J = np.stack([_bessel_row(float(x), kmax) for x in mags])
     else:
-        mags, inv = np.unique(np.abs(taus), return_inverse=True)
-        steps = np.minimum(kmax, mags + 12.0 * np.cbrt(mags)) + 30.0  # (distinct,) per row
-        if 0.25 * float(steps.sum()) <= 7.0 * float(steps.max()):
-            J = np.stack([_bessel_row(float(x), kmax) for x in mags])
-        else:
-            J = _bessel_table(mags, kmax)
-        J = J[inv.ravel()]
+        J = _bessel_table(mags, kmax)
+    return J[inv.ravel()]
+
+
+def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
+    """c_k(τ_j) = J_k(τ_j) (k = 0), 2 J_k(τ_j) (k ≥ 1) for k ≤ kmax: (T, kmax + 1), from
+    :func:`_bessel` of |τ| (J_k(−τ) = (−1)ᵏ J_k(τ)). Raises _ChebyshevFailed on
+    non-finite values (a defect, not an overflow of the series).
+    """
+    J = _bessel(np.abs(taus), kmax)
     J[taus < 0, 1::2] *= -1.0
     J[:, 1:] *= 2.0
     if not np.isfinite(J).all():
@@ -1860,14 +1857,13 @@ class _Lanczos:
         """One vector of one column on the numpy/scipy path (numba: :meth:`extend_to`)."""
         j, V, w, nu, b1 = self.m, self.V1, self.w, self.nu1, self.b1
         vn = V[j + 1]
-        c = b1[j - 1] * nu[j] / nu[j - 1] if j and nu[j - 1] > 0 else 0.0
-        self.op.count(1, 1)
-        check = j < 3 or j % 8 == 7  # H_m's new column is checked (below)
         if j == 0:
             vn.fill(0.0)
         else:
+            c = b1[j - 1] * nu[j] / nu[j - 1] if nu[j - 1] > 0 else 0.0
             np.multiply(V[j - 1], c, out=vn)
         self.mv(V[j], vn)
+        self.op.count(1, 1)
         if w is None:
             wv = vn
             nz = math.sqrt(float(np.dot(vn, vn)))
@@ -1880,16 +1876,15 @@ class _Lanczos:
         if not math.isfinite(nz):
             raise FlowOverflowError(_NONFINITE)
         b = nz / nu[j] if nu[j] > 0 else 0.0
-        if check:
+        if j < 3 or j % 8 == 7:
 
             def dot(x):
                 return np.dot(wv, x) if wv is not None else np.einsum("i,i,i->", w, vn, x)
 
-            dots = (float(dot(V[j])), float(dot(V[j - 1])) if j else 0.0)
-            diag = abs(dots[0]) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
+            diag = abs(float(dot(V[j]))) / (nu[j] * nu[j]) if nu[j] > 0 else 0.0
             off = 0.0
             if j and nu[j] * nu[j - 1] > 0:
-                off = abs(dots[1]) / (nu[j] * nu[j - 1])
+                off = abs(float(dot(V[j - 1]))) / (nu[j] * nu[j - 1])
             _check_skew(diag, off, max(b, self.bsum1 / max(j, 1)), self.limit)
         if nz > 1e150 or 0.0 < nz < 1e-150:  # keep the unnormalized vectors in range
             vn *= 1.0 / nz
