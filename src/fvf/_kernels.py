@@ -185,46 +185,27 @@ def _term_chain_block(indptr, indices, data, Y, f0, count, p):  # pragma: no cov
 
 
 def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pragma: no cover
-    # norms: 0 none, 1 Σ w y², 2 also Σ w y x and Σ w y prev (rows of s2)
+    # norms: 0 none, 1 Σ w y², 2 also Σ w y x and Σ w y prev (rows of s2); p columns
+    # interleaved (Lanczos on a block; one column runs in _lanczos_run)
     n = indptr.shape[0] - 1
     s2[:] = 0.0
-    if p == 1:
-        c0 = c[0]
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        for i in range(n):
-            s = c0 * prev[i]
-            for k in range(indptr[i], indptr[i + 1]):
-                s += data[k] * x[indices[k]]
-            y[i] = s
-            if norms:
-                ws = w[i] * s
-                a0 += ws * s
-                if norms == 2:
-                    a1 += ws * x[i]
-                    a2 += ws * prev[i]
-        s2[0, 0] = a0
-        s2[1, 0] = a1
-        s2[2, 0] = a2
-    else:
-        for i in range(n):
-            b = i * p
+    for i in range(n):
+        b = i * p
+        for q in range(p):
+            y[b + q] = c[q] * prev[b + q]
+        for k in range(indptr[i], indptr[i + 1]):
+            a = data[k]
+            jb = indices[k] * p
             for q in range(p):
-                y[b + q] = c[q] * prev[b + q]
-            for k in range(indptr[i], indptr[i + 1]):
-                a = data[k]
-                jb = indices[k] * p
-                for q in range(p):
-                    y[b + q] += a * x[jb + q]
-            if norms:
-                wi = w[i]
-                for q in range(p):
-                    ws = wi * y[b + q]
-                    s2[0, q] += ws * y[b + q]
-                    if norms == 2:
-                        s2[1, q] += ws * x[b + q]
-                        s2[2, q] += ws * prev[b + q]
+                y[b + q] += a * x[jb + q]
+        if norms:
+            wi = w[i]
+            for q in range(p):
+                ws = wi * y[b + q]
+                s2[0, q] += ws * y[b + q]
+                if norms == 2:
+                    s2[1, q] += ws * x[b + q]
+                    s2[2, q] += ws * prev[b + q]
 
 
 def _lanczos_run(  # pragma: no cover - jitted
