@@ -24,12 +24,13 @@ block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times sprea
 
 Columns. "K" is expm_action with its default ``method="auto"``, called as
 fvf.FunctionalFlow calls it (``skew=True`` for J grad y): the Chebyshev series (``cheb``)
-from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for several times of a skew operator,
+from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for a skew operator with several
+times or (with numba's kernels; without them from 20k vertices on) one right-hand side,
 else the Krylov method (``lanczos`` for skew-adjoint A, ``iom`` otherwise); column
-``method`` says which ran.
+``method`` says which ran (fvf.expmv.choose_method).
 
 - ``K prod``: column products of expm_action at tol = 1e-10 (a product with an (n, 8)
-  block counts 8), plus the products with |A| spent on the Chebyshev bound R (6, counted
+  block counts 8), plus the products with |A| spent on the Chebyshev bound R (counted
   as products); ``/blk`` is the number of operator calls.
 - ``EM prod``: products of scipy's expm_multiply, counted by wrapping A in
   ``fvf.expmv.ExpmvCounter`` (with ``traceA``): products with A, then (+) with Aᵀ that
