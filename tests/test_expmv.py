@@ -953,8 +953,8 @@ def test_chebyshev_stops_within_two_terms_of_the_first_accurate_partial_sum(mesh
     """The stop (estimate of the tail relative to the output, docs/notes.md session 7)
     is within two terms of the first partial sum whose error (W and max norm) is within
     SAFETY·tol, and its error is within tol. The rule before (the last two summed terms
-    relative to B) failed its own end check on the compressible bump at both tolerances
-    and handed the work to Krylov (a warning, here an error)."""
+    relative to B) failed its own end check for the compressible bump on the icosphere,
+    at both tolerances, and handed the work to Krylov (a warning, here an error)."""
     A = _flow_operator(mesh, kind)
     w = mesh.vertex_areas
     b = np.exp(-4.0 * np.sum((mesh.vertices - mesh.vertices[0]) ** 2, axis=1))  # a bump
