@@ -451,6 +451,19 @@ def test_bad_inputs():
         assert isinstance(err.value, FvfError) and isinstance(err.value, ValueError)
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("value", [np.inf, -np.inf, np.nan])
+@pytest.mark.parametrize("t", [0.0, [0.0, 0.5], 1e-3])
+def test_non_finite_sparse_operator_is_refused(monkeypatch, compiled, value, t):
+    """expm_action finds a sparse A's non-finite entries from ‖A‖_∞ (no separate pass):
+    with and without the compiled statistics, for any times, zero included."""
+    monkeypatch.setattr(fvf._kernels, "ENABLED", compiled and fvf._kernels.ENABLED)
+    A = _flow_operator(fvf.icosphere(1), "grad").tocsr()
+    A.data[7] = value
+    with pytest.raises(ExpmInputError, match="non-finite entries"):
+        expm_action(A, np.ones(A.shape[0]), t)
+
+
 # ------------------------------------------------------------------ norms and options
 def test_max_norm_control_on_a_graded_mesh():
     """On a graded mesh the error concentrates on small cells: norm="max" controls it."""

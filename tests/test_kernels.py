@@ -225,16 +225,17 @@ def test_fused_lanczos_block_and_euclidean_agree(monkeypatch, rng):
 def test_bessel_rows_match_scipy_and_the_python_rows(monkeypatch):
     from scipy.special import jv
 
-    from fvf.expmv import _bessel_row, _cheb_coefficients, _degree_top
+    from fvf.expmv import _BESSEL_TINY, _bessel_row, _cheb_coefficients, _degree_top
 
-    x = np.array([1e-7, 0.3, 2.4, 38.9, 200.0, 1500.0])
+    # 0 and 3e-9 are below the tiny threshold (the leading terms, inside the kernel)
+    x = np.array([0.0, 3e-9, 1e-7, 0.3, 2.4, 38.9, 200.0, 1500.0])
     kmax = _degree_top(float(x.max()))
-    got = _kernels.bessel_rows(x, kmax)
+    got = _kernels.bessel_rows(x, kmax, _BESSEL_TINY)
     ref = jv(np.arange(kmax + 1)[None, :], x[:, None])
     assert np.abs(got - ref).max() <= 1e-13
     rows = np.stack([_bessel_row(float(v), kmax) for v in x])
     assert np.abs(got - rows).max() <= 1e-15
-    taus = np.array([-3.0, 0.5, 3.0, 40.0, 0.5])  # signs, repeats
+    taus = np.array([-3.0, 0.5, 3.0, 40.0, 0.5, 0.0, -2e-9])  # signs, repeats, tiny
     c1 = _cheb_coefficients(taus, 90)
     monkeypatch.setattr(_kernels, "ENABLED", False)
     c0 = _cheb_coefficients(taus, 90)
@@ -242,8 +243,10 @@ def test_bessel_rows_match_scipy_and_the_python_rows(monkeypatch):
 
 
 def test_chebyshev_degree_compiled_and_python_agree(monkeypatch):
-    taus = [1e-3, 0.7, 12.0, 41.8, 150.0, 900.0]
-    tols = [1e-4, 5e-11, 1e-15]
+    """The compiled degree (one kernel) is the numpy one exactly, tiny τ included."""
+    rng = np.random.default_rng(4)
+    taus = [0.0, 3e-9, 1e-3, 0.7, 12.0, 41.8, 150.0, 900.0, *rng.uniform(0, 400, 40)]
+    tols = [1e-4, 5e-11, 1e-15, 0.3]
     fast = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
     monkeypatch.setattr(_kernels, "ENABLED", False)
     slow = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
@@ -264,13 +267,23 @@ def test_skew_exp_series_matches_svd_and_dense(rng, m):
     svd = fvf.expmv._SkewExp(beta)
     E = fast.e1(s)
     np.testing.assert_allclose(E, svd.e1(s), rtol=0, atol=1e-13)
-    np.testing.assert_allclose(fast.last(s), svd.last(s), rtol=0, atol=1e-13)
+    bl = np.array([0.7, 2.0, 1e-3])
+    for hi in (0.0, 0.4, 5.0, 12.0):
+        for sign in (1.0, -1.0):  # the compiled integral against the SVD's values
+            got = fast.residual_integral(hi, bl, sign)
+            assert got.shape == (p, fvf.expmv._GRID + 1)
+            np.testing.assert_allclose(got, svd.residual_integral(hi, bl, sign), atol=1e-13)
     for c in range(p):
         H = np.zeros((m, m))
         for j in range(m - 1):
             H[j + 1, j], H[j, j + 1] = beta[j, c], -beta[j, c]
         for g, sg in enumerate(s):
             np.testing.assert_allclose(E[c, g], la.expm(sg * H)[:, 0], rtol=0, atol=1e-13)
+        # the integrand at the grid points, from expm: the trapezoid sums of its |values|
+        grid = fvf.expmv._grid(5.0)
+        vals = [abs(bl[c] * la.expm(-g * H)[-1, 0]) for g in grid]
+        ref = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(grid) * np.add(vals[1:], vals[:-1]))])
+        np.testing.assert_allclose(fast.residual_integral(5.0, bl, -1.0)[c], ref, atol=1e-13)
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])

@@ -16,9 +16,11 @@ these kernels do the product and that extra work in the same pass over the rows:
   and skew checks, in one call;
 - :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
   one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
-- :func:`bessel_rows`: Miller's recurrence for the series' coefficients;
+- :func:`bessel_rows`: Miller's recurrence for the series' coefficients, and
+  :func:`chebyshev_degree` from it;
   :func:`skew_chebyshev_basis`: the same series' vectors for the small skew tridiagonal
-  matrices of Lanczos (its error checks and outputs, instead of an SVD each).
+  matrices of Lanczos, and :func:`skew_series`: their exponentials and the error
+  integrals of Lanczos' step control (instead of an SVD each), each in one call.
 
 Vectors are flat C-contiguous float64 arrays of n·p entries, column q of row i at i·p + q.
 The index arrays are unsigned views of the matrix's own (see :func:`csr_views`): an
@@ -46,12 +48,21 @@ ENABLED = ENABLED and importlib.util.find_spec("numba") is not None
 _COMPILED: dict[Callable, Callable] = {}
 
 
+#: Functions that kernels call: compiled first and bound to their module names, so that
+#: the kernels calling them compile against (and cache with) the compiled versions.
+_HELPERS = ("_miller",)
+
+
 def _jit(fn: Callable) -> Callable:
     """The numba-compiled ``fn`` (compiled, or loaded from the disk cache, once)."""
     out = _COMPILED.get(fn)
     if out is None:
         from numba import njit  # pragma: no cover - depends on the environment
 
+        names = globals()
+        for name in _HELPERS:
+            if not hasattr(names[name], "py_func"):  # not yet a numba dispatcher
+                names[name] = njit(cache=True, nogil=True)(names[name])
         out = _COMPILED[fn] = njit(cache=True, nogil=True)(fn)
     return out
 
@@ -66,7 +77,9 @@ __all__ = [
     "abs_stats",
     "power_step",
     "bessel_rows",
+    "chebyshev_degree",
     "skew_chebyshev_basis",
+    "skew_series",
 ]
 
 
@@ -300,36 +313,107 @@ def _abs_stats(indptr, indices, data):  # pragma: no cover - jitted
     return top + bad, dmax + bad, amax + bad
 
 
-def _bessel_rows(x, start, kmax, out):  # pragma: no cover - jitted
-    # Miller's backward recurrence f_{k−1} = (2k/x) f_k − f_{k+1} from f_start = 1e-200 for
-    # each x_j > 0, rescaled by 1e-200 whenever it passes 1e200, normalized by
-    # f₀ + 2 Σ f_{2k} = 1; out[j, k] = J_k(x_j) for k ≤ min(kmax, start_j), 0 beyond.
-    T = x.shape[0]
+def _miller(x, start, tiny, buf):  # pragma: no cover - jitted (called by kernels)
+    # J_k(x) = buf[k] · (returned factor) for k ≤ start, x ≥ 0: Miller's backward
+    # recurrence f_{k−1} = (2k/x) f_k − f_{k+1} from f_start = 1e-200, rescaled by 1e-200
+    # whenever it passes 1e200, normalized by f₀ + 2 Σ f_{2k} = 1. Below tiny a step would
+    # overflow (2k/x · 1e-200): the leading terms J₀ = 1 − x²/4, J₁ = x/2, J₂ = x²/8 are
+    # exact to round-off there.
+    if x < tiny:
+        for k in range(start + 1):
+            buf[k] = 0.0
+        buf[0] = 1.0 - 0.25 * x * x
+        buf[1] = 0.5 * x
+        buf[2] = 0.125 * x * x
+        return 1.0
+    inv = 2.0 / x
+    f_next = 0.0
+    f = 1e-200
+    even = 0.0
+    for k in range(start, 0, -1):
+        buf[k] = f
+        if k % 2 == 0:
+            even += f
+        f, f_next = k * inv * f - f_next, f
+        if abs(f) > 1e200:
+            f *= 1e-200
+            f_next *= 1e-200
+            even *= 1e-200
+            for i in range(k, start + 1):
+                buf[i] *= 1e-200
+    buf[0] = f
+    return 1.0 / (f + 2.0 * even)
+
+
+def _bessel_rows(x, start, kmax, tiny, out):  # pragma: no cover - jitted
+    # out[j, k] = J_k(x_j) for k ≤ min(kmax, start_j), 0 beyond (start_j ≥ 30)
     buf = np.empty(int(start.max()) + 1)
-    for j in range(T):
-        inv = 2.0 / x[j]
+    for j in range(x.shape[0]):
         s = start[j]
-        f_next = 0.0
-        f = 1e-200
-        even = 0.0
-        for k in range(s, 0, -1):
-            buf[k] = f
-            if k % 2 == 0:
-                even += f
-            f, f_next = k * inv * f - f_next, f
-            if abs(f) > 1e200:
-                f *= 1e-200
-                f_next *= 1e-200
-                even *= 1e-200
-                for i in range(k, s + 1):
-                    buf[i] *= 1e-200
-        buf[0] = f
-        norm = 1.0 / (f + 2.0 * even)
+        norm = _miller(x[j], s, tiny, buf)
         top = min(kmax, s)
         for k in range(top + 1):
             out[j, k] = buf[k] * norm
         for k in range(top + 1, kmax + 1):
             out[j, k] = 0.0
+
+
+def _cheb_degree(tau, tol, top, start, tiny):  # pragma: no cover - jitted
+    # fvf.expmv._degree from the row J_k(τ), k ≤ top, in the same order of operations:
+    # tail_i = 2 Σ_{k=⌊τ⌋+1+i}^{top} |J_k| summed from k = top down; the smallest i with
+    # tail_i ≤ tol (tail_L = 0, L = top − ⌊τ⌋); returns ⌊τ⌋ + i
+    buf = np.empty(start + 1)
+    norm = _miller(tau, start, tiny, buf)
+    lo = int(tau)
+    L = top - lo
+    best = L
+    acc = 0.0
+    for i in range(L - 1, -1, -1):
+        k = lo + 1 + i
+        if k <= start:  # (beyond: zeros, as in the table)
+            acc += abs(buf[k] * norm)
+        if 2.0 * acc <= tol:
+            best = i
+        else:
+            break
+    return lo + best
+
+
+def _skew_series(P, r, s, tiny, out, bl, E):  # pragma: no cover - jitted
+    # out[c, g] = J₀(x) P[c, 0] + 2 Σ_{k≥1} J_k(x) P[c, k], x = r_c s_g (J_k(−x) =
+    # (−1)ᵏ J_k(x)): exp(s_g H_c) e_1 when P[c, k] = P_k(H_c / r_c) e_1 (or entries of it).
+    # If E has G columns: E[c, g] = ∫_0^{s_g} |bl_c out[c, σ, −1]| dσ by the cumulative
+    # trapezoid rule on the uniform grid s (s_0 = 0).
+    p, K1, mm = P.shape
+    G = s.shape[0]
+    xm = 0.0
+    for c in range(p):
+        for g in range(G):
+            xm = max(xm, abs(r[c] * s[g]))
+    buf = np.empty(int(xm + 12.0 * np.cbrt(xm)) + 31)
+    for c in range(p):
+        for g in range(G):
+            x = r[c] * s[g]
+            ax = abs(x)
+            start = int(ax + 12.0 * np.cbrt(ax)) + 30
+            norm = _miller(ax, start, tiny, buf)
+            flip = -1.0 if x < 0 else 1.0
+            for i in range(mm):
+                out[c, g, i] = buf[0] * norm * P[c, 0, i]
+            f = 2.0 * norm
+            for k in range(1, min(K1 - 1, start) + 1):
+                f *= flip
+                a = f * buf[k]
+                for i in range(mm):
+                    out[c, g, i] += a * P[c, k, i]
+    if E.shape[1] == G:
+        h = 0.5 * abs(s[1] - s[0]) if G > 1 else 0.0
+        for c in range(p):
+            E[c, 0] = 0.0
+            for g in range(1, G):
+                a0 = abs(bl[c] * out[c, g - 1, mm - 1])
+                a1 = abs(bl[c] * out[c, g, mm - 1])
+                E[c, g] = E[c, g - 1] + h * (a0 + a1)
 
 
 def _skew_chebyshev_basis(beta, r, P):  # pragma: no cover - jitted
@@ -599,15 +683,68 @@ def skew_chebyshev_basis(beta: np.ndarray, r: np.ndarray, kmax: int) -> np.ndarr
     return out
 
 
-def bessel_rows(x: np.ndarray, kmax: int) -> np.ndarray:
-    """J_k(x_j) for k = 0..kmax: (T, kmax + 1) float64, for x (T,) float64, each x_j ≥ 1e-8.
+def chebyshev_degree(tau: float, tol: float, top: int, tiny: float) -> int:
+    """:func:`fvf.expmv.chebyshev_degree` compiled (the same arithmetic, the same result):
+    the smallest m ≥ ⌊τ⌋ with 2 Σ_{k>m}^{top} |J_k(τ)| ≤ tol, for τ ≥ 0, ``top`` > τ.
+    One call where the numpy form's ~10 calls cost ~30 µs, and 3–5× that right after a
+    kernel has streamed a Krylov basis through the caches."""
+    start = int(tau + 12.0 * np.cbrt(tau)) + 30
+    return int(_jit(_cheb_degree)(float(tau), float(tol), int(top), start, float(tiny)))
+
+
+def skew_series(
+    P: np.ndarray, r: np.ndarray, s: np.ndarray, tiny: float, bl: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Lanczos' small exponentials exp(s_g H_c) e_1 from :func:`skew_chebyshev_basis`, and
+    the error integrals of its step control, in one call.
+
+    Parameters
+    ----------
+    P : float64 (p, K + 1, mm)
+        P_k(H_c / r_c) e_1 (mm = m), or some of its entries (e.g. the last, mm = 1); K
+        must reach the order x + 12 x^{1/3} + 30, x = r_c·max|s| (the terms beyond are
+        below round-off).
+    r : float64 (p,)
+        The scales r_c > 0.
+    s : float64 (G,)
+        Times (either sign); a uniform grid from s_0 = 0 when ``bl`` is given.
+    tiny : float
+        :data:`fvf.expmv._BESSEL_TINY`.
+    bl : float64 (p,), optional
+        Weights of the integrals (β_{m−1} times the max-norm factor).
+
+    Returns
+    -------
+    X : float64 (p, G, mm)
+        J₀(r_c s_g) P[c, 0] + 2 Σ_{k≥1} J_k(r_c s_g) P[c, k] (Jacobi–Anger).
+    E : float64 (p, G) or None
+        With ``bl``: ∫_0^{s_g} |bl_c X[c, σ, −1]| dσ by the cumulative trapezoid rule.
+    """
+    p, _, mm = P.shape
+    out = np.empty((p, s.shape[0], mm))
+    E = np.empty((p, s.shape[0]) if bl is not None else (p, 0))
+    _jit(_skew_series)(
+        np.ascontiguousarray(P, dtype=np.float64),
+        np.ascontiguousarray(r, dtype=np.float64),
+        np.ascontiguousarray(s, dtype=np.float64),
+        float(tiny),
+        out,
+        _NO_W if bl is None else np.ascontiguousarray(bl, dtype=np.float64),
+        E,
+    )
+    return out, (E if bl is not None else None)
+
+
+def bessel_rows(x: np.ndarray, kmax: int, tiny: float) -> np.ndarray:
+    """J_k(x_j) for k = 0..kmax: (T, kmax + 1) float64, for x (T,) float64, each x_j ≥ 0.
 
     The recurrence of :func:`fvf.expmv._bessel_row` (Miller's, from the order
     x + 12 x^{1/3} + 30, past the turning point), compiled: ~5 ns a step instead of
-    ~0.25 µs on Python floats.
+    ~0.25 µs on Python floats; below ``tiny`` (where a step would overflow) the series'
+    leading terms, as there.
     """
     x = np.ascontiguousarray(x, dtype=np.float64)
     start = (x + 12.0 * np.cbrt(x)).astype(np.int64) + 30
     out = np.empty((x.size, int(kmax) + 1))
-    _jit(_bessel_rows)(x, start, int(kmax), out)
+    _jit(_bessel_rows)(x, start, int(kmax), float(tiny), out)
     return out

@@ -161,6 +161,7 @@ IOM_WINDOW = 4
 #: so that a basis of the needed size fits.
 MAX_MEMORY = 2**32
 _GRID = 64  # quadrature points for the error integral over a step
+_UNIT_GRID = np.linspace(0.0, 1.0, _GRID + 1)
 #: From these sizes on, weighted norms use one fused einsum pass instead of a product into a
 #: temporary and a BLAS dot (measured crossovers: ~10k entries for vectors, n = 100k for
 #: blocks of 8 columns).
@@ -467,6 +468,11 @@ class _SkewExp:
             trig, G = np.sin(self.sig_o[:, None, :] * s[:, None]), self.Go[:, -1, :]
         return np.matmul(trig, G[:, :, None])[:, :, 0]
 
+    def residual_integral(self, hi: float, bl: np.ndarray, sign: float) -> np.ndarray:
+        """∫_0^{s_g} |bl_c [exp(sign·σ H_c) e_1]_{m−1}| dσ on :func:`_grid` (hi), by the
+        cumulative trapezoid rule: (p, _GRID + 1), for bl (p,)."""
+        return _cumtrapz(np.abs(bl[:, None] * self.last(sign * _grid(hi))), hi)
+
 
 class _SkewExpSeries:
     """:class:`_SkewExp`'s values by the Chebyshev series in H/r, r = 2 max β ≥ ‖H‖
@@ -475,9 +481,13 @@ class _SkewExpSeries:
         exp(s H) e_1 = J₀(rs) e_1 + 2 Σ_{k≥1} J_k(rs) P_k(H/r) e_1,
 
     P_k the real three-term recurrence of :func:`_run_chebyshev` (‖P_k(H/r)‖ ≤ 1), summed
-    to the order x + 12 x^{1/3} + 60, x = r·max|s| (the tail is far below round-off). An
-    error check then costs ~100 µs where with the SVD of :class:`_SkewExp` it costs
-    160–540 µs (m = 50–110; 6–20 products at 6k faces).
+    to the order x + 12 x^{1/3} + 60, x = r·max|s| (the tail is far below round-off). The
+    vectors, the coefficients, the sums and the error integral each take one compiled
+    call (:func:`fvf._kernels.skew_chebyshev_basis`, :func:`fvf._kernels.skew_series`):
+    an error check costs ~80 µs inside a call at 6k faces, where with numpy between the
+    kernels it cost 270–340 µs (each numpy call 3–5× its warm time right after a kernel
+    has streamed the basis through the caches), and with the SVD of :class:`_SkewExp`
+    160–540 µs (m = 50–110).
 
     Parameters
     ----------
@@ -493,25 +503,24 @@ class _SkewExpSeries:
         self.P: np.ndarray | None = None  # (p, K + 1, m)
         self.x_top = -1.0
 
-    def _coefficients(self, s: np.ndarray) -> np.ndarray:
-        """c_k(r_c s_g): (p, G, K + 1), the vectors computed to the order they need."""
-        x = s[None, :] * self.r[:, None]  # (p, G)
-        top = float(np.abs(x).max()) if x.size else 0.0
+    def _basis(self, s_top: float) -> np.ndarray:
+        """P_k(H_c/r_c) e_1 (p, K + 1, m) to the order that times up to |s| = s_top need."""
+        top = s_top * float(self.r.max())
         if self.P is None or top > self.x_top:
             self.P = _kernels.skew_chebyshev_basis(self.beta, self.r, _degree_top(top))
             self.x_top = top
-        K = self.P.shape[1] - 1
-        return _cheb_coefficients(x.ravel(), K).reshape(x.shape + (K + 1,))
+        return self.P
 
     def e1(self, s: np.ndarray) -> np.ndarray:
         """[exp(s H) e_1] for the times s (K,): (p, K, m)."""
-        C = self._coefficients(s)
-        return np.matmul(C, self.P)
+        P = self._basis(float(np.abs(s).max()) if s.size else 0.0)
+        return _kernels.skew_series(P, self.r, s, _BESSEL_TINY)[0]
 
-    def last(self, s: np.ndarray) -> np.ndarray:
-        """[exp(s H) e_1]_{m−1} for the times s (K,): (p, K)."""
-        C = self._coefficients(s)
-        return np.matmul(C, self.P[:, :, -1, None])[:, :, 0]
+    def residual_integral(self, hi: float, bl: np.ndarray, sign: float) -> np.ndarray:
+        """:meth:`_SkewExp.residual_integral`, in one compiled call (from the last entries
+        of the vectors only)."""
+        P = self._basis(hi)[:, :, -1:]
+        return _kernels.skew_series(P, self.r, sign * _grid(hi), _BESSEL_TINY, bl)[1]
 
 
 def _skew_exp(beta: np.ndarray) -> _SkewExp | _SkewExpSeries:
@@ -519,11 +528,18 @@ def _skew_exp(beta: np.ndarray) -> _SkewExp | _SkewExpSeries:
     return _SkewExpSeries(beta) if _kernels.ENABLED else _SkewExp(beta)
 
 
-def _cumtrapz(y: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Cumulative trapezoid ∫_0^{s_k} y along the last axis (s[0] = 0)."""
-    out = np.zeros_like(y)
-    if s.size > 1:
-        out[..., 1:] = np.cumsum(0.5 * (y[..., 1:] + y[..., :-1]) * np.diff(s), axis=-1)
+def _grid(hi: float) -> np.ndarray:
+    """The error checks' quadrature grid on [0, hi]: (_GRID + 1,) uniform, s[-1] = hi."""
+    return _UNIT_GRID * hi
+
+
+def _cumtrapz(y: np.ndarray, hi: float) -> np.ndarray:
+    """Cumulative trapezoid ∫_0^{s_k} y along the last axis of y (..., _GRID + 1), on
+    :func:`_grid` (hi)."""
+    out = np.empty_like(y)
+    out[..., 0] = 0.0
+    np.cumsum(y[..., 1:] + y[..., :-1], axis=-1, out=out[..., 1:])
+    out[..., 1:] *= 0.5 * hi / _GRID
     return out
 
 
@@ -543,15 +559,18 @@ def as_times(t: Any) -> tuple[np.ndarray, bool]:
     return np.atleast_1d(times), times.ndim == 0
 
 
-def _check_operator(A: Any) -> tuple[Any, int]:
+def _check_operator(A: Any, finite: bool = True) -> tuple[Any, int]:
+    """(A as CSR, ndarray or LinearOperator, n) or :class:`ExpmInputError`. ``finite``:
+    also check a sparse A's entries (:func:`_check_finite`; expm_action defers it to
+    ‖A‖_∞, which is not finite exactly when some entry is not or a row sum overflows)."""
     if sp.issparse(A):
         if A.ndim != 2 or A.shape[0] != A.shape[1]:
             raise ExpmInputError(f"A must be square (n, n); got shape {A.shape}")
         if np.iscomplexobj(A.data):
             raise ExpmInputError("A must be real; complex operators are not supported")
         C = A.tocsr() if A.format != "csr" else A
-        if not np.isfinite(C.data).all():
-            raise ExpmInputError("A has non-finite entries (inf or NaN)")
+        if finite:
+            _check_finite(C)
         return C, A.shape[0]
     if isinstance(A, spla.LinearOperator):
         if len(A.shape) != 2 or A.shape[0] != A.shape[1]:
@@ -570,6 +589,12 @@ def _check_operator(A: Any) -> tuple[Any, int]:
     if not (np.issubdtype(M.dtype, np.number) or M.dtype == bool) or not np.isfinite(M).all():
         raise ExpmInputError("A has non-finite or non-numeric entries")
     return M.astype(np.float64, copy=False), M.shape[0]
+
+
+def _check_finite(C: Any) -> None:
+    """Raise :class:`ExpmInputError` if the sparse C has an entry that is inf or NaN."""
+    if not np.isfinite(C.data).all():
+        raise ExpmInputError("A has non-finite entries (inf or NaN)")
 
 
 #: Largest max|t| · ‖A‖_∞ accepted (beyond ~1/eps the steps underflow relative to t).
@@ -946,7 +971,7 @@ def expm_action(
     >>> x.shape, bool(np.allclose(np.linalg.norm(x, axis=1), np.linalg.norm(b)))
     ((3, 50), True)
     """
-    Aop, n = _check_operator(A)
+    Aop, n = _check_operator(A, finite=False)  # (a sparse A's entries: from ‖A‖_∞ below)
     times, scalar = as_times(t)
     method, tol = check_options(method, tol)
     if m_max is not None and (int(m_max) != m_max or m_max < 1):
@@ -1009,6 +1034,8 @@ def expm_action(
     }
     absA = _abs_of(Aop) if sp.issparse(Aop) else None  # shared by ‖A‖_∞ and the bound R
     a_norm = _norm_inf(Aop, absA)
+    if absA is not None and not math.isfinite(a_norm):
+        _check_finite(Aop)  # (finite entries whose row sums overflow: the span check)
     span = float(np.abs(times).max()) * a_norm if times.size else 0.0
     if span > MAX_SPAN:
         raise FlowOverflowError(
@@ -1194,6 +1221,8 @@ def chebyshev_degree(tau: float, tol: float) -> int:
     """Terms of the series exp(iτx) = J₀(τ) + 2 Σ iᵏ J_k(τ) T_k(x) needed for an error
     below ``tol`` on [−1, 1]: the smallest m ≥ |τ| with 2 Σ_{k>m} |J_k(τ)| ≤ tol."""
     tau = abs(float(tau))
+    if _kernels.ENABLED:  # (one compiled call: this runs between Lanczos' kernel runs)
+        return _kernels.chebyshev_degree(tau, tol, _degree_top(tau), _BESSEL_TINY)
     return _degree(np.abs(_bessel(np.array([tau]), _degree_top(tau))[0]), tau, tol)
 
 
@@ -1302,22 +1331,17 @@ def _bessel_table(x: np.ndarray, kmax: int) -> np.ndarray:
 def _bessel(mags: np.ndarray, kmax: int) -> np.ndarray:
     """J_k(x_j) for k = 0..kmax and x_j ≥ 0 (mags (T,)): (T, kmax + 1) float64, a new array.
 
-    With numba, compiled rows (:func:`fvf._kernels.bessel_rows`, ~5 ns a step), x below
-    :data:`_BESSEL_TINY` by :func:`_bessel_row`'s series. Otherwise the distinct x only:
+    With numba, compiled rows (:func:`fvf._kernels.bessel_rows`, ~5 ns a step; x below
+    :data:`_BESSEL_TINY` by :func:`_bessel_row`'s series, in the kernel: the grids of the
+    error checks start at 0, and that row alone in Python cost ~40 µs a check). Otherwise
+    the distinct x only:
     one scalar recurrence (:func:`_bessel_row`) each, or the vectorized
     :func:`_bessel_table` when its steps (~7 µs each, one per order up to the largest
     x's) cost less than the scalar ones (~0.25 µs, one per order up to each x's own
     start; measured).
     """
     if _kernels.ENABLED:
-        big = mags >= _BESSEL_TINY
-        if big.all():
-            return _kernels.bessel_rows(mags, kmax)
-        J = np.empty((mags.size, kmax + 1))
-        if big.any():
-            J[big] = _kernels.bessel_rows(mags[big], kmax)
-        J[~big] = [_bessel_row(float(x), kmax) for x in mags[~big]]
-        return J
+        return _kernels.bessel_rows(mags, kmax, _BESSEL_TINY)
     if mags.size == 1:
         return _bessel_row(float(mags[0]), kmax)[None, :]
     mags, inv = np.unique(mags, return_inverse=True)
@@ -1697,9 +1721,12 @@ def _run_krylov(
         sel = np.flatnonzero(sign * times > 0)
         if sel.size == 0:
             continue
-        s_unique, first, inverse = np.unique(
-            sign * times[sel], return_index=True, return_inverse=True
-        )
+        if sel.size == 1:  # (np.unique costs ~20 µs a call)
+            s_unique, first, inverse = sign * times[sel], np.zeros(1, int), np.zeros(1, int)
+        else:
+            s_unique, first, inverse = np.unique(
+                sign * times[sel], return_index=True, return_inverse=True
+            )
         slots = sel[first]  # the row of out that receives each distinct time
         sweep = _Sweep(op, w, s_unique, sign, tol, maxnorm, out, slots, info)
         if use_skew:
@@ -2046,11 +2073,10 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
                 factor = np.maximum(1.0, _safe_div(_absmax(V[m]), lz.nu[m]) * yscale)
             bl = beta[m - 1] * factor
 
-            def resid(ss, sk=sk, bl=bl):
-                return np.abs(bl[:, None] * sk.last(sign * ss))
+            def integral(hi, sk=sk, bl=bl):
+                return sk.residual_integral(hi, bl, sign)
 
-            s = np.linspace(0.0, tau_rem, _GRID + 1)
-            E = _cumtrapz(resid(s), s)
+            E = integral(tau_rem)
             # ‖H_m‖ ≤ 2 max β; the noise of the estimate scales with the max-norm factor
             rate_m = max(rate, NOISE * 2.0 * float(beta[:m].max()) * float(factor.max()))
             excess = float(np.max(E[:, -1])) / (rate_m * tau_rem)
@@ -2058,7 +2084,7 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
                 tau, err = tau_rem, E[:, -1]
                 break
             if m == m_cap:
-                tau, err = _cut_step(resid, tau_rem, rate_m)
+                tau, err = _cut_step(integral, tau_rem, rate_m)
                 break
             next_check, last_check = _next_check(m, excess, last_check, m_cap, op, p, False)
         # dense output at the targets in (t_now, t_now + tau], and the new state
@@ -2202,16 +2228,16 @@ def _check_gap(op: _Operator, p: int, m: int = 48, dense: bool = False) -> int:
 
 
 def _cut_step(
-    resid: Callable[[np.ndarray], np.ndarray], tau_rem: float, rate: float
+    integral: Callable[[float], np.ndarray], tau_rem: float, rate: float
 ) -> tuple[float, np.ndarray]:
     """Largest step τ ≤ tau_rem with ∫_0^τ |r| ≤ rate·τ for every column.
 
-    ``resid(s)`` returns |r(s)| (columns, len(s)).
+    ``integral(hi)`` returns ∫_0^s |r| on :func:`_grid` (hi): (columns, _GRID + 1).
     """
     hi = tau_rem
     for _ in range(60):
-        s = np.linspace(0.0, hi, _GRID + 1)
-        E = np.atleast_2d(_cumtrapz(resid(s), s))
+        s = _grid(hi)
+        E = np.atleast_2d(integral(hi))
         ok = np.all(E <= rate * s * (1 + 1e-12), axis=0)
         ok[0] = True
         bad = np.flatnonzero(~ok)
@@ -2338,8 +2364,8 @@ class _HessenbergExp:
         self._grid: tuple[float, np.ndarray] | None = None
 
     def grid(self, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """s = linspace(0, hi, _GRID + 1) and exp(s H_m) e_1 at those s: (_GRID + 1, m)."""
-        s = np.linspace(0.0, hi, _GRID + 1)
+        """s = :func:`_grid` (hi) and exp(s H_m) e_1 at those s: (_GRID + 1, m)."""
+        s = _grid(hi)
         step = sla.expm((hi / _GRID) * self.Hm)
         X = np.empty((_GRID + 1, self.m))
         X[0] = 0.0
@@ -2355,7 +2381,7 @@ class _HessenbergExp:
         s, X = self.grid(hi)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             r = np.abs(self.h * X[:, -1])
-            E = np.exp(self.mu * s) * _cumtrapz(np.exp(-self.mu * s) * r, s)
+            E = np.exp(self.mu * s) * _cumtrapz(np.exp(-self.mu * s) * r, hi)
             E = E / np.linalg.norm(X, axis=1)
         E[~np.isfinite(E)] = np.inf
         return s, E
