@@ -91,19 +91,24 @@ def test_abs_stats_match_numpy_and_flag_non_finite(rng):
     assert all(np.isnan(_kernels.abs_stats(_fused(A))))
 
 
-@pytest.mark.parametrize("sym", [True, False])
-def test_power_step_matches_the_numpy_step(rng, sym):
-    """One pass gives what the two scipy products of fvf.expmv._AbsCsr give."""
-    from fvf.expmv import _AbsCsr, _FusedAbs
+@pytest.mark.parametrize("skew", [True, False])
+def test_power_bound_matches_the_numpy_steps(rng, skew):
+    """The compiled steps (both products of a step from one pass) give what the Python
+    loop over scipy's products of fvf.expmv._AbsCsr gives: the bound and the products
+    spent, for a fixed number of steps and for the early stop."""
+    from fvf.expmv import _AbsCsr, _FusedAbs, _skew_bound
 
     A = _random_csr(50, rng, np.int64)
     A.data -= 0.5
-    s = np.sqrt(rng.uniform(0.5, 2.0, 50))
-    d = rng.uniform(0.1, 1.0, 50)
-    ref = _AbsCsr.of(A).step(d, s, 1 / s, sym)
-    got = _FusedAbs.of(A).step(d, s, 1 / s, sym)
-    np.testing.assert_allclose(got[0], ref[0], rtol=1e-13)
-    np.testing.assert_allclose(got[1:], ref[1:], rtol=1e-13)
+    if skew:  # zero diagonal, |A| symmetric: one product a step
+        A = sp.csr_array(sp.triu(A, 1) - sp.triu(A, 1).T)
+    w = rng.uniform(0.5, 2.0, 50)
+    for iterations, span in [(0, np.inf), (4, np.inf), (20, 3.0)]:
+        ref = _skew_bound(_AbsCsr.of(A), w, iterations, span, skew)
+        got = _skew_bound(_FusedAbs.of(A), w, iterations, span, skew)
+        assert got[1] == ref[1] and got[1] % (1 if skew else 2) == 0
+        assert got[0] == pytest.approx(ref[0], rel=1e-13)
+    assert ref[1] < 21 * (1 if skew else 2)  # (the early stop was reached)
 
 
 @pytest.mark.parametrize("kind", ["skew", "grad"])
@@ -341,3 +346,26 @@ def test_lanczos_run_reports_a_non_skew_operator(monkeypatch, rng):
     A = sp.csr_array(sp.random_array((n, n), density=0.2, rng=rng) + sp.eye_array(n))
     with pytest.raises(fvf.expmv._NotSkew):
         _lanczos_coefficients(A, rng.standard_normal(n), None, 10, True, monkeypatch)
+
+
+@pytest.mark.parametrize("p", [1, 3])
+@pytest.mark.parametrize("weighted", [True, False])
+@pytest.mark.parametrize("maxnorm", [True, False])
+def test_col_norms_match_numpy(monkeypatch, rng, p, weighted, maxnorm):
+    """The one-pass norms against the numpy path of fvf.expmv._col_norms (one block and
+    a stack of blocks)."""
+    from fvf.expmv import _col_norms
+
+    n = 37
+    w = rng.uniform(0.1, 2.0, n) if weighted else None
+    for T in (1, 5):
+        X = rng.standard_normal((T, n, p))
+        X[-1, :, 0] = 0.0  # a zero column
+        got = _kernels.col_norms(X.reshape(T, n * p), w, p, maxnorm)
+        ref_w = np.sqrt(np.einsum("tnp,n->tp", X * X, np.ones(n) if w is None else w))
+        ref_max = np.abs(X).max(axis=1) if maxnorm else np.ones((T, p))
+        np.testing.assert_allclose(got[0], ref_w, rtol=1e-14)
+        np.testing.assert_array_equal(got[1], ref_max)
+        with monkeypatch.context() as mp:
+            mp.setattr(_kernels, "ENABLED", False)
+            np.testing.assert_allclose(_col_norms(X, w, maxnorm), got, rtol=1e-14)

@@ -14,8 +14,10 @@ these kernels do the product and that extra work in the same pass over the rows:
   W-inner products with x and prev when asked (a Lanczos vector of a block and its skew
   check); :func:`lanczos_run`: a run of Lanczos vectors of one column with their norms
   and skew checks, in one call;
-- :func:`power_step`: a Collatz–Wielandt step of the bound R, both products with |A| from
-  one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|, max|a_ij| in one pass;
+- :func:`col_norms`: W- and max-norms of the columns of a stack of blocks in one pass;
+- :func:`power_bound`: the Collatz–Wielandt steps of the bound R in one call, both
+  products with |A| of a step from one pass; :func:`abs_stats`: ‖A‖_∞, max|a_ii|,
+  max|a_ij| in one pass;
 - :func:`bessel_rows`: Miller's recurrence for the series' coefficients, and
   :func:`chebyshev_degree` from it;
   :func:`skew_chebyshev_basis`: the same series' vectors for the small skew tridiagonal
@@ -50,11 +52,13 @@ _COMPILED: dict[Callable, Callable] = {}
 
 #: Functions that kernels call: compiled first and bound to their module names, so that
 #: the kernels calling them compile against (and cache with) the compiled versions.
-_HELPERS = ("_miller",)
+_HELPERS = ("_miller", "_power_step")
 
 
 def _jit(fn: Callable) -> Callable:
     """The numba-compiled ``fn`` (compiled, or loaded from the disk cache, once)."""
+    if hasattr(fn, "py_func"):  # a helper, bound to its compiled form already
+        return fn
     out = _COMPILED.get(fn)
     if out is None:
         from numba import njit  # pragma: no cover - depends on the environment
@@ -75,7 +79,8 @@ __all__ = [
     "term_combine",
     "lanczos_run",
     "abs_stats",
-    "power_step",
+    "col_norms",
+    "power_bound",
     "bessel_rows",
     "chebyshev_degree",
     "skew_chebyshev_basis",
@@ -84,6 +89,7 @@ __all__ = [
 
 
 _NO_W, _NO_NORMS = np.zeros(1), np.zeros((2, 1))  # (not read)
+_EMPTY = np.zeros(0)
 
 
 def csr_views(
@@ -313,6 +319,47 @@ def _abs_stats(indptr, indices, data):  # pragma: no cover - jitted
     return top + bad, dmax + bad, amax + bad
 
 
+def _col_norms(X, w, p, maxnorm, out):  # pragma: no cover - jitted
+    # out[0, r, q] = sqrt(Σ_i w_i X[r, i·p + q]²) (w_i = 1 if w is empty), out[1, r, q] =
+    # max_i |X[r, i·p + q]| (1 if not maxnorm). Four partial sums and maxima per column:
+    # one accumulator chains every element through the adder's latency (5 ns an element
+    # at 6k vertices, 4x numpy's squares and GEMV).
+    rows = X.shape[0]
+    n = X.shape[1] // p if p else 0
+    n4 = n - n % 4
+    weighted = w.shape[0] > 0
+    for r in range(rows):
+        x = X[r]
+        for q in range(p):
+            s0 = s1 = s2 = s3 = 0.0
+            m0 = m1 = m2 = m3 = 0.0
+            for i in range(0, n4, 4):
+                a0 = x[i * p + q]
+                a1 = x[(i + 1) * p + q]
+                a2 = x[(i + 2) * p + q]
+                a3 = x[(i + 3) * p + q]
+                if weighted:
+                    s0 += w[i] * a0 * a0
+                    s1 += w[i + 1] * a1 * a1
+                    s2 += w[i + 2] * a2 * a2
+                    s3 += w[i + 3] * a3 * a3
+                else:
+                    s0 += a0 * a0
+                    s1 += a1 * a1
+                    s2 += a2 * a2
+                    s3 += a3 * a3
+                m0 = max(m0, abs(a0))
+                m1 = max(m1, abs(a1))
+                m2 = max(m2, abs(a2))
+                m3 = max(m3, abs(a3))
+            for i in range(n4, n):
+                a0 = x[i * p + q]
+                s0 += (w[i] if weighted else 1.0) * a0 * a0
+                m0 = max(m0, abs(a0))
+            out[0, r, q] = np.sqrt((s0 + s1) + (s2 + s3))
+            out[1, r, q] = max(max(m0, m1), max(m2, m3)) if maxnorm else 1.0
+
+
 def _miller(x, start, tiny, buf):  # pragma: no cover - jitted (called by kernels)
     # J_k(x) = buf[k] · (returned factor) for k ≤ start, x ≥ 0: Miller's backward
     # recurrence f_{k−1} = (2k/x) f_k − f_{k+1} from f_start = 1e-200, rescaled by 1e-200
@@ -472,6 +519,26 @@ def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: 
     return ratio, top
 
 
+def _power_bound(  # pragma: no cover - jitted
+    indptr, indices, data, s, inv_s, sym, steps, span, d, md, g, dg
+):
+    # fvf.expmv._skew_bound's loop: Collatz–Wielandt steps from d while a step saves
+    # more terms (span × the bound's decrease) than the products it costs
+    per_step = 1 if sym else 2
+    best = np.inf
+    products = 0
+    for _ in range(steps + 1):
+        bound, top = _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg)
+        products += per_step
+        gain = best - bound
+        best = min(best, bound)
+        if not top > 0 or not np.isfinite(top) or gain * span < per_step:
+            break
+        for i in range(d.shape[0]):
+            d[i] = max(md[i] / top, 1e-300)  # positive, so the bound stays rigorous
+    return best, products
+
+
 def term_run(
     csr: tuple[np.ndarray, np.ndarray, np.ndarray],
     Y: np.ndarray,
@@ -626,38 +693,44 @@ def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, fl
     return float(top), float(dmax), float(amax)
 
 
-def power_step(
+def power_bound(
     csr: tuple[np.ndarray, np.ndarray, np.ndarray],
     s: np.ndarray,
     inv_s: np.ndarray,
-    d: np.ndarray,
     sym: bool,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray],
-) -> tuple[float, float]:
-    """One Collatz–Wielandt step of :func:`fvf.expmv.skew_bound`, in one pass over A's rows.
-
-    With P = diag(s) |A| diag(1/s): M d = P d when ``sym`` (|S| symmetric, A declared
-    skew), else M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same pass (the
-    transposed one scattered from the rows).
+    steps: int,
+    span: float,
+) -> tuple[float, int]:
+    """The power steps of :func:`fvf.expmv._skew_bound` in one call, from d = 1, while a
+    step saves more terms than it costs. With P = diag(s) |A| diag(1/s), a step is
+    M d = P d when ``sym`` (|S| symmetric, A declared skew), else
+    M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same pass over A's rows (the
+    transposed one scattered from the rows); d ← max(M d / max M d, 1e-300).
 
     Parameters
     ----------
     csr : (indptr, indices, data)
-        A in CSR, as for :func:`term_run` (|a_ij| is taken on the fly).
+        A in CSR, as for :func:`term_run`.
     s, inv_s : float64 (n,)
         √w and 1/√w.
-    d : float64 (n,)
-        The positive iterate.
     sym : bool
-    work : (float64 (n,), float64 (n,), float64 (n,))
-        Output M d, then two work arrays (not read when ``sym``).
+    steps : int
+        Steps after the first (≥ 0).
+    span : float
+        max|t| × columns (inf: all the steps).
 
     Returns
     -------
-    (max_i (M d)_i / d_i, max_i (M d)_i) : (float, float)
+    (float, int)
+        The smallest max (M d)/d seen, and the products with |A| spent (one a step when
+        ``sym``, else two).
     """
-    r, top = _jit(_power_step)(csr[0], csr[1], csr[2], s, inv_s, d, bool(sym), *work)
-    return float(r), float(top)
+    n = s.shape[0]
+    d, md, g, dg = np.ones(n), np.empty(n), np.empty(n), np.empty(n)
+    best, products = _jit(_power_bound)(
+        csr[0], csr[1], csr[2], s, inv_s, bool(sym), int(steps), float(span), d, md, g, dg
+    )
+    return float(best), int(products)
 
 
 def skew_chebyshev_basis(beta: np.ndarray, r: np.ndarray, kmax: int) -> np.ndarray:
@@ -680,6 +753,29 @@ def skew_chebyshev_basis(beta: np.ndarray, r: np.ndarray, kmax: int) -> np.ndarr
     beta = np.ascontiguousarray(beta, dtype=np.float64)
     out = np.empty((beta.shape[1], int(kmax) + 1, beta.shape[0] + 1))
     _jit(_skew_chebyshev_basis)(beta, np.ascontiguousarray(r, dtype=np.float64), out)
+    return out
+
+
+def col_norms(X: np.ndarray, w: np.ndarray | None, p: int, maxnorm: bool) -> np.ndarray:
+    """W-norms and max-norms of the columns of a stack of blocks, in one pass.
+
+    Parameters
+    ----------
+    X : float64 (rows, n·p)
+        C-contiguous; row r holds an (n, p) block, column q of its row i at i·p + q.
+    w : float64 (n,) or None
+        Weights (None: all ones).
+    p : int
+    maxnorm : bool
+        Whether to compute the max-norms.
+
+    Returns
+    -------
+    float64 (2, rows, p)
+        [0] ‖X[r, :, q]‖_W; [1] max_i |X[r, i, q]| (ones when not ``maxnorm``).
+    """
+    out = np.empty((2, X.shape[0], int(p)))
+    _jit(_col_norms)(X, _EMPTY if w is None else w, int(p), bool(maxnorm), out)
     return out
 
 

@@ -662,14 +662,13 @@ class _AbsCsr:
 
 class _FusedAbs:
     """What :class:`_AbsCsr` gives, from A's own CSR arrays by fvf._kernels (numba): no
-    copy of |A|, the statistics in one pass, a power step in one pass over the rows
-    (both products of the non-symmetric step from the same pass)."""
+    copy of |A|, the statistics in one pass; :func:`_skew_bound`'s power steps in one
+    call (:func:`fvf._kernels.power_bound`: each step one pass over the rows)."""
 
     def __init__(self, csr: tuple[np.ndarray, np.ndarray, np.ndarray], n: int) -> None:
         self.csr, self.n = csr, n
         self._norm, dmax, amax = _kernels.abs_stats(csr)
         self._diag = (dmax, amax)
-        self._work: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @classmethod
     def of(cls, A: Any) -> _FusedAbs | None:
@@ -685,14 +684,6 @@ class _FusedAbs:
 
     def diag_max(self) -> tuple[float, float]:
         return self._diag
-
-    def step(
-        self, d: np.ndarray, s: np.ndarray, inv_s: np.ndarray, sym: bool
-    ) -> tuple[np.ndarray, float, float]:
-        if self._work is None:
-            self._work = (np.empty(self.n), np.empty(self.n), np.empty(self.n))
-        ratio, top = _kernels.power_step(self.csr, s, inv_s, d, sym, self._work)
-        return self._work[0], ratio, top  # (the caller copies what it keeps)
 
 
 def _abs_of(A: Any) -> _AbsCsr | _FusedAbs:
@@ -1203,6 +1194,9 @@ def _skew_bound(
     per_step = 1 if sym else 2
     s = np.ones(n) if w is None else np.sqrt(w)
     inv_s = 1.0 / s
+    if isinstance(absA, _FusedAbs):  # the same steps in one compiled call
+        best, products = _kernels.power_bound(absA.csr, s, inv_s, sym, iterations, span)
+        return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
     d = np.ones(n)
     best = math.inf
     products = 0
@@ -1366,13 +1360,23 @@ def _cheb_coefficients(taus: np.ndarray, kmax: int) -> np.ndarray:
     return J
 
 
-def _inverse_norms(X: np.ndarray, w: np.ndarray | None, maxnorm: bool) -> np.ndarray:
-    """1 / ‖X[t, :, c]‖_W and 1 / max|X[t, :, c]| (0 for zero columns): (2, T, p) (the
-    second row ones when not ``maxnorm``)."""
+def _col_norms(
+    X: np.ndarray,
+    w: np.ndarray | None,
+    maxnorm: bool,
+    tmp: np.ndarray | None = None,
+    tmp_abs: np.ndarray | None = None,
+) -> np.ndarray:
+    """‖X[t, :, c]‖_W and max|X[t, :, c]|: (2, T, p) for X (T, n, p) (the second row ones
+    when not ``maxnorm``). With numba one pass (:func:`fvf._kernels.col_norms`; numpy's
+    calls cost 3–5× their warm time right after a kernel run); else numpy, with the
+    optional temporaries of :func:`_wnorm2` and :func:`_absmax` for T = 1."""
     T, n, p = X.shape
+    if _kernels.ENABLED and X.flags.c_contiguous and X.dtype == np.float64:
+        return _kernels.col_norms(X.reshape(T, n * p), w, p, maxnorm)
     norms = np.ones((2, T, p))
     if T == 1:  # one time: the small-n BLAS paths of _wnorm2 (a few µs each)
-        norms[0, 0] = _wnorm2(X[0], w)
+        norms[0, 0] = _wnorm2(X[0], w, tmp)
     elif p == 1:  # squares and one GEMV (2x faster than einsum's 3-operand loop)
         sq = np.square(X.reshape(T, n))
         norms[0, :, 0] = sq.sum(axis=1) if w is None else sq @ w
@@ -1382,7 +1386,16 @@ def _inverse_norms(X: np.ndarray, w: np.ndarray | None, maxnorm: bool) -> np.nda
         norms[0] = np.einsum("tnp,n,tnp->tp", X, w, X)
     np.sqrt(norms[0], out=norms[0])
     if maxnorm:
-        norms[1] = np.abs(X).max(axis=1) if p == 1 else [_absmax(x) for x in X]
+        if T == 1:
+            norms[1, 0] = _absmax(X[0], tmp_abs)
+        else:
+            norms[1] = np.abs(X).max(axis=1) if p == 1 else [_absmax(x) for x in X]
+    return norms
+
+
+def _inverse_norms(X: np.ndarray, w: np.ndarray | None, maxnorm: bool) -> np.ndarray:
+    """1 / :func:`_col_norms` (0 for zero columns): (2, T, p)."""
+    norms = _col_norms(X, w, maxnorm)
     return _safe_div(np.ones_like(norms), norms)
 
 
@@ -1520,10 +1533,9 @@ def _run_chebyshev(
     fused = op.fused  # numba's fused kernels (fvf._kernels), or None
     s2 = np.zeros((3, p))  # norms of the last term (numba, one column)
     try:
-        nu0 = np.sqrt(_wnorm2(B2, w))  # (p,) W-norms of the columns of B
+        nu0, inf0 = _col_norms(B2[None], w, maxnorm)[:, 0]  # (p,) W- and max-norms of B
         inv_nu0 = _safe_div(np.ones(p), nu0)
-        inf0 = _absmax(B2) if maxnorm else None  # (p,)
-        inv_inf0 = _safe_div(np.ones(p), inf0) if maxnorm else None
+        inv_inf0 = _safe_div(np.ones(p), inf0)
         # T = 1: each term is added to the output at once, while it is in cache, and
         # y_{k+1} overwrites y_{k−1} (two vectors, no copies); T > 1: chunks of terms, one
         # GEMM each into the T outputs, and y_{k+1} starts as a copy of y_{k−1}.
@@ -1569,9 +1581,8 @@ def _run_chebyshev(
                 cur = buf[cur_i]
                 if norms_k == k:  # (1,) ‖y_k‖_W, max|y_k| from the kernel
                     y_w, y_max = np.sqrt(s2[0, :1]), s2[1, :1].copy()
-                else:
-                    y_w = np.sqrt(_wnorm2(cur, w, tmp))  # (p,)
-                    y_max = _absmax(cur, tmp_abs) if maxnorm else None
+                else:  # (p,) each
+                    y_w, y_max = _col_norms(cur[None], w, maxnorm, tmp, tmp_abs)[:, 0]
                 rel = y_w * inv_nu0  # (p,) ‖y_k‖ / ‖B‖ (the larger of the two norms)
                 if maxnorm:
                     rel = np.maximum(rel, y_max * inv_inf0)
