@@ -1028,11 +1028,14 @@ def test_series_tail_estimate():
     assert est[0, 0] == pytest.approx(5.0 * 0.011)  # the rigorous bound is larger
 
 
-def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch):
+@pytest.mark.parametrize("compiled", [True, False])
+def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch, compiled):
     """Lanczos' first error check is at the degree of the Chebyshev series for the radius
     2·mean(β) (a check costs 15–20 products at 6k faces): on spot at 10 edge lengths one
     check suffices, where the checks from 2·mean(β)·τ + 3 on took three (at m = 33, 43
-    and 54)."""
+    and 54). Both in the Python loop and in its compiled form (numba)."""
+    if compiled and not fvf._kernels.ENABLED:
+        pytest.skip("the compiled step needs numba")
     mesh = fvf.examples.spot()
     w = mesh.vertex_areas
     v = fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 1]))
@@ -1040,6 +1043,16 @@ def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch):
     b = _f0(mesh)
     times = 10 * mesh.mean_edge_length * np.arange(1, 17) / 16
     checks = []
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", compiled)
+    if compiled:
+        real_step = fvf._kernels.lanczos_step
+
+        def spy_step(*args):
+            P, res = real_step(*args)
+            checks.extend([0] * int(res[11]))
+            return P, res
+
+        monkeypatch.setattr(fvf._kernels, "lanczos_step", spy_step)
     real = fvf.expmv._skew_exp
 
     def spy(beta):

@@ -138,20 +138,23 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 def _spy(monkeypatch) -> dict:
     """Count the products of the fused kernels (an agreement test must run them)."""
     calls = {"n": 0}  # products done by the kernels (term_run: one per coefficient)
-    kernels = ("term_run", "term_chain", "term_combine", "lanczos_run")  # the recurrences'
+    kernels = ("term_run", "term_chain", "term_combine", "lanczos_run", "lanczos_step")
     for name in kernels:
         real = getattr(_kernels, name)
 
         def wrapped(*args, _real=real, _name=name):
             out = _real(*args)
             # term_run: one product per coefficient; term_chain: ``count``; lanczos_run:
-            # the vectors it finished; term_combine: one
+            # the vectors it finished; lanczos_step: the products it reports;
+            # term_combine: one
             if _name == "term_run":
                 calls["n"] += len(args[4])
             elif _name == "term_chain":
                 calls["n"] += args[3]
             elif _name == "lanczos_run":
                 calls["n"] += int(args[9][1]) - args[5]
+            elif _name == "lanczos_step":
+                calls["n"] += int(out[1][6])
             else:
                 calls["n"] += 1
             return out
@@ -369,3 +372,53 @@ def test_col_norms_match_numpy(monkeypatch, rng, p, weighted, maxnorm):
         with monkeypatch.context() as mp:
             mp.setattr(_kernels, "ENABLED", False)
             np.testing.assert_allclose(_col_norms(X, w, maxnorm), got, rtol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "times, norm, m_max",
+    [
+        ("one", "max", None),
+        ("sixteen", "max", None),
+        ("sixteen", "inner", None),
+        ("signs", "max", None),
+        ("one", "max", 20),  # capped bases: several steps, checks that fail, cut steps
+        ("sixteen", "inner", 16),
+    ],
+)
+def test_compiled_lanczos_step_is_the_python_loop(monkeypatch, times, norm, m_max):
+    """fvf._kernels.lanczos_step runs the loop of fvf.expmv._lanczos_steps for one column
+    with the same arithmetic: the same bases, products and estimates, the same outputs."""
+    mesh, A = _flow_operator("skew")
+    w = mesh.vertex_areas
+    b = np.cos(3 * mesh.vertices[:, 0]) + mesh.vertices[:, 2]
+    h = 10 * mesh.mean_edge_length
+    t = {
+        "one": h,
+        "sixteen": h * np.arange(1, 17) / 16,
+        "signs": h * np.array([0.5, -1.0, 0.0, 1.0, -0.25]),
+    }[times]
+    kw = dict(inner=w, skew=True, norm=norm, m_max=m_max, method="krylov", return_info=True)
+    x1, i1 = expm_action(A, b, t, **kw)
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", False)
+    x0, i0 = expm_action(A, b, t, **kw)
+    assert i1["method"] == i0["method"] == "lanczos"
+    assert i1["basis_sizes"] == i0["basis_sizes"] and i1["matvecs"] == i0["matvecs"]
+    if m_max is not None:
+        assert len(i1["basis_sizes"]) > 1  # (several steps were taken)
+    assert i1["error_estimate"] == pytest.approx(i0["error_estimate"], rel=1e-9)
+    assert np.abs(x1 - x0).max() <= 1e-13 * np.abs(x0).max()
+
+
+def test_compiled_lanczos_step_refuses_a_non_skew_operator_as_the_loop_does(monkeypatch):
+    mesh, A = _flow_operator("grad")
+    b = mesh.vertices[:, 1].copy()
+    t = 3 * mesh.mean_edge_length
+    kw = dict(inner=mesh.vertex_areas, skew=True, method="krylov", return_info=True)
+    with pytest.warns(fvf.expmv.KrylovFallbackWarning):
+        x1, i1 = expm_action(A, b, t, **kw)
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", False)
+    with pytest.warns(fvf.expmv.KrylovFallbackWarning):
+        x0, i0 = expm_action(A, b, t, **kw)
+    assert i1["method"] == i0["method"] == "iom"
+    assert i1["wasted_matvecs"] == i0["wasted_matvecs"] > 0
+    np.testing.assert_array_equal(x1, x0)

@@ -52,7 +52,14 @@ _COMPILED: dict[Callable, Callable] = {}
 
 #: Functions that kernels call: compiled first and bound to their module names, so that
 #: the kernels calling them compile against (and cache with) the compiled versions.
-_HELPERS = ("_miller", "_power_step")
+_HELPERS = (
+    "_miller",
+    "_power_step",
+    "_lanczos_run",
+    "_cheb_degree",
+    "_skew_chebyshev_basis",
+    "_skew_series",
+)
 
 
 def _jit(fn: Callable) -> Callable:
@@ -67,7 +74,9 @@ def _jit(fn: Callable) -> Callable:
         for name in _HELPERS:
             if not hasattr(names[name], "py_func"):  # not yet a numba dispatcher
                 names[name] = njit(cache=True, nogil=True)(names[name])
-        out = _COMPILED[fn] = njit(cache=True, nogil=True)(fn)
+        helper = fn.__name__ in _HELPERS
+        out = names[fn.__name__] if helper else njit(cache=True, nogil=True)(fn)
+        _COMPILED[fn] = out
     return out
 
 
@@ -78,6 +87,7 @@ __all__ = [
     "term_chain",
     "term_combine",
     "lanczos_run",
+    "lanczos_step",
     "abs_stats",
     "col_norms",
     "power_bound",
@@ -486,6 +496,115 @@ def _skew_chebyshev_basis(beta, r, P):  # pragma: no cover - jitted
                     P[c, k + 1, i] = 2.0 * inv * h + P[c, k - 1, i]
 
 
+def _lanczos_step(  # pragma: no cover - jitted
+    indptr,
+    indices,
+    data,
+    V,
+    w,
+    nu,
+    beta,
+    m_cap,
+    tau,
+    rate,
+    limit,
+    lead,
+    gap,
+    maxnorm,
+    yscale,
+    sign,
+    unit,
+    noise,
+    tiny,
+    res,
+):
+    # fvf.expmv._lanczos_steps' loop for one column, from V[0] to the first passed error
+    # check (see lanczos_step); returns the Chebyshev vectors of the last check
+    m = 0
+    bsum = 0.0
+    products = 0
+    next_check = -1
+    last_m = -1
+    last_x = 0.0
+    G = unit.shape[0]
+    s = np.empty(G)
+    for g in range(G):
+        s[g] = sign * (unit[g] * tau)
+    r1 = np.empty(1)
+    bl1 = np.empty(1)
+    vals = np.empty((1, G, 1))
+    E = np.empty((1, G))
+    while True:
+        if next_check < 0:  # the start of the decay at the mean β so far
+            target = max(4, int(np.ceil(2.0 * (bsum / max(m, 1)) * tau + 3)))
+        else:
+            target = next_check
+        target = min(max(target, m + 1), m_cap)
+        _lanczos_run(indptr, indices, data, V, w, nu, beta, m, target, bsum, limit, res)
+        status = int(res[0])
+        j = int(res[1])
+        bsum = res[2]
+        products += j - m + (1 if status == 1 or status == 2 else 0)
+        m = j
+        res[6] = products
+        res[1] = m
+        if status == 1 or status == 2:
+            return np.empty((1, 1, 1))
+        if m < m_cap and beta[m - 1] != 0.0:
+            if next_check < 0:
+                rho_tau = 2.0 * (bsum / max(m, 1)) * tau
+                if m < max(4.0, rho_tau + 3):
+                    continue
+                rt = abs(rho_tau)
+                top = int(rt + 12 * rt ** (1 / 3) + 60)
+                start = int(rt + 12.0 * np.cbrt(rt)) + 30
+                next_check = min(m_cap, _cheb_degree(rt, rate * tau, top, start, tiny) - lead)
+            if m < next_check:
+                continue
+        # the error check: exp(σ H_m) e_1 by the Chebyshev series in H_m / r
+        r = 0.0
+        for i in range(m - 1):
+            r = max(r, beta[i])
+        r = 2.0 * r if r > 0 else 1.0
+        top = tau * r
+        P = np.empty((1, int(top + 12 * top ** (1 / 3) + 60) + 1, m))
+        r1[0] = r
+        _skew_chebyshev_basis(beta[: m - 1].reshape((m - 1, 1)), r1, P)
+        factor = 1.0
+        if maxnorm:  # ≥ 1: never looser than the W-norm control
+            amax = 0.0
+            for i in range(V.shape[1]):
+                amax = max(amax, abs(V[m, i]))
+            factor = max(1.0, (amax / nu[m] if nu[m] > 0 else 0.0) * yscale)
+        bl1[0] = beta[m - 1] * factor
+        _skew_series(np.ascontiguousarray(P[:, :, m - 1 : m]), r1, s, tiny, vals, bl1, E)
+        bmax = 0.0
+        for i in range(m):
+            bmax = max(bmax, beta[i])
+        rate_m = max(rate, noise * 2.0 * bmax * factor)
+        excess = E[0, G - 1] / (rate_m * tau)
+        res[11] += 1
+        res[7] = excess
+        res[8] = E[0, G - 1]
+        res[9] = rate_m
+        res[10] = factor
+        if excess <= 1.0:
+            res[0] = 0
+            return P
+        if m == m_cap:
+            res[0] = 4
+            return P
+        # the next check (fvf.expmv._next_check)
+        x = np.log(excess) if np.isfinite(excess) else 50.0
+        if last_m >= 0 and last_x > x:
+            step = int(x / (1.3 * ((last_x - x) / (m - last_m))))
+        else:
+            step = int(x / 2.0)
+        next_check = min(m_cap, m + max(gap, step, 1))
+        last_m = m
+        last_x = x
+
+
 def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: no cover
     # P = diag(s)|A|diag(1/s). sym: md = P d. Else md = ½(P d + Pᵀ d) − |diag A| d, with
     # Pᵀ d = diag(1/s)|A|ᵀ diag(s) d scattered from the rows into g (dg: |diag A|, summed
@@ -678,6 +797,73 @@ def lanczos_run(
     _jit(_lanczos_run)(
         csr[0], csr[1], csr[2], V, w, nu, beta, int(j0), int(j1), float(bsum), float(limit), res
     )
+
+
+def lanczos_step(
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray],
+    V: np.ndarray,
+    w: np.ndarray,
+    nu: np.ndarray,
+    beta: np.ndarray,
+    m_cap: int,
+    tau: float,
+    rate: float,
+    limit: float,
+    lead: int,
+    gap: int,
+    maxnorm: bool,
+    yscale: float,
+    sign: float,
+    unit: np.ndarray,
+    noise: float,
+    tiny: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One step of :func:`fvf.expmv._lanczos_steps` for one column, in one call: the
+    vectors in runs of :func:`lanczos_run`, the first check at the Chebyshev degree for
+    radius 2·mean(β) less ``lead``, the error checks by :func:`skew_series` (the vectors
+    of :func:`skew_chebyshev_basis` to the order τ·r needs), and the next checks as
+    fvf.expmv._next_check places them (at least ``gap`` apart), until a check passes
+    or the basis reaches ``m_cap``. The same arithmetic as the Python loop, which
+    remains for blocks and for the numpy path.
+
+    Parameters
+    ----------
+    csr, V, w, limit :
+        As for :func:`lanczos_run`; V (m_cap + 1, n) with V[0] the start vector.
+    nu, beta : float64 (m_cap + 1,), (m_cap,)
+        ν_0 given; filled.
+    m_cap : int
+    tau, rate : float
+        The step's length and the allowed relative error per unit time.
+    lead, gap : int
+    maxnorm : bool
+    yscale : float
+        ‖y_0‖_W / max|y_0| (max-norm control).
+    sign : float
+        ±1, the sign of the times.
+    unit : float64 (G,)
+        The unit quadrature grid (fvf.expmv._UNIT_GRID).
+    noise, tiny : float
+        fvf.expmv.NOISE and fvf.expmv._BESSEL_TINY.
+
+    Returns
+    -------
+    P : float64 (1, K + 1, m)
+        The Chebyshev vectors P_k(H_m / r) e_1 of the last check (for the outputs).
+    res : float64 (12,)
+        res[0] the status (0 a check passed; 4 the last check at m_cap failed; 1, 2 as
+        for :func:`lanczos_run`, with res[3:6]), res[1] m, res[2] Σβ, res[6] products,
+        and of the last check: res[7] its excess (estimate / budget), res[8] the error
+        estimate, res[9] the rate used, res[10] the max-norm factor; res[11] the number
+        of checks.
+    """
+    res = np.zeros(12)
+    P = _jit(_lanczos_step)(
+        csr[0], csr[1], csr[2], V, w, nu, beta, int(m_cap), float(tau), float(rate),
+        float(limit), int(lead), int(gap), bool(maxnorm), float(yscale), float(sign), unit,
+        float(noise), float(tiny), res,
+    )  # fmt: skip
+    return P, res
 
 
 def abs_stats(csr: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, float]:

@@ -1834,22 +1834,25 @@ class _Lanczos:
         self.fused = op.fused  # numba: scaled copy, product and norm in one pass
         if self.fused is not None:
             self.wk = np.ones(n) if w is None else np.ascontiguousarray(w, dtype=np.float64)
-            self.s2 = np.zeros((3, p))
-            self.c = np.zeros(p)
-            self.res = np.zeros(6)  # lanczos_run's status
+            if p == 1:
+                self.res = np.zeros(6)  # lanczos_run's status
+            else:
+                self.s2 = np.zeros((3, p))
+                self.c = np.zeros(p)
         self.beta = np.zeros((m_cap1 - 1, p))
         self.nu = np.zeros((m_cap1, p))
         self.m = 0
         if p == 1:
             self.V1 = V[:, :, 0]
-            self.mv = op.kernel(1)  # y += A x on vectors, counted here
             self.bsum1 = 0.0
-            self.stream = n >= _STREAM_N
-            self.tmp = None if self.stream or w is None else np.empty(n)
             x = self.V1[0]
-            self.nu1 = [math.sqrt(float(np.dot(x, x if w is None else w * x)))]
-            self.b1: list[float] = []
-            self.nu[0, 0] = self.nu1[0]
+            self.nu[0, 0] = nu0 = math.sqrt(float(np.dot(x, x if w is None else w * x)))
+            if self.fused is None:  # what _extend1 uses
+                self.mv = op.kernel(1)  # y += A x on vectors, counted here
+                self.stream = n >= _STREAM_N
+                self.tmp = None if self.stream or w is None else np.empty(n)
+                self.nu1 = [nu0]
+                self.b1: list[float] = []
         else:
             self.tmp = _norm_workspace(n, p, w)
             self.nu[0] = np.sqrt(_wnorm2(V[0], w, self.tmp))
@@ -1989,6 +1992,8 @@ class _Lanczos:
 
     def broken(self) -> bool:
         """True when every column hit an invariant subspace (β = 0): the basis is exact."""
+        if self.p == 1:
+            return float(self.beta[self.m - 1, 0]) == 0.0
         return bool((self.beta[self.m - 1] == 0).all())
 
 
@@ -2057,7 +2062,12 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
         yscale = _safe_div(lz.nu[0], _absmax(V[0])) if maxnorm else None
         last_check: tuple[int, float] | None = None
         next_check = None  # None: from the Lanczos coefficients (see below)
-        while True:
+        compiled = lz.p == 1 and lz.fused is not None and _COMPILED_STEP
+        if compiled:
+            # numba: the loop below in one call (fvf._kernels.lanczos_step, the same
+            # arithmetic): numpy calls between kernel runs cost 3–5× their warm time
+            tau, err, m, sk = _compiled_step(lz, tau_rem, rate, yscale, sign, m_cap)
+        while not compiled:
             # to the next point where a check may be due: the start of the decay at the
             # mean β so far, or the next check
             if next_check is None:
@@ -2130,6 +2140,42 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
         info["error_estimate"] = max(info["error_estimate"], float(err_total.max()))
         if tau == tau_rem:
             break
+
+
+#: Whether one column's Lanczos steps run in one compiled call with numba
+#: (:func:`fvf._kernels.lanczos_step`); the tests turn it off to compare with the loop.
+_COMPILED_STEP = True
+
+
+def _compiled_step(
+    lz: _Lanczos, tau_rem: float, rate: float, yscale: np.ndarray | None, sign: float, m_cap: int
+) -> tuple[float, np.ndarray, int, _SkewExpSeries]:
+    """:func:`_lanczos_steps`' inner loop for one column by :func:`fvf._kernels.lanczos_step`
+    (numba): (step τ, error estimate (1,), basis size m, the small exponentials)."""
+    op, limit = lz.op, lz.limit
+    gap = _check_gap(op, 1)
+    lead = 2 if gap > 1 else 8  # (see the loop in _lanczos_steps)
+    ys = float(yscale[0]) if yscale is not None else 1.0
+    nu, beta = lz.nu[:, 0], lz.beta[:, 0]  # (views: filled in place)
+    P, res = _kernels.lanczos_step(
+        lz.fused, lz.V1, lz.wk, nu, beta, m_cap, tau_rem, rate, limit, lead, gap,
+        yscale is not None, ys, sign, _UNIT_GRID, NOISE, _BESSEL_TINY,
+    )  # fmt: skip
+    status, m = int(res[0]), int(res[1])
+    op.count(int(res[6]), 1)
+    lz.m, lz.bsum1 = m, float(res[2])
+    if status == 1:
+        raise FlowOverflowError(_NONFINITE)
+    if status == 2:
+        _check_skew(float(res[3]), float(res[4]), float(res[5]), limit)
+        raise _NotSkew("the skew check failed")  # pragma: no cover - raised above
+    sk = _SkewExpSeries(lz.beta[: m - 1])
+    sk.P, sk.x_top = P, tau_rem * float(sk.r.max())  # (the vectors the outputs need)
+    if status == 0:
+        return tau_rem, res[8:9].copy(), m, sk
+    bl = lz.beta[m - 1] * res[10]  # the check at m_cap failed: a shorter step
+    tau, err = _cut_step(lambda hi: sk.residual_integral(hi, bl, sign), tau_rem, float(res[9]))
+    return tau, err, m, sk
 
 
 def _next_check(
