@@ -62,8 +62,10 @@ space K_m(A, y) with A U_m = U_m H_m + h_m u_m e_mᵀ, in the inner product
 With numba installed (``pip install 'fvf[fast]'``), :mod:`fvf._kernels` fuses each
 product of the series and of the three-term recurrence with the vector work around it
 (axpy, scaled copy, weighted norm and inner products), does the bound's power steps in one
-pass over A, and compiles the Bessel recurrences; the results and product counts are
-those of the numpy/scipy path (``FVF_NUMBA=0``) to round-off.
+call (each one pass over A), compiles the Bessel recurrences and the columns' norms, and
+runs one column's whole Lanczos step (vectors, error checks, check schedule) in one call:
+right after a kernel run every numpy call costs 3–5× its warm time. The results and
+product counts are those of the numpy/scipy path (``FVF_NUMBA=0``) to round-off.
 
 Products are counted per column (``info["matvecs"]``; a product on an (n, p) block counts
 p) and per operator call (``info["block_matvecs"]``). Basis storage is reused between
@@ -1821,9 +1823,11 @@ class _Lanczos:
 
     y_j = ν_j u_j with known ν_j (no normalization pass over the vectors), so that
     y_{j+1} = ν_j β_j u_{j+1}; β_j = ‖y_{j+1}‖_W / ν_j. One instance per Krylov step, on
-    the basis storage V (m_cap + 1, n, p) whose V[0] holds the start vectors. p = 1 runs in
-    compiled runs of vectors with numba (:meth:`extend_to`), else on Python floats (few
-    numpy calls per vector: this path is what small meshes pay).
+    the basis storage V (m_cap + 1, n, p) whose V[0] holds the start vectors. With numba,
+    p = 1 runs its whole step in one compiled call (:func:`_compiled_step`; with
+    :data:`_COMPILED_STEP` off, in compiled runs of vectors by :meth:`extend_to`, the
+    compiled step's reference in the tests); without, on Python floats (few numpy calls
+    per vector: this path is what small meshes pay).
     Every 8th vector (and the first three) it checks that H_m is skew tridiagonal.
     """
 
@@ -2087,9 +2091,7 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
                     rho_tau = 2.0 * lz.mean_beta() * tau_rem
                     if m < max(4, rho_tau + 3):
                         continue
-                    # (where a check costs less than a product, from 8 vectors before it:
-                    # the degree overshot by 4 at 1.5M faces)
-                    lead = 2 if _check_gap(op, p, m) > 1 else 8
+                    lead = _first_check_lead(op, p)
                     next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - lead)
                 if m < next_check:
                     continue
@@ -2153,8 +2155,7 @@ def _compiled_step(
     """:func:`_lanczos_steps`' inner loop for one column by :func:`fvf._kernels.lanczos_step`
     (numba): (step τ, error estimate (1,), basis size m, the small exponentials)."""
     op, limit = lz.op, lz.limit
-    gap = _check_gap(op, 1)
-    lead = 2 if gap > 1 else 8  # (see the loop in _lanczos_steps)
+    gap, lead = _check_gap(op, 1), _first_check_lead(op, 1)
     ys = float(yscale[0]) if yscale is not None else 1.0
     nu, beta = lz.nu[:, 0], lz.beta[:, 0]  # (views: filled in place)
     P, res = _kernels.lanczos_step(
@@ -2293,6 +2294,13 @@ def _check_gap(op: _Operator, p: int, m: int = 48, dense: bool = False) -> int:
     else:
         check = 1e-4 * p
     return max(1, int(round(math.sqrt(check / op.product_cost(p)))))
+
+
+def _first_check_lead(op: _Operator, p: int) -> int:
+    """Vectors before the Chebyshev degree at which Lanczos checks first: 2, or 8 where a
+    check costs less than a product (large meshes: the degree overshot by 4 at 1.5M
+    faces)."""
+    return 2 if _check_gap(op, p) > 1 else 8
 
 
 def _cut_step(
