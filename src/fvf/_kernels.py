@@ -53,6 +53,8 @@ _COMPILED: dict[Callable, Callable] = {}
 #: Functions that kernels call: compiled first and bound to their module names, so that
 #: the kernels calling them compile against (and cache with) the compiled versions.
 _HELPERS = (
+    "_miller_start",
+    "_series_top",
     "_miller",
     "_power_step",
     "_lanczos_run",
@@ -389,6 +391,17 @@ def _col_norms(X, w, p, maxnorm, out):  # pragma: no cover - jitted
             out[1, r, q] = mx[q] if maxnorm else 1.0
 
 
+def _miller_start(x):  # pragma: no cover - jitted (called by kernels)
+    # the order from which Miller's recurrence for J_k(x) starts: past the turning point
+    # k ≈ x, where J_start < 1e-20 max|J| (as fvf.expmv._bessel_row)
+    return int(x + 12.0 * np.cbrt(x)) + 30
+
+
+def _series_top(x):  # pragma: no cover - jitted (called by kernels)
+    # fvf.expmv._degree_top: an order beyond which 2 Σ_{k>m} |J_k(x)| is below any tol
+    return int(x + 12 * x ** (1 / 3) + 60)
+
+
 def _miller(x, start, tiny, buf):  # pragma: no cover - jitted (called by kernels)
     # J_k(x) = buf[k] · (returned factor) for k ≤ start, x ≥ 0: Miller's backward
     # recurrence f_{k−1} = (2k/x) f_k − f_{k+1} from f_start = 1e-200, rescaled by 1e-200
@@ -421,11 +434,14 @@ def _miller(x, start, tiny, buf):  # pragma: no cover - jitted (called by kernel
     return 1.0 / (f + 2.0 * even)
 
 
-def _bessel_rows(x, start, kmax, tiny, out):  # pragma: no cover - jitted
-    # out[j, k] = J_k(x_j) for k ≤ min(kmax, start_j), 0 beyond (start_j ≥ 30)
-    buf = np.empty(int(start.max()) + 1)
+def _bessel_rows(x, kmax, tiny, out):  # pragma: no cover - jitted
+    # out[j, k] = J_k(x_j) for k ≤ min(kmax, s_j), 0 beyond (s_j = _miller_start(x_j))
+    xm = 0.0
     for j in range(x.shape[0]):
-        s = start[j]
+        xm = max(xm, x[j])
+    buf = np.empty(_miller_start(xm) + 1)
+    for j in range(x.shape[0]):
+        s = _miller_start(x[j])
         norm = _miller(x[j], s, tiny, buf)
         top = min(kmax, s)
         for k in range(top + 1):
@@ -434,10 +450,11 @@ def _bessel_rows(x, start, kmax, tiny, out):  # pragma: no cover - jitted
             out[j, k] = 0.0
 
 
-def _cheb_degree(tau, tol, top, start, tiny):  # pragma: no cover - jitted
+def _cheb_degree(tau, tol, top, tiny):  # pragma: no cover - jitted
     # fvf.expmv._degree from the row J_k(τ), k ≤ top, in the same order of operations:
     # tail_i = 2 Σ_{k=⌊τ⌋+1+i}^{top} |J_k| summed from k = top down; the smallest i with
     # tail_i ≤ tol (tail_L = 0, L = top − ⌊τ⌋); returns ⌊τ⌋ + i
+    start = _miller_start(tau)
     buf = np.empty(start + 1)
     norm = _miller(tau, start, tiny, buf)
     lo = int(tau)
@@ -466,12 +483,12 @@ def _skew_series(P, r, s, tiny, out, bl, E):  # pragma: no cover - jitted
     for c in range(p):
         for g in range(G):
             xm = max(xm, abs(r[c] * s[g]))
-    buf = np.empty(int(xm + 12.0 * np.cbrt(xm)) + 31)
+    buf = np.empty(_miller_start(xm) + 1)
     for c in range(p):
         for g in range(G):
             x = r[c] * s[g]
             ax = abs(x)
-            start = int(ax + 12.0 * np.cbrt(ax)) + 30
+            start = _miller_start(ax)
             norm = _miller(ax, start, tiny, buf)
             flip = -1.0 if x < 0 else 1.0
             for i in range(mm):
@@ -575,9 +592,8 @@ def _lanczos_step(  # pragma: no cover - jitted
                 if m < max(4.0, rho_tau + 3):
                     continue
                 rt = abs(rho_tau)
-                top = int(rt + 12 * rt ** (1 / 3) + 60)
-                start = int(rt + 12.0 * np.cbrt(rt)) + 30
-                next_check = min(m_cap, _cheb_degree(rt, rate * tau, top, start, tiny) - lead)
+                deg = _cheb_degree(rt, rate * tau, _series_top(rt), tiny)
+                next_check = min(m_cap, deg - lead)
             if m < next_check:
                 continue
         # the error check: exp(σ H_m) e_1 by the Chebyshev series in H_m / r
@@ -585,8 +601,7 @@ def _lanczos_step(  # pragma: no cover - jitted
         for i in range(m - 1):
             r = max(r, beta[i])
         r = 2.0 * r if r > 0 else 1.0
-        top = tau * r
-        P = np.empty((1, int(top + 12 * top ** (1 / 3) + 60) + 1, m))
+        P = np.empty((1, _series_top(tau * r) + 1, m))
         r1[0] = r
         _skew_chebyshev_basis(beta[: m - 1].reshape((m - 1, 1)), r1, P)
         factor = 1.0
@@ -989,8 +1004,7 @@ def chebyshev_degree(tau: float, tol: float, top: int, tiny: float) -> int:
     the smallest m ≥ ⌊τ⌋ with 2 Σ_{k>m}^{top} |J_k(τ)| ≤ tol, for τ ≥ 0, ``top`` > τ.
     One call where the numpy form's ~10 calls cost ~30 µs, and 3–5× that right after a
     kernel has streamed a Krylov basis through the caches."""
-    start = int(tau + 12.0 * np.cbrt(tau)) + 30
-    return int(_jit(_cheb_degree)(float(tau), float(tol), int(top), start, float(tiny)))
+    return int(_jit(_cheb_degree)(float(tau), float(tol), int(top), float(tiny)))
 
 
 def skew_series(
@@ -1045,7 +1059,6 @@ def bessel_rows(x: np.ndarray, kmax: int, tiny: float) -> np.ndarray:
     leading terms, as there.
     """
     x = np.ascontiguousarray(x, dtype=np.float64)
-    start = (x + 12.0 * np.cbrt(x)).astype(np.int64) + 30
     out = np.empty((x.size, int(kmax) + 1))
-    _jit(_bessel_rows)(x, start, int(kmax), float(tiny), out)
+    _jit(_bessel_rows)(x, int(kmax), float(tiny), out)
     return out
