@@ -509,9 +509,15 @@ class _SkewExpSeries:
         """P_k(H_c/r_c) e_1 (p, K + 1, m) to the order that times up to |s| = s_top need."""
         top = s_top * float(self.r.max())
         if self.P is None or top > self.x_top:
-            self.P = _kernels.skew_chebyshev_basis(self.beta, self.r, _degree_top(top))
-            self.x_top = top
+            self.use_basis(
+                _kernels.skew_chebyshev_basis(self.beta, self.r, _degree_top(top)), s_top
+            )
         return self.P
+
+    def use_basis(self, P: np.ndarray, s_top: float) -> None:
+        """Take the vectors P (p, K + 1, m), computed to the order that times up to
+        |s| = s_top need (as :meth:`_basis` computes them)."""
+        self.P, self.x_top = P, s_top * float(self.r.max())
 
     def e1(self, s: np.ndarray) -> np.ndarray:
         """[exp(s H) e_1] for the times s (K,): (p, K, m)."""
@@ -1883,19 +1889,26 @@ class _Lanczos:
             _kernels.lanczos_run(
                 self.fused, self.V1, self.wk, nu, beta, j0, target, self.bsum1, self.limit, res
             )
-            j, status = int(res[1]), int(res[0])
-            self.op.count(j - j0 + (status in (1, 2)), 1)  # (a failed vector's product too)
-            self.m, self.bsum1 = j, float(res[2])
-            if status == 1:
-                raise FlowOverflowError(_NONFINITE)
-            if status == 2:
-                _check_skew(float(res[3]), float(res[4]), float(res[5]), self.limit)
-                raise _NotSkew("the skew check failed")  # pragma: no cover - raised above
+            # (a failed vector's product counts too)
+            self.take_run(res, int(res[1]) - j0 + (int(res[0]) in (1, 2)))
             return
         while self.m < target:
             self.extend()
             if self.broken():
                 return
+
+    def take_run(self, res: np.ndarray, products: int) -> None:
+        """Take the state a compiled run left for one column (res as
+        :func:`fvf._kernels.lanczos_run` fills it: status, m, Σβ, then diag, off, scale)
+        and count its products; raise for a non-finite norm or a failed skew check."""
+        self.op.count(products, 1)
+        self.m, self.bsum1 = int(res[1]), float(res[2])
+        status = int(res[0])
+        if status == 1:
+            raise FlowOverflowError(_NONFINITE)
+        if status == 2:
+            _check_skew(float(res[3]), float(res[4]), float(res[5]), self.limit)
+            raise _NotSkew("the skew check failed")  # pragma: no cover - raised above
 
     def extend(self) -> None:
         """Add one vector (one product with A on the block)."""
@@ -2154,25 +2167,19 @@ def _compiled_step(
 ) -> tuple[float, np.ndarray, int, _SkewExpSeries]:
     """:func:`_lanczos_steps`' inner loop for one column by :func:`fvf._kernels.lanczos_step`
     (numba): (step τ, error estimate (1,), basis size m, the small exponentials)."""
-    op, limit = lz.op, lz.limit
+    op = lz.op
     gap, lead = _check_gap(op, 1), _first_check_lead(op, 1)
     ys = float(yscale[0]) if yscale is not None else 1.0
     nu, beta = lz.nu[:, 0], lz.beta[:, 0]  # (views: filled in place)
     P, res = _kernels.lanczos_step(
-        lz.fused, lz.V1, lz.wk, nu, beta, m_cap, tau_rem, rate, limit, lead, gap,
+        lz.fused, lz.V1, lz.wk, nu, beta, m_cap, tau_rem, rate, lz.limit, lead, gap,
         yscale is not None, ys, sign, _UNIT_GRID, NOISE, _BESSEL_TINY,
     )  # fmt: skip
-    status, m = int(res[0]), int(res[1])
-    op.count(int(res[6]), 1)
-    lz.m, lz.bsum1 = m, float(res[2])
-    if status == 1:
-        raise FlowOverflowError(_NONFINITE)
-    if status == 2:
-        _check_skew(float(res[3]), float(res[4]), float(res[5]), limit)
-        raise _NotSkew("the skew check failed")  # pragma: no cover - raised above
+    lz.take_run(res, int(res[6]))
+    m = lz.m
     sk = _SkewExpSeries(lz.beta[: m - 1])
-    sk.P, sk.x_top = P, tau_rem * float(sk.r.max())  # (the vectors the outputs need)
-    if status == 0:
+    sk.use_basis(P, tau_rem)  # (the check's vectors: what the outputs need)
+    if int(res[0]) == 0:
         return tau_rem, res[8:9].copy(), m, sk
     bl = lz.beta[m - 1] * res[10]  # the check at m_cap failed: a shorter step
     tau, err = _cut_step(lambda hi: sk.residual_integral(hi, bl, sign), tau_rem, float(res[9]))
