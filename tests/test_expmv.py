@@ -623,6 +623,100 @@ def test_skew_bound_of_a_declared_skew_operator_costs_one_product_per_step(mesh)
     assert 1 <= info["bound_products"] <= fvf.expmv.CHEB_BOUND_ITERATIONS + 1
 
 
+def _clique_with_pendant(a: int) -> sp.csr_array:
+    """Skew-symmetric A (±1 on the edges) whose |A| is the adjacency of the complete graph
+    K_a with one more vertex hung on its last vertex: the Collatz–Wielandt bound gains
+    nothing at every other power step (a, a, 4.29, 4.29, 4.09, … for a = 5)."""
+    n = a + 1
+    rows, cols = np.triu_indices(a, 1)
+    rows, cols = np.append(rows, a - 1), np.append(cols, a)
+    U = sp.coo_array((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    return (U - U.T).tocsr()
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_power_steps_look_two_steps_ahead_and_stop_below_the_floor(compiled):
+    """A step that gains nothing does not end the steps if the next one gains (the plateau
+    that left R at 1.29× ‖K‖ on spot at 375k faces, docs/notes.md session 9); and once
+    the bound is below ``floor`` (the series would not be chosen) no more are spent."""
+    if compiled and not fvf._kernels.ENABLED:
+        pytest.skip("numba's kernels are off")
+    A = _clique_with_pendant(5)
+    absA = (fvf.expmv._FusedAbs if compiled else fvf.expmv._AbsCsr).of(A)
+    exact = float(np.linalg.norm(A.toarray(), 2))
+    gershgorin, p0 = fvf.expmv._skew_bound(absA, None, 0, skew=True)
+    one, p1 = fvf.expmv._skew_bound(absA, None, 1, skew=True)
+    assert gershgorin == pytest.approx(5.0) and one == pytest.approx(5.0)  # the plateau
+    # span 10: a step pays if it lowers R by 0.1; the first step alone lowers it by 0
+    R, products = fvf.expmv._skew_bound(absA, None, 8, span=10.0, skew=True)
+    assert R <= 4.3 and 3 <= products < 9 and R >= exact  # (and it still stops early)
+    # below the floor: Gershgorin 5, a step 5, two steps 4.29 < 4.5 → three products
+    R, products = fvf.expmv._skew_bound(absA, None, 8, span=10.0, skew=True, floor=4.5)
+    assert products == 3 and R == pytest.approx(4.2941, abs=1e-4)
+
+
+def test_auto_spends_no_power_steps_when_gershgorin_rules_the_series_out(mesh):
+    """R only decreases with the steps, so once R·max|t| < CHEB_MIN_TAU the Krylov method
+    is chosen whatever they give: "auto" then stops at Gershgorin's bound (two products
+    with |A| for a compressible field; it spent four to ten before)."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    t = 0.9 * fvf.expmv.CHEB_MIN_TAU / skew_bound(A, w, iterations=0)
+    _, info = expm_action(A, _f0(mesh, 8), t, inner=w, return_info=True)
+    assert info["method"] == "iom" and info["bound_products"] == 2
+
+
+def test_skew_norm_estimate_is_below_and_close_to_the_norm(mesh):
+    """Lanczos on K = ½(A − A*) in the W inner product: θ ≤ ‖K‖_W (a compression), and
+    within CHEB_ESTIMATE_RTOL-ish of it when it says it converged (the top of K's
+    spectrum is well separated on flow operators); two products per step."""
+    for kind in ("grad", "skew"):
+        A = _flow_operator(mesh, kind)
+        w = mesh.vertex_areas
+        exact = _dense_skew_norm(A, w)
+        theta, products, converged = fvf.expmv._skew_norm_estimate(A, w)
+        assert converged and theta <= exact * (1 + 1e-12)
+        assert theta >= (1 - 5e-3) * exact  # measured within 1e-3
+        assert products % 2 == 0 and 8 <= products <= 2 * fvf.expmv.CHEB_ESTIMATE_STEPS
+    # an invariant subspace ends it exactly: a 2 × 2 rotation block and a zero block
+    K = sp.csr_array(np.kron(np.eye(3), [[0.0, 2.0], [-2.0, 0.0]])[:4, :4])
+    theta, products, converged = fvf.expmv._skew_norm_estimate(K, None)
+    assert converged and theta == pytest.approx(2.0) and products <= 4
+
+
+def test_auto_estimates_the_skew_norm_for_long_compressible_blocks(mesh, monkeypatch):
+    """For many columns × a long time (span × R ≥ CHEB_ESTIMATE_MIN_SPAN) and an operator
+    not declared skew, "auto" takes R = (1 + margin) θ instead of the power-step bound
+    (~10 % fewer terms a column on spot); a declared skew operator keeps the rigorous
+    bound; an estimate that did not converge falls back to the rigorous bound; and an R
+    far below ‖K‖ (forced) makes the terms grow, which the series' checks see: the Krylov
+    method gives the answer, within tol."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    exact = _dense_skew_norm(A, w)
+    B = _f0(mesh, 3)
+    t = 1.2 * fvf.expmv.CHEB_ESTIMATE_MIN_SPAN / (3 * skew_bound(A, w, iterations=0))
+    ref = dense_exp(A, B, t)[0]
+    X, info = expm_action(A, B, t, inner=w, return_info=True)
+    assert info["method"] == "chebyshev"
+    assert exact * (1 - 5e-3) <= info["skew_bound"] <= (1 + 1.1 * 0.02) * exact
+    assert info["skew_bound"] < skew_bound(A, w)  # below the rigorous bound
+    assert info["bound_products"] >= 2 + 8  # Gershgorin, then at least 4 Lanczos steps
+    assert wrel(X, ref, w) <= 1e-10 and maxrel(X, ref) <= 1e-10
+    S = _flow_operator(mesh, "skew")
+    _, info = expm_action(S, B, t, inner=w, skew=True, return_info=True)
+    assert info["skew_bound"] >= _dense_skew_norm(S, w) * (1 - 1e-12)
+    assert info["bound_products"] <= fvf.expmv.CHEB_BOUND_ITERATIONS + 1  # no estimate
+    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_STEPS", 2)
+    _, info = expm_action(A, B, t, inner=w, return_info=True)
+    assert info["skew_bound"] >= exact * (1 - 1e-12)  # (not converged: rigorous)
+    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_STEPS", 30)
+    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_MARGIN", -0.2)  # R ≈ 0.8 ‖K‖
+    X, info = expm_action(A, B, t, inner=w, return_info=True)
+    assert info["method"] == "iom" and info["wasted_matvecs"] > 0  # the series gave way
+    assert wrel(X, ref, w) <= 1e-10 and maxrel(X, ref) <= 1e-10
+
+
 def test_skew_bound_edge_cases():
     assert skew_bound(sp.diags_array(np.arange(5.0))) == 0.0  # diagonal: no skew part
     S = sp.random_array((40, 40), density=0.2, rng=np.random.default_rng(4), format="csr")

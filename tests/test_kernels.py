@@ -103,12 +103,68 @@ def test_power_bound_matches_the_numpy_steps(rng, skew):
     if skew:  # zero diagonal, |A| symmetric: one product a step
         A = sp.csr_array(sp.triu(A, 1) - sp.triu(A, 1).T)
     w = rng.uniform(0.5, 2.0, 50)
-    for iterations, span in [(0, np.inf), (4, np.inf), (20, 3.0)]:
-        ref = _skew_bound(_AbsCsr.of(A), w, iterations, span, skew)
-        got = _skew_bound(_FusedAbs.of(A), w, iterations, span, skew)
-        assert got[1] == ref[1] and got[1] % (1 if skew else 2) == 0
+    per_step = 1 if skew else 2
+    gershgorin = _skew_bound(_AbsCsr.of(A), w, 0, np.inf, skew)[0]
+    cases = [  # iterations, span, floor, handoff; the products the Python loop spends
+        (0, np.inf, 0.0, np.inf, per_step),
+        (4, np.inf, 0.0, np.inf, 5 * per_step),
+        (20, 3.0, 0.0, np.inf, None),  # the early stop (fewer than 21 steps)
+        (20, np.inf, 2 * gershgorin, np.inf, per_step),  # below the floor at once
+        (20, 3.0, 0.0, 2.9 * gershgorin, per_step),  # handed off at Gershgorin's bound
+        (20, 3.0, 0.0, 3.1 * gershgorin, None),
+    ]
+    for iterations, span, floor, handoff, spent in cases:
+        ref = _skew_bound(_AbsCsr.of(A), w, iterations, span, skew, floor, handoff)
+        got = _skew_bound(_FusedAbs.of(A), w, iterations, span, skew, floor, handoff)
+        assert got[1] == ref[1] and got[1] % per_step == 0
         assert got[0] == pytest.approx(ref[0], rel=1e-13)
-    assert ref[1] < 21 * (1 if skew else 2)  # (the early stop was reached)
+        if spent is None:
+            assert per_step < ref[1] < 21 * per_step
+        else:
+            assert ref[1] == spent
+
+
+def test_tridiag_top_is_the_largest_eigenvalue(rng):
+    """The Sturm bisection of the skew Lanczos estimate against LAPACK, on random
+    off-diagonals (with zeros, which split the matrix) and the trivial cases."""
+    import scipy.linalg as sla
+
+    top = _kernels._jit(_kernels._tridiag_top)
+    for m in (1, 2, 5, 30):
+        for _ in range(20):
+            beta = rng.uniform(0.0, 3.0, m) * (rng.random(m) > 0.2)
+            ref = sla.eigvalsh_tridiagonal(np.zeros(m + 1), beta)[-1]
+            assert top(beta, m) == pytest.approx(ref, rel=1e-12, abs=1e-300)
+            assert top(np.append(beta, 9.0), m) == pytest.approx(ref, rel=1e-12)  # (prefix)
+    assert top(np.zeros(3), 3) == 0.0
+
+
+@pytest.mark.parametrize("kind", ["skew", "grad"])
+def test_skew_norm_estimate_is_the_same_on_both_paths(kind):
+    """The compiled Lanczos steps (A q and Aᵀ W q from one pass over the rows) give the
+    numpy loop's θ and steps, and θ ≤ ‖K‖_W within 1e-3 of it (eigsh of KᵀK)."""
+    import scipy.sparse.linalg as spla
+
+    mesh, A = _flow_operator(kind)
+    w = mesh.vertex_areas
+    fused = fvf.expmv._FusedAbs.of(A)
+    got = fvf.expmv._skew_norm_estimate(A, w, fused)
+    ref = fvf.expmv._skew_norm_estimate(A, w, None)
+    assert got[1:] == ref[1:] and got[2]
+    assert got[0] == pytest.approx(ref[0], rel=1e-11)
+    s = np.sqrt(w)
+    S = sp.diags_array(s) @ A @ sp.diags_array(1 / s)
+    K = ((S - S.T) / 2).tocsr()
+    exact = float(np.sqrt(spla.eigsh((K.T @ K).tocsr(), k=1, which="LA", tol=1e-12)[0][0]))
+    assert (1 - 1e-3) * exact <= got[0] <= exact * (1 + 1e-12)
+    for steps in (1, 3):  # a cap before convergence: reported as not converged
+        a = _kernels.skew_lanczos(fused.csr, w, _unit(A.shape[0], w), steps, 1e-3)
+        assert a[1:] == (steps, False)
+
+
+def _unit(n, w):
+    q = np.random.default_rng(20261122).standard_normal(n)
+    return q / np.sqrt(q @ (w * q))
 
 
 @pytest.mark.parametrize("kind", ["skew", "grad"])

@@ -57,6 +57,7 @@ _HELPERS = (
     "_series_top",
     "_miller",
     "_power_step",
+    "_tridiag_top",
     "_lanczos_run",
     "_cheb_degree",
     "_skew_chebyshev_basis",
@@ -673,23 +674,137 @@ def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: 
 
 
 def _power_bound(  # pragma: no cover - jitted
-    indptr, indices, data, s, inv_s, sym, steps, span, d, md, g, dg
+    indptr, indices, data, s, inv_s, sym, steps, span, floor, handoff, d, md, g, dg
 ):
-    # fvf.expmv._skew_bound's loop: Collatz–Wielandt steps from d while a step saves
-    # more terms (span × the bound's decrease) than the products it costs
+    # fvf.expmv._skew_bound's loop: Collatz–Wielandt steps from d while the last two
+    # steps save more terms (span × the bound's decrease) than the products they cost,
+    # and the bound is not below floor; at the first bound if span × it > handoff
     per_step = 1 if sym else 2
     best = np.inf
     products = 0
+    gain = np.inf
     for _ in range(steps + 1):
         bound, top = _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg)
         products += per_step
-        gain = best - bound
+        last, gain = gain, best - bound
         best = min(best, bound)
-        if not top > 0 or not np.isfinite(top) or gain * span < per_step:
+        if (
+            not top > 0
+            or not np.isfinite(top)
+            or (last + gain) * span < 2 * per_step
+            or best < floor
+            or best * span > handoff
+        ):
             break
         for i in range(d.shape[0]):
             d[i] = max(md[i] / top, 1e-300)  # positive, so the bound stays rigorous
     return best, products
+
+
+def _tridiag_top(beta, m):  # pragma: no cover - jitted
+    # largest eigenvalue of the symmetric tridiagonal (m + 1) × (m + 1) matrix with zero
+    # diagonal and off-diagonal beta[:m], by bisection on Sturm counts (relative 1e-13)
+    hi = 0.0
+    for k in range(m):
+        hi = max(hi, beta[k])
+    hi *= 2.0
+    lo = 0.0
+    for _ in range(200):
+        x = 0.5 * (lo + hi)
+        if hi - lo <= 1e-13 * hi or x <= lo or x >= hi:
+            break
+        # eigenvalues below x: negative pivots of T − xI = LDLᵀ
+        below = 0
+        piv = -x
+        if piv < 0.0:
+            below += 1
+        for k in range(m):
+            if piv == 0.0:
+                piv = -1e-300
+            piv = -x - beta[k] * beta[k] / piv
+            if piv < 0.0:
+                below += 1
+        if below == m + 1:
+            hi = x
+        else:
+            lo = x
+    return hi
+
+
+def _skew_lanczos(indptr, indices, data, w, q, q_prev, r, z, beta, rtol):  # pragma: no cover
+    # fvf.expmv._skew_norm_estimate's loop: Lanczos on K = ½(A − W⁻¹AᵀW) from the W-unit
+    # q; each step one pass over A's rows (A q gathered, Aᵀ W q scattered into z). Returns
+    # (θ, steps, converged).
+    n = indptr.shape[0] - 1
+    beta_prev = 0.0
+    older = 0.0  # θ two steps back
+    old = 0.0  # θ one step back
+    theta = 0.0
+    for step in range(beta.shape[0]):
+        for i in range(n):
+            z[i] = 0.0
+        for i in range(n):
+            acc = 0.0
+            xi = w[i] * q[i]
+            for k in range(indptr[i], indptr[i + 1]):
+                j = indices[k]
+                acc += data[k] * q[j]
+                z[j] += data[k] * xi
+            r[i] = acc
+        ss = 0.0
+        for i in range(n):
+            ri = 0.5 * (r[i] - z[i] / w[i]) + beta_prev * q_prev[i]
+            r[i] = ri
+            ss += w[i] * ri * ri
+        b = np.sqrt(ss)
+        beta[step] = b
+        theta = _tridiag_top(beta, step + 1)
+        if not np.isfinite(b) or b <= 1e-14 * max(theta, 1e-300):
+            return theta, step + 1, np.isfinite(b)
+        if step >= 3 and theta - older <= rtol * theta:
+            return theta, step + 1, True
+        older, old = old, theta
+        for i in range(n):
+            q_prev[i] = q[i]
+            q[i] = r[i] / b
+        beta_prev = b
+    return theta, beta.shape[0], False
+
+
+def skew_lanczos(
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray],
+    w: np.ndarray,
+    q: np.ndarray,
+    steps: int,
+    rtol: float,
+) -> tuple[float, int, bool]:
+    """The steps of :func:`fvf.expmv._skew_norm_estimate` in one call: Lanczos on the
+    W-skew part K = ½(A − W⁻¹AᵀW) of A until its largest Ritz value θ moved by at most
+    ``rtol`` relative over two steps (from the fourth step on) or the basis is invariant.
+
+    Parameters
+    ----------
+    csr : (indptr, indices, data)
+        A (n, n) in CSR, as :func:`csr_views` gives it.
+    w : float64 (n,)
+        Positive weights of the inner product.
+    q : float64 (n,)
+        The start, of W-norm 1; overwritten.
+    steps : int
+        Steps at most (≥ 1).
+    rtol : float
+
+    Returns
+    -------
+    (float, int, bool)
+        θ (≤ ‖K‖_W), the steps taken (two products each: A and Aᵀ), whether θ converged.
+    """
+    n = q.shape[0]
+    beta = np.zeros(int(steps))
+    theta, taken, converged = _jit(_skew_lanczos)(
+        csr[0], csr[1], csr[2], w, q, np.zeros(n), np.empty(n), np.empty(n), beta, float(rtol)
+    )
+    return float(theta), int(taken), bool(converged)
 
 
 def term_run(
@@ -920,12 +1035,15 @@ def power_bound(
     sym: bool,
     steps: int,
     span: float,
+    floor: float = 0.0,
+    handoff: float = np.inf,
 ) -> tuple[float, int]:
-    """The power steps of :func:`fvf.expmv._skew_bound` in one call, from d = 1, while a
-    step saves more terms than it costs. With P = diag(s) |A| diag(1/s), a step is
-    M d = P d when ``sym`` (|S| symmetric, A declared skew), else
-    M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same pass over A's rows (the
-    transposed one scattered from the rows); d ← max(M d / max M d, 1e-300).
+    """The power steps of :func:`fvf.expmv._skew_bound` in one call, from d = 1, while the
+    last two steps save more terms than they cost and the bound is not below ``floor``.
+    With P = diag(s) |A| diag(1/s), a step is M d = P d when ``sym`` (|S| symmetric, A
+    declared skew), else M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same
+    pass over A's rows (the transposed one scattered from the rows);
+    d ← max(M d / max M d, 1e-300).
 
     Parameters
     ----------
@@ -938,6 +1056,10 @@ def power_bound(
         Steps after the first (≥ 0).
     span : float
         max|t| × columns (inf: all the steps).
+    floor : float
+        Stop once the bound is below this (0: no such stop).
+    handoff : float
+        Stop once span × the bound is more than this (inf: no such stop).
 
     Returns
     -------
@@ -948,7 +1070,20 @@ def power_bound(
     n = s.shape[0]
     d, md, g, dg = np.ones(n), np.empty(n), np.empty(n), np.empty(n)
     best, products = _jit(_power_bound)(
-        csr[0], csr[1], csr[2], s, inv_s, bool(sym), int(steps), float(span), d, md, g, dg
+        csr[0],
+        csr[1],
+        csr[2],
+        s,
+        inv_s,
+        bool(sym),
+        int(steps),
+        float(span),
+        float(floor),
+        float(handoff),
+        d,
+        md,
+        g,
+        dg,
     )
     return float(best), int(products)
 

@@ -189,6 +189,16 @@ CHEB_SKEW_MIN_N = 20_000
 CHEB_GROWTH = 1e3
 #: Power steps of the bound R that :func:`expm_action` computes (:func:`skew_bound`).
 CHEB_BOUND_ITERATIONS = 8
+#: For an operator not declared skew, from this max|t| × columns × Gershgorin's R on,
+#: R is the Lanczos estimate of ‖K‖_W times 1 + CHEB_ESTIMATE_MARGIN instead of the
+#: rigorous bound (:func:`_skew_norm_estimate`): ~10 % fewer terms per column, for 20–40
+#: products spent once.
+CHEB_ESTIMATE_MIN_SPAN = 400.0
+CHEB_ESTIMATE_MARGIN = 0.02
+#: Steps of that Lanczos estimate at most, and its convergence test (relative change of
+#: the largest Ritz value over two steps).
+CHEB_ESTIMATE_STEPS = 30
+CHEB_ESTIMATE_RTOL = 1e-3
 #: The Chebyshev series measures its terms at every CHEB_CHECK_EVERY-th step (a check costs
 #: a few vector passes; terms that grow are caught at most this many products later).
 CHEB_CHECK_EVERY = 32
@@ -810,8 +820,12 @@ def _choose(
         return "krylov", skew_norm  # Lanczos: fewer vectors, faster there (docstring)
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
-    R = _bound(Aop, w, times, p, info, absA, skew) if skew_norm is None else float(skew_norm)
-    tau = R * float(np.abs(times).max())
+    top = float(mags.max())
+    if skew_norm is None:  # (below CHEB_MIN_TAU / top the series is out: no more steps)
+        R = _bound(Aop, w, times, p, info, absA, skew, floor=CHEB_MIN_TAU / top)
+    else:
+        R = float(skew_norm)
+    tau = R * top
     if R > 0 and tau >= CHEB_MIN_TAU and NOISE * math.sqrt(tau + 30.0) <= SAFETY * tol:
         return "chebyshev", R
     return "krylov", R
@@ -825,16 +839,87 @@ def _bound(
     info: dict | None,
     absA: _AbsCsr | _FusedAbs | None = None,
     skew: bool | None = None,
+    floor: float = 0.0,
 ) -> float:
     """:func:`skew_bound` with power steps while they pay for themselves on this call
     (records the products with |A| in ``info["bound_products"]``); for ``skew=True``
-    with one product per step (see :func:`_skew_bound`)."""
+    with one product per step; no further steps once the bound is below ``floor`` (see
+    :func:`_skew_bound`)."""
     span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
     absA = _abs_of(Aop) if absA is None else absA
-    R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True)
+    handoff = math.inf if skew is True else CHEB_ESTIMATE_MIN_SPAN
+    R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True, floor, handoff)
+    if R >= floor and span * R > handoff:  # (then the steps stopped at Gershgorin's R)
+        theta, spent, converged = _skew_norm_estimate(Aop, w, absA)
+        products += spent
+        if converged:
+            R = min(R, (1.0 + CHEB_ESTIMATE_MARGIN) * theta)
+        else:  # (not seen on flow operators) the rigorous bound after all
+            R, steps = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, False, floor)
+            products += steps
     if info is not None:
         info["bound_products"] = products
     return R
+
+
+def _skew_norm_estimate(
+    Aop: Any, w: np.ndarray | None, absA: _AbsCsr | _FusedAbs | None = None
+) -> tuple[float, int, bool]:
+    """(θ, products with A and Aᵀ spent, whether θ converged): the largest Ritz value of
+    Lanczos on K = ½(A − A*), A* = W⁻¹AᵀW the W-adjoint, from a fixed random start.
+
+    K is W-skew, so K q_j = β_j q_{j+1} − β_{j−1} q_{j−1} and the projection of K is
+    tridiagonal with zero diagonal; its eigenvalues are ±i times those of the symmetric
+    tridiagonal with off-diagonal β. θ ≤ ‖K‖_W always (a compression of K); on flow
+    operators the top of K's spectrum is well separated and θ is within 1e-3 of ‖K‖_W
+    after 15–20 steps (spot, 6k to 1.5M faces; docs/notes.md, session 9). Converged:
+    θ moved by at most CHEB_ESTIMATE_RTOL relative over the last two steps, or the
+    basis spans an invariant subspace (θ exact).
+
+    Not a bound: R from θ serves only operators not declared skew, whose series' stop is
+    a posteriori anyway (:func:`_run_chebyshev`). An R below ‖K‖_W makes the terms grow,
+    which costs terms or hands the call to the Krylov method; it cannot make the answer
+    wrong.
+
+    With ``absA`` from the fused kernels (:class:`_FusedAbs`, which holds A's CSR arrays),
+    the steps run in one compiled call (:func:`fvf._kernels.skew_lanczos`, one pass over
+    the rows a step for both products).
+    """
+    n = Aop.shape[0]
+    q = np.random.default_rng(20261122).standard_normal(n)
+    q /= math.sqrt(q @ (q if w is None else w * q))
+    if isinstance(absA, _FusedAbs):
+        ones = np.ones(n) if w is None else w
+        theta, taken, converged = _kernels.skew_lanczos(
+            absA.csr, ones, q, CHEB_ESTIMATE_STEPS, CHEB_ESTIMATE_RTOL
+        )
+        return theta, 2 * taken, converged
+    AT = Aop.T
+    q_prev = np.zeros(n)
+    beta_prev = 0.0
+    betas: list[float] = []
+    thetas = [0.0, 0.0]
+    for _ in range(CHEB_ESTIMATE_STEPS):
+        adj = AT @ (q if w is None else w * q)  # Aᵀ W q, (n,)
+        r = Aop @ q
+        r -= adj if w is None else adj / w  # A q − A* q
+        r *= 0.5
+        r += beta_prev * q_prev  # K q_j + β_{j−1} q_{j−1} = β_j q_{j+1}
+        beta = math.sqrt(r @ (r if w is None else w * r))
+        betas.append(beta)
+        top = sla.eigvalsh_tridiagonal(
+            np.zeros(len(betas) + 1),
+            np.asarray(betas),
+            select="i",
+            select_range=(len(betas), len(betas)),
+        )[0]
+        thetas.append(float(top))
+        if not math.isfinite(beta) or beta <= 1e-14 * max(thetas[-1], 1e-300):
+            return thetas[-1], 2 * len(betas), math.isfinite(beta)
+        if thetas[-1] - thetas[-3] <= CHEB_ESTIMATE_RTOL * thetas[-1] and len(betas) >= 4:
+            return thetas[-1], 2 * len(betas), True
+        q_prev, q, beta_prev = q, r / beta, beta
+    return thetas[-1], 2 * len(betas), False
 
 
 def expm_action(
@@ -1184,10 +1269,21 @@ def _skew_bound(
     iterations: int = CHEB_BOUND_ITERATIONS,
     span: float = math.inf,
     skew: bool = False,
+    floor: float = 0.0,
+    handoff: float = math.inf,
 ) -> tuple[float, int]:
     """(bound, products with |A| spent) from |A| (:class:`_AbsCsr`). With a finite
-    ``span`` (max|t| × columns), the power steps stop early once a step saves fewer terms
-    (≈ span × the bound's decrease) than the products it costs.
+    ``span`` (max|t| × columns), the power steps stop early once the last two steps
+    together saved fewer terms (≈ span × the bound's decrease) than the products they
+    cost, once the bound is below ``floor``, or at Gershgorin's bound if span × it is
+    more than ``handoff`` (the caller then estimates ‖K‖ instead, see :func:`_bound`).
+
+    Two steps, not one: a step can gain nothing and the next one much. On spot at 375k
+    faces (v = grad y) Gershgorin's bound is 1.136× the limit, one step 1.136×, two
+    1.108×, eight 1.020×; stopping at the first step that did not pay left R 1.29× ‖K‖
+    on a block of 8 columns at 10 edge lengths, and 1,360 products where 8 steps needed
+    1,248 (docs/notes.md, session 9). A clique with one pendant vertex does it at
+    every other step (the tests).
 
     ``skew``: A is declared W-skew-adjoint. Then S = W^½ A W^−½ is skew-symmetric, K = A,
     P = |S| is symmetric and ½(P d + Pᵀ d) = P d: one product per step instead of two
@@ -1204,17 +1300,26 @@ def _skew_bound(
     s = np.ones(n) if w is None else np.sqrt(w)
     inv_s = 1.0 / s
     if isinstance(absA, _FusedAbs):  # the same steps in one compiled call
-        best, products = _kernels.power_bound(absA.csr, s, inv_s, sym, iterations, span)
+        best, products = _kernels.power_bound(
+            absA.csr, s, inv_s, sym, iterations, span, floor, handoff
+        )
         return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
     d = np.ones(n)
     best = math.inf
     products = 0
+    gain = math.inf
     for _ in range(iterations + 1):
         # M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with its diagonal)
         Md, bound, top = absA.step(d, s, inv_s, sym)
         products += per_step
-        gain, best = best - bound, min(best, bound)
-        if not top > 0 or not math.isfinite(top) or gain * span < per_step:
+        last, gain, best = gain, best - bound, min(best, bound)
+        if (
+            not top > 0
+            or not math.isfinite(top)
+            or (last + gain) * span < 2 * per_step
+            or best < floor
+            or best * span > handoff
+        ):
             break
         d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
     return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
