@@ -57,6 +57,7 @@ _HELPERS = (
     "_series_top",
     "_miller",
     "_power_step",
+    "_power_stops",
     "_tridiag_top",
     "_lanczos_run",
     "_cheb_degree",
@@ -673,6 +674,19 @@ def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: 
     return ratio, top
 
 
+def _power_stops(top, last, gain, span, per_step, best, floor, handoff):  # pragma: no cover
+    # whether the bound's power steps end after this one (fvf.expmv._skew_bound, which
+    # calls it too): no usable top, the last two steps saved fewer terms (span × the
+    # bound's decrease) than they cost, the bound below floor, or span × it above handoff
+    return (
+        not top > 0
+        or not np.isfinite(top)
+        or (last + gain) * span < 2 * per_step
+        or best < floor
+        or best * span > handoff
+    )
+
+
 def _power_bound(  # pragma: no cover - jitted
     indptr, indices, data, s, inv_s, sym, steps, span, floor, handoff, d, md, g, dg
 ):
@@ -688,13 +702,7 @@ def _power_bound(  # pragma: no cover - jitted
         products += per_step
         last, gain = gain, best - bound
         best = min(best, bound)
-        if (
-            not top > 0
-            or not np.isfinite(top)
-            or (last + gain) * span < 2 * per_step
-            or best < floor
-            or best * span > handoff
-        ):
+        if _power_stops(top, last, gain, span, per_step, best, floor, handoff):
             break
         for i in range(d.shape[0]):
             d[i] = max(md[i] / top, 1e-300)  # positive, so the bound stays rigorous

@@ -1331,13 +1331,7 @@ def _skew_bound(
         Md, bound, top = absA.step(d, s, inv_s, sym)
         products += per_step
         last, gain, best = gain, best - bound, min(best, bound)
-        if (
-            not top > 0
-            or not math.isfinite(top)
-            or (last + gain) * span < 2 * per_step
-            or best < floor
-            or best * span > handoff
-        ):
+        if _kernels._power_stops(top, last, gain, span, per_step, best, floor, handoff):
             break
         d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
     return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
