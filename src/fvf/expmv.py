@@ -194,7 +194,7 @@ CHEB_BOUND_ITERATIONS = 8
 #: For an operator not declared skew, from this max|t| × columns × Gershgorin's R on,
 #: R is the Lanczos estimate of ‖K‖_W times 1 + CHEB_ESTIMATE_MARGIN instead of the
 #: rigorous bound (:func:`_skew_norm_estimate`): ~10 % fewer terms per column, for 20–40
-#: products spent once.
+#: products a call (:func:`_bound`).
 CHEB_ESTIMATE_MIN_SPAN = 400.0
 CHEB_ESTIMATE_MARGIN = 0.02
 #: Steps of that Lanczos estimate at most, and its convergence test (relative change of
