@@ -237,12 +237,17 @@ def subdivide(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([V, mid]), np.ascontiguousarray(children.reshape(-1, 3))
 
 
-def spot_level(level: int) -> tuple[np.ndarray, np.ndarray]:
-    base = fvf.examples.spot()
-    V, F = np.array(base.vertices), np.array(base.faces)
+def refine(V: np.ndarray, F: np.ndarray, level: int) -> tuple[np.ndarray, np.ndarray]:
+    """``level`` 1-to-4 midpoint subdivisions of (V, F) (copies; the input is left alone)."""
+    V, F = np.array(V), np.array(F)
     for _ in range(level):
         V, F = subdivide(V, F)
     return V, F
+
+
+def spot_level(level: int) -> tuple[np.ndarray, np.ndarray]:
+    base = fvf.examples.spot()
+    return refine(base.vertices, base.faces, level)
 
 
 def pick_levels(targets: list[float], base_faces: int) -> list[int]:

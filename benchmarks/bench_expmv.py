@@ -7,7 +7,9 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_expmv.py --sizes 1e4,1e5 --lengths 1,10
 
 Meshes are the built-in spot (5856 faces) refined by 1-to-4 midpoint subdivision
-(``bench_core.spot_level``), at the level whose face count is log-closest to each size.
+(``bench_core.refine``), at the level whose face count is log-closest to each size;
+``--mesh PATH`` starts from another mesh instead (``--mesh ../shared/meshes/bob_tri.obj
+--sizes 1e4``: 10,688 faces, the issue's ~10k).
 
 Operators. A = −D^V_v with the inner product of the vertex areas A_V, for two unit-speed
 fields (max |v| = 1, so t = L · mean edge length moves a function about L edges):
@@ -89,7 +91,7 @@ from fvf import _kernels
 from fvf.expmv import ExpmvCounter, expm_action
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_core import pick_levels, print_table, spot_level  # noqa: E402
+from bench_core import pick_levels, print_table, refine  # noqa: E402
 
 TOL = 1e-10
 LENGTHS = (0.1, 1.0, 10.0)
@@ -316,6 +318,12 @@ def main() -> None:
         "--lengths", default=",".join(str(x) for x in LENGTHS), help="times in mean edge lengths"
     )
     ap.add_argument("--fields", default="skew,grad")
+    ap.add_argument(
+        "--mesh",
+        default="spot",
+        help="base mesh, refined by 1-to-4 subdivision: spot (built in, 5,856 faces) or a "
+        "mesh file, e.g. ../shared/meshes/bob_tri.obj (10,688 faces)",
+    )
     args = ap.parse_args()
 
     limits = threadpool_limits(1)
@@ -337,16 +345,18 @@ def main() -> None:
     )
     lengths = [float(x) for x in args.lengths.split(",")]
     want = set(args.fields.split(","))
-    base = fvf.examples.spot().n_faces
+    if args.mesh == "spot":
+        title, base = "spot", fvf.examples.spot()
+    else:
+        title, base = os.path.basename(args.mesh), fvf.TriMesh(*fvf.read_mesh(args.mesh))
     if args.quick:
         levels = [0, 1]
     else:
-        levels = pick_levels([float(s) for s in args.sizes.split(",")], base)
+        levels = pick_levels([float(s) for s in args.sizes.split(",")], base.n_faces)
 
     summary = []
     for level in levels:
-        V, F = spot_level(level)
-        mesh = fvf.TriMesh(V, F)
+        mesh = fvf.TriMesh(*refine(base.vertices, base.faces, level))
         n, m = mesh.n_vertices, mesh.n_faces
         # best of up to 40 runs within each case's budget: at ~6k faces a call takes a
         # few ms and this shared machine's run-to-run spread is ±30 %
@@ -354,7 +364,7 @@ def main() -> None:
         h = mesh.mean_edge_length
         w = mesh.vertex_areas
         print(
-            f"\n== spot level {level}: n = {n:,} vertices, m = {m:,} faces, "
+            f"\n== {title} level {level}: n = {n:,} vertices, m = {m:,} faces, "
             f"mean edge {h:.4g}, best of <= {reps}"
         )
         for name, A in fields(mesh):
