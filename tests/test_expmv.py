@@ -731,6 +731,44 @@ def test_krylov_bases_stay_below_the_dimension(t):
     assert maxrel(X, dense_exp(A, B, t)[0]) <= 1e-10
 
 
+@pytest.mark.parametrize("compiled", [False, True])
+def test_lanczos_places_its_second_check_by_the_chebyshev_tail(monkeypatch, compiled):
+    """After a first failing check, the next one is where the Chebyshev series for the
+    radius 2·mean(β) has lowered its tail by the excess (plus a gap). On bob at 10 edge
+    lengths the first check (m = 47) is 370× over budget; the old rule (a decay of 2 per
+    vector, then a linear extrapolation) checked at 49 and 57, this one at 53, where the
+    check passes (the first m that passes, checking at every vector)."""
+    from conftest import load_shared
+
+    if compiled and not fvf._kernels.ENABLED:
+        pytest.skip("numba's kernels are off")
+    mesh = load_shared("bob_tri.obj")
+    g = fvf.gradient(mesh, mesh.vertices[:, 1])
+    v = fvf.rotate(mesh, g)
+    v /= np.linalg.norm(v, axis=1).max()
+    A = -fvf.D_V(mesh, v, tangent="ignore")
+    b = np.sin(3 * mesh.vertices[:, 0]) + mesh.vertices[:, 2]
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", compiled)
+    checks = []
+    if not compiled:
+        orig = fvf.expmv._next_check
+
+        def spy(m, excess, *a):
+            checks.append(m)
+            return orig(m, excess, *a)
+
+        monkeypatch.setattr(fvf.expmv, "_next_check", spy)
+    t = 10 * mesh.mean_edge_length
+    x, info = expm_action(
+        A, b, t, inner=mesh.vertex_areas, skew=True, method="krylov", return_info=True
+    )
+    assert info["method"] == "lanczos" and info["basis_sizes"] == [53]
+    if not compiled:
+        assert checks == [47]  # one failing check, then the passing one at 53
+    ref = expm_action(A, b, t, inner=mesh.vertex_areas, method="expm_multiply")
+    assert wrel(x, ref, mesh.vertex_areas) <= 1e-10
+
+
 def test_skew_bound_edge_cases():
     assert skew_bound(sp.diags_array(np.arange(5.0))) == 0.0  # diagonal: no skew part
     S = sp.random_array((40, 40), density=0.2, rng=np.random.default_rng(4), format="csr")

@@ -634,6 +634,15 @@ def _lanczos_step(  # pragma: no cover - jitted
         x = np.log(excess) if np.isfinite(excess) else 50.0
         if last_m >= 0 and last_x > x:
             step = int(x / (1.3 * ((last_x - x) / (m - last_m))))
+        elif last_m < 0:  # the decay of the Chebyshev tail for the radius so far
+            rt = abs(2.0 * (bsum / max(m, 1)) * tau)
+            top = _series_top(rt)
+            budget = rate_m * tau
+            step = (
+                gap
+                + _cheb_degree(rt, budget / excess, top, tiny)
+                - _cheb_degree(rt, budget, top, tiny)
+            )
         else:
             step = int(x / 2.0)
         next_check = min(m_cap, m + max(gap, step, 1))
