@@ -864,16 +864,26 @@ def _bound(
     handoff = math.inf if skew is True else CHEB_ESTIMATE_MIN_SPAN
     R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True, floor, handoff)
     if R >= floor and span * R > handoff:  # (then the steps stopped at Gershgorin's R)
-        theta, spent, converged = _skew_norm_estimate(Aop, w, absA)
+        estimate, spent = _estimated_radius(Aop, w, absA)
         products += spent
-        if converged:
-            R = min(R, (1.0 + CHEB_ESTIMATE_MARGIN) * theta)
+        if estimate is not None:
+            R = min(R, estimate)
         else:  # (not seen on flow operators) the rigorous bound after all
             R, steps = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, False, floor)
             products += steps
     if info is not None:
         info["bound_products"] = products
     return R
+
+
+def _estimated_radius(
+    Aop: Any, w: np.ndarray | None, absA: _AbsCsr | _FusedAbs | None = None
+) -> tuple[float | None, int]:
+    """(R = (1 + CHEB_ESTIMATE_MARGIN)·θ, or None if θ did not converge; the products
+    spent): the series' radius from :func:`_skew_norm_estimate`, for operators not
+    declared skew (:func:`_bound`, and ``fvf.FunctionalFlow`` once per field)."""
+    theta, spent, converged = _skew_norm_estimate(Aop, w, absA)
+    return ((1.0 + CHEB_ESTIMATE_MARGIN) * theta if converged else None), spent
 
 
 def _skew_norm_estimate(

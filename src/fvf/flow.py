@@ -36,9 +36,8 @@ from .errors import (
     user_stacklevel,
 )
 from .expmv import (
-    CHEB_ESTIMATE_MARGIN,
     _abs_of,
-    _skew_norm_estimate,
+    _estimated_radius,
     as_times,
     check_options,
     expm_action,
@@ -147,10 +146,9 @@ class FunctionalFlow:
         R need not be a bound (``fvf.expmv._bound``, docs/flows.md); on spot it is 1.02×
         ‖K‖ against the bound's 1.15–1.18×, ~10 % fewer terms a call for 30–40 products
         once."""
-        A, w = self.operator, self.mesh.vertex_areas
-        theta, _, converged = _skew_norm_estimate(A, w, _abs_of(A))  # (‖K‖ of ±D^V_v)
-        R = self.skew_norm
-        return min(R, (1.0 + CHEB_ESTIMATE_MARGIN) * theta) if converged else R
+        A = self.operator
+        estimate, _ = _estimated_radius(A, self.mesh.vertex_areas, _abs_of(A))  # (±D^V_v)
+        return self.skew_norm if estimate is None else min(self.skew_norm, estimate)
 
     @cached_property
     def is_skew(self) -> bool:
