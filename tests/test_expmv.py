@@ -798,6 +798,41 @@ def test_lanczos_places_its_second_check_by_the_chebyshev_tail(monkeypatch, comp
     assert wrel(x, ref, mesh.vertex_areas) <= 1e-10
 
 
+@pytest.mark.parametrize("compiled", [False, True])
+def test_iom_places_its_checks_by_the_chebyshev_degree(monkeypatch, compiled):
+    """The general method checks first at the Chebyshev degree for the radius 2·mean(β)
+    (less a lead), then where that series' tail has dropped by the excess, as Lanczos
+    does. On bob at 10 edge lengths (grad y, one column) the old rule (the start of the
+    decay, then a decay of 2 per vector and a linear extrapolation) checked at 27, 36, 47
+    and 50; now at 39 and 49, with one product fewer (49; expm_multiply needs ~159)."""
+    from conftest import load_shared
+
+    if compiled and not fvf._kernels.ENABLED:
+        pytest.skip("numba's kernels are off")
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", compiled)
+    mesh = load_shared("bob_tri.obj")
+    v = fvf.gradient(mesh, mesh.vertices[:, 1])
+    v /= np.linalg.norm(v, axis=1).max()
+    A = -fvf.D_V(mesh, v, tangent="ignore")
+    X = mesh.vertices - mesh.vertices.mean(0)
+    X /= np.abs(X).max()
+    b = np.sin(3 * X[:, 0]) + X[:, 1] * np.cos(2 * X[:, 2])
+    checks = []
+    orig = fvf.expmv._HessenbergExp.__init__
+
+    def spy(self, H, m, *a):
+        checks.append(m)
+        orig(self, H, m, *a)
+
+    monkeypatch.setattr(fvf.expmv._HessenbergExp, "__init__", spy)
+    t = 10 * mesh.mean_edge_length
+    w = mesh.vertex_areas
+    x, info = expm_action(A, b, t, inner=w, skew=False, method="krylov", return_info=True)
+    assert info["method"] == "iom" and info["matvecs"] == 49 and checks == [39, 49]
+    ref = expm_action(A, b, t, inner=w, method="expm_multiply", tol=1e-13)
+    assert np.abs(x - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
 def test_skew_bound_edge_cases():
     assert skew_bound(sp.diags_array(np.arange(5.0))) == 0.0  # diagonal: no skew part
     S = sp.random_array((40, 40), density=0.2, rng=np.random.default_rng(4), format="csr")

@@ -194,7 +194,7 @@ def test_csr_views_share_memory_and_refuse_what_they_cannot_read(monkeypatch):
 def _spy(monkeypatch) -> dict:
     """Count the products of the fused kernels (an agreement test must run them)."""
     calls = {"n": 0}  # products done by the kernels (term_run: one per coefficient)
-    kernels = ("term_run", "term_chain", "term_combine", "lanczos_run", "lanczos_step")
+    kernels = ("term_run", "term_chain", "term_combine", "lanczos_run", "lanczos_step", "iom_run")
     for name in kernels:
         real = getattr(_kernels, name)
 
@@ -211,6 +211,8 @@ def _spy(monkeypatch) -> dict:
                 calls["n"] += int(args[9][1]) - args[5]
             elif _name == "lanczos_step":
                 calls["n"] += int(out[1][6])
+            elif _name == "iom_run":
+                calls["n"] += int(args[7][1]) - args[4]
             else:
                 calls["n"] += 1
             return out
@@ -236,6 +238,8 @@ CASES = [  # (field, p, number of times, method that runs)
     ("grad", 1, 1, "chebyshev"),
     ("grad", 1, 5, "chebyshev"),
     ("grad", 3, 1, "chebyshev"),
+    ("grad", 1, 1, "iom"),
+    ("grad", 1, 5, "iom"),
 ]
 
 
@@ -478,3 +482,149 @@ def test_compiled_lanczos_step_refuses_a_non_skew_operator_as_the_loop_does(monk
     assert i1["method"] == i0["method"] == "iom"
     assert i1["wasted_matvecs"] == i0["wasted_matvecs"] > 0
     np.testing.assert_array_equal(x1, x0)
+
+
+# ------------------------------------------------------ the general Krylov method (IOM)
+def _banded_hessenberg(rng, m: int, window: int) -> np.ndarray:
+    """(m + 1, m) upper Hessenberg with ``window`` entries above the subdiagonal per column
+    (the shape of incomplete orthogonalization's H), positive subdiagonal."""
+    H = np.zeros((m + 1, m))
+    for j in range(m):
+        lo = max(0, j + 1 - window)
+        H[lo : j + 1, j] = rng.standard_normal(j + 1 - lo)
+        H[j + 1, j] = rng.uniform(0.1, 2.0)
+    return H
+
+
+@pytest.mark.parametrize("window", [1, 2, 4, 7, 60])
+def test_iom_run_matches_the_numpy_vectors(rng, window):
+    """iom_run's basis and H against fvf.expmv._iom_vector (numpy, one vector a call): the
+    same classical Gram–Schmidt pass, summed in another order."""
+    n, m = 60, 25
+    A = _random_csr(n, rng, np.int32)
+    A = sp.csr_array(A - 0.7 * A.T)  # not symmetric, not skew
+    w = rng.uniform(0.5, 2.0, n)
+    v0 = rng.standard_normal(n)
+    v0 /= np.sqrt(w @ v0**2)
+    V1, H1 = np.zeros((m + 1, n)), np.zeros((m + 1, m))
+    V1[0] = v0
+    res = np.zeros(3)
+    _kernels.iom_run(_fused(A), V1, w, H1, 0, 10, window, res)  # two runs, as the checks cut
+    _kernels.iom_run(_fused(A), V1, w, H1, 10, m, window, res)
+    assert res[0] == 0 and res[1] == m
+    op = fvf.expmv._Operator(A, n)
+    V0, H0 = np.zeros((m + 1, n)), np.zeros((m + 1, m))
+    V0[0] = v0
+    for j in range(m):
+        fvf.expmv._iom_vector(op, V0, H0, j, window, w, np.empty(n), None)
+    np.testing.assert_allclose(H1, H0, rtol=1e-11, atol=1e-12)
+    np.testing.assert_allclose(V1, V0, rtol=1e-11, atol=1e-11)
+    assert res[2] == pytest.approx(np.diag(H0, -1).sum(), rel=1e-13)
+    if window >= m:  # full orthogonalization: an orthonormal basis
+        G = (V1 * w) @ V1.T
+        np.testing.assert_allclose(G, np.eye(m + 1), atol=1e-12)
+
+
+def test_iom_run_reports_breakdown_and_overflow(rng):
+    """An eigenvector as the start ends the run at m = 1 with β = 0 exactly (status 1);
+    an infinite entry ends it with status 2."""
+    n = 30
+    A = sp.csr_array(sp.diags_array(np.arange(1.0, n + 1)))
+    V, H, res = np.zeros((11, n)), np.zeros((11, 10)), np.zeros(3)
+    V[0, 3] = 1.0
+    _kernels.iom_run(_fused(A), V, np.ones(n), H, 0, 10, 4, res)
+    assert res[0] == 1 and res[1] == 1 and H[0, 0] == 4.0 and H[1, 0] == 0.0
+    A.data[5] = np.inf
+    V[0] = 1 / np.sqrt(n)
+    res[:] = 0
+    _kernels.iom_run(_fused(A), V, np.ones(n), H, 0, 10, 4, res)
+    assert res[0] == 2 and res[1] == 1
+
+
+@pytest.mark.parametrize("window", [1, 2, 4, 60])
+def test_hess_mu_is_the_top_eigenvalue_of_the_symmetric_part(rng, window):
+    """Against LAPACK, for both signs, cold and from the leading block's μ (interlacing)."""
+    for m in (1, 2, 5, 30, 60):
+        H = _banded_hessenberg(rng, m, window)
+        scale = np.abs(H).sum(axis=1).max()
+        for sign in (1.0, -1.0):
+            S = sign * 0.5 * (H[:m, :m] + H[:m, :m].T)
+            ref = np.linalg.eigvalsh(S)[-1]
+            got = _kernels.hess_mu(H, m, sign, window)
+            assert ref - 1e-13 * scale <= got <= ref + 2e-10 * scale  # from above
+            if m > 1:
+                below = _kernels.hess_mu(H, m - 1, sign, window)
+                warm = _kernels.hess_mu(H, m, sign, window, below)
+                assert ref - 1e-13 * scale <= warm <= ref + 2e-10 * scale
+    assert _kernels.hess_mu(np.zeros((4, 3)), 3, 1.0, 4) == 0.0
+
+
+@pytest.mark.parametrize("window", [2, 4, 40])
+def test_hess_profile_and_expv_match_scipy(monkeypatch, rng, window):
+    """The grid exp(s_g H_m) e_1 and the error estimate against the numpy _HessenbergExp
+    (scipy's expm of one grid step, applied g times), and exp(c H_m) x for small and large
+    c of either sign against scipy's expm.
+
+    (Not against expm(s_g H_m) for each s_g: for window 40, hi = 9, where the grid grows
+    to 6e4, that was 4e-10 off a 40-digit mpmath reference, the stepped grids 1e-13 and
+    4e-15.)"""
+    import scipy.linalg as sla
+
+    m = 40
+    H = _banded_hessenberg(rng, m, window)
+    H[m, m - 1] = 0.7
+    for sign, hi in ((1.0, 0.3), (-1.0, 2.0), (1.0, 9.0)):
+        mu = _kernels.hess_mu(H, m, sign, window)
+        X, E = _kernels.hess_profile(H, m, sign, window, 0.7, hi, mu, 64)
+        monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
+        ref = fvf.expmv._HessenbergExp(H, m, sign)
+        s, E0 = ref.errors(hi)
+        monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", True)
+        X0 = ref._grid[1]
+        np.testing.assert_allclose(X, X0, rtol=0, atol=1e-12 * np.abs(X0).max())
+        np.testing.assert_allclose(E, E0, rtol=1e-8, atol=1e-16)  # (a relative error)
+    x = rng.standard_normal(m)
+    for c in (1e-9, 0.05, -0.8, 6.0, -25.0):
+        ref = sla.expm(c * H[:m, :m]) @ x
+        got = _kernels.hess_expv(H, m, c, window, x)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize(
+    "times, norm, m_max",
+    [
+        ("one", "max", None),
+        ("sixteen", "max", None),
+        ("off-grid", "max", None),
+        ("signs", "inner", None),
+        ("one", "max", 20),  # capped bases: several steps, checks that fail, cut steps
+    ],
+)
+def test_compiled_iom_is_the_numpy_loop(monkeypatch, times, norm, m_max):
+    """With numba, the general method's vectors (iom_run) and its checks' small
+    exponentials (hess_mu, hess_profile, hess_expv) are compiled; the loop around them is
+    the same, so the bases, checks and outputs are those of the numpy path."""
+    mesh, A = _flow_operator("grad")
+    w = mesh.vertex_areas
+    b = np.cos(3 * mesh.vertices[:, 0]) + mesh.vertices[:, 2]
+    h = 6 * mesh.mean_edge_length
+    t = {
+        "one": h,
+        "sixteen": h * np.arange(1, 17) / 16,
+        "off-grid": h * np.array([0.013, 0.5, 0.77, 1.0]),
+        "signs": h * np.array([0.5, -1.0, 0.0, 1.0, -0.25]),
+    }[times]
+    kw = dict(inner=w, skew=False, norm=norm, m_max=m_max, method="krylov", return_info=True)
+    calls = _spy(monkeypatch)
+    x1, i1 = expm_action(A, b, t, **kw)
+    assert calls["n"] == i1["matvecs"]  # every vector came from the kernel
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
+    x0, i0 = expm_action(A, b, t, **kw)
+    assert i1["method"] == i0["method"] == "iom"
+    assert i1["basis_sizes"] == i0["basis_sizes"] and i1["matvecs"] == i0["matvecs"]
+    if m_max is not None:
+        assert len(i1["basis_sizes"]) > 1  # (several steps were taken)
+    assert i1["error_estimate"] == pytest.approx(i0["error_estimate"], rel=1e-6)
+    assert np.abs(x1 - x0).max() <= 1e-12 * np.abs(x0).max()
+    ref = expm_action(A, b, t, inner=w, method="expm_multiply", tol=1e-13)
+    assert np.abs(x1 - ref).max() <= 1e-10 * np.abs(ref).max()

@@ -2508,6 +2508,9 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
     err_total = 0.0
     wv = np.empty(n)
     tmp = wv if n < _STREAM_N else None  # the norms reuse the same temporary
+    fused = op.fused if _COMPILED_IOM else None  # numba: runs of vectors in one call
+    wk = (np.ones(n) if w is None else w) if fused is not None else None
+    res = np.zeros(3)
     while k < nt:
         tau_rem = float(s_targets[-1] - t_now)
         beta0 = _wnorm(y, w, tmp)
@@ -2519,37 +2522,49 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
         np.multiply(y, 1.0 / beta0, out=V[0])
         H = np.zeros((m_cap + 1, m_cap))
         bsum = 0.0
+        b = 1.0
         last_check: tuple[int, float] | None = None
         next_check = None
+        mu = -math.inf  # μ of the last check: a lower bound of the next one's (interlacing)
         m = 0
         while True:
-            j = m
-            vn = V[j + 1]
-            vn.fill(0.0)
-            op.accumulate(V[j], vn)
-            lo = max(0, j + 1 - window)
-            Vw = V[lo : j + 1]
-            h = Vw @ (vn if w is None else np.multiply(w, vn, out=wv))
-            vn -= h @ Vw
-            H[lo : j + 1, j] = h
-            b = _wnorm(vn, w, tmp)
+            # to the next point where a check may be due (as _lanczos_steps)
+            if next_check is None:
+                target = max(4, math.ceil(2.0 * bsum / max(m, 1) * tau_rem + 3))
+            else:
+                target = next_check
+            target = min(max(target, m + 1), m_cap)
+            if fused is not None:
+                res[2] = bsum
+                _kernels.iom_run(fused, V, wk, H, m, target, window, res)
+                op.count(int(res[1]) - m, 1)
+                m, bsum = int(res[1]), float(res[2])
+                b = H[m, m - 1]
+            else:
+                while m < target:
+                    m, b = _iom_vector(op, V, H, m, window, w, wv, tmp)
+                    bsum += b if math.isfinite(b) else 0.0
+                    if not b > 0:
+                        break
             if not math.isfinite(b):
                 raise FlowOverflowError(_NONFINITE)
-            H[j + 1, j] = b
-            bsum += b
-            if b > 0:
-                vn *= 1.0 / b
-            m = j + 1
             if m < m_cap and b > 0:
                 if next_check is None:
-                    if m < max(4, 2.0 * bsum / m * tau_rem + 3):
+                    # the start of the decay, then the Chebyshev degree for the radius
+                    # 2·mean(β), less a lead (see _lanczos_steps): on bob (10,688 faces)
+                    # the checks at 27, 36, 47 and 50 became 45 and 50
+                    rho_tau = 2.0 * bsum / m * tau_rem
+                    if m < max(4, rho_tau + 3):
                         continue
-                elif m < next_check:
+                    lead = _first_check_lead(op, 1)
+                    next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - lead)
+                if m < next_check:
                     continue
             factor = 1.0
             if maxnorm:  # see _lanczos_steps
                 factor = max(1.0, float(np.abs(V[m]).max()) / float(np.abs(V[0]).max()))
-            prof = _HessenbergExp(H, m, sign, factor)
+            prof = _HessenbergExp(H, m, sign, factor, window, mu)
+            mu = prof.mu
             s, E = prof.errors(tau_rem)
             rate_m = max(rate, NOISE * float(np.abs(H[: m + 1, :m]).sum(axis=1).max()) * factor)
             excess = E[-1] / (rate_m * tau_rem)
@@ -2559,7 +2574,13 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
             if m == m_cap:
                 tau, err = _cut_step_general(prof, tau_rem, rate_m)
                 break
-            next_check, last_check = _next_check(m, excess, last_check, m_cap, op, 1, True)
+            first = None
+            if last_check is None:  # the decay of the Chebyshev tail for the radius so far
+                rho_tau = 2.0 * bsum / m * tau_rem
+                first = chebyshev_degree(rho_tau, rate_m * tau_rem / excess) - chebyshev_degree(
+                    rho_tau, rate_m * tau_rem
+                )
+            next_check, last_check = _next_check(m, excess, last_check, m_cap, op, 1, True, first)
         last = tau == tau_rem
         kk = np.arange(k, nt)
         if not last:
@@ -2579,6 +2600,40 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
             break
 
 
+#: Whether the general method's runs of vectors and its checks' small exponentials are
+#: compiled with numba (:func:`fvf._kernels.iom_run`, :func:`fvf._kernels.hess_profile`);
+#: the tests turn it off to compare with the numpy path.
+_COMPILED_IOM = True
+
+
+def _iom_vector(
+    op: _Operator,
+    V: np.ndarray,
+    H: np.ndarray,
+    j: int,
+    window: int,
+    w: np.ndarray | None,
+    wv: np.ndarray,
+    tmp: np.ndarray | None,
+) -> tuple[int, float]:
+    """V[j + 1] and column j of H (one vector of :func:`_iom_steps`, numpy): the product,
+    one classical Gram–Schmidt pass against the last ``window`` vectors, the W-norm β;
+    returns (j + 1, β), V[j + 1] normalized where 0 < β < ∞."""
+    vn = V[j + 1]
+    vn.fill(0.0)
+    op.accumulate(V[j], vn)
+    lo = max(0, j + 1 - window)
+    Vw = V[lo : j + 1]
+    h = Vw @ (vn if w is None else np.multiply(w, vn, out=wv))
+    vn -= h @ Vw
+    H[lo : j + 1, j] = h
+    b = _wnorm(vn, w, tmp)
+    H[j + 1, j] = b
+    if 0 < b < math.inf:
+        vn *= 1.0 / b
+    return j + 1, b
+
+
 class _HessenbergExp:
     """exp(s H_m) e_1 on grids of s, and the relative error estimate, for a Hessenberg H_m.
 
@@ -2586,18 +2641,47 @@ class _HessenbergExp:
     e^{μ(s−σ)}, μ = largest eigenvalue of the symmetric part of H_m (the logarithmic norm
     of A on the Krylov space, an estimate of A's), and divided by ‖exp(s H_m) e_1‖ (the
     relative size of the solution).
+
+    H_m has ``window`` entries above the subdiagonal per column. With numba (and
+    :data:`_COMPILED_IOM`) μ comes from bisection on Cholesky factors of the banded
+    μI − S and the grid from Taylor's series on the band (:func:`fvf._kernels.hess_mu`,
+    :func:`fvf._kernels.hess_profile`, :func:`fvf._kernels.hess_expv`): 20–150 µs a check
+    at m = 27–50 on bob, where LAPACK's eigvalsh and scipy's expm took 230–620 µs.
+    ``mu_below``: a lower bound of μ (the last check's, for a leading block of H_m).
     """
 
-    def __init__(self, H: np.ndarray, m: int, sign: float, factor: float = 1.0) -> None:
-        self.Hm = sign * H[:m, :m]
+    def __init__(
+        self,
+        H: np.ndarray,
+        m: int,
+        sign: float,
+        factor: float = 1.0,
+        window: int | None = None,
+        mu_below: float = -math.inf,
+    ) -> None:
+        self.H = H
+        self.sign = sign
+        self.window = m if window is None else min(int(window), m)
         self.h = H[m, m - 1] * factor
         self.m = m
-        self.mu = float(np.linalg.eigvalsh(0.5 * (self.Hm + self.Hm.T))[-1])
+        self.compiled = _kernels.ENABLED and _COMPILED_IOM
+        if self.compiled:
+            self.mu = _kernels.hess_mu(H, m, sign, self.window, mu_below)
+        else:
+            self.Hm = sign * H[:m, :m]
+            self.mu = float(np.linalg.eigvalsh(0.5 * (self.Hm + self.Hm.T))[-1])
         self._grid: tuple[float, np.ndarray] | None = None
+        self._errors: np.ndarray | None = None
 
     def grid(self, hi: float) -> tuple[np.ndarray, np.ndarray]:
         """s = :func:`_grid` (hi) and exp(s H_m) e_1 at those s: (_GRID + 1, m)."""
         s = _grid(hi)
+        if self.compiled:
+            X, self._errors = _kernels.hess_profile(
+                self.H, self.m, self.sign, self.window, self.h, hi, self.mu, _GRID
+            )
+            self._grid = (hi, X)
+            return s, X
         step = sla.expm((hi / _GRID) * self.Hm)
         X = np.empty((_GRID + 1, self.m))
         X[0] = 0.0
@@ -2611,6 +2695,8 @@ class _HessenbergExp:
     def errors(self, hi: float) -> tuple[np.ndarray, np.ndarray]:
         """(s, relative error estimate at s) on the grid of [0, hi]."""
         s, X = self.grid(hi)
+        if self.compiled:
+            return s, self._errors
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             r = np.abs(self.h * X[:, -1])
             E = np.exp(self.mu * s) * _cumtrapz(np.exp(-self.mu * s) * r, hi)
@@ -2638,6 +2724,9 @@ class _HessenbergExp:
             d = si - g * delta
             if abs(d) <= 1e-12 * abs(si):
                 out[i] = X[g]
+                continue
+            if self.compiled:  # (Taylor on the band: no dense exponential)
+                out[i] = _kernels.hess_expv(self.H, self.m, self.sign * d, self.window, X[g])
                 continue
             key = float(f"{d:.11e}")
             E = cache.get(key)
