@@ -25,11 +25,11 @@ block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times sprea
 (0, t] ("16 t").
 
 Columns. "K" is expm_action with its default ``method="auto"``, called as
-fvf.FunctionalFlow calls it (``skew=True`` for J grad y): the Chebyshev series (``cheb``)
-from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for a skew operator with several
-times or (with numba's kernels; without them from 20k vertices on) one right-hand side,
-else the Krylov method (``lanczos`` for skew-adjoint A, ``iom`` otherwise); column
-``method`` says which ran (fvf.expmv.choose_method).
+fvf.FunctionalFlow calls it (``skew=True`` for J grad y, ``skew=False`` for grad y): the
+Chebyshev series (``cheb``) from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for a skew
+operator with several times or (with numba's kernels; without them from 20k vertices on)
+one right-hand side, else the Krylov method (``lanczos`` for skew-adjoint A, ``iom``
+otherwise); column ``method`` says which ran (fvf.expmv.choose_method).
 
 - ``K prod``: column products of expm_action at tol = 1e-10 (a product with an (n, 8)
   block counts 8), plus the products with |A| spent on the Chebyshev bound R (counted
@@ -386,7 +386,7 @@ def main() -> None:
                     (f"{N_TIMES} t", initial(mesh, 1), t * np.arange(1, N_TIMES + 1) / N_TIMES),
                 ]
                 for label, B, times in configs:
-                    skew = True if name == "skew" else None  # as fvf.FunctionalFlow does
+                    skew = name == "skew"  # as fvf.FunctionalFlow does (False: far from skew)
                     r = run_case(A, w, B, times, reps, skew)
                     summary.append((m, name, L, label, r))
                     print_row(
