@@ -761,9 +761,10 @@ def choose_method(
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
       ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
-      for the three-term Krylov recurrence and about twenty for the general one, plus the
-      step control; it needs more products (R·|t| + O(|Rt|^{1/3} + log 1/tol), with R
-      1.02–1.2× ‖K‖_W) but runs close to the time of its products
+      for the three-term Krylov recurrence and, for the general one, two passes over the
+      last four vectors with numba (about twenty without), plus the step control; it
+      needs more products (R·|t| + O(|Rt|^{1/3} + log 1/tol), with R 1.02–1.2× ‖K‖_W)
+      but runs close to the time of its products
       (``benchmarks/bench_expmv.py``, docs/flows.md). If its series fails its checks
       (strongly non-normal A, real spectra), the Krylov method takes over. Not below
       its rounding floor: when NOISE·√(R·max|t| + 30) > SAFETY·tol (tol ≲ 1e-13), its
