@@ -2644,11 +2644,12 @@ class _HessenbergExp:
     relative size of the solution).
 
     H_m has ``window`` entries above the subdiagonal per column. With numba (and
-    :data:`_COMPILED_IOM`) μ comes from bisection on Cholesky factors of the banded
-    μI − S and the grid from Taylor's series on the band (:func:`fvf._kernels.hess_mu`,
-    :func:`fvf._kernels.hess_profile`, :func:`fvf._kernels.hess_expv`): 20–150 µs a check
-    at m = 27–50 on bob, where LAPACK's eigvalsh and scipy's expm took 230–620 µs.
-    ``mu_below``: a lower bound of μ (the last check's, for a leading block of H_m).
+    :data:`_COMPILED_IOM`), for a banded H_m (window < m) or m ≤ 16, μ comes from
+    bisection on Cholesky factors of the banded μI − S and the grid from Taylor's series
+    on the band (:func:`fvf._kernels.hess_mu`, :func:`fvf._kernels.hess_profile`,
+    :func:`fvf._kernels.hess_expv`): 20–150 µs a check at m = 27–50 on bob, where
+    LAPACK's eigvalsh and scipy's expm took 230–620 µs. ``mu_below``: a lower bound of μ
+    (the last check's, for a leading block of H_m).
     """
 
     def __init__(
@@ -2665,7 +2666,10 @@ class _HessenbergExp:
         self.window = m if window is None else min(int(window), m)
         self.h = H[m, m - 1] * factor
         self.m = m
-        self.compiled = _kernels.ENABLED and _COMPILED_IOM
+        # (a full H_m, from fully orthogonalized bases of operators with n ≤ 100: LAPACK's
+        # O(m³) is faster there than m³ per Taylor term or per Cholesky; 1.4× at m = 57)
+        banded = self.window < m or m <= 16
+        self.compiled = _kernels.ENABLED and _COMPILED_IOM and banded
         if self.compiled:
             self.mu = _kernels.hess_mu(H, m, sign, self.window, mu_below)
         else:
