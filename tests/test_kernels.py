@@ -628,3 +628,20 @@ def test_compiled_iom_is_the_numpy_loop(monkeypatch, times, norm, m_max):
     assert np.abs(x1 - x0).max() <= 1e-12 * np.abs(x0).max()
     ref = expm_action(A, b, t, inner=w, method="expm_multiply", tol=1e-13)
     assert np.abs(x1 - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
+def test_hess_profile_keeps_its_norms_past_overflow(monkeypatch):
+    """A grid that grows past 1e154, where ‖X‖² overflows: both paths scale the norms (they
+    divided by an infinite norm and estimated an error of 0 there, accepting the step)."""
+    m = 6
+    H = np.zeros((m + 1, m))
+    for j in range(m):
+        H[j, j] = 60.0
+        H[j + 1, j] = 1.0
+    mu = _kernels.hess_mu(H, m, 1.0, 4)
+    X, E = _kernels.hess_profile(H, m, 1.0, 4, 1.0, 7.0, mu, 64)
+    assert np.abs(X).max() > 1e180 and np.isfinite(E).all()
+    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
+    _, E0 = fvf.expmv._HessenbergExp(H, m, 1.0).errors(7.0)
+    assert E0[-1] > 1.0  # (it was 0)
+    np.testing.assert_allclose(E[1:], E0[1:], rtol=1e-7)  # (μ to 1e-10·61: e^{δμ·7})

@@ -805,7 +805,7 @@ def _skew_lanczos(indptr, indices, data, w, q, q_prev, r, z, beta, rtol):  # pra
     return theta, beta.shape[0], False
 
 
-def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, res):  # pragma: no cover
+def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragma: no cover
     # fvf.expmv._iom_steps' vectors V[j0 + 1 .. j1] (see iom_run); res: status, m, Σβ.
     # The inner products with the last (up to) four vectors are four scalars in the row
     # loop (an array there was stored and reloaded each row: 2.5 products a vector);
@@ -884,6 +884,8 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, res):  # pragma: no
         inv = 1.0 / b
         for r in range(n):
             y[r] *= inv
+        if tau > 0.0 and j + 1 >= max(4.0, 2.0 * bsum / (j + 1) * tau + 3.0):
+            break  # (the start of the decay: see iom_run)
     res[0] = 0
 
 
@@ -1038,10 +1040,15 @@ def _hess_profile(H, m, sign, window, h, hi, mu, X, E, P, T, U):  # pragma: no c
         cur = np.exp(-mu * s) * abs(h * X[g, m - 1])
         acc += 0.5 * delta * (prev + cur)
         prev = cur
-        nx = 0.0
+        big = 0.0  # ‖X(s)‖ scaled by its largest entry, as numpy's norm (no overflow)
         for i in range(m):
-            nx += X[g, i] * X[g, i]
-        e = np.exp(mu * s) * acc / np.sqrt(nx)
+            big = max(big, abs(X[g, i]))
+        nx = 0.0
+        if big > 0.0:
+            for i in range(m):
+                nx += (X[g, i] / big) ** 2
+        d = np.sqrt(nx) * big
+        e = np.exp(mu * s) * acc / d if d > 0.0 else np.inf  # (numba raises on x / 0)
         E[g] = e if np.isfinite(e) else np.inf
 
 
@@ -1482,6 +1489,7 @@ def iom_run(
     j1: int,
     window: int,
     res: np.ndarray,
+    tau: float = 0.0,
 ) -> None:
     """The vectors V[j0 + 1 .. j1] of incomplete orthogonalization
     (:func:`fvf.expmv._iom_steps`) in one call: for each j, y = A V[j]; h_i = ⟨y, V[i]⟩_W
@@ -1506,8 +1514,12 @@ def iom_run(
     res : float64 (3,)
         In: res[2] = Σβ so far. Out: status (0 done, 1 breakdown β = 0, 2 β not finite),
         the basis size reached, Σβ.
+    tau : float
+        If > 0, also stop at the first size m ≥ max(4, 2·(Σβ/m)·tau + 3), where the error
+        starts to decay (the first check of :func:`fvf.expmv._iom_steps`).
     """
-    _jit(_iom_run)(csr[0], csr[1], csr[2], w, V, H, int(j0), int(j1), int(window), res)
+    j0, j1, win = int(j0), int(j1), int(window)
+    _jit(_iom_run)(csr[0], csr[1], csr[2], w, V, H, j0, j1, win, float(tau), res)
 
 
 def hess_mu(H: np.ndarray, m: int, sign: float, window: int, lo_hint: float = -np.inf) -> float:

@@ -161,6 +161,9 @@ M_MAX_SKEW = 128
 M_MAX_IOM = 100
 #: Vectors each new basis vector is orthogonalized against in the non-skew case.
 IOM_WINDOW = 4
+#: The general method places its checks by the Chebyshev degree (as Lanczos does) when
+#: Σ|h_jj| ≤ IOM_IMAGINARY·Σβ_j: a spectrum along the imaginary axis (see _iom_steps).
+IOM_IMAGINARY = 0.5
 #: Default cap on the memory of the Krylov bases (bytes); columns are processed in groups
 #: so that a basis of the needed size fits.
 MAX_MEMORY = 2**32
@@ -2527,17 +2530,16 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
         last_check: tuple[int, float] | None = None
         next_check = None
         mu = -math.inf  # μ of the last check: a lower bound of the next one's (interlacing)
+        along = False  # whether the checks follow the Chebyshev degree (see below)
         m = 0
         while True:
-            # to the next point where a check may be due (as _lanczos_steps)
-            if next_check is None:
-                target = max(4, math.ceil(2.0 * bsum / max(m, 1) * tau_rem + 3))
-            else:
-                target = next_check
-            target = min(max(target, m + 1), m_cap)
+            # to the next point where a check may be due: the next check, or before the
+            # first the start of the decay (tested after every vector: the mean β moves)
+            target = m_cap if next_check is None else min(max(next_check, m + 1), m_cap)
+            decay = tau_rem if next_check is None else 0.0
             if fused is not None:
                 res[2] = bsum
-                _kernels.iom_run(fused, V, wk, H, m, target, window, res)
+                _kernels.iom_run(fused, V, wk, H, m, target, window, res, decay)
                 op.count(int(res[1]) - m, 1)
                 m, bsum = int(res[1]), float(res[2])
                 b = H[m, m - 1]
@@ -2545,20 +2547,28 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
                 while m < target:
                     m, b = _iom_vector(op, V, H, m, window, w, wv, tmp)
                     bsum += b if math.isfinite(b) else 0.0
-                    if not b > 0:
+                    if not b > 0 or (decay and m >= max(4.0, 2.0 * bsum / m * decay + 3.0)):
                         break
             if not math.isfinite(b):
                 raise FlowOverflowError(_NONFINITE)
             if m < m_cap and b > 0:
                 if next_check is None:
-                    # the start of the decay, then the Chebyshev degree for the radius
-                    # 2·mean(β), less a lead (see _lanczos_steps): on bob (10,688 faces)
-                    # the checks at 27, 36, 47 and 50 became 45 and 50
+                    # the start of the decay; then, for a spectrum along the imaginary
+                    # axis (flows: mean |h_jj| is 0.002–0.1 mean(β) on spot and bob,
+                    # diffusion ~2), the Chebyshev degree for the radius 2·mean(β), less
+                    # a lead (see _lanczos_steps): on bob (10,688 faces) the checks at 27,
+                    # 36, 47 and 50 became 39 and 49. For other spectra that degree
+                    # overshoots (diffusion needs ~√(ρτ) vectors): check now.
                     rho_tau = 2.0 * bsum / m * tau_rem
                     if m < max(4, rho_tau + 3):
                         continue
-                    lead = _first_check_lead(op, 1)
-                    next_check = min(m_cap, chebyshev_degree(rho_tau, rate * tau_rem) - lead)
+                    along = float(np.abs(np.diagonal(H)[:m]).sum()) <= IOM_IMAGINARY * bsum
+                    if along:
+                        lead = _first_check_lead(op, 1)
+                        deg = chebyshev_degree(rho_tau, rate * tau_rem)
+                        next_check = min(m_cap, max(m, deg - lead))
+                    else:
+                        next_check = m
                 if m < next_check:
                     continue
             factor = 1.0
@@ -2576,7 +2586,7 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
                 tau, err = _cut_step_general(prof, tau_rem, rate_m)
                 break
             first = None
-            if last_check is None:  # the decay of the Chebyshev tail for the radius so far
+            if last_check is None and along:  # the decay of the Chebyshev tail, as above
                 rho_tau = 2.0 * bsum / m * tau_rem
                 first = chebyshev_degree(rho_tau, rate_m * tau_rem / excess) - chebyshev_degree(
                     rho_tau, rate_m * tau_rem
@@ -2705,7 +2715,8 @@ class _HessenbergExp:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             r = np.abs(self.h * X[:, -1])
             E = np.exp(self.mu * s) * _cumtrapz(np.exp(-self.mu * s) * r, hi)
-            E = E / np.linalg.norm(X, axis=1)
+            big = np.abs(X).max(axis=1)  # (‖X(s)‖² overflows past 1e154: scale first)
+            E = E / (np.linalg.norm(X / np.where(big > 0, big, 1.0)[:, None], axis=1) * big)
         E[~np.isfinite(E)] = np.inf
         return s, E
 
