@@ -2447,10 +2447,12 @@ def _check_gap(op: _Operator, p: int, m: int = 48, dense: bool = False) -> int:
     on small ones (an overshoot costs about gap/2 products, the checks cost/gap each).
     A check costs a small skew exponential per column (measured for m = 50–110: 100–115 µs
     by the compiled series with numba, 160–540 µs by the SVD without; one model for
-    both, so that both paths take the same steps) or a dense m × m exponential.
+    both, so that both paths take the same steps) or, for the general method (``dense``),
+    μ and the grid of a Hessenberg H_m: 60–150 µs at m = 27–50 compiled (the model
+    below), 230–620 µs with LAPACK and scipy's expm (again one model for both).
     """
     if dense:
-        check = 1e-4 + 1.5e-7 * m * m
+        check = 3e-5 + 4e-8 * m * m
     else:
         check = 1e-4 * p
     return max(1, int(round(math.sqrt(check / op.product_cost(p)))))
@@ -2557,7 +2559,7 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
                     # axis (flows: mean |h_jj| is 0.002–0.1 mean(β) on spot and bob,
                     # diffusion ~2), the Chebyshev degree for the radius 2·mean(β), less
                     # a lead (see _lanczos_steps): on bob (10,688 faces) the checks at 27,
-                    # 36, 47 and 50 became 39 and 49. For other spectra that degree
+                    # 36, 47 and 50 became 39, 47 and 49. For other spectra that degree
                     # overshoots (diffusion needs ~√(ρτ) vectors): check now.
                     rho_tau = 2.0 * bsum / m * tau_rem
                     if m < max(4, rho_tau + 3):
