@@ -811,7 +811,7 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
     # loop (an array there was stored and reloaded each row: 2.5 products a vector);
     # rows lo + i beyond the window read the zero row Z, which adds nothing.
     n = V.shape[1]
-    Z = np.zeros(n)
+    Z = np.zeros(n if j0 < 3 or window < 4 else 1)  # (read only where fewer than 4 exist)
     hh = np.empty(max(window, 4))
     bsum = res[2]
     for j in range(j0, j1):
