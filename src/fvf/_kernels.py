@@ -68,6 +68,7 @@ _HELPERS = (
     "_cheb_degree",
     "_skew_chebyshev_basis",
     "_skew_series",
+    "_band_norm1",
     "_hess_expv",
     "_hess_taylor",
     "_hess_below",
@@ -889,17 +890,23 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
     res[0] = 0
 
 
-def _hess_expv(H, m, c, window, x, out, term, tmp):  # pragma: no cover - jitted (helper)
-    # out = exp(c H_m) x, H_m = H[:m, :m] upper Hessenberg with `window` entries above the
-    # subdiagonal per column: Taylor's series in substeps of ‖c H_m / q‖₁ ≤ 2, each summed
-    # until θ^k / k! ≤ 1e-17 (θ = ‖c H_m / q‖₁ bounds the ratio of consecutive terms)
+def _band_norm1(H, m, window):  # pragma: no cover - jitted (helper)
+    # ‖H_m‖₁ of H_m = H[:m, :m], upper Hessenberg with `window` entries above the
+    # subdiagonal per column
     norm = 0.0
     for j in range(m):
         col = 0.0
         for i in range(max(0, j + 1 - window), min(m, j + 2)):
             col += abs(H[i, j])
         norm = max(norm, col)
-    theta = abs(c) * norm
+    return norm
+
+
+def _hess_expv(H, m, c, window, x, out, term, tmp):  # pragma: no cover - jitted (helper)
+    # out = exp(c H_m) x, H_m = H[:m, :m] upper Hessenberg with `window` entries above the
+    # subdiagonal per column: Taylor's series in substeps of ‖c H_m / q‖₁ ≤ 2, each summed
+    # until θ^k / k! ≤ 1e-17 (θ = ‖c H_m / q‖₁ bounds the ratio of consecutive terms)
+    theta = abs(c) * _band_norm1(H, m, window)
     q = max(1, int(np.ceil(theta / 2.0)))
     theta /= q
     cs = c / q
@@ -928,13 +935,7 @@ def _hess_taylor(H, m, c, window, out, T, U):  # pragma: no cover - jitted (help
     # out = exp(c H_m) (m, m) for H_m as in _hess_expv: Taylor's series on c H_m / 2^q,
     # ‖·‖₁ ≤ 1/2, to θ^k/k! ≤ 1e-17, squared q times (BLAS); each term is the band of
     # H_m times the last, row by row over contiguous rows
-    norm = 0.0
-    for j in range(m):
-        col = 0.0
-        for i in range(max(0, j + 1 - window), min(m, j + 2)):
-            col += abs(H[i, j])
-        norm = max(norm, col)
-    theta = abs(c) * norm
+    theta = abs(c) * _band_norm1(H, m, window)
     q = 0
     while theta > 0.5 and q < 1100:
         theta *= 0.5
