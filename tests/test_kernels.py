@@ -645,3 +645,25 @@ def test_hess_profile_keeps_its_norms_past_overflow(monkeypatch):
     _, E0 = fvf.expmv._HessenbergExp(H, m, 1.0).errors(7.0)
     assert E0[-1] > 1.0  # (it was 0)
     np.testing.assert_allclose(E[1:], E0[1:], rtol=1e-7)  # (μ to 1e-10·61: e^{δμ·7})
+
+
+def test_hess_expv_squares_long_steps():
+    """exp(c H_m) x for a stiff H_m and c·‖H_m‖₁ up to 4e5 (an output time inside a long
+    step): by scaling and squaring, not 1e5 substeps (8 s at c = 1e5 in a review)."""
+    import time
+
+    import scipy.linalg as sla
+
+    m = 100
+    H = np.zeros((m + 1, m))
+    H[np.arange(m), np.arange(m)] = -2.0
+    H[np.arange(m - 1), np.arange(1, m)] = 1.0
+    H[np.arange(1, m + 1), np.arange(m)] = 1.0
+    x = np.random.default_rng(0).standard_normal(m)
+    _kernels.hess_expv(H, m, 1.0, 4, x)  # (compiled)
+    for c in (3.0, 1e3, 1e5):
+        start = time.perf_counter()
+        got = _kernels.hess_expv(H, m, c, 4, x)
+        assert time.perf_counter() - start < 2.0
+        ref = sla.expm(c * H[:m, :m]) @ x
+        assert np.abs(got - ref).max() <= 1e-10 * np.abs(ref).max() + 1e-15 * np.abs(x).max()

@@ -905,8 +905,15 @@ def _band_norm1(H, m, window):  # pragma: no cover - jitted (helper)
 def _hess_expv(H, m, c, window, x, out, term, tmp):  # pragma: no cover - jitted (helper)
     # out = exp(c H_m) x, H_m = H[:m, :m] upper Hessenberg with `window` entries above the
     # subdiagonal per column: Taylor's series in substeps of ‖c H_m / q‖₁ ≤ 2, each summed
-    # until θ^k / k! ≤ 1e-17 (θ = ‖c H_m / q‖₁ bounds the ratio of consecutive terms)
+    # until θ^k / k! ≤ 1e-17 (θ = ‖c H_m / q‖₁ bounds the ratio of consecutive terms);
+    # beyond 4 substeps exp(c H_m) by _hess_taylor (scaling and squaring) times x: a
+    # stiff H_m with c·‖H_m‖₁ = 1e5 took 8 s in substeps (a review's case)
     theta = abs(c) * _band_norm1(H, m, window)
+    if theta > 8.0:  # (substeps would grow with θ: the dense exponential, squared, instead)
+        P = np.empty((m, m))
+        _hess_taylor(H, m, c, window, P, np.empty((m, m)), np.empty((m, m)))
+        out[:m] = P @ np.ascontiguousarray(x[:m])
+        return
     q = max(1, int(np.ceil(theta / 2.0)))
     theta /= q
     cs = c / q
@@ -987,7 +994,8 @@ def _hess_below(H, m, sign, bw, x, L):  # pragma: no cover - jitted (helper)
 
 
 def _hess_mu(H, m, sign, window, lo_hint, L):  # pragma: no cover - jitted (helper)
-    # the largest eigenvalue of S = ½ sign (H_m + H_mᵀ), from above to 1e-10·max|S|:
+    # the largest eigenvalue of S = ½ sign (H_m + H_mᵀ), from above to 1e-10 × the
+    # largest row sum of |S|:
     # bisection between Gershgorin's bounds (and lo_hint below, when it is one) on
     # whether x I − S is positive definite
     bw = min(max(1, window - 1), max(m - 1, 1))
@@ -1528,7 +1536,8 @@ def hess_mu(H: np.ndarray, m: int, sign: float, window: int, lo_hint: float = -n
     Hessenberg with ``window`` entries above the subdiagonal per column: the logarithmic
     norm of :class:`fvf.expmv._HessenbergExp`'s step control.
 
-    Bisection on whether x I − S has a Cholesky factor (banded, half-bandwidth window − 1;
+    Bisection on whether x I − S has a Cholesky factor (banded, half-bandwidth
+    max(1, window − 1);
     backward stable, so the answer is right up to rounding of ‖S‖), to 1e-10·max_i Σ_j
     |S_ij|, returning the upper end. LAPACK's eigvalsh took 200 µs at m = 50 and 890 µs
     at m = 80 here. ``lo_hint``: a lower bound of μ, e.g. μ of a leading block
@@ -1570,7 +1579,8 @@ def hess_profile(
 def hess_expv(H: np.ndarray, m: int, c: float, window: int, x: np.ndarray) -> np.ndarray:
     """exp(c H_m) x: float64 (m,), for H_m = H[:m, :m] as in :func:`hess_mu` and x (m,):
     Taylor's series on the band, in substeps of ‖c H_m / q‖₁ ≤ 2, each to θ^k/k! ≤
-    1e-17."""
+    1e-17; for θ = |c|·‖H_m‖₁ > 8 the dense exponential of :func:`hess_profile`'s step
+    (scaling and squaring) times x, whose cost grows with log θ only."""
     mm = int(m)
     out, term, tmp = np.empty(mm), np.empty(mm), np.empty(mm)
     x = np.ascontiguousarray(x, dtype=np.float64)

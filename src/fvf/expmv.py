@@ -162,8 +162,9 @@ M_MAX_IOM = 100
 #: Vectors each new basis vector is orthogonalized against in the non-skew case.
 IOM_WINDOW = 4
 #: The general method places its checks by the Chebyshev degree (as Lanczos does) when
-#: Σ|h_jj| ≤ IOM_IMAGINARY·Σβ_j: a spectrum along the imaginary axis (see _iom_steps).
-IOM_IMAGINARY = 0.5
+#: Σ|h_jj| + Σ|h_{j,j+1} + h_{j+1,j}| ≤ IOM_IMAGINARY·Σβ_j: a spectrum along the
+#: imaginary axis (see _iom_steps).
+IOM_IMAGINARY = 1.0
 #: Default cap on the memory of the Krylov bases (bytes); columns are processed in groups
 #: so that a basis of the needed size fits.
 MAX_MEMORY = 2**32
@@ -2556,15 +2557,19 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
             if m < m_cap and b > 0:
                 if next_check is None:
                     # the start of the decay; then, for a spectrum along the imaginary
-                    # axis (flows: mean |h_jj| is 0.002–0.1 mean(β) on spot and bob,
-                    # diffusion ~2), the Chebyshev degree for the radius 2·mean(β), less
-                    # a lead (see _lanczos_steps): on bob (10,688 faces) the checks at 27,
-                    # 36, 47 and 50 became 39, 47 and 49. For other spectra that degree
-                    # overshoots (diffusion needs ~√(ρτ) vectors): check now.
+                    # axis, the Chebyshev degree for the radius 2·mean(β), less a lead
+                    # (see _lanczos_steps): on bob (10,688 faces) the checks at 27, 36, 47
+                    # and 50 became 39, 47 and 49. For real spectra that degree overshoots
+                    # (~√(ρτ) vectors suffice): check now. The symmetric part of H's
+                    # tridiagonal tells them apart: Σ|h_jj| + Σ|h_{j,j+1} + h_{j+1,j}| is
+                    # 0.008–0.32 Σβ for flows on spot and bob, 2.0–4.0 Σβ for diffusion
+                    # and symmetric operators with a zero diagonal
                     rho_tau = 2.0 * bsum / m * tau_rem
                     if m < max(4, rho_tau + 3):
                         continue
-                    along = float(np.abs(np.diagonal(H)[:m]).sum()) <= IOM_IMAGINARY * bsum
+                    up, down = np.diagonal(H, 1)[: m - 1], np.diagonal(H, -1)[: m - 1]
+                    sym = float(np.abs(np.diagonal(H)[:m]).sum() + np.abs(up + down).sum())
+                    along = sym <= IOM_IMAGINARY * bsum
                     if along:
                         lead = _first_check_lead(op, 1)
                         deg = chebyshev_degree(rho_tau, rate * tau_rem)
@@ -2659,7 +2664,7 @@ class _HessenbergExp:
     :data:`_COMPILED_IOM`), for a banded H_m (window < m) or m ≤ 16, μ comes from
     bisection on Cholesky factors of the banded μI − S and the grid from Taylor's series
     on the band (:func:`fvf._kernels.hess_mu`, :func:`fvf._kernels.hess_profile`,
-    :func:`fvf._kernels.hess_expv`): 20–150 µs a check at m = 27–50 on bob, where
+    :func:`fvf._kernels.hess_expv`): 60–150 µs a check at m = 27–50 on bob, where
     LAPACK's eigvalsh and scipy's expm took 230–620 µs. ``mu_below``: a lower bound of μ
     (the last check's, for a leading block of H_m).
     """
