@@ -993,12 +993,13 @@ def _hess_below(H, m, sign, bw, x, L):  # pragma: no cover - jitted (helper)
     return True
 
 
-def _hess_mu(H, m, sign, window, lo_hint, L):  # pragma: no cover - jitted (helper)
+def _hess_mu(H, m, sign, window, lo_hint):  # pragma: no cover - jitted (helper)
     # the largest eigenvalue of S = ½ sign (H_m + H_mᵀ), from above to 1e-10 × the
     # largest row sum of |S|:
     # bisection between Gershgorin's bounds (and lo_hint below, when it is one) on
     # whether x I − S is positive definite
     bw = min(max(1, window - 1), max(m - 1, 1))
+    L = np.empty((m, bw + 1))  # the factor's band
     lo = np.inf
     hi = -np.inf
     scale = 0.0
@@ -1537,15 +1538,14 @@ def hess_mu(H: np.ndarray, m: int, sign: float, window: int, lo_hint: float = -n
     norm of :class:`fvf.expmv._HessenbergExp`'s step control.
 
     Bisection on whether x I − S has a Cholesky factor (banded, half-bandwidth
-    max(1, window − 1);
-    backward stable, so the answer is right up to rounding of ‖S‖), to 1e-10·max_i Σ_j
-    |S_ij|, returning the upper end. LAPACK's eigvalsh took 200 µs at m = 50 and 890 µs
-    at m = 80 here. ``lo_hint``: a lower bound of μ, e.g. μ of a leading block
-    (H_k, k < m, interlacing), tried first with a gap of 1e-6·scale above it.
+    max(1, window − 1); backward stable, so the answer is right up to rounding of ‖S‖),
+    to 1e-10·max_i Σ_j |S_ij|, returning the upper end. LAPACK's eigvalsh took 200 µs at
+    m = 50 and 890 µs at m = 80 here. ``lo_hint``: a lower bound of μ, e.g. μ of a
+    leading block (H_k, k < m, interlacing), tried first with a gap of 1e-6·scale above
+    it.
     """
-    mm, win = int(m), int(window)
-    L = np.empty((mm, min(max(1, win - 1), max(mm - 1, 1)) + 1))  # the band of the factor
-    return float(_jit(_hess_mu)(np.ascontiguousarray(H), mm, float(sign), win, float(lo_hint), L))
+    H = np.ascontiguousarray(H)
+    return float(_jit(_hess_mu)(H, int(m), float(sign), int(window), float(lo_hint)))
 
 
 def hess_profile(

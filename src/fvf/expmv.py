@@ -2269,10 +2269,7 @@ def _lanczos_steps(sw: _Sweep, Y0: np.ndarray, cols: slice, m_cap: int, V: np.nd
                 break
             first = None
             if last_check is None:  # the decay of the Chebyshev tail for the radius so far
-                rho_tau = 2.0 * lz.mean_beta() * tau_rem
-                first = chebyshev_degree(rho_tau, rate_m * tau_rem / excess) - chebyshev_degree(
-                    rho_tau, rate_m * tau_rem
-                )
+                first = _tail_decay(2.0 * lz.mean_beta() * tau_rem, rate_m * tau_rem, excess)
             next_check, last_check = _next_check(m, excess, last_check, m_cap, op, p, False, first)
         # dense output at the targets in (t_now, t_now + tau], and the new state
         last = tau == tau_rem
@@ -2363,6 +2360,13 @@ def _next_check(
     else:
         step = int(x / 2.0)
     return min(m_cap, m + max(_check_gap(op, p, m, dense), step, 1)), (m, x)
+
+
+def _tail_decay(rho_tau: float, budget: float, excess: float) -> int:
+    """Terms the Chebyshev series for the radius ρτ (``rho_tau``) needs beyond its degree
+    for ``budget`` to lower its tail by ``excess`` more: where Lanczos and the general
+    method check next after a first failing check (see :func:`_next_check`)."""
+    return chebyshev_degree(rho_tau, budget / excess) - chebyshev_degree(rho_tau, budget)
 
 
 def _wdot(
@@ -2549,8 +2553,10 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
             else:
                 while m < target:
                     m, b = _iom_vector(op, V, H, m, window, w, wv, tmp)
-                    bsum += b if math.isfinite(b) else 0.0
-                    if not b > 0 or (decay and m >= max(4.0, 2.0 * bsum / m * decay + 3.0)):
+                    bsum += b  # (not finite: raised below)
+                    if not 0 < b < math.inf or (
+                        decay and m >= max(4.0, 2.0 * bsum / m * decay + 3.0)
+                    ):
                         break
             if not math.isfinite(b):
                 raise FlowOverflowError(_NONFINITE)
@@ -2594,10 +2600,7 @@ def _iom_steps(sw: _Sweep, y0: np.ndarray, c: int, m_cap: int, window: int, V: n
                 break
             first = None
             if last_check is None and along:  # the decay of the Chebyshev tail, as above
-                rho_tau = 2.0 * bsum / m * tau_rem
-                first = chebyshev_degree(rho_tau, rate_m * tau_rem / excess) - chebyshev_degree(
-                    rho_tau, rate_m * tau_rem
-                )
+                first = _tail_decay(2.0 * bsum / m * tau_rem, rate_m * tau_rem, excess)
             next_check, last_check = _next_check(m, excess, last_check, m_cap, op, 1, True, first)
         last = tau == tau_rem
         kk = np.arange(k, nt)
