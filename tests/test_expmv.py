@@ -760,6 +760,19 @@ def test_small_operators_stay_cheap_for_both_krylov_methods():
             assert maxrel(X, dense_exp(S, B, t)[0]) <= 1e-10
 
 
+def _bob_height_flow(kind: str):
+    """(bob, A = −D^V_v) for the benchmark's unit-speed fields on the shared bob mesh:
+    J grad y ("skew") or grad y ("grad")."""
+    from conftest import load_shared
+
+    mesh = load_shared("bob_tri.obj")
+    v = fvf.gradient(mesh, mesh.vertices[:, 1])
+    if kind == "skew":
+        v = fvf.rotate(mesh, v)
+    v /= np.linalg.norm(v, axis=1).max()
+    return mesh, -fvf.D_V(mesh, v, tangent="ignore")
+
+
 @pytest.mark.parametrize("compiled", [False, True])
 def test_lanczos_places_its_second_check_by_the_chebyshev_tail(monkeypatch, compiled):
     """After a first failing check, the next one is where the Chebyshev series for the
@@ -767,15 +780,9 @@ def test_lanczos_places_its_second_check_by_the_chebyshev_tail(monkeypatch, comp
     lengths the first check (m = 47) is 370× over budget; the old rule (a decay of 2 per
     vector, then a linear extrapolation) checked at 49 and 57, this one at 53, where the
     check passes (the first m that passes, checking at every vector)."""
-    from conftest import load_shared
-
     if compiled and not fvf._kernels.ENABLED:
         pytest.skip("numba's kernels are off")
-    mesh = load_shared("bob_tri.obj")
-    g = fvf.gradient(mesh, mesh.vertices[:, 1])
-    v = fvf.rotate(mesh, g)
-    v /= np.linalg.norm(v, axis=1).max()
-    A = -fvf.D_V(mesh, v, tangent="ignore")
+    mesh, A = _bob_height_flow("skew")
     b = np.sin(3 * mesh.vertices[:, 0]) + mesh.vertices[:, 2]
     monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", compiled)
     checks = []
@@ -805,15 +812,10 @@ def test_iom_places_its_checks_by_the_chebyshev_degree(monkeypatch, compiled):
     does. On bob at 10 edge lengths (grad y, one column) the old rule (the start of the
     decay, then a decay of 2 per vector and a linear extrapolation) checked at 27, 36, 47
     and 50; now at 39, 47 and 49, with one product fewer (49; expm_multiply needs ~159)."""
-    from conftest import load_shared
-
     if compiled and not fvf._kernels.ENABLED:
         pytest.skip("numba's kernels are off")
     monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", compiled)
-    mesh = load_shared("bob_tri.obj")
-    v = fvf.gradient(mesh, mesh.vertices[:, 1])
-    v /= np.linalg.norm(v, axis=1).max()
-    A = -fvf.D_V(mesh, v, tangent="ignore")
+    mesh, A = _bob_height_flow("grad")
     X = mesh.vertices - mesh.vertices.mean(0)
     X /= np.abs(X).max()
     b = np.sin(3 * X[:, 0]) + X[:, 1] * np.cos(2 * X[:, 2])
