@@ -119,6 +119,12 @@ __all__ = [
 _NO_W, _NO_NORMS = np.zeros(1), np.zeros((2, 1))  # (not read)
 _EMPTY = np.zeros(0)
 
+#: An incomplete-orthogonalization vector takes its W-norm as ‖y‖² − Σ h_i² (the window
+#: is orthonormal) when that is at least this fraction of ‖y‖²: rounding then costs at most
+#: ~100 ε of β², and subtracting and scaling are one pass (else: the norm of the
+#: subtracted vector, and a third pass). fvf.expmv._iom_vector follows the same rule.
+IOM_PYTHAGORAS = 1e-2
+
 
 def csr_views(
     indptr: np.ndarray, indices: np.ndarray, data: np.ndarray
@@ -829,26 +835,36 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
             h1 = 0.0
             h2 = 0.0
             h3 = 0.0
-            for r in range(n):  # y = A x, and h_i = ⟨y, V[lo + i]⟩_W as the rows come
+            su = 0.0
+            for r in range(n):  # y = A x, ‖y‖²_W and h_i = ⟨y, V[lo + i]⟩_W as rows come
                 acc = 0.0
                 for idx in range(indptr[r], indptr[r + 1]):
                     acc += data[idx] * x[indices[idx]]
                 y[r] = acc
                 wa = w[r] * acc
+                su += wa * acc
                 h0 += v0[r] * wa
                 h1 += v1[r] * wa
                 h2 += v2[r] * wa
                 h3 += v3[r] * wa
-            ss = 0.0
-            for r in range(n):  # one classical Gram–Schmidt pass, and ‖y‖²_W
-                a = y[r] - (h0 * v0[r] + h1 * v1[r] + h2 * v2[r] + h3 * v3[r])
-                y[r] = a
-                ss += w[r] * a * a
+            ss = su - (h0 * h0 + h1 * h1 + h2 * h2 + h3 * h3)  # (the window is orthonormal)
+            scaled = 0.0 < ss < np.inf and ss >= IOM_PYTHAGORAS * su
+            if scaled:  # one pass: subtract and scale
+                inv = 1.0 / np.sqrt(ss)
+                for r in range(n):
+                    y[r] = (y[r] - (h0 * v0[r] + h1 * v1[r] + h2 * v2[r] + h3 * v3[r])) * inv
+            else:
+                ss = 0.0
+                for r in range(n):  # one classical Gram–Schmidt pass, and ‖y‖²_W
+                    a = y[r] - (h0 * v0[r] + h1 * v1[r] + h2 * v2[r] + h3 * v3[r])
+                    y[r] = a
+                    ss += w[r] * a * a
             hh[0] = h0
             hh[1] = h1
             hh[2] = h2
             hh[3] = h3
         else:  # (wider windows: full orthogonalization of small operators)
+            scaled = False
             for i in range(k):
                 hh[i] = 0.0
             for r in range(n):
@@ -882,9 +898,10 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
         if b == 0.0:
             res[0] = 1
             return
-        inv = 1.0 / b
-        for r in range(n):
-            y[r] *= inv
+        if not scaled:
+            inv = 1.0 / b
+            for r in range(n):
+                y[r] *= inv
         if tau > 0.0 and j + 1 >= max(4.0, 2.0 * bsum / (j + 1) * tau + 3.0):
             break  # (the start of the decay: see iom_run)
     res[0] = 0

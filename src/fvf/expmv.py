@@ -2639,16 +2639,27 @@ def _iom_vector(
 ) -> tuple[int, float]:
     """V[j + 1] and column j of H (one vector of :func:`_iom_steps`, numpy): the product,
     one classical Gram–Schmidt pass against the last ``window`` vectors, the W-norm β;
-    returns (j + 1, β), V[j + 1] normalized where 0 < β < ∞."""
+    returns (j + 1, β), V[j + 1] normalized where 0 < β < ∞.
+
+    β² is ‖A V[j]‖²_W − Σ h_i² where that keeps at least
+    :data:`fvf._kernels.IOM_PYTHAGORAS` of ‖A V[j]‖²_W (the compiled run then subtracts
+    and scales in one pass), else the norm of the subtracted vector, as in
+    :func:`fvf._kernels.iom_run`."""
     vn = V[j + 1]
     vn.fill(0.0)
     op.accumulate(V[j], vn)
     lo = max(0, j + 1 - window)
     Vw = V[lo : j + 1]
-    h = Vw @ (vn if w is None else np.multiply(w, vn, out=wv))
+    wy = vn if w is None else np.multiply(w, vn, out=wv)
+    h = Vw @ wy
+    su = float(np.dot(wy, vn))
+    ss = su - float(np.dot(h, h)) if j + 1 - lo <= 4 else 0.0
     vn -= h @ Vw
     H[lo : j + 1, j] = h
-    b = _wnorm(vn, w, tmp)
+    if 0.0 < ss < math.inf and ss >= _kernels.IOM_PYTHAGORAS * su:
+        b = math.sqrt(ss)
+    else:
+        b = _wnorm(vn, w, tmp)
     H[j + 1, j] = b
     if 0 < b < math.inf:
         vn *= 1.0 / b
