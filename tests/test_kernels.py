@@ -31,7 +31,7 @@ def _fused(A: sp.csr_array):
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
-@pytest.mark.parametrize("p", [1, 3])
+@pytest.mark.parametrize("p", [1, 3, 8, 15])  # (blocks go 8, 4, 2 and 1 columns a pass)
 @pytest.mark.parametrize("terms", [1, 2, 5])
 def test_term_run_matches_dense(rng, index_dtype, p, terms):
     """term_run's terms (the rows of Y swapping roles) against dense algebra."""
@@ -355,7 +355,7 @@ def test_skew_exp_series_matches_svd_and_dense(rng, m):
 
 
 @pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
-@pytest.mark.parametrize("p", [1, 3])
+@pytest.mark.parametrize("p", [1, 3, 8, 15])
 def test_term_chain_matches_dense(rng, index_dtype, p):
     """term_chain's run of terms Y[f] = Y[f − 2] + A Y[f − 1] against dense algebra; the
     slots before f0 and after the run are left alone."""

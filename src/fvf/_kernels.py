@@ -58,6 +58,8 @@ _COMPILED: dict[Callable, Callable] = {}
 #: Functions that kernels call: compiled first and bound to their module names, so that
 #: the kernels calling them compile against (and cache with) the compiled versions.
 _HELPERS = (
+    "_block_rows",
+    "_block_width",
     "_miller_start",
     "_series_top",
     "_miller",
@@ -187,22 +189,122 @@ def _term_run(indptr, indices, data, Y, cur, out, coef, w, s2, norms):  # pragma
                 out[i] += c * s
 
 
-def _term_run_block(indptr, indices, data, Y, cur, out, coef, p):  # pragma: no cover
-    # _term_run for p > 1 interleaved columns (no norms)
+def _block_rows(  # pragma: no cover - jitted (called by kernels)
+    indptr, indices, data, src, init, dst, out, c, p, q0, width, add
+):
+    # columns q0 … q0 + width − 1 (width 1, 2, 4 or 8) of p interleaved ones:
+    # dst ← init + A src, and if add, out ← out + c·dst, in one pass over A's rows.
+    # The sums are scalars, and the index arithmetic is unsigned (numba checks signed
+    # indices for wraparound): a loop over the columns inside the row loop, with signed
+    # indices, took 1.7 products a column-term for p = 2 and 0.9 for p = 4 at 6k faces
     n = indptr.shape[0] - 1
+    pu = np.uint64(p)
+    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
+    if width == 8:
+        four, five, six, seven = np.uint64(4), np.uint64(5), np.uint64(6), np.uint64(7)
+        for i in range(n):
+            b = np.uint64(i) * pu + np.uint64(q0)
+            a0 = init[b]
+            a1 = init[b + one]
+            a2 = init[b + two]
+            a3 = init[b + three]
+            a4 = init[b + four]
+            a5 = init[b + five]
+            a6 = init[b + six]
+            a7 = init[b + seven]
+            for k in range(indptr[i], indptr[i + 1]):
+                a = data[k]
+                jb = np.uint64(indices[k]) * pu + np.uint64(q0)
+                a0 += a * src[jb]
+                a1 += a * src[jb + one]
+                a2 += a * src[jb + two]
+                a3 += a * src[jb + three]
+                a4 += a * src[jb + four]
+                a5 += a * src[jb + five]
+                a6 += a * src[jb + six]
+                a7 += a * src[jb + seven]
+            dst[b] = a0
+            dst[b + one] = a1
+            dst[b + two] = a2
+            dst[b + three] = a3
+            dst[b + four] = a4
+            dst[b + five] = a5
+            dst[b + six] = a6
+            dst[b + seven] = a7
+            if add:
+                out[b] += c * a0
+                out[b + one] += c * a1
+                out[b + two] += c * a2
+                out[b + three] += c * a3
+                out[b + four] += c * a4
+                out[b + five] += c * a5
+                out[b + six] += c * a6
+                out[b + seven] += c * a7
+    elif width == 4:
+        for i in range(n):
+            b = np.uint64(i) * pu + np.uint64(q0)
+            a0 = init[b]
+            a1 = init[b + one]
+            a2 = init[b + two]
+            a3 = init[b + three]
+            for k in range(indptr[i], indptr[i + 1]):
+                a = data[k]
+                jb = np.uint64(indices[k]) * pu + np.uint64(q0)
+                a0 += a * src[jb]
+                a1 += a * src[jb + one]
+                a2 += a * src[jb + two]
+                a3 += a * src[jb + three]
+            dst[b] = a0
+            dst[b + one] = a1
+            dst[b + two] = a2
+            dst[b + three] = a3
+            if add:
+                out[b] += c * a0
+                out[b + one] += c * a1
+                out[b + two] += c * a2
+                out[b + three] += c * a3
+    elif width == 2:
+        for i in range(n):
+            b = np.uint64(i) * pu + np.uint64(q0)
+            a0 = init[b]
+            a1 = init[b + one]
+            for k in range(indptr[i], indptr[i + 1]):
+                a = data[k]
+                jb = np.uint64(indices[k]) * pu + np.uint64(q0)
+                a0 += a * src[jb]
+                a1 += a * src[jb + one]
+            dst[b] = a0
+            dst[b + one] = a1
+            if add:
+                out[b] += c * a0
+                out[b + one] += c * a1
+    else:
+        for i in range(n):
+            b = np.uint64(i) * pu + np.uint64(q0)
+            a0 = init[b]
+            for k in range(indptr[i], indptr[i + 1]):
+                a0 += data[k] * src[np.uint64(indices[k]) * pu + np.uint64(q0)]
+            dst[b] = a0
+            if add:
+                out[b] += c * a0
+
+
+def _block_width(p, q0):  # pragma: no cover - jitted (called by kernels)
+    # the columns _block_rows takes from q0 on: 8, 4, 2 or 1
+    r = p - q0
+    return 8 if r >= 8 else (4 if r >= 4 else (2 if r >= 2 else 1))
+
+
+def _term_run_block(indptr, indices, data, Y, cur, out, coef, p):  # pragma: no cover
+    # _term_run for p > 1 interleaved columns (no norms), up to eight in a pass
     for t in range(coef.shape[0]):
         src = Y[(cur + t) % 2]
         dst = Y[(cur + t + 1) % 2]
-        c = coef[t]
-        for i in range(n):
-            b = i * p
-            for k in range(indptr[i], indptr[i + 1]):
-                a = data[k]
-                jb = indices[k] * p
-                for q in range(p):
-                    dst[b + q] += a * src[jb + q]
-            for q in range(p):
-                out[b + q] += c * dst[b + q]
+        q0 = 0
+        while q0 < p:
+            width = _block_width(p, q0)
+            _block_rows(indptr, indices, data, src, dst, dst, out, coef[t], p, q0, width, True)
+            q0 += width
 
 
 def _term_chain(indptr, indices, data, Y, f0, count):  # pragma: no cover - jitted
@@ -220,21 +322,14 @@ def _term_chain(indptr, indices, data, Y, f0, count):  # pragma: no cover - jitt
 
 
 def _term_chain_block(indptr, indices, data, Y, f0, count, p):  # pragma: no cover
-    # _term_chain for p > 1 interleaved columns
-    n = indptr.shape[0] - 1
+    # _term_chain for p > 1 interleaved columns, up to eight in a pass
     for f in range(f0, f0 + count):
-        src = Y[f - 1]
-        prev = Y[f - 2]
-        dst = Y[f]
-        for i in range(n):
-            b = i * p
-            for q in range(p):
-                dst[b + q] = prev[b + q]
-            for k in range(indptr[i], indptr[i + 1]):
-                a = data[k]
-                jb = indices[k] * p
-                for q in range(p):
-                    dst[b + q] += a * src[jb + q]
+        src, prev, dst = Y[f - 1], Y[f - 2], Y[f]
+        q0 = 0
+        while q0 < p:
+            width = _block_width(p, q0)
+            _block_rows(indptr, indices, data, src, prev, dst, dst, 0.0, p, q0, width, False)
+            q0 += width
 
 
 def _term_combine(indptr, indices, data, x, prev, c, y, w, s2, p, norms):  # pragma: no cover
