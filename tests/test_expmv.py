@@ -341,7 +341,8 @@ def test_choose_method():
 def test_choose_method_for_skew_operators(monkeypatch):
     """A declared skew operator: Lanczos for several outputs, and for one right-hand side
     with numba's kernels, or from CHEB_SKEW_MIN_N on without them."""
-    A = _flow_operator(fvf.icosphere(2), "skew")
+    sphere = fvf.icosphere(2)
+    A = _flow_operator(sphere, "skew")
     assert A.shape[0] < fvf.expmv.CHEB_SKEW_MIN_N
     assert choose_method(A, [50.0, 20.0], 4, skew=True) == "krylov"  # several outputs
     assert choose_method(A, [50.0, 20.0], 1, skew=True) == "krylov"
@@ -354,6 +355,13 @@ def test_choose_method_for_skew_operators(monkeypatch):
     assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # large n: Lanczos
     assert choose_method(A, 50.0, 4, skew=True) == "chebyshev"  # blocks: the series
     assert choose_method(A, 50.0, 4) == "chebyshev"  # not declared skew
+    short = 0.1 * fvf.expmv.CHEB_MIN_TAU / skew_bound(A)
+    assert choose_method(A, short, 4, skew=True) == "chebyshev"  # a skew block: any τ
+    assert choose_method(A, short, 4) == "krylov"  # not declared skew: τ < CHEB_MIN_TAU
+    B = np.stack([np.cos(np.arange(A.shape[0]) * k) for k in range(1, 5)], axis=1)
+    x, info = expm_action(A, B, short, skew=True, inner=sphere.vertex_areas, return_info=True)
+    assert info["method"] == "chebyshev" and info["wasted_matvecs"] == 0
+    np.testing.assert_allclose(x, dense_exp(A, B, short)[0], rtol=0, atol=1e-10 * np.abs(B).max())
     small = sp.random_array((10, 10), density=0.3, rng=np.random.default_rng(0), format="csr")
     assert choose_method(small, 1.0) == "expm_multiply"
     b = np.arange(10.0)

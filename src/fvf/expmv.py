@@ -181,8 +181,14 @@ NOISE = 16 * np.finfo(float).eps
 SAFETY = 0.5  # the error estimates aim at SAFETY·tol
 #: Cap on the bytes of the Chebyshev terms kept for one GEMM into the outputs.
 CHEB_MEMORY = 2**28
-#: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R = :func:`skew_bound`).
+#: ``method="auto"`` uses the Chebyshev series for one column from this R·max|t| on
+#: (R = :func:`skew_bound`).
 CHEB_MIN_TAU = 20.0
+#: For a block of p > 1 columns declared skew it uses it at every R·max|t|: a term of p columns
+#: costs 0.4–0.8 column products with the block kernels, and the series took 0.5–0.95×
+#: Lanczos' time for 2–8 columns of J grad y at 0.1–3 edge lengths on spot, 6k faces.
+#: Not for other operators: on upwind generators, whose spectra are far from imaginary,
+#: the series gave way to Krylov after 32+ terms a column, 1.4–2× the time.
 #: ``method="auto"`` with ``skew=True``, one right-hand side and one time, on the
 #: numpy/scipy path (``fvf._kernels.ENABLED`` false): Lanczos from this n on, the series
 #: below it (where Lanczos' per-call work costs more than the series' extra products:
@@ -763,7 +769,8 @@ def choose_method(
       vector) made it slower than the series below ~20k vertices (1.25× at 6k); on
       blocks of 8 the series was 1.2–1.5× faster at every size.
     * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
-      ``skew_norm`` or :func:`skew_bound`: ``"chebyshev"``. A term costs one product and
+      ``skew_norm`` or :func:`skew_bound`, or any R·max|t| > 0 for a block (``n_rhs`` > 1)
+      with ``skew=True``: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
       for the three-term Krylov recurrence and, for the general one, two passes over the
       last four vectors with numba (about twenty without), plus the step control; it
@@ -828,12 +835,14 @@ def _choose(
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
     top = float(mags.max())
-    if skew_norm is None:  # (below CHEB_MIN_TAU / top the series is out: no more steps)
-        R = _bound(Aop, w, times, p, info, absA, skew, floor=CHEB_MIN_TAU / top)
+    # a skew block: the series at every τ; otherwise from τ = CHEB_MIN_TAU on (docstring)
+    min_tau = 0.0 if skew is True and p > 1 else CHEB_MIN_TAU
+    if skew_norm is None:  # (below min_tau / top the series is out: no more steps)
+        R = _bound(Aop, w, times, p, info, absA, skew, floor=min_tau / top)
     else:
         R = float(skew_norm)
     tau = R * top
-    if R > 0 and tau >= CHEB_MIN_TAU and NOISE * math.sqrt(tau + 30.0) <= SAFETY * tol:
+    if R > 0 and tau >= min_tau and NOISE * math.sqrt(tau + 30.0) <= SAFETY * tol:
         return "chebyshev", R
     return "krylov", R
 
