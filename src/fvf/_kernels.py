@@ -1615,9 +1615,11 @@ def iom_run(
 ) -> None:
     """The vectors V[j0 + 1 .. j1] of incomplete orthogonalization
     (:func:`fvf.expmv._iom_steps`) in one call: for each j, y = A V[j]; h_i = ⟨y, V[i]⟩_W
-    for the last ``window`` vectors i ≤ j, taken in the product's pass over the rows; then
-    y − Σ h_i V[i] and its W-norm β in a second pass, V[j + 1] = that / β. The same
-    arithmetic as the numpy loop (classical Gram–Schmidt, one pass).
+    for the last ``window`` vectors i ≤ j and ‖y‖²_W, taken in the product's pass over the
+    rows; then V[j + 1] = (y − Σ h_i V[i]) / β in a second pass, with
+    β² = ‖y‖²_W − Σ h_i² where that is at least :data:`IOM_PYTHAGORAS` ‖y‖²_W (else β is
+    the W-norm of y − Σ h_i V[i], and the scaling a third pass). The same arithmetic as
+    the numpy loop (classical Gram–Schmidt, one pass).
 
     Parameters
     ----------

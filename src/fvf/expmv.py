@@ -772,8 +772,8 @@ def choose_method(
       ``skew_norm`` or :func:`skew_bound`, or any R·max|t| > 0 for a block (``n_rhs`` > 1)
       with ``skew=True``: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
-      for the three-term Krylov recurrence and, for the general one, two passes over the
-      last four vectors with numba (about twenty without), plus the step control; it
+      for the three-term Krylov recurrence and, for the general one, one more pass over
+      the last four vectors with numba (about twenty without), plus the step control; it
       needs more products (R·|t| + O(|Rt|^{1/3} + log 1/tol), with R 1.02–1.2× ‖K‖_W)
       but runs close to the time of its products
       (``benchmarks/bench_expmv.py``, docs/flows.md). If its series fails its checks
