@@ -122,10 +122,17 @@ _NO_W, _NO_NORMS = np.zeros(1), np.zeros((2, 1))  # (not read)
 _EMPTY = np.zeros(0)
 
 #: An incomplete-orthogonalization vector takes its W-norm as ‖y‖² − Σ h_i² (the window
-#: is orthonormal) when that is at least this fraction of ‖y‖²: rounding then costs at most
-#: ~100 ε of β², and subtracting and scaling are one pass (else: the norm of the
-#: subtracted vector, and a third pass). fvf.expmv._iom_vector follows the same rule.
+#: is orthonormal) when that is at least this fraction of ‖y‖²: the difference's own
+#: rounding is then at most ~100 ε of β², and subtracting and scaling are one pass (else:
+#: the norm of the subtracted vector, and a third pass). fvf.expmv._iom_vector follows
+#: the same rule.
 IOM_PYTHAGORAS = 1e-2
+#: ... for windows of at most 4 vectors. The next vector's product pass also takes the
+#: W-norm² of the vector it multiplies, which is rescaled (with β and the inner products)
+#: if that is more than IOM_UNIT from 1: the next norms assume a unit window, an error e
+#: in it comes back as e·Σh_i²/β² (up to 99×), and for −L (Σh_i²/β² ≈ 10) the norms
+#: reached 46 after 60 vectors without this check.
+IOM_UNIT = 1e-13
 
 
 def csr_views(
@@ -296,14 +303,29 @@ def _block_width(p, q0):  # pragma: no cover - jitted (called by kernels)
 
 
 def _term_run_block(indptr, indices, data, Y, cur, out, coef, p):  # pragma: no cover
-    # _term_run for p > 1 interleaved columns (no norms), up to eight in a pass
+    # _term_run for p > 1 interleaved columns (no norms): up to 8 columns 8, 4, 2 or 1 at a
+    # time; more in one loop over the columns (passes of 8 over rows of 12–24 columns
+    # took 1.2–1.8× its time, a review found)
+    n = indptr.shape[0] - 1
     for t in range(coef.shape[0]):
         src = Y[(cur + t) % 2]
         dst = Y[(cur + t + 1) % 2]
+        c = coef[t]
+        if p > 8:
+            for i in range(n):
+                b = i * p
+                for k in range(indptr[i], indptr[i + 1]):
+                    a = data[k]
+                    jb = indices[k] * p
+                    for q in range(p):
+                        dst[b + q] += a * src[jb + q]
+                for q in range(p):
+                    out[b + q] += c * dst[b + q]
+            continue
         q0 = 0
         while q0 < p:
             width = _block_width(p, q0)
-            _block_rows(indptr, indices, data, src, dst, dst, out, coef[t], p, q0, width, True)
+            _block_rows(indptr, indices, data, src, dst, dst, out, c, p, q0, width, True)
             q0 += width
 
 
@@ -322,9 +344,21 @@ def _term_chain(indptr, indices, data, Y, f0, count):  # pragma: no cover - jitt
 
 
 def _term_chain_block(indptr, indices, data, Y, f0, count, p):  # pragma: no cover
-    # _term_chain for p > 1 interleaved columns, up to eight in a pass
+    # _term_chain for p > 1 interleaved columns (as _term_run_block)
+    n = indptr.shape[0] - 1
     for f in range(f0, f0 + count):
         src, prev, dst = Y[f - 1], Y[f - 2], Y[f]
+        if p > 8:
+            for i in range(n):
+                b = i * p
+                for q in range(p):
+                    dst[b + q] = prev[b + q]
+                for k in range(indptr[i], indptr[i + 1]):
+                    a = data[k]
+                    jb = indices[k] * p
+                    for q in range(p):
+                        dst[b + q] += a * src[jb + q]
+            continue
         q0 = 0
         while q0 < p:
             width = _block_width(p, q0)
@@ -931,7 +965,8 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
             h2 = 0.0
             h3 = 0.0
             su = 0.0
-            for r in range(n):  # y = A x, ‖y‖²_W and h_i = ⟨y, V[lo + i]⟩_W as rows come
+            sx = 0.0
+            for r in range(n):  # y = A x, ‖y‖²_W, h_i = ⟨y, V[lo + i]⟩_W and ‖x‖²_W
                 acc = 0.0
                 for idx in range(indptr[r], indptr[r + 1]):
                     acc += data[idx] * x[indices[idx]]
@@ -942,8 +977,23 @@ def _iom_run(indptr, indices, data, w, V, H, j0, j1, window, tau, res):  # pragm
                 h1 += v1[r] * wa
                 h2 += v2[r] * wa
                 h3 += v3[r] * wa
+                sx += w[r] * x[r] * x[r]
+            if j > 0 and window <= 4 and not abs(sx - 1.0) <= IOM_UNIT:
+                # x = V[j] (the window's last) came off unit norm by Pythagoras' rounding:
+                # rescale it, and y, the h_i, ‖y‖² and β_{j−1} with it (rounding would
+                # compound otherwise)
+                f = 1.0 / np.sqrt(sx)
+                for r in range(n):
+                    x[r] *= f
+                    y[r] *= f
+                h0 *= f if k > 1 else f * f
+                h1 *= f if k > 2 else f * f
+                h2 *= f if k > 3 else f * f
+                h3 *= f * f
+                su *= f * f
+                H[j, j - 1] *= np.sqrt(sx)
             ss = su - (h0 * h0 + h1 * h1 + h2 * h2 + h3 * h3)  # (the window is orthonormal)
-            scaled = 0.0 < ss < np.inf and ss >= IOM_PYTHAGORAS * su
+            scaled = window <= 4 and 0.0 < ss < np.inf and ss >= IOM_PYTHAGORAS * su
             if scaled:  # one pass: subtract and scale
                 inv = 1.0 / np.sqrt(ss)
                 for r in range(n):

@@ -184,8 +184,8 @@ CHEB_MEMORY = 2**28
 #: ``method="auto"`` uses the Chebyshev series for one column from this R·max|t| on
 #: (R = :func:`skew_bound`).
 CHEB_MIN_TAU = 20.0
-#: For a block of p > 1 columns declared skew it uses it at every R·max|t|: a term of p columns
-#: costs 0.4–0.8 column products with the block kernels, and the series took 0.5–0.95×
+#: For a block of p > 1 columns declared skew it uses it at every R·max|t|: a term costs
+#: 0.4–1.1 column products per column with the block kernels, and the series took 0.5–0.95×
 #: Lanczos' time for 2–8 columns of J grad y at 0.1–3 edge lengths on spot, 6k faces.
 #: Not for other operators: on upwind generators, whose spectra are far from imaginary,
 #: the series gave way to Krylov after 32+ terms a column, 1.4–2× the time.
@@ -2650,10 +2650,16 @@ def _iom_vector(
     one classical Gram–Schmidt pass against the last ``window`` vectors, the W-norm β;
     returns (j + 1, β), V[j + 1] normalized where 0 < β < ∞.
 
-    β² is ‖A V[j]‖²_W − Σ h_i² where that keeps at least
+    For windows of at most 4, β² is ‖A V[j]‖²_W − Σ h_i² where that keeps at least
     :data:`fvf._kernels.IOM_PYTHAGORAS` of ‖A V[j]‖²_W (the compiled run then subtracts
-    and scales in one pass), else the norm of the subtracted vector, as in
-    :func:`fvf._kernels.iom_run`."""
+    and scales in one pass), else the norm of the subtracted vector; V[j] is first
+    rescaled (with β_{j−1}) if its W-norm² is more than :data:`fvf._kernels.IOM_UNIT`
+    from 1. As in :func:`fvf._kernels.iom_run`."""
+    if j > 0 and window <= 4:
+        sx = float(np.dot(V[j] if w is None else np.multiply(w, V[j], out=wv), V[j]))
+        if not abs(sx - 1.0) <= _kernels.IOM_UNIT:  # (see fvf._kernels.IOM_UNIT)
+            V[j] *= 1.0 / math.sqrt(sx)
+            H[j, j - 1] *= math.sqrt(sx)
     vn = V[j + 1]
     vn.fill(0.0)
     op.accumulate(V[j], vn)
@@ -2662,16 +2668,17 @@ def _iom_vector(
     wy = vn if w is None else np.multiply(w, vn, out=wv)
     h = Vw @ wy
     su = float(np.dot(wy, vn))
-    ss = su - float(np.dot(h, h)) if j + 1 - lo <= 4 else 0.0
+    ss = su - float(np.dot(h, h)) if window <= 4 else 0.0
     vn -= h @ Vw
     H[lo : j + 1, j] = h
     if 0.0 < ss < math.inf and ss >= _kernels.IOM_PYTHAGORAS * su:
         b = math.sqrt(ss)
+        vn *= 1.0 / b
     else:
         b = _wnorm(vn, w, tmp)
+        if 0 < b < math.inf:
+            vn *= 1.0 / b
     H[j + 1, j] = b
-    if 0 < b < math.inf:
-        vn *= 1.0 / b
     return j + 1, b
 
 
