@@ -567,6 +567,22 @@ def test_inner_weights_are_scale_free(mesh, kind):
     assert maxrel(expm_action(A, b, t, inner=1e20 * w), ref) < 1e-13
 
 
+@pytest.mark.parametrize("method", ["auto", "krylov", "chebyshev", "expm_multiply"])
+def test_operator_scale_is_free(mesh, method):
+    """exp(tA) = exp((t/s)(sA)): an operator with entries ~1e-162 (products whose squared
+    norms underflow) or ~1e150 gives the answer within tol, sparse or dense (A·1e-162 at
+    t·1e162 was once 37 % off without a warning)."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    b = _f0(mesh)
+    t = 3 * mesh.mean_edge_length
+    ref = dense_exp(A, b, t)[0]
+    for s in (1.0, 1e-162, 1e-200, 1e150):
+        assert maxrel(expm_action(s * A, b, t / s, inner=w, method=method), ref) <= TOL
+    dense = (1e-162 * A).toarray()
+    assert maxrel(expm_action(dense, b, 1e162 * t, inner=w, method=method), ref) <= TOL
+
+
 def test_out_of_reach_span_and_overflow_raise_flow_overflow(mesh):
     A = _flow_operator(mesh, "skew")
     b = _f0(mesh)
