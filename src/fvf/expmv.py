@@ -2682,13 +2682,10 @@ def _iom_vector(
     ss = su - float(np.dot(h, h)) if window <= 4 else 0.0
     vn -= h @ Vw
     H[lo : j + 1, j] = h
-    if 0.0 < ss < math.inf and ss >= _kernels.IOM_PYTHAGORAS * su:
-        b = math.sqrt(ss)
+    pythagoras = 0.0 < ss < math.inf and ss >= _kernels.IOM_PYTHAGORAS * su
+    b = math.sqrt(ss) if pythagoras else _wnorm(vn, w, tmp)
+    if 0 < b < math.inf:
         vn *= 1.0 / b
-    else:
-        b = _wnorm(vn, w, tmp)
-        if 0 < b < math.inf:
-            vn *= 1.0 / b
     H[j + 1, j] = b
     return j + 1, b
 
