@@ -329,13 +329,46 @@ def test_choose_method():
     A = _flow_operator(mesh, "skew")
     h = mesh.mean_edge_length
     R = skew_bound(A)
-    assert choose_method(A, 50.0) == "chebyshev"  # R·t ≥ CHEB_MIN_TAU
-    assert choose_method(A, 0.5 * fvf.expmv.CHEB_MIN_TAU / R, skew_norm=R) == "krylov"
+    assert choose_method(A, 50.0) == "chebyshev"  # R·t ≥ every threshold
+    column = fvf.expmv._min_tau(1, None)
+    assert choose_method(A, 0.5 * column / R, skew_norm=R) == "krylov"
     assert choose_method(A, 10 * h, skew_norm=1e-3 / h) == "krylov"  # the bound decides
     assert choose_method(spla.aslinearoperator(A), 1.0) == "krylov"  # no bound
     assert choose_method(spla.aslinearoperator(A), 50.0, skew_norm=R) == "chebyshev"
     assert choose_method(A, 0.0) == "expm_multiply"
     assert choose_method(A, [50.0, 20.0]) == "chebyshev"
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_choose_method_thresholds_for_operators_not_declared_skew(monkeypatch, compiled):
+    """R·max|t| from which "auto" takes the series: CHEB_MIN_TAU for blocks;
+    CHEB_MIN_TAU_COLUMN for one column (one or several times) with numba's kernels, whose
+    IOM matched the series' time up there with fewer products; CHEB_MIN_TAU_COLUMN_NUMPY
+    without them, whose IOM is slower than the series from R·t ≈ 3 on (docs/notes.md,
+    session 12)."""
+    monkeypatch.setattr(fvf._kernels, "ENABLED", compiled)
+    A = _flow_operator(fvf.icosphere(2), "grad")
+    R = 3.0  # given: no power steps
+    column = fvf.expmv.CHEB_MIN_TAU_COLUMN if compiled else fvf.expmv.CHEB_MIN_TAU_COLUMN_NUMPY
+    assert fvf.expmv._min_tau(1, None) == fvf.expmv._min_tau(1, False) == column
+    assert column != fvf.expmv.CHEB_MIN_TAU
+    for tau, p, want in [
+        (0.99 * column, 1, "krylov"),
+        (column, 1, "chebyshev"),
+        (0.99 * fvf.expmv.CHEB_MIN_TAU, 4, "krylov"),
+        (fvf.expmv.CHEB_MIN_TAU, 4, "chebyshev"),
+    ]:
+        assert choose_method(A, tau / R, p, skew_norm=R) == want, (tau, p)
+        times = np.linspace(0.1, 1.0, 16) * tau / R
+        assert choose_method(A, times, p, skew_norm=R) == want, (tau, p, "16 times")
+        assert choose_method(A, tau / R, p, skew=False, skew_norm=R) == want
+    mesh = fvf.icosphere(2)
+    w = mesh.vertex_areas
+    R = skew_bound(A, w)  # a true bound, for the series to succeed
+    for tau, want in [(1.01 * column, "chebyshev"), (0.99 * column, "iom")]:
+        _, info = expm_action(A, _f0(mesh), tau / R, skew_norm=R, inner=w, return_info=True)
+        assert info["method"] == want
+        assert want == "iom" or info["wasted_matvecs"] == 0  # the series did not give way
 
 
 def test_choose_method_for_skew_operators(monkeypatch):
@@ -690,6 +723,33 @@ def test_auto_spends_no_power_steps_when_gershgorin_rules_the_series_out(mesh):
     assert info["method"] == "iom" and info["bound_products"] == 2
 
 
+def test_auto_decides_one_compressible_column_at_gershgorins_bound(mesh):
+    """One column not declared skew: "auto" takes the Krylov method at Gershgorin's bound
+    G (two products with |A|) when G·max|t| < CHEB_GERSHGORIN_EXCESS × the threshold,
+    although the steps would bring R·max|t| above the threshold; above that multiple
+    the steps go on and R decides."""
+    A = _flow_operator(mesh, "grad")
+    w = mesh.vertex_areas
+    column = fvf.expmv._min_tau(1, None)
+    G = skew_bound(A, w, iterations=0)
+    R = skew_bound(A, w)
+    excess = fvf.expmv.CHEB_GERSHGORIN_EXCESS
+    assert G / R < excess  # (so that a t exists where the two rules differ)
+    t = 0.99 * excess * column / G
+    assert R * t >= column  # the steps' R would have chosen the series
+    _, info = expm_action(A, _f0(mesh), t, inner=w, return_info=True)
+    assert info["method"] == "iom" and info["bound_products"] == 2
+    assert choose_method(A, t, inner=w) == "krylov"
+    t = 1.01 * excess * column / G
+    _, info = expm_action(A, _f0(mesh), t, inner=w, return_info=True)
+    assert info["method"] == "chebyshev" and info["bound_products"] > 2
+    assert choose_method(A, t, inner=w) == "chebyshev"
+    # blocks are not decided at G: their steps go on while R·max|t| ≥ CHEB_MIN_TAU
+    t = 0.99 * excess * fvf.expmv.CHEB_MIN_TAU / G
+    _, info = expm_action(A, _f0(mesh, 4), t, inner=w, return_info=True)
+    assert info["bound_products"] > 2
+
+
 def test_skew_norm_estimate_is_below_and_close_to_the_norm(mesh):
     """Lanczos on K = ½(A − A*) in the W inner product: θ ≤ ‖K‖_W (a compression), and
     within CHEB_ESTIMATE_RTOL-ish of it when it says it converged (the top of K's
@@ -943,7 +1003,7 @@ def test_chebyshev_gives_way_to_krylov_on_a_real_spectrum():
     A = -(sp.diags_array(1.0 / M) @ fvf.stiffness(mesh)).tocsr()
     b = np.random.default_rng(5).standard_normal(mesh.n_vertices)  # all frequencies
     t = 0.2
-    assert skew_bound(A, M) * t > fvf.expmv.CHEB_MIN_TAU
+    assert skew_bound(A, M) * t > fvf.expmv._min_tau(1, None)
     ref = dense_exp(A, b, t)[0]
     x, info = expm_action(A, b, t, inner=M, return_info=True)  # auto: silently
     assert info["method"] in ("lanczos", "iom") and info["wasted_matvecs"] > 0

@@ -105,17 +105,20 @@ def test_power_bound_matches_the_numpy_steps(rng, skew):
     w = rng.uniform(0.5, 2.0, 50)
     per_step = 1 if skew else 2
     gershgorin = _skew_bound(_AbsCsr.of(A), w, 0, np.inf, skew)[0]
-    cases = [  # iterations, span, floor, handoff; the products the Python loop spends
-        (0, np.inf, 0.0, np.inf, per_step),
-        (4, np.inf, 0.0, np.inf, 5 * per_step),
-        (20, 3.0, 0.0, np.inf, None),  # the early stop (fewer than 21 steps)
-        (20, np.inf, 2 * gershgorin, np.inf, per_step),  # below the floor at once
-        (20, 3.0, 0.0, 2.9 * gershgorin, per_step),  # handed off at Gershgorin's bound
-        (20, 3.0, 0.0, 3.1 * gershgorin, None),
+    cases = [  # iterations, span, floor, handoff, first floor; the products spent
+        (0, np.inf, 0.0, np.inf, 0.0, per_step),
+        (4, np.inf, 0.0, np.inf, 0.0, 5 * per_step),
+        (20, 3.0, 0.0, np.inf, 0.0, None),  # the early stop (fewer than 21 steps)
+        (20, np.inf, 2 * gershgorin, np.inf, 0.0, per_step),  # below the floor at once
+        (20, 3.0, 0.0, 2.9 * gershgorin, 0.0, per_step),  # handed off at Gershgorin's bound
+        (20, 3.0, 0.0, 3.1 * gershgorin, 0.0, None),
+        (4, np.inf, 0.0, np.inf, 1.01 * gershgorin, per_step),  # below the first floor
+        (4, np.inf, 0.0, np.inf, 0.99 * gershgorin, 5 * per_step),  # (later bounds: free)
     ]
-    for iterations, span, floor, handoff, spent in cases:
-        ref = _skew_bound(_AbsCsr.of(A), w, iterations, span, skew, floor, handoff)
-        got = _skew_bound(_FusedAbs.of(A), w, iterations, span, skew, floor, handoff)
+    for iterations, span, floor, handoff, first, spent in cases:
+        args = (w, iterations, span, skew, floor, handoff, first)
+        ref = _skew_bound(_AbsCsr.of(A), *args)
+        got = _skew_bound(_FusedAbs.of(A), *args)
         assert got[1] == ref[1] and got[1] % per_step == 0
         assert got[0] == pytest.approx(ref[0], rel=1e-13)
         if spent is None:

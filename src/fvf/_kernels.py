@@ -850,21 +850,23 @@ def _power_stops(top, last, gain, span, per_step, best, floor, handoff):  # prag
 
 
 def _power_bound(  # pragma: no cover - jitted
-    indptr, indices, data, s, inv_s, sym, steps, span, floor, handoff, d, md, g, dg
+    indptr, indices, data, s, inv_s, sym, steps, span, floor, first_floor, handoff, d, md, g, dg
 ):
     # fvf.expmv._skew_bound's loop: Collatz–Wielandt steps from d while the last two
     # steps save more terms (span × the bound's decrease) than the products they cost,
-    # and the bound is not below floor; at the first bound if span × it > handoff
+    # and the bound is not below floor (the first bound: not below first_floor either);
+    # at the first bound if span × it > handoff
     per_step = 1 if sym else 2
     best = np.inf
     products = 0
     gain = np.inf
-    for _ in range(steps + 1):
+    for k in range(steps + 1):
         bound, top = _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg)
         products += per_step
         last, gain = gain, best - bound
         best = min(best, bound)
-        if _power_stops(top, last, gain, span, per_step, best, floor, handoff):
+        below = floor if k > 0 else max(floor, first_floor)
+        if _power_stops(top, last, gain, span, per_step, best, below, handoff):
             break
         for i in range(d.shape[0]):
             d[i] = max(md[i] / top, 1e-300)  # positive, so the bound stays rigorous
@@ -1490,9 +1492,11 @@ def power_bound(
     span: float,
     floor: float = 0.0,
     handoff: float = np.inf,
+    first_floor: float = 0.0,
 ) -> tuple[float, int]:
     """The power steps of :func:`fvf.expmv._skew_bound` in one call, from d = 1, while the
-    last two steps save more terms than they cost and the bound is not below ``floor``.
+    last two steps save more terms than they cost and the bound is not below ``floor``
+    (nor, for the first bound, Gershgorin's, below ``first_floor``).
     With P = diag(s) |A| diag(1/s), a step is M d = P d when ``sym`` (|S| symmetric, A
     declared skew), else M d = ½(P d + Pᵀ d) − |diag A| d, both products from the same
     pass over A's rows (the transposed one scattered from the rows);
@@ -1513,6 +1517,8 @@ def power_bound(
         Stop once the bound is below this (0: no such stop).
     handoff : float
         Stop once span × the bound is more than this (inf: no such stop).
+    first_floor : float
+        Stop after the first step if its bound is below this (0: no such stop).
 
     Returns
     -------
@@ -1532,6 +1538,7 @@ def power_bound(
         int(steps),
         float(span),
         float(floor),
+        float(first_floor),
         float(handoff),
         d,
         md,

@@ -9,8 +9,8 @@ in the A_V inner product ⟨x, y⟩ = xᵀ [A_V] y (CHAPTER.md, "Facts we measur
 spectrum lies near the imaginary axis, in the strip |Im z| ≤ R of a bound R of the norm
 of its A_V-skew part (:func:`skew_bound`), whatever the field.
 
-Chebyshev series (``method="chebyshev"``; ``"auto"`` from R·max|t| ≥ :data:`CHEB_MIN_TAU`)
---------------------------------------------------------------------------------------
+Chebyshev series (``method="chebyshev"``; ``"auto"`` from R·max|t| ≥ a threshold)
+------------------------------------------------------------------------------
 exp(tA) = J₀(Rt) I + 2 Σ_{k≥1} J_k(Rt) P_k(A/R) (Jacobi–Anger), with the real three-term
 recurrence P_{k+1} = 2(A/R)P_k + P_{k−1}: one product and no inner products per term, all
 times and columns from the same terms, a stop on the measured last terms near the degree
@@ -181,9 +181,27 @@ NOISE = 16 * np.finfo(float).eps
 SAFETY = 0.5  # the error estimates aim at SAFETY·tol
 #: Cap on the bytes of the Chebyshev terms kept for one GEMM into the outputs.
 CHEB_MEMORY = 2**28
-#: ``method="auto"`` uses the Chebyshev series for one column from this R·max|t| on
-#: (R = :func:`skew_bound`).
+#: ``method="auto"`` uses the Chebyshev series from this R·max|t| on (R =
+#: :func:`skew_bound`) for blocks (p > 1) not declared skew, and for one column declared
+#: skew on the numpy/scipy path below :data:`CHEB_SKEW_MIN_N`.
 CHEB_MIN_TAU = 20.0
+#: The same for one column (one or several times) not declared skew, with numba's kernels.
+#: Between R·t = 20 and 30 the compiled IOM took 0.97–1.04x the series' time for one time
+#: (flows of grad y on spot at 6k, 23k and 94k faces and on bob at 10k) and 0.78–0.98x for
+#: 16 times, with 25–30 % fewer products; at R·t = 43–55 the series was 1.05–1.14x faster
+#: (docs/notes.md, session 12).
+CHEB_MIN_TAU_COLUMN = 30.0
+#: The same without numba's kernels, where IOM's vector work is numpy calls: IOM took
+#: 1.25–1.96x the series' time from R·t ≈ 3 on at 6k–10k faces (1.06–1.2x at 94k from
+#: R·t ≈ 8), and tied with it below R·t ≈ 3 (session 12).
+CHEB_MIN_TAU_COLUMN_NUMPY = 4.0
+#: For one column not declared skew, "auto" takes the Krylov method at Gershgorin's bound
+#: (the power steps' first: two products with |A|) when it gives R·max|t| below this
+#: multiple of the threshold. On flows of J grad y and grad y Gershgorin's bound was
+#: 1.43–1.69× ‖K‖_W and the steps took R to 1.08–1.2× (spot at 6k and 23k faces, bob,
+#: faust, nefertiti, bunny; session 12), so below that multiple the steps would mostly
+#: end under the threshold too, after 2–6 more products, and near it the two methods tie.
+CHEB_GERSHGORIN_EXCESS = 1.4
 #: For a block of p > 1 columns declared skew it uses it at every R·max|t|: a term costs
 #: 0.4–1.1 column products per column with the block kernels, and the series took 0.5–0.95×
 #: Lanczos' time for 2–8 columns of J grad y at 0.1–3 edge lengths on spot, 6k faces.
@@ -772,7 +790,9 @@ def choose_method(
       per-call work (small dense exponentials for the step control, Python work per
       vector) made it slower than the series below ~20k vertices (1.25× at 6k); on
       blocks of 8 the series was 1.2–1.5× faster at every size.
-    * A explicit (sparse or dense) and R·max|t| ≥ :data:`CHEB_MIN_TAU`, R the bound
+    * A explicit (sparse or dense) and R·max|t| at least :data:`CHEB_MIN_TAU` (blocks),
+      :data:`CHEB_MIN_TAU_COLUMN` (one column, numba's kernels) or
+      :data:`CHEB_MIN_TAU_COLUMN_NUMPY` (one column without them), R the bound
       ``skew_norm`` or :func:`skew_bound`, or any R·max|t| > 0 for a block (``n_rhs`` > 1)
       with ``skew=True``: ``"chebyshev"``. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
@@ -839,16 +859,31 @@ def _choose(
     if isinstance(Aop, spla.LinearOperator) and skew_norm is None:
         return "krylov", None
     top = float(mags.max())
-    # a skew block: the series at every τ; otherwise from τ = CHEB_MIN_TAU on (docstring)
-    min_tau = 0.0 if skew is True and p > 1 else CHEB_MIN_TAU
+    min_tau = _min_tau(p, skew)
     if skew_norm is None:  # (below min_tau / top the series is out: no more steps)
-        R = _bound(Aop, w, times, p, info, absA, skew, floor=min_tau / top)
+        # one column not declared skew: out at Gershgorin's bound, the first of the power
+        # steps (two products with |A|), if it is below CHEB_GERSHGORIN_EXCESS × min_tau
+        first = CHEB_GERSHGORIN_EXCESS * min_tau / top if p == 1 and skew is not True else 0.0
+        spent: dict = {} if info is None else info
+        R = _bound(Aop, w, times, p, spent, absA, skew, floor=min_tau / top, first_floor=first)
+        if R < first and spent["bound_products"] == 2:  # (it stopped there)
+            return "krylov", R
     else:
         R = float(skew_norm)
     tau = R * top
     if R > 0 and tau >= min_tau and NOISE * math.sqrt(tau + 30.0) <= SAFETY * tol:
         return "chebyshev", R
     return "krylov", R
+
+
+def _min_tau(p: int, skew: bool | None) -> float:
+    """The R·max|t| from which "auto" takes the series, for p real columns (docstring of
+    :func:`choose_method`)."""
+    if skew is True:
+        return 0.0 if p > 1 else CHEB_MIN_TAU  # (one skew column: the numpy path only)
+    if p > 1:
+        return CHEB_MIN_TAU
+    return CHEB_MIN_TAU_COLUMN if _kernels.ENABLED else CHEB_MIN_TAU_COLUMN_NUMPY
 
 
 def _bound(
@@ -860,15 +895,16 @@ def _bound(
     absA: _AbsCsr | _FusedAbs | None = None,
     skew: bool | None = None,
     floor: float = 0.0,
+    first_floor: float = 0.0,
 ) -> float:
     """The series' radius R for this call; records the products spent on it in
-    ``info["bound_products"]``.
+    ``info["bound_products"]``. ``floor``, ``first_floor``: see :func:`_skew_bound`.
 
     * ``skew=True``, or max|t| × columns × Gershgorin's bound ≤ CHEB_ESTIMATE_MIN_SPAN:
       :func:`skew_bound` with power steps while they pay for themselves on this call
       (one product per step for ``skew=True``), none once the bound is below ``floor``
-      (R·max|t| < CHEB_MIN_TAU rules the series out whatever the steps give; see
-      :func:`_skew_bound`).
+      (R·max|t| below the threshold of :func:`_min_tau` rules the series out whatever
+      the steps give; see :func:`_skew_bound`).
     * otherwise (long flows of blocks, not declared skew): (1 + CHEB_ESTIMATE_MARGIN)·θ,
       θ ≤ ‖K‖_W the Lanczos estimate (:func:`_skew_norm_estimate`), capped by
       Gershgorin's bound; the rigorous bound if θ did not converge. Not a bound, but the
@@ -880,7 +916,9 @@ def _bound(
     span = float(np.abs(times).max()) * max(p, 1) if times.size else 0.0
     absA = _abs_of(Aop) if absA is None else absA
     handoff = math.inf if skew is True else CHEB_ESTIMATE_MIN_SPAN
-    R, products = _skew_bound(absA, w, CHEB_BOUND_ITERATIONS, span, skew is True, floor, handoff)
+    R, products = _skew_bound(
+        absA, w, CHEB_BOUND_ITERATIONS, span, skew is True, floor, handoff, first_floor
+    )
     if R >= floor and span * R > handoff:  # (then the steps stopped at Gershgorin's R)
         estimate, spent = _estimated_radius(Aop, w, absA)
         products += spent
@@ -1325,12 +1363,14 @@ def _skew_bound(
     skew: bool = False,
     floor: float = 0.0,
     handoff: float = math.inf,
+    first_floor: float = 0.0,
 ) -> tuple[float, int]:
     """(bound, products with |A| spent) from |A| (:class:`_AbsCsr`). With a finite
     ``span`` (max|t| × columns), the power steps stop early once the last two steps
     together saved fewer terms (≈ span × the bound's decrease) than the products they
-    cost, once the bound is below ``floor``, or at Gershgorin's bound if span × it is
-    more than ``handoff`` (the caller then estimates ‖K‖ instead, see :func:`_bound`).
+    cost, once the bound is below ``floor``, at Gershgorin's bound if it is below
+    ``first_floor``, or at Gershgorin's bound if span × it is more than ``handoff`` (the
+    caller then estimates ‖K‖ instead, see :func:`_bound`).
 
     Two steps, not one: a step can gain nothing and the next one much. On spot at 375k
     faces (v = grad y) Gershgorin's bound is 1.136× the limit, one step 1.136×, two
@@ -1355,19 +1395,20 @@ def _skew_bound(
     inv_s = 1.0 / s
     if isinstance(absA, _FusedAbs):  # the same steps in one compiled call
         best, products = _kernels.power_bound(
-            absA.csr, s, inv_s, sym, iterations, span, floor, handoff
+            absA.csr, s, inv_s, sym, iterations, span, floor, handoff, first_floor
         )
         return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
     d = np.ones(n)
     best = math.inf
     products = 0
     gain = math.inf
-    for _ in range(iterations + 1):
+    for k in range(iterations + 1):
         # M d = ½(P d + Pᵀ d) − |diag| d, P = diag(s)|A|diag(1/s) (|A| with its diagonal)
         Md, bound, top = absA.step(d, s, inv_s, sym)
         products += per_step
         last, gain, best = gain, best - bound, min(best, bound)
-        if _kernels._power_stops(top, last, gain, span, per_step, best, floor, handoff):
+        below = floor if k > 0 else max(floor, first_floor)
+        if _kernels._power_stops(top, last, gain, span, per_step, best, below, handoff):
             break
         d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
     return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
