@@ -26,9 +26,10 @@ block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times sprea
 
 Columns. "K" is expm_action with its default ``method="auto"``, called as
 fvf.FunctionalFlow calls it (``skew=True`` for J grad y, ``skew=False`` for grad y): the
-Chebyshev series (``cheb``) from R·t ≥ 20 on, R = fvf.expmv.skew_bound, except for a skew
-operator with several times or (with numba's kernels; without them from 20k vertices on)
-one right-hand side, else the Krylov method (``lanczos`` for skew-adjoint A, ``iom``
+Chebyshev series (``cheb``) from R·t ≥ 20 on for blocks, from 30 for one column of grad y
+(4 without numba's kernels), R = fvf.expmv.skew_bound, except for a skew operator with
+several times or (with numba's kernels; without them from 20k vertices on) one
+right-hand side, else the Krylov method (``lanczos`` for skew-adjoint A, ``iom``
 otherwise); column ``method`` says which ran (fvf.expmv.choose_method).
 
 - ``K prod``: column products of expm_action at tol = 1e-10 (a product with an (n, 8)
