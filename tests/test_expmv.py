@@ -1007,10 +1007,35 @@ def test_chebyshev_gives_way_to_krylov_on_a_real_spectrum():
     ref = dense_exp(A, b, t)[0]
     x, info = expm_action(A, b, t, inner=M, return_info=True)  # auto: silently
     assert info["method"] in ("lanczos", "iom") and info["wasted_matvecs"] > 0
+    # given up at the early check (term 16: the terms grew by ~1e9), not 32+ terms later
+    assert info["wasted_matvecs"] == fvf.expmv.CHEB_EARLY_CHECK + 1
     assert wrel(x, ref, M) <= TOL
-    with pytest.warns(KrylovFallbackWarning, match="chebyshev"):
+    with pytest.warns(KrylovFallbackWarning, match="grew by .* in 16 terms"):
         y = expm_action(A, b, t, inner=M, method="chebyshev")
     np.testing.assert_array_equal(x, y)
+    # smooth data grows later, but by term 16 still far beyond any flow's terms
+    smooth = np.sin(mesh.vertices[:, 0]) + mesh.vertices[:, 1] ** 2
+    _, info = expm_action(A, smooth, t, inner=M, return_info=True)
+    assert info["wasted_matvecs"] == fvf.expmv.CHEB_EARLY_CHECK + 1
+
+
+def test_flow_terms_pass_the_early_check():
+    """The early check's limit (1e3 at term 16) against flows' terms: J grad g and
+    grad g on a jittered sphere, smooth and random data, stay below 10 there."""
+    mesh = fvf.jittered_sphere(3, 0.3, seed=2)
+    w = mesh.vertex_areas
+    b = np.random.default_rng(3).standard_normal(mesh.n_vertices)
+    for kind in ("skew", "grad"):
+        A = _flow_operator(mesh, kind)
+        R = skew_bound(A, w)
+        for B in (_f0(mesh), b):
+            y0, y1 = B, A @ B / R
+            for _ in range(fvf.expmv.CHEB_EARLY_CHECK - 1):
+                y0, y1 = y1, 2 * (A @ y1) / R + y0
+            growth = float(np.sqrt((w @ y1**2) / (w @ B**2)))
+            assert growth < 10 < fvf.expmv.CHEB_EARLY_GROWTH, (kind, growth)
+            _, info = expm_action(A, B, 40 / R, inner=w, method="chebyshev", return_info=True)
+            assert info["method"] == "chebyshev" and info["wasted_matvecs"] == 0
 
 
 def test_chebyshev_with_a_too_small_bound_is_still_right_or_gives_way(mesh):
