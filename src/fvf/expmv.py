@@ -66,8 +66,9 @@ product of the series and of the three-term recurrence with the vector work arou
 (axpy, scaled copy, weighted norm and inner products), does the bound's power steps in one
 call (each one pass over A), compiles the Bessel recurrences and the columns' norms, and
 runs one column's whole Lanczos step (vectors, error checks, check schedule) in one call:
-right after a kernel run every numpy call costs 3–5× its warm time. The results and
-product counts are those of the numpy/scipy path (``FVF_NUMBA=0``) to round-off.
+right after a kernel run every numpy call costs 3–5× its warm time. For a given method,
+the results and product counts are those of the numpy/scipy path (``FVF_NUMBA=0``) to
+round-off; "auto" may choose differently on the two paths (:func:`choose_method`).
 
 Products are counted per column (``info["matvecs"]``; a product on an (n, p) block counts
 p) and per operator call (``info["block_matvecs"]``). Basis storage is reused between
@@ -232,12 +233,14 @@ CHEB_ESTIMATE_RTOL = 1e-3
 #: The Chebyshev series measures its terms at every CHEB_CHECK_EVERY-th step (a check costs
 #: a few vector passes; terms that grow are caught at most this many products later).
 CHEB_CHECK_EVERY = 32
-#: It also measures term CHEB_EARLY_CHECK and gives up if ‖y_k‖/‖B‖ exceeds
+#: It also measures term CHEB_EARLY_CHECK if that comes before the a-priori degree (where
+#: it may stop; R·max|t| ≳ 4.5 at tol 1e-10) and gives up if ‖y_k‖/‖B‖ exceeds
 #: CHEB_EARLY_GROWTH there: a spectrum far from the imaginary axis (diffusion, upwind
 #: generators), whose terms grow from the start. At term 16 flows of J grad y and grad y
-#: gave 0.7–1.0 (spot, bob, faust; smooth and random data) and up to 35 on lion-00, whose
-#: flow grows by 1e14; diffusion and upwind generators 2.1e3–1.6e9 on the same meshes
-#: and data (session 12). They used to run 32 or more terms before giving way.
+#: gave 0.7–1.0 in the W-norm (spot, bob, faust; smooth and random data) and up to 35 on
+#: lion-00, whose flow grows by 1e14; diffusion and upwind generators 2.1e3–1.6e9 on the
+#: same meshes and data (session 12). They used to run 32 or more terms before giving
+#: way.
 CHEB_EARLY_CHECK = 16
 CHEB_EARLY_GROWTH = 1e3
 
@@ -798,11 +801,15 @@ def choose_method(
       per-call work (small dense exponentials for the step control, Python work per
       vector) made it slower than the series below ~20k vertices (1.25× at 6k); on
       blocks of 8 the series was 1.2–1.5× faster at every size.
-    * A explicit (sparse or dense) and R·max|t| at least :data:`CHEB_MIN_TAU` (blocks),
-      :data:`CHEB_MIN_TAU_COLUMN` (one column, numba's kernels) or
-      :data:`CHEB_MIN_TAU_COLUMN_NUMPY` (one column without them), R the bound
+    * A explicit (sparse or dense) and R·max|t| at least :data:`CHEB_MIN_TAU` (blocks,
+      and one column declared skew on the numpy path below :data:`CHEB_SKEW_MIN_N`),
+      :data:`CHEB_MIN_TAU_COLUMN` (one column not declared skew, numba's kernels) or
+      :data:`CHEB_MIN_TAU_COLUMN_NUMPY` (the same without them), R the bound
       ``skew_norm`` or :func:`skew_bound`, or any R·max|t| > 0 for a block (``n_rhs`` > 1)
-      with ``skew=True``: ``"chebyshev"``. A term costs one product and
+      with ``skew=True``: ``"chebyshev"``. For one column not declared skew and no
+      ``skew_norm``, Gershgorin's bound G (the first power step) decides alone when
+      G·max|t| < :data:`CHEB_GERSHGORIN_EXCESS` × the threshold: ``"krylov"``, even where
+      the further steps would have brought R·max|t| above it. A term costs one product and
       one vector copy (none for one time), against three vector passes per basis vector
       for the three-term Krylov recurrence and, for the general one, one more pass over
       the last four vectors with numba (about twenty without), plus the step control; it
@@ -1709,7 +1716,9 @@ def _run_chebyshev(
     ‖P_k(A/R)‖_W = max|T_k| ≤ 1, so the truncation error is at most
     2 Σ_{k>m} |J_k(Rt)| ‖B‖_W. Otherwise (non-normal A) the terms may grow before they
     decay; the series is controlled a posteriori: the terms are measured at every
-    :data:`CHEB_CHECK_EVERY`-th step (growth beyond what rounding allows stops the series)
+    :data:`CHEB_CHECK_EVERY`-th step (growth beyond what rounding allows stops the series),
+    at step :data:`CHEB_EARLY_CHECK` if that comes earlier than the next (growth beyond
+    :data:`CHEB_EARLY_GROWTH` there stops it: a spectrum far from the imaginary axis),
     and at every step from the a-priori degree (:func:`chebyshev_degree`) less three on.
     There the partial sums S are already the outputs to ~tol‖y‖, and their W- and max-norms
     are taken once, so that the estimates are relative to the outputs, as tol is. The
@@ -1799,7 +1808,8 @@ def _run_chebyshev(
                     rel = np.maximum(rel, y_max * inv_inf0)
                 if not math.isfinite(float(rel.sum())):
                     raise FlowOverflowError(_NONFINITE)
-                if k == CHEB_EARLY_CHECK and float(rel.max()) > CHEB_EARLY_GROWTH:
+                early = k == CHEB_EARLY_CHECK and k < next_check  # (not where it may stop)
+                if early and float(rel.max()) > CHEB_EARLY_GROWTH:
                     raise _ChebyshevFailed(
                         f"the terms grew by {float(rel.max()):.3g} in {k} terms (a spectrum "
                         "far from the imaginary axis)"
