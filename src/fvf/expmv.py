@@ -237,7 +237,7 @@ CHEB_CHECK_EVERY = 32
 #: it may stop; R·max|t| ≳ 4.5 at tol 1e-10) and gives up if ‖y_k‖/‖B‖ exceeds
 #: CHEB_EARLY_GROWTH there: a spectrum far from the imaginary axis (diffusion, upwind
 #: generators), whose terms grow from the start. At term 16 flows of J grad y and grad y
-#: gave 0.7–1.0 in the W-norm (spot, bob, faust; smooth and random data) and up to 35 on
+#: gave 0.7–1.6 in the W-norm (spot, bob, faust; smooth and random data) and up to 35 on
 #: lion-00, whose flow grows by 1e14; diffusion and upwind generators 2.1e3–1.6e9 on the
 #: same meshes and data (session 12). They used to run 32 or more terms before giving
 #: way.
