@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import warnings
 
 import numpy as np
@@ -346,6 +347,8 @@ def test_choose_method_thresholds_for_operators_not_declared_skew(monkeypatch, c
     IOM matched the series' time up there with fewer products; CHEB_MIN_TAU_COLUMN_NUMPY
     without them, whose IOM is slower than the series from R·t ≈ 3 on (docs/notes.md,
     session 12)."""
+    if compiled and importlib.util.find_spec("numba") is None:
+        pytest.skip("numba is not installed")
     monkeypatch.setattr(fvf._kernels, "ENABLED", compiled)
     A = _flow_operator(fvf.icosphere(2), "grad")
     R = 3.0  # given: no power steps
