@@ -836,15 +836,18 @@ def _power_step(indptr, indices, data, s, inv_s, d, sym, md, g, dg):  # pragma: 
     return ratio, top
 
 
-def _power_stops(top, last, gain, span, per_step, best, floor, handoff):  # pragma: no cover
-    # whether the bound's power steps end after this one (fvf.expmv._skew_bound, which
+def _power_stops(  # pragma: no cover
+    k, top, last, gain, span, per_step, best, floor, first_floor, handoff
+):
+    # whether the bound's power steps end after step k (fvf.expmv._skew_bound, which
     # calls it too): no usable top, the last two steps saved fewer terms (span × the
-    # bound's decrease) than they cost, the bound below floor, or span × it above handoff
+    # bound's decrease) than they cost, the bound below floor (Gershgorin's, step 0: below
+    # first_floor either), or span × it above handoff
     return (
         not top > 0
         or not np.isfinite(top)
         or (last + gain) * span < 2 * per_step
-        or best < floor
+        or best < (floor if k > 0 else max(floor, first_floor))
         or best * span > handoff
     )
 
@@ -865,8 +868,7 @@ def _power_bound(  # pragma: no cover - jitted
         products += per_step
         last, gain = gain, best - bound
         best = min(best, bound)
-        below = floor if k > 0 else max(floor, first_floor)
-        if _power_stops(top, last, gain, span, per_step, best, below, handoff):
+        if _power_stops(k, top, last, gain, span, per_step, best, floor, first_floor, handoff):
             break
         for i in range(d.shape[0]):
             d[i] = max(md[i] / top, 1e-300)  # positive, so the bound stays rigorous

@@ -1422,8 +1422,9 @@ def _skew_bound(
         Md, bound, top = absA.step(d, s, inv_s, sym)
         products += per_step
         last, gain, best = gain, best - bound, min(best, bound)
-        below = floor if k > 0 else max(floor, first_floor)
-        if _kernels._power_stops(top, last, gain, span, per_step, best, below, handoff):
+        if _kernels._power_stops(
+            k, top, last, gain, span, per_step, best, floor, first_floor, handoff
+        ):
             break
         d = np.maximum(Md / top, 1e-300)  # positive, so the bound stays rigorous
     return max(best, 0.0) * (1.0 + 1e-12 if sym else 1.0), products
