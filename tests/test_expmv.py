@@ -350,7 +350,8 @@ def test_choose_method_thresholds_for_operators_not_declared_skew(monkeypatch, c
     if compiled and importlib.util.find_spec("numba") is None:
         pytest.skip("numba is not installed")
     monkeypatch.setattr(fvf._kernels, "ENABLED", compiled)
-    A = _flow_operator(fvf.icosphere(2), "grad")
+    mesh = fvf.icosphere(2)
+    A = _flow_operator(mesh, "grad")
     R = 3.0  # given: no power steps
     column = fvf.expmv.CHEB_MIN_TAU_COLUMN if compiled else fvf.expmv.CHEB_MIN_TAU_COLUMN_NUMPY
     assert fvf.expmv._min_tau(1, None) == fvf.expmv._min_tau(1, False) == column
@@ -365,7 +366,6 @@ def test_choose_method_thresholds_for_operators_not_declared_skew(monkeypatch, c
         times = np.linspace(0.1, 1.0, 16) * tau / R
         assert choose_method(A, times, p, skew_norm=R) == want, (tau, p, "16 times")
         assert choose_method(A, tau / R, p, skew=False, skew_norm=R) == want
-    mesh = fvf.icosphere(2)
     w = mesh.vertex_areas
     R = skew_bound(A, w)  # a true bound, for the series to succeed
     for tau, want in [(1.01 * column, "chebyshev"), (0.99 * column, "iom")]:
