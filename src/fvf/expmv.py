@@ -1753,6 +1753,7 @@ def _run_chebyshev(
     mv = op.kernel(p)  # y += (2/R) A x on flat (n·p,) vectors
     fused = op.fused  # numba's fused kernels (fvf._kernels), or None
     s2 = np.zeros((3, p))  # norms of the last term (numba, one column)
+    storage = None
     try:
         nu0, inf0 = _col_norms(B2[None], w, maxnorm)[:, 0]  # (p,) W- and max-norms of B
         inv_nu0 = _safe_div(np.ones(p), nu0)
@@ -1763,7 +1764,11 @@ def _run_chebyshev(
         chunk = 2
         if T > 1:
             chunk = max(3, min(int(np.clip(4 * T, 16, 64)), int(CHEB_MEMORY // (8.0 * n * p))))
-        buf = np.empty((chunk, n, p))  # y_{k0} … y_{k0 + filled − 1} (T > 1)
+        # y_{k0} … y_{k0 + filled − 1} (T > 1): the kept storage, whose pages are mapped
+        # already (a fresh chunk of 64 terms faulted its pages in on every call: 16 times
+        # took 1.2× as long from 171k faces on, docs/notes.md)
+        storage = _basis_storage(chunk * n * p)
+        buf = storage[: chunk * n * p].reshape(chunk, n, p)
         flat = buf.reshape(chunk, n * p)
         acc = out.reshape(T, n * p)
         acc[:] = 0.0
@@ -1930,6 +1935,8 @@ def _run_chebyshev(
     finally:
         info["matvecs"] += op.matvecs
         info["block_matvecs"] += op.calls
+        if storage is not None:
+            _keep_storage(storage)
     info["method"] = "chebyshev"
     info["steps"] += 1
     info["basis_sizes"].append(k + 1)
