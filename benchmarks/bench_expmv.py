@@ -52,11 +52,11 @@ otherwise); column ``method`` says which ran (fvf.expmv.choose_method).
   X (n, 8), which is cheaper per column; the bound's products at the one-column time).
   The products are timed (best of 3) right after each K run, so that a run and its floor
   come from the same stretch of this shared machine, whose speed drifts by up to 1.5x
-  between minutes; ``floor`` is the median over these rounds and ``K/floor`` the median
-  of the rounds' ratios (K wall is the best run). ``K/(fl+out)``: the same against
-  floor + the time of one GEMM (T, m) @ (m, n·p) forming T outputs from m vectors, work
-  that any method producing T outputs from m vectors does and that the products floor
-  leaves out (0 for one time).
+  between minutes; ``floor`` is the median over these rounds (at least 3) and
+  ``K/floor`` the median of the rounds' ratios (K wall is the best run).
+  ``K/(fl+out)``: the same against floor + the time of one GEMM (T, m) @ (m, n·p)
+  forming T outputs from m vectors, work that any method producing T outputs from m
+  vectors does and that the products floor leaves out (0 for one time).
 - ``Kry wall``: the Krylov method's wall time (``method="krylov"``), for comparison: the
   Chebyshev series spends more products than Krylov at lower cost each.
 
@@ -100,6 +100,7 @@ GOAL_RATIO = 3.0
 GOAL_FLOOR = 1.5
 BLOCK = 8
 N_TIMES = 16
+MIN_ROUNDS = 3
 
 
 def best(fn: Callable[[], object], reps: int, budget: float = 4.0) -> tuple[float, object]:
@@ -136,15 +137,16 @@ def rounds_with_floor(
     """Rounds of (wall time of one fn(), best of 3 products on ``cols`` columns, best of 3
     products on one column), each product timed right after the run, so that a run and
     its floor come from the same stretch of this shared machine (its speed drifts by up
-    to 1.5x between minutes). At least one round, up to ``reps`` within ``budget`` s."""
+    to 1.5x between minutes). At least MIN_ROUNDS rounds (a median of one round at ~1M
+    faces moved by 1.3x between runs), up to ``reps`` within ``budget`` s."""
     out = []
     start = time.perf_counter()
-    for _ in range(reps):
+    for _ in range(max(reps, MIN_ROUNDS)):
         t_fn = best(fn, 1)[0]
         t_cols = product_time(A, cols, reps=3, budget=0.5)
         t_one = product_time(A, 1, reps=3, budget=0.5) if cols > 1 else t_cols
         out.append((t_fn, t_cols, t_one))
-        if time.perf_counter() - start > budget:
+        if len(out) >= MIN_ROUNDS and time.perf_counter() - start > budget:
             break
     return out
 

@@ -71,8 +71,9 @@ the results and product counts are those of the numpy/scipy path (``FVF_NUMBA=0`
 round-off; "auto" may choose differently on the two paths (:func:`choose_method`).
 
 Products are counted per column (``info["matvecs"]``; a product on an (n, p) block counts
-p) and per operator call (``info["block_matvecs"]``). Basis storage is reused between
-calls (see :data:`WORKSPACE_KEEP`, :func:`clear_workspace`).
+p) and per operator call (``info["block_matvecs"]``). Basis storage (Krylov bases and the
+series' terms) is reused between calls (see :data:`WORKSPACE_KEEP`,
+:func:`clear_workspace`).
 
 ``method="auto"`` (:func:`choose_method`) uses :func:`scipy.sparse.linalg.expm_multiply`
 (Al-Mohy & Higham 2011) only for tiny matrices, the Chebyshev series for long times and
@@ -261,9 +262,10 @@ class KrylovFallbackWarning(FvfWarning):
     was used."""
 
 
-#: Bytes of Krylov-basis storage kept between calls (per thread) so that repeated calls
-#: do not pay the operating system for fresh pages (first-touch page faults cost up to
-#: half a sparse product per basis vector). :func:`clear_workspace` releases it.
+#: Bytes of basis storage (Krylov bases, the Chebyshev series' terms) kept between calls
+#: (per thread) so that repeated calls do not pay the operating system for fresh pages
+#: (first-touch page faults cost up to half a sparse product per basis vector).
+#: :func:`clear_workspace` releases it.
 WORKSPACE_KEEP = 2**30
 _LOCAL = threading.local()
 
@@ -286,7 +288,7 @@ def _keep_storage(buf: np.ndarray) -> None:
 
 
 def clear_workspace() -> None:
-    """Release the Krylov-basis storage :func:`expm_action` keeps between calls."""
+    """Release the basis storage :func:`expm_action` keeps between calls."""
     _LOCAL.buf = None
 
 
