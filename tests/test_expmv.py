@@ -540,6 +540,41 @@ def test_tolerance_below_rounding_is_met_at_the_floor(mesh):
         assert wrel(X[:, c], ref[:, c], w) <= 1e-12
 
 
+def test_threads_give_the_serial_results():
+    """Calls running at once in threads (numba's kernels release the GIL) each use their own
+    workspace and scratch: Lanczos, IOM and the series (one column and blocks, one time and
+    several) give exactly the serial results."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    mesh = fvf.jittered_sphere(3, 0.3, seed=4)
+    w = mesh.vertex_areas
+    h = mesh.mean_edge_length
+    skew, grad = _flow_operator(mesh, "skew"), _flow_operator(mesh, "grad")
+    b, B = _f0(mesh), _f0(mesh, 3)
+    times = np.linspace(1.0, 12.0, 5) * h
+    calls = [
+        (skew, b, 12 * h, dict(skew=True)),  # Lanczos
+        (grad, b, 2 * h, dict(skew=False, method="krylov")),  # IOM
+        (grad, b, times, dict(skew=False, method="chebyshev")),  # series, several times
+        (skew, B, 12 * h, dict(skew=True, method="chebyshev")),  # series, a block
+        (grad, B, times, dict(skew=False)),  # "auto" on a block at several times
+    ]
+
+    def run(i):
+        A, X, t, kw = calls[i % len(calls)]
+        return expm_action(A, X, t, inner=w, return_info=True, **kw)
+
+    serial = [run(i) for i in range(len(calls))]
+    methods = {info["method"] for _, info in serial}
+    assert methods == {"lanczos", "iom", "chebyshev"}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        results = list(pool.map(run, range(4 * len(calls))))
+    for i, (x, info) in enumerate(results):
+        ref, ref_info = serial[i % len(calls)]
+        np.testing.assert_array_equal(x, ref)
+        assert info["matvecs"] == ref_info["matvecs"]
+
+
 def test_workspace_is_reused_and_released(mesh):
     A = _flow_operator(mesh, "skew")
     b = _f0(mesh)
