@@ -1770,7 +1770,7 @@ def _run_chebyshev(
             chunk = max(3, min(int(np.clip(4 * T, 16, 64)), int(CHEB_MEMORY // (8.0 * n * p))))
         # y_{k0} … y_{k0 + filled − 1} (T > 1): the kept storage, whose pages are mapped
         # already (a fresh chunk of 64 terms faulted its pages in on every call: 16 times
-        # took 1.2× as long from 171k faces on, docs/notes.md)
+        # took 1.2–1.4× as long from 171k faces on, docs/notes.md)
         storage = _basis_storage(chunk * n * p)
         buf = storage[: chunk * n * p].reshape(chunk, n, p)
         flat = buf.reshape(chunk, n * p)
