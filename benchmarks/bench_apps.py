@@ -15,7 +15,7 @@ Times are given in units of 10 mean edge lengths h̄: "t = 1" is the physical ti
 over which the fastest point of the flow moves 10 h̄ (so the work is about the same at every
 size). A product is one matrix-vector product (one column) with G = [I_F^V] ad_v or with
 Gᵀ; expm_multiply also spends products on its 1-norm estimates, all of which are counted.
-Both exponential actions are run: ``fvf.expmv.expm_action`` (the default of FieldTransport)
+Both exponential actions are run: ``fvf.numerics.expm.expm_action`` (the default of FieldTransport)
 and ``scipy.sparse.linalg.expm_multiply`` (expm_action at tol 1e-10); "rel diff" is the
 largest difference between the two results relative to the largest entry.
 floor = (products with G) x (time of one) + (products with Gᵀ) x (time of one); wall/floor
@@ -147,11 +147,11 @@ def acap_child(path: str, solver: str = "auto") -> None:
     """Stages of acap_fields on a fresh mesh, one JSON line each as it finishes."""
     from threadpoolctl import threadpool_limits
 
-    from fvf.bracket import ad
-    from fvf.commuting import ACAP_MULTILEVEL_MIN_FACES, acap_energy_matrix
-    from fvf.connection import real_connection_laplacian, tangent_basis_matrix
-    from fvf.eigen import eigen_residuals, smallest_eigenpairs
-    from fvf.multilevel import face_field_eigenpairs
+    from fvf.design.commuting import ACAP_MULTILEVEL_MIN_FACES, acap_energy_matrix
+    from fvf.design.connection import real_connection_laplacian, tangent_basis_matrix
+    from fvf.numerics.eigen import eigen_residuals, smallest_eigenpairs
+    from fvf.numerics.multilevel import face_field_eigenpairs
+    from fvf.operators.brackets import ad
 
     with threadpool_limits(1):
         d = np.load(path)
@@ -263,7 +263,7 @@ def main() -> None:
     targets = [float(s) for s in args.sizes.split(",") if s.strip()]
     if args.quick:
         targets = sorted(targets)[:2]
-    levels = pick_levels(targets, fvf.examples.spot().n_faces)
+    levels = pick_levels(targets, fvf.mesh.builtin.spot().n_faces)
     trows, frows, acap = [], [], []
     for level in levels:
         V, F = spot_level(level)
@@ -316,7 +316,7 @@ def main() -> None:
 
     if trows:
         print(
-            "\n== Ad transport: fvf.expmv.expm_action (krylov, the default) vs scipy expm_multiply"
+            "\n== Ad transport: fvf expm_action (krylov) vs scipy expm_multiply"
             " (G as a LinearOperator, exact trace); rel diff = max|krylov - expm_multiply| / max| |"
         )
         print_table(
@@ -387,7 +387,7 @@ def main() -> None:
             rows,
         )
         print(
-            "  max res: largest relative residual of the 4 pairs (fvf.eigen.eigen_residuals; "
+            "  max res: largest relative residual of the 4 pairs (fvf.eigen_residuals; "
             "both solvers target 1e-8)"
         )
 

@@ -41,7 +41,7 @@ import scipy.sparse as sp
 
 import fvf
 from fvf import calculus
-from fvf.mesh import TriMesh
+from fvf.mesh.trimesh import TriMesh
 
 # Goals checked in the summary.
 GOAL_VS_IGL = 1.0  # every assembled operator: fvf cold time <= this x libigl's, at ~1M faces
@@ -246,7 +246,7 @@ def refine(V: np.ndarray, F: np.ndarray, level: int) -> tuple[np.ndarray, np.nda
 
 
 def spot_level(level: int) -> tuple[np.ndarray, np.ndarray]:
-    base = fvf.examples.spot()
+    base = fvf.mesh.builtin.spot()
     return refine(base.vertices, base.faces, level)
 
 
@@ -742,7 +742,7 @@ def main() -> None:
     targets = [float(s) for s in args.sizes.split(",") if s.strip()]
     if args.quick:
         targets = sorted(targets)[:2]
-    base_faces = fvf.examples.spot().n_faces
+    base_faces = fvf.mesh.builtin.spot().n_faces
     levels = pick_levels(targets, base_faces)
 
     results: dict[int, dict[str, Any]] = {}

@@ -1,4 +1,4 @@
-"""The exponential action (fvf.expmv.expm_action) against scipy's expm_multiply on flows.
+"""The exponential action (fvf.numerics.expm.expm_action) against scipy's expm_multiply on flows.
 
 Run from the repository root::
 
@@ -27,16 +27,16 @@ block of 8 right-hand sides ("8 rhs"), and one right-hand side at 16 times sprea
 Columns. "K" is expm_action with its default ``method="auto"``, called as
 fvf.FunctionalFlow calls it (``skew=True`` for J grad y, ``skew=False`` for grad y): the
 Chebyshev series (``cheb``) from R·t ≥ 20 on for blocks, from 30 for one column of grad y
-(4 without numba's kernels), R = fvf.expmv.skew_bound, except for a skew operator with
+(4 without numba's kernels), R = fvf.numerics.expm.skew_bound, except for a skew operator with
 several times or (with numba's kernels; without them from 20k vertices on) one
 right-hand side, else the Krylov method (``lanczos`` for skew-adjoint A, ``iom``
-otherwise); column ``method`` says which ran (fvf.expmv.choose_method).
+otherwise); column ``method`` says which ran (fvf.numerics.expm.choose_method).
 
 - ``K prod``: column products of expm_action at tol = 1e-10 (a product with an (n, 8)
   block counts 8), plus the products with |A| spent on the Chebyshev bound R (counted
   as products); ``/blk`` is the number of operator calls.
 - ``EM prod``: products of scipy's expm_multiply, counted by wrapping A in
-  ``fvf.expmv.ExpmvCounter`` (with ``traceA``): products with A, then (+) with Aᵀ that
+  ``fvf.numerics.expm.ExpmvCounter`` (with ``traceA``): products with A, then (+) with Aᵀ that
   its 1-norm estimates spend. Those estimates start from random vectors (numpy's global
   generator), so the counts vary by up to ~10 % between runs: the mean over seeds 0–2
   (seed 0 alone from 200k vertices on). For several times it is chained over the sorted times, as
@@ -63,7 +63,7 @@ otherwise); column ``method`` says which ran (fvf.expmv.choose_method).
 Goals (the issue): at t = 10 edge lengths, ratio ≥ 3 and K wall ≤ 1.5 × floor.
 
 With numba installed (``pip install 'fvf[fast]'``) expm_action fuses each term's product
-with its axpy, copy or norm (fvf._kernels); ``FVF_NUMBA=0`` runs the numpy/scipy path. The
+with its axpy, copy or norm (fvf.numerics._kernels); ``FVF_NUMBA=0`` runs the numpy/scipy path. The
 script prints which ran.
 
 BLAS pools are pinned to one thread with threadpoolctl after numpy and scipy.linalg are
@@ -88,8 +88,8 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import fvf
-from fvf import _kernels
-from fvf.expmv import ExpmvCounter, expm_action
+from fvf.numerics import _kernels
+from fvf.numerics.expm import ExpmvCounter, expm_action
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_core import pick_levels, print_table, refine  # noqa: E402
@@ -342,14 +342,14 @@ def main() -> None:
         ),
     )
     print(
-        "fused kernels (fvf._kernels):",
+        "fused kernels (fvf.numerics._kernels):",
         f"numba {__import__('numba').__version__}" if _kernels.ENABLED else "off",
         "(set FVF_NUMBA=0 for the numpy/scipy path)",
     )
     lengths = [float(x) for x in args.lengths.split(",")]
     want = set(args.fields.split(","))
     if args.mesh == "spot":
-        title, base = "spot", fvf.examples.spot()
+        title, base = "spot", fvf.mesh.builtin.spot()
     else:
         title, base = os.path.basename(args.mesh), fvf.TriMesh(*fvf.read_mesh(args.mesh))
     if args.quick:

@@ -1,6 +1,6 @@
 """Flow methods x meshes: accuracy, norm behaviour, matrix-vector products and time.
 
-For every mesh and every method of :func:`fvf.flows.flow` ("chapter", "upwind", "skew",
+For every mesh and every method of :func:`fvf.flows.dispatch.flow` ("chapter", "upwind", "skew",
 "cayley", "spectral") it measures three cases.
 
 * **rotation** (spheres only, where the exact answer is known): v = e_z × x and the degree-3
@@ -15,7 +15,7 @@ For every mesh and every method of :func:`fvf.flows.flow` ("chapter", "upwind", 
 
 "products" counts the sparse n x n matrix-vector products of the compressible flow,
 including those of the chapter flow's growth check; "chapter" and "skew" use the Krylov
-action of :mod:`fvf.expmv` (its own count, ``stats["matvecs"]``).
+action of :mod:`fvf.numerics.expm` (its own count, ``stats["matvecs"]``).
 For Cayley it adds "+ s solves": s pairs of triangular solves with one LU. The spectral
 flow needs none, because it works in k x k. "time" is the compressible flow (best of r).
 "setup" is the operator, the LU or the eigenbasis (k = 50), built once per field or mesh.
@@ -42,7 +42,7 @@ import scipy.sparse as sp
 from threadpoolctl import threadpool_limits
 
 import fvf
-from fvf.flows import METHODS, TransportFlow
+from fvf.flows.dispatch import METHODS, TransportFlow
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 
@@ -103,7 +103,7 @@ def options_for(method, basis):
 
 def run_mesh(name, mesh, is_sphere, counter, repeats, methods):
     rows = []
-    mesh_n, v, f0 = fvf.examples.compressible_case(mesh)
+    mesh_n, v, f0 = fvf.mesh.builtin.compressible_case(mesh)
     basis = {}
     if "spectral" in methods:
         tb, basis["n"] = best(lambda: fvf.SpectralBasis(mesh_n, 50), 1)
@@ -199,7 +199,7 @@ FLUID_HEADER = (
 
 
 def fluid_table(meshes, steps: int) -> None:
-    from fvf.fluid import fluid_time_step, ideal_fluid
+    from fvf.flows.fluid import fluid_time_step, ideal_fluid
 
     print()
     print(f"ideal fluid: three vortices, Courant 0.5, {steps} steps, tol 1e-13, k = 64")

@@ -24,7 +24,7 @@ from bench_flows import f_poly as f_exact
 from threadpoolctl import threadpool_limits
 
 import fvf
-from fvf.spectral import SpectralBasis
+from fvf.spectral.basis import SpectralBasis
 
 
 def row(mesh, k: int, t: float) -> None:

@@ -1,4 +1,4 @@
-"""Benchmark :func:`fvf.eigen.smallest_eigenpairs` against a plain shift-invert eigsh call.
+"""Benchmark :func:`fvf.numerics.eigen.smallest_eigenpairs` against a plain shift-invert eigsh call.
 
 Run from the repository root::
 
@@ -15,12 +15,12 @@ per solve and includes SuperLU's and ARPACK's C/Fortran allocations):
 * ``eigsh``: the plain reference call
   ``scipy.sparse.linalg.eigsh(W, k, M=diags(mass), sigma=σ, which="LM")`` (scipy's own
   COLAMD SuperLU factorization, ARPACK, default ``tol=0``) with the same shift σ
-  (:func:`fvf.eigen.default_shift`).
+  (:func:`fvf.numerics.eigen.default_shift`).
 
 It prints wall and CPU time, the time ratio eigsh/fvf ("speed-up"), peak extra resident
 memory (VmHWM after ``/proc/self/clear_refs`` minus VmRSS before the solve, so the mesh and
 W are not counted) and its ratio, the largest relative residual of each (as defined by
-:func:`fvf.eigen.eigen_residuals`) and the largest eigenvalue difference
+:func:`fvf.numerics.eigen.eigen_residuals`) and the largest eigenvalue difference
 max_i |λ_i(fvf) − λ_i(eigsh)| / λ_k(eigsh).
 
 Everything runs on one thread: BLAS pools are limited to 1 with threadpoolctl in each
@@ -90,7 +90,7 @@ def child(mesh_file: str, k: int, which: str, tol: float) -> None:
 
     import fvf
     from fvf import calculus
-    from fvf.eigen import default_shift, eigen_residuals, smallest_eigenpairs
+    from fvf.numerics.eigen import default_shift, eigen_residuals, smallest_eigenpairs
 
     V, F = fvf.read_mesh(MESH_DIR / mesh_file)
     mesh = fvf.TriMesh(V, F)

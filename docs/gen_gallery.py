@@ -2,7 +2,7 @@
 
     python docs/gen_gallery.py [--mesh PATH] [--size W H]
 
-It runs :func:`fvf.demo.demo` (needs the ``[viz]`` extra) into a temporary folder, copies
+It runs :func:`fvf.cli.demo.demo` (needs the ``[viz]`` extra) into a temporary folder, copies
 the pictures its ``index.html`` shows into ``docs/gallery/`` and writes ``docs/gallery.md``:
 one section per stage of the demo, with the numbers it measured and its pictures with their
 captions. The demo's own report stays the single source of what each picture is; this
@@ -136,7 +136,7 @@ def main() -> None:
     parser.add_argument("--mesh", help="mesh file (default: the built-in Spot)")
     parser.add_argument("--size", nargs=2, type=int, default=(560, 420), metavar=("W", "H"))
     args = parser.parse_args()
-    from fvf.demo import demo
+    from fvf.cli.demo import demo
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)

@@ -29,7 +29,7 @@ def parse_args(description: str, default: str = "the built-in Spot") -> argparse
 
 def load_mesh(path: str | None) -> fvf.TriMesh:
     """The mesh at ``path``, or the built-in Spot when ``path`` is None."""
-    mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.examples.spot()
+    mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.mesh.builtin.spot()
     print(f"mesh: {path or 'built-in spot.obj'} ({mesh.n_vertices} vertices, {mesh.n_faces} faces)")
     return mesh
 

@@ -32,7 +32,7 @@ import numpy as np
 import fvf
 
 path = os.environ.get("FVF_EXAMPLE_MESH")
-mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.examples.spot()
+mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.mesh.builtin.spot()
 X = mesh.vertices
 n, m = mesh.n_vertices, mesh.n_faces
 print(f"{n} vertices, {m} faces, Euler characteristic {mesh.euler_characteristic}")""",

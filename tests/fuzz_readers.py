@@ -44,10 +44,10 @@ API: dict = {}  # the fvf functions under test, imported by load_fvf (instrument
 
 
 def load_fvf() -> None:
-    import fvf.io
-    from fvf.diagnostics import mesh_report
+    import fvf.io.meshfile
     from fvf.errors import FvfError
-    from fvf.repair import repair_mesh
+    from fvf.mesh.diagnostics import mesh_report
+    from fvf.mesh.repair import repair_mesh
 
     API.update(io=fvf.io, mesh_report=mesh_report, FvfError=FvfError, repair_mesh=repair_mesh)
 

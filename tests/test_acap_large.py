@@ -9,17 +9,21 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import fvf
-import fvf.commuting as commuting
-from fvf.commuting import acap_energy_matrix, acap_fields
-from fvf.eigen import (
+import fvf.design.commuting as commuting
+from fvf.design.commuting import acap_energy_matrix, acap_fields
+from fvf.errors import ParameterError
+from fvf.numerics.eigen import (
     SpectralFallbackWarning,
     SpectralInputError,
     SpectralSolveError,
     eigen_residuals,
     smallest_eigenpairs,
 )
-from fvf.errors import ParameterError
-from fvf.multilevel import AggregationHierarchy, face_field_eigenpairs, multilevel_eigenpairs
+from fvf.numerics.multilevel import (
+    AggregationHierarchy,
+    face_field_eigenpairs,
+    multilevel_eigenpairs,
+)
 
 LAM = 1e-2
 K = 4
@@ -34,7 +38,7 @@ def _field(mesh: fvf.TriMesh) -> np.ndarray:
 @pytest.fixture(scope="module")
 def spot():
     """The spot mesh (5,856 faces: quad-derived, with near-right triangle pairs)."""
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     E = acap_energy_matrix(mesh, _field(mesh), LAM)
     mass = np.repeat(mesh.face_areas, 2)
     lam_d, X_d = smallest_eigenpairs(E, mass, K)
@@ -93,7 +97,7 @@ def test_auto_switches_at_threshold(spot, monkeypatch):
     mesh, *_ = spot
     v = _field(mesh)
     calls = []
-    import fvf.multilevel as ml
+    import fvf.numerics.multilevel as ml
 
     real = ml.face_field_eigenpairs
 
@@ -112,7 +116,7 @@ def test_auto_switches_at_threshold(spot, monkeypatch):
 def test_auto_falls_back_to_direct_with_warning(spot, monkeypatch):
     mesh, *_ = spot
     v = _field(mesh)
-    import fvf.multilevel as ml
+    import fvf.numerics.multilevel as ml
 
     def broken(*args, **kw):
         raise SpectralSolveError("forced failure")
@@ -199,7 +203,7 @@ def test_vcycle_is_spd_and_the_pair_smoother_matters(spot, monkeypatch):
     On spot, whose quad diagonals carry circumcentric weights ~1000x the others, plain
     2 x 2 block Jacobi (no pairs: STRONG = inf) needs about 3x more PCG iterations.
     """
-    import fvf.multilevel as ml
+    import fvf.numerics.multilevel as ml
 
     mesh, E, mass, *_ = spot
     A = (E + sp.diags_array(0.2 * mass)).tocsr()

@@ -17,7 +17,7 @@ from scipy.sparse.csgraph import connected_components
 import fvf
 from conftest import load_shared, smooth_functions
 from corpus import annulus, sliver, square
-from fvf.fluid import StreamFunctionSolver, stream_velocity
+from fvf.flows.fluid import StreamFunctionSolver, stream_velocity
 
 GENERATED = {
     "disk": lambda: fvf.disk(6, 6),

@@ -24,7 +24,7 @@ def test_info_reports_every_problem(tmp_path):
 def test_mesh_report_on_broken_meshes():
     import numpy as np
 
-    from fvf.diagnostics import mesh_report
+    from fvf.mesh.diagnostics import mesh_report
 
     X = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1], [9, 9, 9]])
     F = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
@@ -45,8 +45,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import fvf  # noqa: E402
-from fvf.cli import main  # noqa: E402
-from fvf.fieldio import DataFileError, DataKeyError, MeshMismatchError, read_data  # noqa: E402
+from fvf.cli.main import main  # noqa: E402
+from fvf.io.datafile import DataFileError, DataKeyError, MeshMismatchError, read_data  # noqa: E402
 
 COMMANDS = ["demo", "info", "flow", "bracket", "transport", "design", "render", "view"]
 
@@ -402,9 +402,9 @@ end_header
 def test_ply_properties_as_functions_and_fields(tmp_path):
     path = tmp_path / "quad.ply"
     path.write_text(PLY)
-    with pytest.warns(fvf.io.PolygonTriangulatedWarning):
+    with pytest.warns(fvf.io.meshfile.PolygonTriangulatedWarning):
         mesh = fvf.TriMesh(*fvf.read_mesh(path))
-    vertex, face = fvf.io.read_ply_properties(path)
+    vertex, face = fvf.io.meshfile.read_ply_properties(path)
     np.testing.assert_array_equal(vertex["f"], [1, 2, 3, 4, 5])
     np.testing.assert_array_equal(face["label"], [7, 7, 8])  # the quad became 2 triangles
     data = read_data(path, mesh)
@@ -426,12 +426,12 @@ def test_ply_properties_as_functions_and_fields(tmp_path):
     binary = tmp_path / "quad_bin.ply"
     binary.write_bytes((header + "end_header\n").encode() + vert.tobytes() + quad.tobytes()
                        + tri.tobytes())  # fmt: skip
-    vb, fb = fvf.io.read_ply_properties(binary)
+    vb, fb = fvf.io.meshfile.read_ply_properties(binary)
     assert vb.keys() == vertex.keys() and fb.keys() == face.keys()
     for k in face:
         np.testing.assert_array_equal(fb[k], face[k])
     with pytest.raises(fvf.MeshReadError, match="only PLY"):
-        fvf.io.read_ply_properties(tmp_path / "x.obj")
+        fvf.io.meshfile.read_ply_properties(tmp_path / "x.obj")
 
 
 def test_flow_reads_ply_properties(work, tmp_path):

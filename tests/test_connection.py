@@ -28,9 +28,9 @@ from scipy.special import jnp_zeros
 from threadpoolctl import threadpool_limits
 
 import fvf
-import fvf.connection as fc
+import fvf.design.connection as fc
 from conftest import random_tangent_field, rel
-from fvf.connection import (
+from fvf.design.connection import (
     KINDS,
     complex_to_real,
     connection_energy,

@@ -157,7 +157,7 @@ def test_areas_and_mass(pair):
 def test_gradient_divergence_laplacian(pair):
     M, N, T, s = pair.M, pair.N, pair.T, pair.T.s
     check("grad f", fvf.gradient(N, pair.f), T.vec(fvf.gradient(M, pair.f)) / s)
-    check("hat gradients", fvf.hat_gradients(N), T.vec(fvf.hat_gradients(M)) / s)
+    check("hat gradients", fvf.calculus.hat_gradients(N), T.vec(fvf.calculus.hat_gradients(M)) / s)
     check("div u", fvf.divergence(N, pair.u2), fvf.divergence(M, pair.u) / s)
     check("L", fvf.laplacian(N), fvf.laplacian(M) / s**2)
     check("W", fvf.stiffness(N), fvf.stiffness(M))

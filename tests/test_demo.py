@@ -83,7 +83,7 @@ def test_demo_writes_every_picture_report_and_gif(small_mesh, tmp_path):
 
 
 def test_demo_without_pictures_reports_them_skipped(small_mesh, tmp_path):
-    from fvf.demo import demo
+    from fvf.cli.demo import demo
 
     report = demo(str(small_mesh), tmp_path / "o", pictures=False)
     assert report["pictures"] == [] and report["skipped"]
@@ -94,15 +94,15 @@ def test_demo_without_pictures_reports_them_skipped(small_mesh, tmp_path):
 
 
 def test_demo_without_the_viz_extra_says_how_to_get_it(small_mesh, tmp_path, monkeypatch):
-    import fvf.demo
+    import fvf.cli.demo
 
     real = importlib.util.find_spec
     monkeypatch.setattr(
-        fvf.demo.importlib.util,
+        fvf.cli.demo.importlib.util,
         "find_spec",
         lambda name, *a: None if name in ("matplotlib", "PIL") else real(name, *a),
     )
-    report = fvf.demo.demo(str(small_mesh), tmp_path / "o")
+    report = fvf.cli.demo.demo(str(small_mesh), tmp_path / "o")
     assert report["skipped"] and all("pip install 'fvf[viz]'" in s for s in report["skipped"])
     assert report["Fig. 11 ACAP singularity counts"]
 

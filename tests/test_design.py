@@ -6,8 +6,12 @@ from threadpoolctl import threadpool_limits
 
 import fvf
 from conftest import random_tangent_field
-from fvf.connection import connection_energy, connection_laplacian, smoothest_fields
-from fvf.design import (
+from fvf.design.connection import (
+    connection_energy,
+    connection_laplacian,
+    smoothest_fields,
+)
+from fvf.design.constrained import (
     SOFT_WEIGHT,
     ConflictingConstraintError,
     ConstraintError,

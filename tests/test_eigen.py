@@ -9,8 +9,10 @@ import scipy.sparse.linalg as spla
 
 import fvf
 from conftest import load_shared
-from fvf import calculus, eigen
-from fvf.eigen import (
+from fvf import calculus
+from fvf.errors import FvfError, FvfWarning
+from fvf.numerics import eigen
+from fvf.numerics.eigen import (
     SpectralFallbackWarning,
     SpectralInputError,
     SpectralSolveError,
@@ -19,7 +21,6 @@ from fvf.eigen import (
     smallest_eigenpairs,
     spectral_norm_bound,
 )
-from fvf.errors import FvfError, FvfWarning
 
 # l(l+1) with multiplicity 2l+1, l = 0..4: the first 25 eigenvalues of the unit sphere.
 SPHERE_25 = np.concatenate([np.full(2 * l + 1, l * (l + 1.0)) for l in range(5)])
@@ -306,7 +307,7 @@ def test_factor_spd_nd_solves_and_rejects_indefinite(rng):
     assert np.abs(K @ fac.solve(B[:, 0]) - B[:, 0]).max() < 1e-9 * np.abs(B).max()
     with pytest.raises(eigen._MethodFailed, match="non-positive pivots"):
         eigen.factor_spd((W - 10.0 * sp.diags_array(mass)).tocsc(), "nd")
-    with pytest.raises(fvf.eigen.SpectralInputError, match="ordering must be one of"):
+    with pytest.raises(fvf.numerics.eigen.SpectralInputError, match="ordering must be one of"):
         eigen.factor_spd(K, "metis")
 
 
@@ -318,5 +319,5 @@ def test_spd_factor_solves_in_float64_and_ordering_is_validated():
     for ordering in ("mmd", "nd"):
         x = eigen.factor_spd(K, ordering).solve(b)
         assert x.dtype == np.float64 and np.abs(K @ x - b).max() < 1e-9 * b.max()
-    with pytest.raises(fvf.eigen.SpectralInputError, match="ordering"):
+    with pytest.raises(fvf.numerics.eigen.SpectralInputError, match="ordering"):
         smallest_eigenpairs(W, mass, 4, method="dense", ordering="bogus")

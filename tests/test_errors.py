@@ -107,7 +107,7 @@ def test_field_errors():
     m, n = mesh.n_faces, mesh.n_vertices
     with pytest.raises(fvf.FieldShapeError, match=rf"\({m}, 3\).*vertex field"):
         fvf.D_V(mesh, np.zeros((n, 3)))
-    with pytest.raises(fvf.FieldShapeError, match=r"NaN.*faces \[5\]"):
+    with pytest.raises(fvf.FieldValueError, match=r"NaN.*faces \[5\]"):
         v = np.zeros((m, 3))
         v[5, 0] = np.inf
         fvf.D_F(mesh, v)

@@ -1,4 +1,4 @@
-"""fvf.expmv: exp(tA)B by adaptive Krylov time stepping, against scipy (dense and sparse)."""
+"""fvf.numerics.expm: exp(tA)B by adaptive Krylov time stepping, against scipy (dense and sparse)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import fvf
-import fvf.expmv
+import fvf.numerics._kernels
+import fvf.numerics.expm
 from fvf.errors import FvfError
-from fvf.expmv import (
+from fvf.numerics.expm import (
     ExpmInputError,
     ExpmvCounter,
     KrylovFallbackWarning,
@@ -331,7 +332,7 @@ def test_choose_method():
     h = mesh.mean_edge_length
     R = skew_bound(A)
     assert choose_method(A, 50.0) == "chebyshev"  # R·t ≥ every threshold
-    column = fvf.expmv._min_tau(1, None)
+    column = fvf.numerics.expm._min_tau(1, None)
     assert choose_method(A, 0.5 * column / R, skew_norm=R) == "krylov"
     assert choose_method(A, 10 * h, skew_norm=1e-3 / h) == "krylov"  # the bound decides
     assert choose_method(spla.aslinearoperator(A), 1.0) == "krylov"  # no bound
@@ -349,18 +350,18 @@ def test_choose_method_thresholds_for_operators_not_declared_skew(monkeypatch, c
     session 12)."""
     if compiled and importlib.util.find_spec("numba") is None:
         pytest.skip("numba is not installed")
-    monkeypatch.setattr(fvf._kernels, "ENABLED", compiled)
+    monkeypatch.setattr(fvf.numerics._kernels, "ENABLED", compiled)
     mesh = fvf.icosphere(2)
     A = _flow_operator(mesh, "grad")
     R = 3.0  # given: no power steps
-    column = fvf.expmv.CHEB_MIN_TAU_COLUMN if compiled else fvf.expmv.CHEB_MIN_TAU_COLUMN_NUMPY
-    assert fvf.expmv._min_tau(1, None) == fvf.expmv._min_tau(1, False) == column
-    assert column != fvf.expmv.CHEB_MIN_TAU
+    column = fvf.numerics.expm.CHEB_MIN_TAU_COLUMN if compiled else fvf.numerics.expm.CHEB_MIN_TAU_COLUMN_NUMPY
+    assert fvf.numerics.expm._min_tau(1, None) == fvf.numerics.expm._min_tau(1, False) == column
+    assert column != fvf.numerics.expm.CHEB_MIN_TAU
     for tau, p, want in [
         (0.99 * column, 1, "krylov"),
         (column, 1, "chebyshev"),
-        (0.99 * fvf.expmv.CHEB_MIN_TAU, 4, "krylov"),
-        (fvf.expmv.CHEB_MIN_TAU, 4, "chebyshev"),
+        (0.99 * fvf.numerics.expm.CHEB_MIN_TAU, 4, "krylov"),
+        (fvf.numerics.expm.CHEB_MIN_TAU, 4, "chebyshev"),
     ]:
         assert choose_method(A, tau / R, p, skew_norm=R) == want, (tau, p)
         times = np.linspace(0.1, 1.0, 16) * tau / R
@@ -379,19 +380,19 @@ def test_choose_method_for_skew_operators(monkeypatch):
     with numba's kernels, or from CHEB_SKEW_MIN_N on without them."""
     sphere = fvf.icosphere(2)
     A = _flow_operator(sphere, "skew")
-    assert A.shape[0] < fvf.expmv.CHEB_SKEW_MIN_N
+    assert A.shape[0] < fvf.numerics.expm.CHEB_SKEW_MIN_N
     assert choose_method(A, [50.0, 20.0], 4, skew=True) == "krylov"  # several outputs
     assert choose_method(A, [50.0, 20.0], 1, skew=True) == "krylov"
     assert choose_method(A, [50.0, -50.0, 0.0], 4, skew=True) == "chebyshev"  # one |t| ≠ 0
-    monkeypatch.setattr(fvf._kernels, "ENABLED", True)
+    monkeypatch.setattr(fvf.numerics._kernels, "ENABLED", True)
     assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # compiled Lanczos
-    monkeypatch.setattr(fvf._kernels, "ENABLED", False)
+    monkeypatch.setattr(fvf.numerics._kernels, "ENABLED", False)
     assert choose_method(A, 50.0, 1, skew=True) == "chebyshev"  # small n: the series
-    monkeypatch.setattr(fvf.expmv, "CHEB_SKEW_MIN_N", A.shape[0])
+    monkeypatch.setattr(fvf.numerics.expm, "CHEB_SKEW_MIN_N", A.shape[0])
     assert choose_method(A, 50.0, 1, skew=True) == "krylov"  # large n: Lanczos
     assert choose_method(A, 50.0, 4, skew=True) == "chebyshev"  # blocks: the series
     assert choose_method(A, 50.0, 4) == "chebyshev"  # not declared skew
-    short = 0.1 * fvf.expmv.CHEB_MIN_TAU / skew_bound(A)
+    short = 0.1 * fvf.numerics.expm.CHEB_MIN_TAU / skew_bound(A)
     assert choose_method(A, short, 4, skew=True) == "chebyshev"  # a skew block: any τ
     assert choose_method(A, short, 4) == "krylov"  # not declared skew: τ < CHEB_MIN_TAU
     B = np.stack([np.cos(np.arange(A.shape[0]) * k) for k in range(1, 5)], axis=1)
@@ -504,7 +505,7 @@ def test_bad_inputs():
 def test_non_finite_sparse_operator_is_refused(monkeypatch, compiled, value, t):
     """expm_action finds a sparse A's non-finite entries from ‖A‖_∞ (no separate pass):
     with and without the compiled statistics, for any times, zero included."""
-    monkeypatch.setattr(fvf._kernels, "ENABLED", compiled and fvf._kernels.ENABLED)
+    monkeypatch.setattr(fvf.numerics._kernels, "ENABLED", compiled and fvf.numerics._kernels.ENABLED)
     A = _flow_operator(fvf.icosphere(1), "grad").tocsr()
     A.data[7] = value
     with pytest.raises(ExpmInputError, match="non-finite entries"):
@@ -514,7 +515,7 @@ def test_non_finite_sparse_operator_is_refused(monkeypatch, compiled, value, t):
 # ------------------------------------------------------------------ norms and options
 def test_max_norm_control_on_a_graded_mesh():
     """On a graded mesh the error concentrates on small cells: norm="max" controls it."""
-    V, F = fvf.examples.spot().vertices, fvf.examples.spot().faces
+    V, F = fvf.mesh.builtin.spot().vertices, fvf.mesh.builtin.spot().faces
     mesh = fvf.TriMesh(V, F)
     A = _flow_operator(mesh, "skew")
     w = mesh.vertex_areas
@@ -534,7 +535,7 @@ def test_tolerance_below_rounding_is_met_at_the_floor(mesh):
     B = _f0(mesh, 3)
     t = 20 * mesh.mean_edge_length
     X, info = expm_action(A, B, t, inner=w, tol=1e-15, return_info=True)
-    assert info["steps"] == 1 and info["matvecs"] <= 3 * fvf.expmv.M_MAX_SKEW
+    assert info["steps"] == 1 and info["matvecs"] <= 3 * fvf.numerics.expm.M_MAX_SKEW
     ref = dense_exp(A, B, t)[0]
     for c in range(3):
         assert wrel(X[:, c], ref[:, c], w) <= 1e-12
@@ -600,11 +601,11 @@ def test_series_keeps_its_terms_in_the_workspace(mesh, times):
     clear_workspace()
     X, info = expm_action(A, B, t, inner=w, method="chebyshev", return_info=True)
     assert info["method"] == "chebyshev"
-    kept = fvf.expmv._LOCAL.buf
+    kept = fvf.numerics.expm._LOCAL.buf
     assert kept is not None and kept.size >= 2 * B.size  # (at least y_{k−1} and y_k)
     kept.fill(np.nan)
     X2 = expm_action(A, B, t, inner=w, method="chebyshev")
-    assert fvf.expmv._LOCAL.buf is kept  # taken and given back
+    assert fvf.numerics.expm._LOCAL.buf is kept  # taken and given back
     np.testing.assert_array_equal(X2, X)
     clear_workspace()
 
@@ -622,7 +623,7 @@ def test_large_n_code_path(mesh, monkeypatch):
     b = _f0(mesh)
     t = 6 * mesh.mean_edge_length
     ref = dense_exp(A, b, t)[0]
-    monkeypatch.setattr(fvf.expmv, "_STREAM_N", 1)
+    monkeypatch.setattr(fvf.numerics.expm, "_STREAM_N", 1)
     for method in KRYLOV:
         x, info = expm_action(A, b, t, inner=w, method=method, return_info=True)
         assert info["method"] == KRYLOV[method][0] and wrel(x, ref, w) <= TOL
@@ -632,7 +633,7 @@ def test_large_n_code_path(mesh, monkeypatch):
 
 def test_products_ratio_on_spot_at_ten_edge_lengths():
     """The issue's goal, on the built-in spot mesh: ≥ 3× fewer products than expm_multiply."""
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     w = mesh.vertex_areas
     b = _f0(mesh)
     t = 10 * mesh.mean_edge_length
@@ -719,15 +720,15 @@ def test_skew_bound_of_a_declared_skew_operator_costs_one_product_per_step(mesh)
     products; a non-zero diagonal (not skew) falls back to both products."""
     A = _flow_operator(mesh, "skew")
     w = mesh.vertex_areas
-    absA = fvf.expmv._AbsCsr.of(A)
+    absA = fvf.numerics.expm._AbsCsr.of(A)
     exact = _dense_skew_norm(A, w)
     for it in (0, 3, 8):
-        R2, p2 = fvf.expmv._skew_bound(absA, w, it)
-        R1, p1 = fvf.expmv._skew_bound(absA, w, it, skew=True)
+        R2, p2 = fvf.numerics.expm._skew_bound(absA, w, it)
+        R1, p1 = fvf.numerics.expm._skew_bound(absA, w, it, skew=True)
         assert (p1, p2) == (it + 1, 2 * (it + 1))
         assert R1 == pytest.approx(R2, rel=3e-12) and R1 >= exact * (1 - 1e-12)
     B = (A + sp.diags_array(np.full(A.shape[0], 1e-3))).tocsr()  # not skew: a diagonal
-    _, p_diag = fvf.expmv._skew_bound(fvf.expmv._AbsCsr.of(B), w, 3, skew=True)
+    _, p_diag = fvf.numerics.expm._skew_bound(fvf.numerics.expm._AbsCsr.of(B), w, 3, skew=True)
     assert p_diag == 8
     _, info = expm_action(
         A,
@@ -738,7 +739,7 @@ def test_skew_bound_of_a_declared_skew_operator_costs_one_product_per_step(mesh)
         method="chebyshev",
         return_info=True,
     )
-    assert 1 <= info["bound_products"] <= fvf.expmv.CHEB_BOUND_ITERATIONS + 1
+    assert 1 <= info["bound_products"] <= fvf.numerics.expm.CHEB_BOUND_ITERATIONS + 1
 
 
 def _clique_with_pendant(a: int) -> sp.csr_array:
@@ -757,19 +758,19 @@ def test_power_steps_look_two_steps_ahead_and_stop_below_the_floor(compiled):
     """A step that gains nothing does not end the steps if the next one gains (the plateau
     that left R at 1.29× ‖K‖ on spot at 375k faces, docs/notes.md session 9); and once
     the bound is below ``floor`` (the series would not be chosen) no more are spent."""
-    if compiled and not fvf._kernels.ENABLED:
+    if compiled and not fvf.numerics._kernels.ENABLED:
         pytest.skip("numba's kernels are off")
     A = _clique_with_pendant(5)
-    absA = (fvf.expmv._FusedAbs if compiled else fvf.expmv._AbsCsr).of(A)
+    absA = (fvf.numerics.expm._FusedAbs if compiled else fvf.numerics.expm._AbsCsr).of(A)
     exact = float(np.linalg.norm(A.toarray(), 2))
-    gershgorin, p0 = fvf.expmv._skew_bound(absA, None, 0, skew=True)
-    one, p1 = fvf.expmv._skew_bound(absA, None, 1, skew=True)
+    gershgorin, p0 = fvf.numerics.expm._skew_bound(absA, None, 0, skew=True)
+    one, p1 = fvf.numerics.expm._skew_bound(absA, None, 1, skew=True)
     assert gershgorin == pytest.approx(5.0) and one == pytest.approx(5.0)  # the plateau
     # span 10: a step pays if it lowers R by 0.1; the first step alone lowers it by 0
-    R, products = fvf.expmv._skew_bound(absA, None, 8, span=10.0, skew=True)
+    R, products = fvf.numerics.expm._skew_bound(absA, None, 8, span=10.0, skew=True)
     assert R <= 4.3 and 3 <= products < 9 and R >= exact  # (and it still stops early)
     # below the floor: Gershgorin 5, a step 5, two steps 4.29 < 4.5 → three products
-    R, products = fvf.expmv._skew_bound(absA, None, 8, span=10.0, skew=True, floor=4.5)
+    R, products = fvf.numerics.expm._skew_bound(absA, None, 8, span=10.0, skew=True, floor=4.5)
     assert products == 3 and R == pytest.approx(4.2941, abs=1e-4)
 
 
@@ -779,7 +780,7 @@ def test_auto_spends_no_power_steps_when_gershgorin_rules_the_series_out(mesh):
     with |A| for a compressible field; it spent four to ten before)."""
     A = _flow_operator(mesh, "grad")
     w = mesh.vertex_areas
-    t = 0.9 * fvf.expmv.CHEB_MIN_TAU / skew_bound(A, w, iterations=0)
+    t = 0.9 * fvf.numerics.expm.CHEB_MIN_TAU / skew_bound(A, w, iterations=0)
     _, info = expm_action(A, _f0(mesh, 8), t, inner=w, return_info=True)
     assert info["method"] == "iom" and info["bound_products"] == 2
 
@@ -791,10 +792,10 @@ def test_auto_decides_one_compressible_column_at_gershgorins_bound(mesh):
     the steps go on and R decides."""
     A = _flow_operator(mesh, "grad")
     w = mesh.vertex_areas
-    column = fvf.expmv._min_tau(1, None)
+    column = fvf.numerics.expm._min_tau(1, None)
     G = skew_bound(A, w, iterations=0)
     R = skew_bound(A, w)
-    excess = fvf.expmv.CHEB_GERSHGORIN_EXCESS
+    excess = fvf.numerics.expm.CHEB_GERSHGORIN_EXCESS
     assert G / R < excess  # (so that a t exists where the two rules differ)
     t = 0.99 * excess * column / G
     assert R * t >= column  # the steps' R would have chosen the series
@@ -806,7 +807,7 @@ def test_auto_decides_one_compressible_column_at_gershgorins_bound(mesh):
     assert info["method"] == "chebyshev" and info["bound_products"] > 2
     assert choose_method(A, t, inner=w) == "chebyshev"
     # blocks are not decided at G: their steps go on while R·max|t| ≥ CHEB_MIN_TAU
-    t = 0.99 * excess * fvf.expmv.CHEB_MIN_TAU / G
+    t = 0.99 * excess * fvf.numerics.expm.CHEB_MIN_TAU / G
     _, info = expm_action(A, _f0(mesh, 4), t, inner=w, return_info=True)
     assert info["bound_products"] > 2
 
@@ -819,13 +820,13 @@ def test_skew_norm_estimate_is_below_and_close_to_the_norm(mesh):
         A = _flow_operator(mesh, kind)
         w = mesh.vertex_areas
         exact = _dense_skew_norm(A, w)
-        theta, products, converged = fvf.expmv._skew_norm_estimate(A, w)
+        theta, products, converged = fvf.numerics.expm._skew_norm_estimate(A, w)
         assert converged and theta <= exact * (1 + 1e-12)
         assert theta >= (1 - 5e-3) * exact  # measured within 1e-3
-        assert products % 2 == 0 and 8 <= products <= 2 * fvf.expmv.CHEB_ESTIMATE_STEPS
+        assert products % 2 == 0 and 8 <= products <= 2 * fvf.numerics.expm.CHEB_ESTIMATE_STEPS
     # an invariant subspace ends it exactly: a 2 × 2 rotation block and a zero block
     K = sp.csr_array(np.kron(np.eye(3), [[0.0, 2.0], [-2.0, 0.0]])[:4, :4])
-    theta, products, converged = fvf.expmv._skew_norm_estimate(K, None)
+    theta, products, converged = fvf.numerics.expm._skew_norm_estimate(K, None)
     assert converged and theta == pytest.approx(2.0) and products <= 4
 
 
@@ -840,7 +841,7 @@ def test_auto_estimates_the_skew_norm_for_long_compressible_blocks(mesh, monkeyp
     w = mesh.vertex_areas
     exact = _dense_skew_norm(A, w)
     B = _f0(mesh, 3)
-    t = 1.2 * fvf.expmv.CHEB_ESTIMATE_MIN_SPAN / (3 * skew_bound(A, w, iterations=0))
+    t = 1.2 * fvf.numerics.expm.CHEB_ESTIMATE_MIN_SPAN / (3 * skew_bound(A, w, iterations=0))
     ref = dense_exp(A, B, t)[0]
     X, info = expm_action(A, B, t, inner=w, return_info=True)
     assert info["method"] == "chebyshev"
@@ -851,12 +852,12 @@ def test_auto_estimates_the_skew_norm_for_long_compressible_blocks(mesh, monkeyp
     S = _flow_operator(mesh, "skew")
     _, info = expm_action(S, B, t, inner=w, skew=True, return_info=True)
     assert info["skew_bound"] >= _dense_skew_norm(S, w) * (1 - 1e-12)
-    assert info["bound_products"] <= fvf.expmv.CHEB_BOUND_ITERATIONS + 1  # no estimate
-    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_STEPS", 2)
+    assert info["bound_products"] <= fvf.numerics.expm.CHEB_BOUND_ITERATIONS + 1  # no estimate
+    monkeypatch.setattr(fvf.numerics.expm, "CHEB_ESTIMATE_STEPS", 2)
     _, info = expm_action(A, B, t, inner=w, return_info=True)
     assert info["skew_bound"] >= exact * (1 - 1e-12)  # (not converged: rigorous)
-    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_STEPS", 30)
-    monkeypatch.setattr(fvf.expmv, "CHEB_ESTIMATE_MARGIN", -0.2)  # R ≈ 0.8 ‖K‖
+    monkeypatch.setattr(fvf.numerics.expm, "CHEB_ESTIMATE_STEPS", 30)
+    monkeypatch.setattr(fvf.numerics.expm, "CHEB_ESTIMATE_MARGIN", -0.2)  # R ≈ 0.8 ‖K‖
     X, info = expm_action(A, B, t, inner=w, return_info=True)
     assert info["method"] == "iom" and info["wasted_matvecs"] > 0  # the series gave way
     assert wrel(X, ref, w) <= 1e-10 and maxrel(X, ref) <= 1e-10
@@ -925,20 +926,20 @@ def test_lanczos_places_its_second_check_by_the_chebyshev_tail(monkeypatch, comp
     lengths the first check (m = 47) is 370× over budget; the old rule (a decay of 2 per
     vector, then a linear extrapolation) checked at 49 and 57, this one at 53, where the
     check passes (the first m that passes, checking at every vector)."""
-    if compiled and not fvf._kernels.ENABLED:
+    if compiled and not fvf.numerics._kernels.ENABLED:
         pytest.skip("numba's kernels are off")
     mesh, A = _bob_height_flow("skew")
     b = np.sin(3 * mesh.vertices[:, 0]) + mesh.vertices[:, 2]
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", compiled)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_STEP", compiled)
     checks = []
     if not compiled:
-        orig = fvf.expmv._next_check
+        orig = fvf.numerics.expm._next_check
 
         def spy(m, excess, *a):
             checks.append(m)
             return orig(m, excess, *a)
 
-        monkeypatch.setattr(fvf.expmv, "_next_check", spy)
+        monkeypatch.setattr(fvf.numerics.expm, "_next_check", spy)
     t = 10 * mesh.mean_edge_length
     x, info = expm_action(
         A, b, t, inner=mesh.vertex_areas, skew=True, method="krylov", return_info=True
@@ -957,21 +958,21 @@ def test_iom_places_its_checks_by_the_chebyshev_degree(monkeypatch, compiled):
     does. On bob at 10 edge lengths (grad y, one column) the old rule (the start of the
     decay, then a decay of 2 per vector and a linear extrapolation) checked at 27, 36, 47
     and 50; now at 39, 47 and 49, with one product fewer (49; expm_multiply needs ~159)."""
-    if compiled and not fvf._kernels.ENABLED:
+    if compiled and not fvf.numerics._kernels.ENABLED:
         pytest.skip("numba's kernels are off")
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", compiled)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_IOM", compiled)
     mesh, A = _bob_height_flow("grad")
     X = mesh.vertices - mesh.vertices.mean(0)
     X /= np.abs(X).max()
     b = np.sin(3 * X[:, 0]) + X[:, 1] * np.cos(2 * X[:, 2])
     checks = []
-    orig = fvf.expmv._HessenbergExp.__init__
+    orig = fvf.numerics.expm._HessenbergExp.__init__
 
     def spy(self, H, m, *a):
         checks.append(m)
         orig(self, H, m, *a)
 
-    monkeypatch.setattr(fvf.expmv._HessenbergExp, "__init__", spy)
+    monkeypatch.setattr(fvf.numerics.expm._HessenbergExp, "__init__", spy)
     t = 10 * mesh.mean_edge_length
     w = mesh.vertex_areas
     x, info = expm_action(A, b, t, inner=w, skew=False, method="krylov", return_info=True)
@@ -1014,7 +1015,7 @@ def test_chebyshev_degree_and_coefficients():
         assert 2 * np.abs(jv(ks, tau)).sum() <= tol  # the tail beyond m is within tol
         assert 2 * np.abs(jv(ks - 1, tau)).sum() > tol or m <= tau + 1  # and m is the first
     taus = np.array([3.0, -3.0, 0.0, 11.5, -0.2])
-    C = fvf.expmv._cheb_coefficients(taus, 30)
+    C = fvf.numerics.expm._cheb_coefficients(taus, 30)
     k = np.arange(31)
     want = np.where(k == 0, 1.0, 2.0) * jv(k[None, :], taus[:, None])
     np.testing.assert_allclose(C, want, rtol=0, atol=2e-14)
@@ -1032,9 +1033,9 @@ def test_chebyshev_meets_tol_with_the_a_priori_degree_on_skew_operators(mesh, to
     R = info["skew_bound"]
     assert skew_bound(A, w) <= R <= skew_bound(A, w, iterations=0)
     # one product per term; the series stops within 3 terms of the a-priori degree
-    m = chebyshev_degree(R * t, fvf.expmv.SAFETY * tol)
+    m = chebyshev_degree(R * t, fvf.numerics.expm.SAFETY * tol)
     assert info["matvecs"] == info["basis_sizes"][0] - 1 <= m + 3
-    assert 2 <= info["bound_products"] <= 2 * (fvf.expmv.CHEB_BOUND_ITERATIONS + 1)
+    assert 2 <= info["bound_products"] <= 2 * (fvf.numerics.expm.CHEB_BOUND_ITERATIONS + 1)
 
 
 def test_chebyshev_block_many_times_and_given_bound(mesh):
@@ -1064,12 +1065,12 @@ def test_chebyshev_gives_way_to_krylov_on_a_real_spectrum():
     A = -(sp.diags_array(1.0 / M) @ fvf.stiffness(mesh)).tocsr()
     b = np.random.default_rng(5).standard_normal(mesh.n_vertices)  # all frequencies
     t = 0.2
-    assert skew_bound(A, M) * t > fvf.expmv._min_tau(1, None)
+    assert skew_bound(A, M) * t > fvf.numerics.expm._min_tau(1, None)
     ref = dense_exp(A, b, t)[0]
     x, info = expm_action(A, b, t, inner=M, return_info=True)  # auto: silently
     assert info["method"] in ("lanczos", "iom") and info["wasted_matvecs"] > 0
     # given up at the early check (term 16: the terms grew by ~1e9), not 32+ terms later
-    assert info["wasted_matvecs"] == fvf.expmv.CHEB_EARLY_CHECK + 1
+    assert info["wasted_matvecs"] == fvf.numerics.expm.CHEB_EARLY_CHECK + 1
     assert wrel(x, ref, M) <= TOL
     with pytest.warns(KrylovFallbackWarning, match="grew by .* in 16 terms"):
         y = expm_action(A, b, t, inner=M, method="chebyshev")
@@ -1077,7 +1078,7 @@ def test_chebyshev_gives_way_to_krylov_on_a_real_spectrum():
     # smooth data grows later, but by term 16 still far beyond any flow's terms
     smooth = np.sin(mesh.vertices[:, 0]) + mesh.vertices[:, 1] ** 2
     _, info = expm_action(A, smooth, t, inner=M, return_info=True)
-    assert info["wasted_matvecs"] == fvf.expmv.CHEB_EARLY_CHECK + 1
+    assert info["wasted_matvecs"] == fvf.numerics.expm.CHEB_EARLY_CHECK + 1
     # a short series, which may stop by term 16 (a-priori degree ≤ 18), is not checked
     # there: at R·t = 0.8 it converges at term 16 despite terms 1e8 × ‖b‖
     short = 0.8 / skew_bound(A, M)
@@ -1097,13 +1098,13 @@ def test_flow_terms_pass_the_early_check():
         R = skew_bound(A, w)
         for B in (_f0(mesh), b):
             y0, y1 = B, A @ B / R
-            for _ in range(fvf.expmv.CHEB_EARLY_CHECK - 1):
+            for _ in range(fvf.numerics.expm.CHEB_EARLY_CHECK - 1):
                 y0, y1 = y1, 2 * (A @ y1) / R + y0
             # as the series measures it: the larger of the W- and max-norm ratios
             growth = max(
                 float(np.sqrt((w @ y1**2) / (w @ B**2))), np.abs(y1).max() / np.abs(B).max()
             )
-            assert growth < 10 < fvf.expmv.CHEB_EARLY_GROWTH, (kind, growth)
+            assert growth < 10 < fvf.numerics.expm.CHEB_EARLY_GROWTH, (kind, growth)
             _, info = expm_action(A, B, 40 / R, inner=w, method="chebyshev", return_info=True)
             assert info["method"] == "chebyshev" and info["wasted_matvecs"] == 0
 
@@ -1148,7 +1149,7 @@ def test_bessel_table_against_scipy():
         (np.array([1e-9, 1e-5, 3.0, 0.0, -2.5]), 200),
         (np.array([0.5, 1000.0]), 1100),
     ):
-        J = fvf.expmv._bessel_table(x, kmax)
+        J = fvf.numerics.expm._bessel_table(x, kmax)
         want = jv(np.arange(kmax + 1)[None, :], x[:, None])
         assert np.isfinite(J).all()
         np.testing.assert_allclose(J, want, rtol=0, atol=2e-14)
@@ -1159,7 +1160,7 @@ def test_bessel_row_against_scipy():
 
     for x, kmax in ((0.0, 10), (1e-9, 50), (0.37, 40), (58.5, 140), (1000.0, 1100)):
         want = jv(np.arange(kmax + 1), x)
-        got = fvf.expmv._bessel_row(x, kmax)
+        got = fvf.numerics.expm._bessel_row(x, kmax)
         assert np.isfinite(got).all()
         np.testing.assert_allclose(got, want, rtol=0, atol=2e-14)
 
@@ -1176,7 +1177,7 @@ def test_chebyshev_tiny_times_beside_long_ones(mesh):
     ref = dense_exp(A, b, times)
     for k in range(times.size):
         assert wrel(x[k], ref[k], w) <= TOL
-    J = fvf.expmv._bessel_table(np.array([1e-200, -1e-9, 5.0, 20.0]), 40)
+    J = fvf.numerics.expm._bessel_table(np.array([1e-200, -1e-9, 5.0, 20.0]), 40)
     assert np.isfinite(J).all() and J[0, 0] == 1.0 and J[1, 1] == pytest.approx(-5e-10)
 
 
@@ -1189,7 +1190,7 @@ def test_chebyshev_small_chunks_with_many_times_and_columns(mesh, monkeypatch):
     ref = dense_exp(A, B, times)
     n = A.shape[0]
     for chunk in (3, 4, 7):
-        monkeypatch.setattr(fvf.expmv, "CHEB_MEMORY", chunk * 8.0 * n * 3)
+        monkeypatch.setattr(fvf.numerics.expm, "CHEB_MEMORY", chunk * 8.0 * n * 3)
         X = expm_action(A, B, times, inner=w, method="chebyshev")
         for k in range(times.size):
             for c in range(3):
@@ -1264,8 +1265,8 @@ def test_chebyshev_coefficients_for_many_times_use_either_recurrence():
         rng.uniform(-60.0, 60.0, 5),  # few: rows
         np.concatenate([rng.uniform(-60.0, 60.0, 60), [0.0, 1e-12, 7.0, 7.0, -7.0]]),  # table
     ):
-        kmax = fvf.expmv._degree_top(float(np.abs(taus).max()))
-        C = fvf.expmv._cheb_coefficients(taus, kmax)
+        kmax = fvf.numerics.expm._degree_top(float(np.abs(taus).max()))
+        C = fvf.numerics.expm._cheb_coefficients(taus, kmax)
         k = np.arange(kmax + 1)
         want = np.where(k == 0, 1.0, 2.0) * jv(k[None, :], taus[:, None])
         np.testing.assert_allclose(C, want, rtol=0, atol=4e-14)
@@ -1279,9 +1280,9 @@ def test_column_maxima_by_row_groups():
         X = rng.standard_normal((n, p))
         X[rng.integers(n), rng.integers(p)] = -50.0  # the largest entry is negative
         want = np.abs(X).max(axis=0)
-        np.testing.assert_array_equal(fvf.expmv._absmax(X), want)
+        np.testing.assert_array_equal(fvf.numerics.expm._absmax(X), want)
         tmp = np.empty((n, p))
-        np.testing.assert_array_equal(fvf.expmv._absmax(X, tmp), want)
+        np.testing.assert_array_equal(fvf.numerics.expm._absmax(X, tmp), want)
 
 
 @pytest.mark.parametrize("tol", [1e-6, 1e-10])
@@ -1321,8 +1322,8 @@ def test_bessel_recurrences_below_the_turning_point():
 
     for x, kmax in ((100.0, 10), (50.0, 20), (50.0, 49), (2000.0, 2100)):
         k = np.arange(kmax + 1)
-        np.testing.assert_allclose(fvf.expmv._bessel_row(x, kmax), jv(k, x), rtol=0, atol=3e-14)
-        tab = fvf.expmv._bessel_table(np.array([x, -0.5 * x]), kmax)
+        np.testing.assert_allclose(fvf.numerics.expm._bessel_row(x, kmax), jv(k, x), rtol=0, atol=3e-14)
+        tab = fvf.numerics.expm._bessel_table(np.array([x, -0.5 * x]), kmax)
         want = jv(k[None, :], np.array([x, -0.5 * x])[:, None])
         np.testing.assert_allclose(tab, want, rtol=0, atol=3e-14)
 
@@ -1334,7 +1335,7 @@ def test_empty_inputs():
     Z = sp.csr_array((0, 0))
     assert expm_action(Z, np.ones(0), 1.0).shape == (0,)
     assert expm_action(Z, np.ones((0, 2)), [1.0, 2.0]).shape == (2, 0, 2)
-    np.testing.assert_array_equal(fvf.expmv._absmax(np.empty((0, 3))), np.zeros(3))
+    np.testing.assert_array_equal(fvf.numerics.expm._absmax(np.empty((0, 3))), np.zeros(3))
 
 
 def test_lanczos_skew_check_is_not_fooled_by_a_near_breakdown():
@@ -1355,7 +1356,7 @@ def test_lanczos_skew_check_is_not_fooled_by_a_near_breakdown():
 def _partial_sum_errors(A, b, t, R, w, kmax, ref):
     """Errors (the larger of W and max norm) of the series' partial sums S_k against ref,
     k = 0 … kmax, for one t."""
-    coef = fvf.expmv._cheb_coefficients(np.array([R * t]), kmax + 1)[0]
+    coef = fvf.numerics.expm._cheb_coefficients(np.array([R * t]), kmax + 1)[0]
     y_prev, y = b, (A @ b) / R
     S = coef[0] * y_prev + coef[1] * y
     errs = [np.inf, max(wrel(S, ref, w), maxrel(S, ref))]
@@ -1385,8 +1386,8 @@ def test_chebyshev_stops_within_two_terms_of_the_first_accurate_partial_sum(mesh
     ref = dense_exp(A, b, t)[0]
     errs = _partial_sum_errors(A, b, t, info["skew_bound"], w, k_used + 4, ref)
     assert max(wrel(x, ref, w), maxrel(x, ref)) <= tol
-    k_first = int(np.argmax(errs <= fvf.expmv.SAFETY * tol))
-    assert errs[k_first] <= fvf.expmv.SAFETY * tol
+    k_first = int(np.argmax(errs <= fvf.numerics.expm.SAFETY * tol))
+    assert errs[k_first] <= fvf.numerics.expm.SAFETY * tol
     assert k_used <= k_first + 2, (k_used, k_first)
     assert info["error_estimate"] >= errs[k_used] or skew  # declared: the norm is rescaled
 
@@ -1397,7 +1398,7 @@ def test_chebyshev_stop_on_spot_at_ten_edge_lengths(kind):
     benchmarks/bench_expmv.py (J grad y and grad y): grad y concentrates f (max|X| ≈ 40
     max|B|) and its terms grow 1e4-fold in the max norm before they decay. The rule
     before stopped 5 terms after the first accurate partial sum (98 against 93)."""
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     w = mesh.vertex_areas
     v = fvf.gradient(mesh, mesh.vertices[:, 1])
     v = fvf.rotate(mesh, v) if kind == "skew" else v
@@ -1411,8 +1412,8 @@ def test_chebyshev_stop_on_spot_at_ten_edge_lengths(kind):
     ref = spla.expm_multiply(t * A, b, traceA=t * A.diagonal().sum())
     k_used = info["basis_sizes"][0] - 1
     errs = _partial_sum_errors(A, b, t, info["skew_bound"], w, k_used + 4, ref)
-    k_first = int(np.argmax(errs <= fvf.expmv.SAFETY * tol))
-    assert errs[k_first] <= fvf.expmv.SAFETY * tol
+    k_first = int(np.argmax(errs <= fvf.numerics.expm.SAFETY * tol))
+    assert errs[k_first] <= fvf.numerics.expm.SAFETY * tol
     assert max(wrel(x, ref, w), maxrel(x, ref)) <= tol
     assert k_used <= k_first + 2, (k_used, k_first)
     assert info["error_estimate"] >= errs[k_used]
@@ -1421,13 +1422,13 @@ def test_chebyshev_stop_on_spot_at_ten_edge_lengths(kind):
 def test_series_tail_estimate():
     absc = np.array([[1.0, 0.5, 0.1, 0.01, 0.001, 0.0]])  # (T, K) = (1, 6)
     base, growth = np.array([[2.0]]), np.array([1.0])
-    est, decaying = fvf.expmv._series_tail(absc, 2, base, growth)
+    est, decaying = fvf.numerics.expm._series_tail(absc, 2, base, growth)
     assert est[0, 0] == pytest.approx(2.0 * 0.011) and decaying[0, 0]  # 0.01 ≤ ½ 0.1
-    est, decaying = fvf.expmv._series_tail(absc, 2, base, np.array([6.0]))
+    est, decaying = fvf.numerics.expm._series_tail(absc, 2, base, np.array([6.0]))
     assert est[0, 0] == pytest.approx(2.0 * (0.01 * 36 + 0.001 * 216)) and not decaying[0, 0]
-    est, _ = fvf.expmv._series_tail(absc, 2, base, np.array([0.2]))  # growth below 1: 1
+    est, _ = fvf.numerics.expm._series_tail(absc, 2, base, np.array([0.2]))  # growth below 1: 1
     assert est[0, 0] == pytest.approx(2.0 * 0.011)
-    est, _ = fvf.expmv._series_tail(absc, 2, base, growth, bounded=np.array([[5.0]]))
+    est, _ = fvf.numerics.expm._series_tail(absc, 2, base, growth, bounded=np.array([[5.0]]))
     assert est[0, 0] == pytest.approx(5.0 * 0.011)  # the rigorous bound is larger
 
 
@@ -1437,32 +1438,32 @@ def test_lanczos_first_error_check_at_the_chebyshev_degree(monkeypatch, compiled
     2·mean(β) (a check costs 15–20 products at 6k faces): on spot at 10 edge lengths one
     check suffices, where the checks from 2·mean(β)·τ + 3 on took three (at m = 33, 43
     and 54). Both in the Python loop and in its compiled form (numba)."""
-    if compiled and not fvf._kernels.ENABLED:
+    if compiled and not fvf.numerics._kernels.ENABLED:
         pytest.skip("the compiled step needs numba")
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     w = mesh.vertex_areas
     v = fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 1]))
     A = -fvf.D_V(mesh, v / np.linalg.norm(v, axis=1).max())
     b = _f0(mesh)
     times = 10 * mesh.mean_edge_length * np.arange(1, 17) / 16
     checks = []
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", compiled)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_STEP", compiled)
     if compiled:
-        real_step = fvf._kernels.lanczos_step
+        real_step = fvf.numerics._kernels.lanczos_step
 
         def spy_step(*args):
             P, res = real_step(*args)
             checks.extend([0] * int(res[11]))
             return P, res
 
-        monkeypatch.setattr(fvf._kernels, "lanczos_step", spy_step)
-    real = fvf.expmv._skew_exp
+        monkeypatch.setattr(fvf.numerics._kernels, "lanczos_step", spy_step)
+    real = fvf.numerics.expm._skew_exp
 
     def spy(beta):
         checks.append(beta.shape[0] + 1)
         return real(beta)
 
-    monkeypatch.setattr(fvf.expmv, "_skew_exp", spy)
+    monkeypatch.setattr(fvf.numerics.expm, "_skew_exp", spy)
     X, info = expm_action(A, b, times, inner=w, skew=True, return_info=True)
     assert info["method"] == "lanczos" and 1 <= len(checks) <= 2, checks
     ref = spla.expm_multiply(times[-1] * A, b, traceA=times[-1] * A.diagonal().sum())
@@ -1474,7 +1475,7 @@ def test_add_product_in_place(rng):
     C = rng.standard_normal((5, 9))[:, 2:6]  # a column slice, as of the coefficient table
     F = rng.standard_normal((4, 30))
     want = acc + C @ F
-    fvf.expmv._add_product(acc, C, F)  # (no return value: acc itself must change)
+    fvf.numerics.expm._add_product(acc, C, F)  # (no return value: acc itself must change)
     np.testing.assert_allclose(acc, want, rtol=1e-14, atol=1e-14)
-    fvf.expmv._add_product(acc, C[:, :0], F[:0])  # nothing to add
+    fvf.numerics.expm._add_product(acc, C[:, :0], F[:0])  # nothing to add
     np.testing.assert_allclose(acc, want, rtol=1e-14, atol=1e-14)

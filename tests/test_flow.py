@@ -6,7 +6,7 @@ import pytest
 import fvf
 from conftest import load_shared, random_tangent_field, rel, smooth_functions
 from fvf import chapter as ch
-from fvf.flow import hotspots
+from fvf.flows.functional import hotspots
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,7 @@ def test_divergence_free_flow_keeps_norm(closed):
 
 
 def _lion_setup(name):
-    return fvf.examples.compressible_case(load_shared(name))
+    return fvf.mesh.builtin.compressible_case(load_shared(name))
 
 
 def test_growth_warning_fires_on_lion():
@@ -182,9 +182,9 @@ def test_krylov_action_matches_expm_multiply(field):
 
 def test_flow_rejects_unknown_action():
     mesh = fvf.icosphere(1)
-    with pytest.raises(fvf.expmv.ExpmInputError, match="method must be one of"):
+    with pytest.raises(fvf.numerics.expm.ExpmInputError, match="method must be one of"):
         fvf.FunctionalFlow(mesh, _rotation_z(mesh), method="pade")
-    with pytest.raises(fvf.expmv.ExpmInputError, match="tol"):
+    with pytest.raises(fvf.numerics.expm.ExpmInputError, match="tol"):
         fvf.FunctionalFlow(mesh, _rotation_z(mesh), tol=0.0)
 
 

@@ -16,21 +16,21 @@ from conftest import (
     rel,
     smooth_functions,
 )
-from fvf.flows import (
+from fvf.flows.dispatch import (
     METHODS,
     TransportFlow,
     dual_edge_fluxes,
     skew_operator,
     upwind_operator,
 )
-from fvf.flows import flow as flows_flow
+from fvf.flows.dispatch import flow as flows_flow
 
 _NORMALIZED = {}
 
 
 def normalized_shared(name):
     if name not in _NORMALIZED:
-        _NORMALIZED[name] = fvf.examples.compressible_case(load_shared(name))
+        _NORMALIZED[name] = fvf.mesh.builtin.compressible_case(load_shared(name))
     return _NORMALIZED[name]
 
 

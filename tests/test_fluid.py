@@ -6,7 +6,7 @@ import scipy.sparse as sp
 
 import fvf
 from conftest import load_shared, rel
-from fvf.fluid import (
+from fvf.flows.fluid import (
     StreamFunctionSolver,
     fluid_time_step,
     ideal_fluid,

@@ -1,4 +1,4 @@
-"""fvf._kernels: the fused numba kernels of the exponential action, against dense algebra
+"""fvf.numerics._kernels: the fused numba kernels of the exponential action, against dense algebra
 and against the numpy/scipy path they replace (``FVF_NUMBA=0`` / ``ENABLED = False``)."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import pytest
 import scipy.sparse as sp
 
 import fvf
-import fvf.expmv
-from fvf import _kernels
-from fvf.expmv import expm_action
+import fvf.numerics.expm
+from fvf.numerics import _kernels
+from fvf.numerics.expm import expm_action
 
 pytest.importorskip("numba")
 if not _kernels.ENABLED:  # pragma: no cover - FVF_NUMBA=0 in the environment
@@ -94,9 +94,9 @@ def test_abs_stats_match_numpy_and_flag_non_finite(rng):
 @pytest.mark.parametrize("skew", [True, False])
 def test_power_bound_matches_the_numpy_steps(rng, skew):
     """The compiled steps (both products of a step from one pass) give what the Python
-    loop over scipy's products of fvf.expmv._AbsCsr gives: the bound and the products
+    loop over scipy's products of fvf.numerics.expm._AbsCsr gives: the bound and the products
     spent, for a fixed number of steps and for the early stop."""
-    from fvf.expmv import _AbsCsr, _FusedAbs, _skew_bound
+    from fvf.numerics.expm import _AbsCsr, _FusedAbs, _skew_bound
 
     A = _random_csr(50, rng, np.int64)
     A.data -= 0.5
@@ -150,9 +150,9 @@ def test_skew_norm_estimate_is_the_same_on_both_paths(kind):
 
     mesh, A = _flow_operator(kind)
     w = mesh.vertex_areas
-    fused = fvf.expmv._FusedAbs.of(A)
-    got = fvf.expmv._skew_norm_estimate(A, w, fused)
-    ref = fvf.expmv._skew_norm_estimate(A, w, None)
+    fused = fvf.numerics.expm._FusedAbs.of(A)
+    got = fvf.numerics.expm._skew_norm_estimate(A, w, fused)
+    ref = fvf.numerics.expm._skew_norm_estimate(A, w, None)
     assert got[1:] == ref[1:] and got[2]
     assert got[0] == pytest.approx(ref[0], rel=1e-11)
     s = np.sqrt(w)
@@ -174,9 +174,9 @@ def _unit(n, w):
 def test_skew_bound_is_the_same_on_both_paths(monkeypatch, kind):
     mesh, A = _flow_operator(kind)
     w = mesh.vertex_areas
-    R1 = fvf.expmv.skew_bound(A, inner=w)
+    R1 = fvf.numerics.expm.skew_bound(A, inner=w)
     monkeypatch.setattr(_kernels, "ENABLED", False)
-    R0 = fvf.expmv.skew_bound(A, inner=w)
+    R0 = fvf.numerics.expm.skew_bound(A, inner=w)
     assert R1 == pytest.approx(R0, rel=1e-12)
 
 
@@ -225,7 +225,7 @@ def _spy(monkeypatch) -> dict:
 
 
 def _flow_operator(kind: str):
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     grad = fvf.gradient(mesh, mesh.vertices[:, 1])
     v = fvf.rotate(mesh, grad) if kind == "skew" else grad
     v = v / np.linalg.norm(v, axis=1).max()
@@ -275,7 +275,7 @@ def test_fused_lanczos_block_and_euclidean_agree(monkeypatch, rng):
     weights (the kernel's norms then use unit weights)."""
     _, A = _flow_operator("skew")
     n = A.shape[0]
-    w = fvf.examples.spot().vertex_areas
+    w = fvf.mesh.builtin.spot().vertex_areas
     S = sp.diags_array(np.sqrt(w)) @ A @ sp.diags_array(1 / np.sqrt(w))  # Euclidean-skew
     B = rng.standard_normal((n, 3))
     t = np.array([0.01, 0.03, 0.05])
@@ -296,7 +296,7 @@ def test_fused_lanczos_block_and_euclidean_agree(monkeypatch, rng):
 def test_bessel_rows_match_scipy_and_the_python_rows(monkeypatch):
     from scipy.special import jv
 
-    from fvf.expmv import _BESSEL_TINY, _bessel_row, _cheb_coefficients, _degree_top
+    from fvf.numerics.expm import _BESSEL_TINY, _bessel_row, _cheb_coefficients, _degree_top
 
     # 0 and 3e-9 are below the tiny threshold (the leading terms, inside the kernel)
     x = np.array([0.0, 3e-9, 1e-7, 0.3, 2.4, 38.9, 200.0, 1500.0])
@@ -318,9 +318,9 @@ def test_chebyshev_degree_compiled_and_python_agree(monkeypatch):
     rng = np.random.default_rng(4)
     taus = [0.0, 3e-9, 1e-3, 0.7, 12.0, 41.8, 150.0, 900.0, *rng.uniform(0, 400, 40)]
     tols = [1e-4, 5e-11, 1e-15, 0.3]
-    fast = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
+    fast = [fvf.numerics.expm.chebyshev_degree(t, tol) for t in taus for tol in tols]
     monkeypatch.setattr(_kernels, "ENABLED", False)
-    slow = [fvf.expmv.chebyshev_degree(t, tol) for t in taus for tol in tols]
+    slow = [fvf.numerics.expm.chebyshev_degree(t, tol) for t in taus for tol in tols]
     assert fast == slow
 
 
@@ -334,15 +334,15 @@ def test_skew_exp_series_matches_svd_and_dense(rng, m):
     beta = rng.uniform(0.2, 3.0, (m - 1, p))
     beta[:, 2] *= 1e-3  # a nearly zero H
     s = np.array([0.0, 0.3, -1.7, 5.0, -12.0, 1e-10])
-    fast = fvf.expmv._SkewExpSeries(beta)
-    svd = fvf.expmv._SkewExp(beta)
+    fast = fvf.numerics.expm._SkewExpSeries(beta)
+    svd = fvf.numerics.expm._SkewExp(beta)
     E = fast.e1(s)
     np.testing.assert_allclose(E, svd.e1(s), rtol=0, atol=1e-13)
     bl = np.array([0.7, 2.0, 1e-3])
     for hi in (0.0, 0.4, 5.0, 12.0):
         for sign in (1.0, -1.0):  # the compiled integral against the SVD's values
             got = fast.residual_integral(hi, bl, sign)
-            assert got.shape == (p, fvf.expmv._GRID + 1)
+            assert got.shape == (p, fvf.numerics.expm._GRID + 1)
             np.testing.assert_allclose(got, svd.residual_integral(hi, bl, sign), atol=1e-13)
     for c in range(p):
         H = np.zeros((m, m))
@@ -351,7 +351,7 @@ def test_skew_exp_series_matches_svd_and_dense(rng, m):
         for g, sg in enumerate(s):
             np.testing.assert_allclose(E[c, g], la.expm(sg * H)[:, 0], rtol=0, atol=1e-13)
         # the integrand at the grid points, from expm: the trapezoid sums of its |values|
-        grid = fvf.expmv._grid(5.0)
+        grid = fvf.numerics.expm._grid(5.0)
         vals = [abs(bl[c] * la.expm(-g * H)[-1, 0]) for g in grid]
         ref = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(grid) * np.add(vals[1:], vals[:-1]))])
         np.testing.assert_allclose(fast.residual_integral(5.0, bl, -1.0)[c], ref, atol=1e-13)
@@ -375,10 +375,10 @@ def test_term_chain_matches_dense(rng, index_dtype, p):
 
 def _lanczos_coefficients(A, b, w, m, fused: bool, monkeypatch):
     monkeypatch.setattr(_kernels, "ENABLED", fused)
-    op = fvf.expmv._Operator(A, A.shape[0])
+    op = fvf.numerics.expm._Operator(A, A.shape[0])
     V = np.zeros((m + 1, A.shape[0], 1))
     V[0, :, 0] = b
-    lz = fvf.expmv._Lanczos(op, w, V, limit=1e-9)
+    lz = fvf.numerics.expm._Lanczos(op, w, V, limit=1e-9)
     lz.extend_to(m)
     return lz, V
 
@@ -410,7 +410,7 @@ def test_lanczos_run_matches_the_numpy_recurrence(monkeypatch, rng):
 def test_lanczos_run_reports_a_non_skew_operator(monkeypatch, rng):
     n = 40
     A = sp.csr_array(sp.random_array((n, n), density=0.2, rng=rng) + sp.eye_array(n))
-    with pytest.raises(fvf.expmv._NotSkew):
+    with pytest.raises(fvf.numerics.expm._NotSkew):
         _lanczos_coefficients(A, rng.standard_normal(n), None, 10, True, monkeypatch)
 
 
@@ -418,9 +418,9 @@ def test_lanczos_run_reports_a_non_skew_operator(monkeypatch, rng):
 @pytest.mark.parametrize("weighted", [True, False])
 @pytest.mark.parametrize("maxnorm", [True, False])
 def test_col_norms_match_numpy(monkeypatch, rng, p, weighted, maxnorm):
-    """The one-pass norms against the numpy path of fvf.expmv._col_norms (one block and
+    """The one-pass norms against the numpy path of fvf.numerics.expm._col_norms (one block and
     a stack of blocks)."""
-    from fvf.expmv import _col_norms
+    from fvf.numerics.expm import _col_norms
 
     n = 37
     w = rng.uniform(0.1, 2.0, n) if weighted else None
@@ -449,7 +449,7 @@ def test_col_norms_match_numpy(monkeypatch, rng, p, weighted, maxnorm):
     ],
 )
 def test_compiled_lanczos_step_is_the_python_loop(monkeypatch, times, norm, m_max):
-    """fvf._kernels.lanczos_step runs the loop of fvf.expmv._lanczos_steps for one column
+    """fvf.numerics._kernels.lanczos_step runs the loop of fvf.numerics.expm._lanczos_steps for one column
     with the same arithmetic: the same bases, products and estimates, the same outputs."""
     mesh, A = _flow_operator("skew")
     w = mesh.vertex_areas
@@ -462,7 +462,7 @@ def test_compiled_lanczos_step_is_the_python_loop(monkeypatch, times, norm, m_ma
     }[times]
     kw = dict(inner=w, skew=True, norm=norm, m_max=m_max, method="krylov", return_info=True)
     x1, i1 = expm_action(A, b, t, **kw)
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", False)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_STEP", False)
     x0, i0 = expm_action(A, b, t, **kw)
     assert i1["method"] == i0["method"] == "lanczos"
     assert i1["basis_sizes"] == i0["basis_sizes"] and i1["matvecs"] == i0["matvecs"]
@@ -477,10 +477,10 @@ def test_compiled_lanczos_step_refuses_a_non_skew_operator_as_the_loop_does(monk
     b = mesh.vertices[:, 1].copy()
     t = 3 * mesh.mean_edge_length
     kw = dict(inner=mesh.vertex_areas, skew=True, method="krylov", return_info=True)
-    with pytest.warns(fvf.expmv.KrylovFallbackWarning):
+    with pytest.warns(fvf.numerics.expm.KrylovFallbackWarning):
         x1, i1 = expm_action(A, b, t, **kw)
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_STEP", False)
-    with pytest.warns(fvf.expmv.KrylovFallbackWarning):
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_STEP", False)
+    with pytest.warns(fvf.numerics.expm.KrylovFallbackWarning):
         x0, i0 = expm_action(A, b, t, **kw)
     assert i1["method"] == i0["method"] == "iom"
     assert i1["wasted_matvecs"] == i0["wasted_matvecs"] > 0
@@ -501,7 +501,7 @@ def _banded_hessenberg(rng, m: int, window: int) -> np.ndarray:
 
 @pytest.mark.parametrize("window", [1, 2, 4, 7, 60])
 def test_iom_run_matches_the_numpy_vectors(rng, window):
-    """iom_run's basis and H against fvf.expmv._iom_vector (numpy, one vector a call): the
+    """iom_run's basis and H against fvf.numerics.expm._iom_vector (numpy, one vector a call): the
     same classical Gram–Schmidt pass, summed in another order."""
     n, m = 60, 25
     A = _random_csr(n, rng, np.int32)
@@ -515,11 +515,11 @@ def test_iom_run_matches_the_numpy_vectors(rng, window):
     _kernels.iom_run(_fused(A), V1, w, H1, 0, 10, window, res)  # two runs, as the checks cut
     _kernels.iom_run(_fused(A), V1, w, H1, 10, m, window, res)
     assert res[0] == 0 and res[1] == m
-    op = fvf.expmv._Operator(A, n)
+    op = fvf.numerics.expm._Operator(A, n)
     V0, H0 = np.zeros((m + 1, n)), np.zeros((m + 1, m))
     V0[0] = v0
     for j in range(m):
-        fvf.expmv._iom_vector(op, V0, H0, j, window, w, np.empty(n), None)
+        fvf.numerics.expm._iom_vector(op, V0, H0, j, window, w, np.empty(n), None)
     np.testing.assert_allclose(H1, H0, rtol=1e-11, atol=1e-12)
     np.testing.assert_allclose(V1, V0, rtol=1e-11, atol=1e-11)
     assert res[2] == pytest.approx(np.diag(H0, -1).sum(), rel=1e-13)
@@ -552,11 +552,11 @@ def test_iom_run_norms_by_pythagoras_only_where_it_is_accurate(rng, shift):
     V[0] /= np.sqrt(w @ V[0] ** 2)
     _kernels.iom_run(_fused(A), V, w, H, 0, m, 4, res)
     assert res[0] == 0 and res[1] == m
-    op = fvf.expmv._Operator(A, n)
+    op = fvf.numerics.expm._Operator(A, n)
     V0, H0 = np.zeros((m + 1, n)), np.zeros((m + 1, m))
     V0[0] = V[0]
     for j in range(m):
-        fvf.expmv._iom_vector(op, V0, H0, j, 4, w, np.empty(n), None)
+        fvf.numerics.expm._iom_vector(op, V0, H0, j, 4, w, np.empty(n), None)
     for Vk, Hk in ((V, H), (V0, H0)):
         np.testing.assert_allclose((Vk[:m] ** 2) @ w, 1.0, rtol=1e-12)
         assert abs((Vk[m] ** 2) @ w - 1.0) <= 1e-9
@@ -622,10 +622,10 @@ def test_hess_profile_and_expv_match_scipy(monkeypatch, rng, window):
     for sign, hi in ((1.0, 0.3), (-1.0, 2.0), (1.0, 9.0)):
         mu = _kernels.hess_mu(H, m, sign, window)
         X, E = _kernels.hess_profile(H, m, sign, window, 0.7, hi, mu, 64)
-        monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
-        ref = fvf.expmv._HessenbergExp(H, m, sign)
+        monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_IOM", False)
+        ref = fvf.numerics.expm._HessenbergExp(H, m, sign)
         s, E0 = ref.errors(hi)
-        monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", True)
+        monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_IOM", True)
         X0 = ref._grid[1]
         np.testing.assert_allclose(X, X0, rtol=0, atol=1e-12 * np.abs(X0).max())
         np.testing.assert_allclose(E, E0, rtol=1e-8, atol=1e-16)  # (a relative error)
@@ -670,7 +670,7 @@ def test_compiled_iom_is_the_numpy_loop(monkeypatch, times, norm, m_max):
     calls = _spy(monkeypatch)
     x1, i1 = expm_action(A, b, t, **kw)
     assert calls["n"] == i1["matvecs"]  # every vector came from the kernel
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_IOM", False)
     x0, i0 = expm_action(A, b, t, **kw)
     assert i1["method"] == i0["method"] == "iom"
     assert i1["basis_sizes"] == i0["basis_sizes"] and i1["matvecs"] == i0["matvecs"]
@@ -693,8 +693,8 @@ def test_hess_profile_keeps_its_norms_past_overflow(monkeypatch):
     mu = _kernels.hess_mu(H, m, 1.0, 4)
     X, E = _kernels.hess_profile(H, m, 1.0, 4, 1.0, 7.0, mu, 64)
     assert np.abs(X).max() > 1e180 and np.isfinite(E).all()
-    monkeypatch.setattr(fvf.expmv, "_COMPILED_IOM", False)
-    _, E0 = fvf.expmv._HessenbergExp(H, m, 1.0).errors(7.0)
+    monkeypatch.setattr(fvf.numerics.expm, "_COMPILED_IOM", False)
+    _, E0 = fvf.numerics.expm._HessenbergExp(H, m, 1.0).errors(7.0)
     assert E0[-1] > 1.0  # (it was 0)
     np.testing.assert_allclose(E[1:], E0[1:], rtol=1e-7)  # (μ to 1e-10·61: e^{δμ·7})
 

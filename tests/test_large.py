@@ -59,7 +59,7 @@ def test_identities_on_large_meshes(large, rng):
 
 def test_million_faces_smoke():
     """Every operator builds on a 1.5M-face mesh (spot subdivided four times)."""
-    mesh = fvf.examples.spot()
+    mesh = fvf.mesh.builtin.spot()
     X, F = mesh.vertices, mesh.faces
     for _ in range(4):
         n = X.shape[0]

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import fvf
-from fvf.ordering import nested_dissection
+from fvf.numerics.ordering import nested_dissection
 
 
 def _is_permutation(p, n):

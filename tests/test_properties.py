@@ -66,7 +66,7 @@ def test_operator_identities(draw):
     f = rng.standard_normal(mesh.n_vertices)
     ff = rng.standard_normal(mesh.n_faces)
     # Lemma 9 (the coordinates are large here, so relative to |X| |grad phi|)
-    g = np.linalg.norm(fvf.hat_gradients(mesh), axis=2)
+    g = np.linalg.norm(fvf.calculus.hat_gradients(mesh), axis=2)
     x = np.linalg.norm(mesh.vertices[mesh.faces], axis=2)
     err = np.abs(ch.extract_field(mesh, ch.D_F(mesh, v)) - v).max(axis=1)
     assert (err <= 1e-14 * np.linalg.norm(v, axis=1) * (g * x).sum(1)).all()

@@ -28,8 +28,8 @@ import fvf
 from conftest import smooth_functions
 from corpus import SLOW, buildable, hostile_face_fields, hostile_vertex_functions, raw
 from fvf import chapter, errors
-from fvf.design import ConstraintIndexError, UnconstrainedComponentWarning
-from fvf.eigen import SpectralInputError
+from fvf.design.constrained import ConstraintIndexError, UnconstrainedComponentWarning
+from fvf.numerics.eigen import SpectralInputError
 
 TOL = 1e-9  # relative tolerance of the identities checked (exact up to round-off)
 
@@ -84,7 +84,7 @@ class Ctx:
         # D^V_u are at most 3 |u| max|grad phi|): floors for identities whose two sides
         # vanish identically on degenerate meshes (one triangle).
         speed = max(np.abs(self.u).max(), np.abs(self.w).max(), np.abs(self.v).max())
-        self.first = 3 * speed * np.abs(fvf.hat_gradients(mesh)).max()
+        self.first = 3 * speed * np.abs(fvf.calculus.hat_gradients(mesh)).max()
         self.second = self.first**2
 
     @property
@@ -283,7 +283,7 @@ SPECS: dict[str, Spec] = {
     "DEFAULT_REPAIR_STEPS": Spec(
         lambda fn, mesh, c: fn,
         lambda r, mesh, c: (
-            all(callable(fvf.repair.REPAIR_STEPS[s]) for s in r) or pytest.fail("steps")
+            all(callable(fvf.mesh.repair.REPAIR_STEPS[s]) for s in r) or pytest.fail("steps")
         ),
         meshless=True,
     ),
@@ -312,6 +312,19 @@ SPECS: dict[str, Spec] = {
         lambda r, m, c: all(callable(getattr(r, n)) for n in r.__all__) or pytest.fail("alias"),
         meshless=True,
     ),
+    "spot": Spec(
+        lambda fn, mesh, c: fn(),
+        lambda r, m, c: (r.n_vertices, r.n_faces) == (2930, 5856) or pytest.fail(repr(r)),
+        meshless=True,
+    ),
+    **{
+        package: Spec(
+            lambda fn, mesh, c: fn,
+            lambda r, m, c: all(hasattr(r, n) for n in r.__all__) or pytest.fail("subpackage"),
+            meshless=True,
+        )
+        for package in ("mesh", "io", "operators", "flows", "spectral", "design", "numerics")
+    },
     "examples": Spec(
         lambda fn, mesh, c: fn.spot_path(),
         lambda r, m, c: r.endswith("spot.obj") or pytest.fail(r),
@@ -1146,7 +1159,7 @@ def test_raw_entries_repair(entry):
     """The explicit repairs turn each repairable raw entry into a valid TriMesh, and every
     change is named in the log (nothing silent)."""
     e = raw()[entry]
-    steps = list(fvf.DEFAULT_REPAIR_STEPS)
+    steps = list(fvf.mesh.repair.DEFAULT_REPAIR_STEPS)
     for extra in REPAIRABLE[entry]:
         steps.insert(steps.index("split_nonmanifold_vertices"), extra)
     result = fvf.repair_mesh(e.vertices, e.faces, steps)
@@ -1172,7 +1185,7 @@ def _hostile_inputs(kind: str, mesh, rng) -> dict[str, tuple]:
         return {
             "zero": (np.zeros(m), "ok"),
             "huge": (np.full(m, 1e150), "ok"),
-            "nan": (nan, errors.FieldShapeError),
+            "nan": (nan, errors.FieldValueError),
             "too_short": (np.ones(m - 1), errors.FieldShapeError),
             "per_vertex": (np.ones(mesh.n_vertices), errors.FieldShapeError),
         }
@@ -1183,7 +1196,7 @@ def _hostile_inputs(kind: str, mesh, rng) -> dict[str, tuple]:
     return {
         "zero": (np.zeros((n, 3)), "ok"),
         "huge": (1e150 * U, "ok"),
-        "nan": (nan, errors.FieldShapeError),
+        "nan": (nan, errors.FieldValueError),
         "too_short": (U[:-1], errors.FieldShapeError),
         "per_face": (np.ones((mesh.n_faces, 3)), errors.FieldShapeError),
     }
@@ -1403,7 +1416,7 @@ def _bad_argument_cases():
             lambda: fvf.bracket_norm(m, c.u, c.w, where="edge"),
             errors.ParameterError,
         ),
-        ("diag NaN", lambda: fvf.diag([1.0, np.nan]), errors.FieldShapeError),
+        ("diag NaN", lambda: fvf.calculus.diag([1.0, np.nan]), errors.FieldValueError),
         ("face_mass components", lambda: fvf.face_mass(m, 2), errors.ParameterError),
         ("ideal_fluid dt 0", lambda: fvf.ideal_fluid(m, c.f, 0.0, 2), errors.ParameterError),
         ("ideal_fluid dt NaN", lambda: fvf.ideal_fluid(m, c.f, np.nan, 2), errors.ParameterError),

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 import fvf
 from conftest import BOUNDARY_SHARED, CLOSED_SHARED, load_shared
-from fvf.diagnostics import mesh_report
-from fvf.repair import REPAIR_STEPS
+from fvf.mesh.diagnostics import mesh_report
+from fvf.mesh.repair import REPAIR_STEPS
 
 ALL_STEPS = list(REPAIR_STEPS)
 
@@ -496,7 +496,7 @@ def test_repair_mesh_cleans_a_messy_scan(rng):
     assert len(r.log) == 6 and r.log[0].startswith("remove_duplicate_vertices")
     # the composed maps equal applying the steps one by one
     manual = fvf.repair_mesh(X, T, steps=())
-    for name in fvf.DEFAULT_REPAIR_STEPS:
+    for name in fvf.mesh.repair.DEFAULT_REPAIR_STEPS:
         manual = manual.then(REPAIR_STEPS[name](manual.vertices, manual.faces))
     for field in ["vertices", "faces", "vertex_origin", "vertex_map", "face_origin", "flipped"]:
         np.testing.assert_array_equal(getattr(manual, field), getattr(r, field))
@@ -584,9 +584,9 @@ def test_mesh_report_names_the_repair_for_each_problem(build, fix):
         V,
         F,
         steps=[
-            *fvf.DEFAULT_REPAIR_STEPS[:3],
+            *fvf.mesh.repair.DEFAULT_REPAIR_STEPS[:3],
             "split_nonmanifold_edges",
-            *fvf.DEFAULT_REPAIR_STEPS[3:],
+            *fvf.mesh.repair.DEFAULT_REPAIR_STEPS[3:],
         ],
     )
     assert mesh_report(r.vertices, r.faces)["problems"] == []
@@ -616,8 +616,8 @@ def test_docs_repair_md_runs(capsys):
 
 
 # ---------------------------------------------------------------------------- property test
-ALL_DEFAULT_AND_CUT = [*fvf.DEFAULT_REPAIR_STEPS[:3], "split_nonmanifold_edges"]
-ALL_DEFAULT_AND_CUT += list(fvf.DEFAULT_REPAIR_STEPS[3:])
+ALL_DEFAULT_AND_CUT = [*fvf.mesh.repair.DEFAULT_REPAIR_STEPS[:3], "split_nonmanifold_edges"]
+ALL_DEFAULT_AND_CUT += list(fvf.mesh.repair.DEFAULT_REPAIR_STEPS[3:])
 
 
 @settings(derandomize=True, max_examples=300, deadline=None)

@@ -11,8 +11,7 @@ from scipy.spatial import Delaunay
 import fvf
 from conftest import CLOSED_NAMES, CLOSED_SHARED, closed_mesh, load_shared
 from fvf.calculus import gradient, rotate
-from fvf.errors import FieldShapeError, NonTangentFieldWarning
-from fvf.singularities import (
+from fvf.design.indices import (
     ZeroFieldWarning,
     face_indices,
     face_singularities,
@@ -20,6 +19,7 @@ from fvf.singularities import (
     singularity_positions,
     vertex_indices,
 )
+from fvf.errors import FieldShapeError, FieldValueError, NonTangentFieldWarning
 
 # ---------------------------------------------------------------------------- helpers
 
@@ -390,11 +390,11 @@ def test_wrong_shapes_raise():
         face_indices(mesh, np.ones((mesh.n_vertices, 2)))
     u = RADIAL(mesh)
     u[3, 0] = np.nan
-    with pytest.raises(FieldShapeError, match="NaN"):
+    with pytest.raises(FieldValueError, match="NaN"):
         vertex_indices(mesh, u)
     U = np.ones((mesh.n_vertices, 3))
     U[2, 1] = np.inf
-    with pytest.raises(FieldShapeError, match="NaN or inf"):
+    with pytest.raises(FieldValueError, match="NaN or inf"):
         face_indices(mesh, U)
     with pytest.raises(ValueError, match="zero"):
         vertex_indices(mesh, RADIAL(mesh), zero="ignore")

@@ -6,9 +6,9 @@ import pytest
 
 import fvf
 from conftest import load_shared, rel
-from fvf.fmaps import functional_map_from_bases, map_quality
-from fvf.killing import commutator_energy, killing_fields
-from fvf.spectral import SpectralBasis, gradient_field_basis
+from fvf.design.killing import commutator_energy, killing_fields
+from fvf.spectral.basis import SpectralBasis, gradient_field_basis
+from fvf.spectral.fmaps import functional_map_from_bases, map_quality
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +190,7 @@ def _mirror_faces(mesh, p2p):
 
 
 def test_map_consistent_field_is_its_own_mirror_image():
-    from fvf.symmetric import map_consistent_field
+    from fvf.design.symmetric import map_consistent_field
 
     mesh, p2p = mirror_mesh()
     b = SpectralBasis(mesh, 30)

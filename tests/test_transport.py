@@ -6,10 +6,10 @@ import pytest
 
 import fvf
 from conftest import load_shared, rel
-from fvf.bracket import bracket_norm, bracket_smoothness, dirichlet_ratio
-from fvf.commuting import acap_fields, rescale, rescaling_operator
-from fvf.connection import connection_energy
-from fvf.transport import Ad, FieldTransport, interpolate
+from fvf.design.commuting import acap_fields, rescale, rescaling_operator
+from fvf.design.connection import connection_energy
+from fvf.flows.field_transport import Ad, FieldTransport, interpolate
+from fvf.operators.brackets import bracket_norm, bracket_smoothness, dirichlet_ratio
 
 
 def rotation(mesh, axis):

@@ -88,7 +88,7 @@ def test_streamlines_stay_on_the_surface_and_follow_v():
     lines, faces = viz.streamlines(mesh, v, 40, return_faces=True)
     assert len(lines) > 20
     unit = viz.unit_field(mesh, v)
-    G = fvf.hat_gradients(mesh)
+    G = fvf.calculus.hat_gradients(mesh)
     X, F = mesh.vertices, mesh.faces
     total = 0
     for p, f in zip(lines, faces, strict=True):

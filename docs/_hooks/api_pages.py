@@ -1,9 +1,8 @@
 """mkdocs hook: one API reference page per public module of fvf, generated at build time.
 
-Every module ``src/fvf/<name>.py`` (or package ``src/fvf/<name>/``) whose name does not
-start with ``_`` gets a page ``api/<name>.md`` containing ``::: fvf.<name>`` (rendered by
-mkdocstrings from the docstrings), listed in the navigation under "API reference" in the
-order of ``GROUPS``; a module added later appears under "More modules" without editing
+Every public module ``src/fvf/<package>/<name>.py`` gets a page ``api/<package>.<name>.md``
+containing ``::: fvf.<package>.<name>`` (rendered by mkdocstrings from the docstrings),
+listed in the navigation under "API reference" by layer (``GROUPS``); a module added later appears under "More modules" without editing
 anything. Pages listed in ``OPTIONAL`` are added to the navigation only when their file
 exists, so the strict build tolerates pages that other work has not written yet.
 
@@ -25,34 +24,16 @@ from mkdocs.structure.files import File
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "fvf"
 
+#: Navigation groups: (title, modules or packages), in the order of the layers.
 GROUPS = {
-    "Mesh and input/output": [
-        "mesh",
-        "io",
-        "fieldio",
-        "shapes",
-        "examples",
-        "repair",
-        "diagnostics",
-    ],
-    "Discrete calculus (§3.1)": ["calculus", "fields"],
-    "Functional vector fields (§3.2–3.3)": ["operators", "divergence"],
-    "Flows (§3.4–3.5)": ["flow", "flows", "expmv", "fluid"],
-    "Lie brackets and ad (§3.6, §4)": ["bracket", "transport", "commuting"],
-    "Spectral and design": [
-        "eigen",
-        "ordering",
-        "multilevel",
-        "spectral",
-        "killing",
-        "fmaps",
-        "symmetric",
-        "connection",
-        "design",
-        "singularities",
-    ],
+    "Meshes and files": ["mesh", "io"],
+    "Calculus and operators (§3.1–3.3, §3.6, §4)": ["calculus", "operators"],
+    "Flows and transport (§3.4–3.5, §4.5)": ["flows"],
+    "Spectral tools and maps": ["spectral"],
+    "Field design": ["design"],
+    "Numerics": ["numerics"],
     "Chapter names and errors": ["chapter", "errors"],
-    "Command line and pictures": ["cli", "demo", "viz"],
+    "Command line and pictures": ["cli", "viz"],
 }
 
 # (nav title, file) pairs written by other work; listed only once the file exists.
@@ -81,18 +62,27 @@ class NotAReference(logging.Filter):
 
 
 def public_modules() -> list[str]:
-    """Names of the public modules of fvf: ``src/fvf/<name>.py`` or ``src/fvf/<name>/``."""
-    files = {p.stem for p in SRC.glob("*.py")}
-    packages = {p.parent.name for p in SRC.glob("*/__init__.py")}
-    return sorted(n for n in files | packages if not n.startswith("_"))
+    """Dotted names (below ``fvf``) of the public modules: ``calculus``, ``mesh.trimesh``,
+    ... Every ``.py`` file whose path has no part starting with ``_``, and ``viz`` (its
+    package's public names)."""
+    names = []
+    for path in sorted(SRC.rglob("*.py")):
+        parts = path.relative_to(SRC).with_suffix("").parts
+        if parts[0] == "viz":  # one page for the pictures: fvf.viz's public names
+            if parts == ("viz", "__init__"):
+                names.append("viz")
+            continue
+        if not any(part.startswith("_") for part in parts):
+            names.append(".".join(parts))
+    return sorted(set(names))
 
 
 def _api_nav() -> list:
     modules = public_modules()
     nav: list = [{"Overview": "api/index.md"}]
     seen: set[str] = set()
-    for title, names in GROUPS.items():
-        present = [n for n in names if n in modules]
+    for title, heads in GROUPS.items():
+        present = [n for n in modules if n.split(".")[0] in heads]
         seen.update(present)
         if present:
             nav.append({title: [{f"fvf.{n}": f"api/{n}.md"} for n in present]})

@@ -1,34 +1,39 @@
 """fvf: operator-based tangent vector fields on triangle meshes.
 
 A tangent field v is represented by the operator it induces on functions,
-D_v f = ⟨v, ∇f⟩. The flat namespace holds the mesh, the calculus, the operators and the
-flows; :mod:`fvf.chapter` holds one alias per symbol of the source chapter.
+D_v f = ⟨v, ∇f⟩. The flat namespace ``fvf.name`` holds what users call; the subpackages
+show the layers (``docs/architecture.md``)::
+
+    mesh/       TriMesh, checks of user arrays, repair, diagnostics, shapes, built-in meshes
+    io/         mesh files (OBJ, OFF, PLY) and data files (.npz) of functions and fields
+    calculus    areas, grad, div, J, I_V^F, I_F^V, Laplacian (chapter §3.1)
+    operators/  D^F_v, D^V_v and duals (§3.3), D̃_v (§4.2), brackets and ad_v (§3.6, §4.3)
+    flows/      functional flows (§3.5) and flows with guarantees, field transport (§4.5),
+                fluids
+    spectral/   Laplace–Beltrami bases, reduced operators, functional maps
+    design/     connection Laplacians, smoothest, constrained, Killing, map-consistent and
+                commuting fields, singularities
+    numerics/   exponential action, eigensolvers, orderings (no mesh imports)
+    chapter     one alias per symbol of the chapter
+    errors      every error and warning class (also reachable as ``fvf.Name``)
+    cli/, viz/  the ``fvf`` command and the pictures (never imported by the layers above)
 """
 
-from . import chapter, examples
-from .bracket import (
-    B,
-    ad,
-    bracket_F,
-    bracket_norm,
-    bracket_smoothness,
-    bracket_V,
-    commutator_field,
-    dirichlet_ratio,
-)
+from __future__ import annotations
+
+import warnings as _warnings
+from importlib import metadata as _metadata
+
+from . import chapter, design, flows, io, mesh, numerics, operators, spectral
 from .calculus import (
-    diag,
     div,
     divergence,
     face_areas,
     face_mass,
     face_to_vertex,
     face_to_vertex_values,
-    field_inner,
-    field_product,
     grad,
     gradient,
-    hat_gradients,
     laplacian,
     poisson_bracket,
     rotate,
@@ -39,33 +44,56 @@ from .calculus import (
     vertex_to_face,
     vertex_to_face_values,
 )
-from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
-from .connection import (
+from .design import (
+    acap_energy_matrix,
+    acap_fields,
+    closest_faces,
+    commutator_energy,
     connection_energy,
     connection_laplacian,
     connection_mass,
+    design_field,
+    face_indices,
+    face_singularities,
+    killing_fields,
+    locate_points,
     real_connection_laplacian,
+    rescale,
+    rescaling_operator,
     restrict_to_tangent,
+    singularities,
+    singularity_positions,
     smoothest_fields,
     tangent_basis_matrix,
+    vertex_indices,
 )
-from .design import closest_faces, design_field, locate_points
-from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
-from .eigen import SpectralFallbackWarning, eigen_residuals, smallest_eigenpairs
 from .errors import *  # noqa: F403
 from .errors import __all__ as _errors_all
-from .fields import as_face_field, as_face_function, as_vertex_function
-from .flow import GROWTH_LIMIT, FunctionalFlow
-from .flows import TransportFlow, dual_edge_fluxes, flow, skew_operator, upwind_operator
-from .fluid import FluidResult, fluid_time_step, ideal_fluid
-from .fmaps import functional_map, functional_map_from_bases, map_quality
+from .flows import (
+    Ad,
+    FieldTransport,
+    FluidResult,
+    FunctionalFlow,
+    TransportFlow,
+    TransportResult,
+    dual_edge_fluxes,
+    flow,
+    fluid_time_step,
+    ideal_fluid,
+    interpolate,
+    skew_operator,
+    upwind_operator,
+)
 from .io import read_mesh, write_mesh
-from .killing import commutator_energy, killing_fields
-from .mesh import TriMesh
-from .operators import D_F, D_V, Dbar_F, Dbar_V, directional_derivatives, extract_field
-from .repair import (
-    DEFAULT_REPAIR_STEPS,
+from .mesh import (
     RepairResult,
+    TriMesh,
+    as_face_field,
+    as_face_function,
+    as_vertex_function,
+    disk,
+    icosphere,
+    jittered_sphere,
     orient_faces,
     remove_degenerate_faces,
     remove_duplicate_faces,
@@ -74,22 +102,74 @@ from .repair import (
     repair_mesh,
     split_nonmanifold_edges,
     split_nonmanifold_vertices,
+    spot,
+    torus,
 )
-from .shapes import disk, icosphere, jittered_sphere, torus
-from .singularities import (
-    ZeroFieldWarning,
-    face_indices,
-    face_singularities,
-    singularities,
-    singularity_positions,
-    vertex_indices,
+from .mesh import builtin as examples
+from .numerics import eigen_residuals, smallest_eigenpairs
+from .operators import (
+    D_F,
+    D_V,
+    B,
+    Dbar_F,
+    Dbar_V,
+    Dtilde_dual_F,
+    Dtilde_dual_V,
+    Dtilde_F,
+    Dtilde_V,
+    ad,
+    bracket_F,
+    bracket_norm,
+    bracket_smoothness,
+    bracket_V,
+    commutator_field,
+    directional_derivatives,
+    dirichlet_ratio,
+    extract_field,
 )
-from .spectral import SpectralBasis, gradient_field_basis, laplace_basis
-from .transport import Ad, FieldTransport, TransportResult, interpolate
+from .spectral import (
+    SpectralBasis,
+    functional_map,
+    functional_map_from_bases,
+    gradient_field_basis,
+    laplace_basis,
+    map_quality,
+)
 
-__version__ = "0.1.0"
+try:
+    __version__ = _metadata.version("fvf")
+except _metadata.PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
+
+#: Plumbing that lived in the flat namespace before the layout was split into
+#: subpackages: still reachable as ``fvf.name`` (with a DeprecationWarning) and, for
+#: good, from the submodule named here.
+_MOVED = {
+    "diag": "fvf.calculus",
+    "field_product": "fvf.calculus",
+    "field_inner": "fvf.calculus",
+    "hat_gradients": "fvf.calculus",
+    "GROWTH_LIMIT": "fvf.flows.functional",
+    "DEFAULT_REPAIR_STEPS": "fvf.mesh.repair",
+}
+
+
+def __getattr__(name: str):
+    home = _MOVED.get(name)
+    if home is None:
+        raise AttributeError(f"module 'fvf' has no attribute {name!r}")
+    from importlib import import_module
+
+    _warnings.warn(
+        f"fvf.{name} is plumbing and moved out of the flat namespace; use {home}.{name}",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return getattr(import_module(home), name)
+
 
 __all__ = [
+    # meshes and files
     "TriMesh",
     "read_mesh",
     "write_mesh",
@@ -102,23 +182,22 @@ __all__ = [
     "split_nonmanifold_edges",
     "repair_mesh",
     "RepairResult",
-    "DEFAULT_REPAIR_STEPS",
     "icosphere",
     "jittered_sphere",
     "torus",
     "disk",
-    "chapter",
+    "spot",
     "examples",
+    "as_face_field",
+    "as_face_function",
+    "as_vertex_function",
+    # calculus (§3.1)
     "face_areas",
     "vertex_areas",
-    "hat_gradients",
     "vertex_mass",
     "face_mass",
     "rotation",
     "rotate",
-    "diag",
-    "field_product",
-    "field_inner",
     "face_to_vertex",
     "vertex_to_face",
     "grad",
@@ -130,6 +209,7 @@ __all__ = [
     "poisson_bracket",
     "vertex_to_face_values",
     "face_to_vertex_values",
+    # operators (§3.3, §4.2) and brackets (§3.6, §4.3-4.4)
     "D_F",
     "D_V",
     "Dbar_F",
@@ -145,18 +225,33 @@ __all__ = [
     "B",
     "ad",
     "commutator_field",
+    "bracket_norm",
+    "bracket_smoothness",
+    "dirichlet_ratio",
+    # flows (§3.4-3.5) and transport (§4.5)
     "FunctionalFlow",
     "flow",
-    "GROWTH_LIMIT",
-    "as_face_field",
-    "as_face_function",
-    "as_vertex_function",
-    "vertex_indices",
-    "singularities",
-    "face_indices",
-    "face_singularities",
-    "singularity_positions",
-    "ZeroFieldWarning",
+    "TransportFlow",
+    "upwind_operator",
+    "skew_operator",
+    "dual_edge_fluxes",
+    "Ad",
+    "FieldTransport",
+    "TransportResult",
+    "interpolate",
+    "ideal_fluid",
+    "fluid_time_step",
+    "FluidResult",
+    # spectral
+    "smallest_eigenpairs",
+    "eigen_residuals",
+    "SpectralBasis",
+    "laplace_basis",
+    "gradient_field_basis",
+    "functional_map",
+    "functional_map_from_bases",
+    "map_quality",
+    # design
     "connection_laplacian",
     "connection_mass",
     "connection_energy",
@@ -167,34 +262,25 @@ __all__ = [
     "design_field",
     "locate_points",
     "closest_faces",
-    "smallest_eigenpairs",
-    "eigen_residuals",
-    "SpectralFallbackWarning",
-    "SpectralBasis",
-    "laplace_basis",
-    "gradient_field_basis",
     "killing_fields",
     "commutator_energy",
-    "functional_map",
-    "functional_map_from_bases",
-    "map_quality",
-    "Ad",
-    "FieldTransport",
-    "TransportResult",
-    "interpolate",
     "rescale",
     "rescaling_operator",
     "acap_fields",
     "acap_energy_matrix",
-    "bracket_norm",
-    "bracket_smoothness",
-    "dirichlet_ratio",
-    "TransportFlow",
-    "upwind_operator",
-    "skew_operator",
-    "dual_edge_fluxes",
-    "ideal_fluid",
-    "fluid_time_step",
-    "FluidResult",
+    "vertex_indices",
+    "singularities",
+    "face_indices",
+    "face_singularities",
+    "singularity_positions",
+    # subpackages and chapter names
+    "chapter",
+    "mesh",
+    "io",
+    "operators",
+    "flows",
+    "spectral",
+    "design",
+    "numerics",
     *_errors_all,
 ]

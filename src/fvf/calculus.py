@@ -14,8 +14,14 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from .errors import FieldShapeError, ParameterError
-from .fields import _check_finite, _real_array, as_face_field, as_face_function, as_vertex_function
-from .mesh import TriMesh, _cross, _readonly
+from .mesh.inputs import (
+    _check_finite,
+    _real_array,
+    as_face_field,
+    as_face_function,
+    as_vertex_function,
+)
+from .mesh.trimesh import TriMesh, _cross, _readonly
 
 __all__ = [
     "face_areas",

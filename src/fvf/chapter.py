@@ -39,7 +39,6 @@ acap_fields        commuting.acap_fields           (k, m, 3)
 
 from __future__ import annotations
 
-from .bracket import B, ad, bracket_F, bracket_V
 from .calculus import (
     div,
     face_areas,
@@ -51,15 +50,16 @@ from .calculus import (
     vertex_to_face,
 )
 from .calculus import rotation as J
-from .commuting import acap_fields, rescale
-from .divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
-from .flows import flow
-from .fmaps import functional_map
-from .killing import killing_fields
-from .operators import D_F, D_V, Dbar_F, Dbar_V, extract_field
-from .singularities import singularities
-from .spectral import laplace_basis
-from .transport import Ad, interpolate
+from .design.commuting import acap_fields, rescale
+from .design.indices import singularities
+from .design.killing import killing_fields
+from .flows.dispatch import flow
+from .flows.field_transport import Ad, interpolate
+from .operators.brackets import B, ad, bracket_F, bracket_V
+from .operators.directional import D_F, D_V, Dbar_F, Dbar_V, extract_field
+from .operators.divergence import Dtilde_dual_F, Dtilde_dual_V, Dtilde_F, Dtilde_V
+from .spectral.basis import laplace_basis
+from .spectral.fmaps import functional_map
 
 A_F = face_areas
 A_V = vertex_areas

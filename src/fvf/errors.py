@@ -12,6 +12,7 @@ import numpy as np
 
 __all__ = [
     "FvfError",
+    "FvfWarning",
     "MeshError",
     "MeshShapeError",
     "MeshIndexError",
@@ -20,21 +21,49 @@ __all__ = [
     "UnreferencedVertexError",
     "NonManifoldError",
     "OrientationError",
-    "FieldShapeError",
     "MeshReadError",
-    "FlowOverflowError",
-    "ParameterError",
-    "FvfWarning",
+    "PolygonTriangulatedWarning",
+    "FieldError",
+    "FieldShapeError",
+    "FieldValueError",
     "NonTangentFieldWarning",
+    "ZeroFieldWarning",
+    "ParameterError",
+    "FlowOverflowError",
     "FlowGrowthWarning",
+    "ExpmInputError",
+    "KrylovFallbackWarning",
+    "FluidSolveError",
+    "SpectralInputError",
+    "SpectralSolveError",
+    "SpectralFallbackWarning",
+    "ConstraintError",
+    "ConstraintIndexError",
+    "ZeroDirectionError",
+    "NormalDirectionError",
+    "ConflictingConstraintError",
+    "PointLocationError",
+    "UnconstrainedComponentWarning",
+    "DataFileError",
+    "DataKeyError",
+    "MeshMismatchError",
+    "MissingExtraError",
+    "NoDisplayError",
+    "RenderBackendWarning",
     "format_indices",
 ]
 
 
+# ---------------------------------------------------------------------------- base classes
 class FvfError(ValueError):
     """Base class of every error fvf raises on bad input."""
 
 
+class FvfWarning(UserWarning):
+    """Base class of every warning fvf emits."""
+
+
+# ---------------------------------------------------------------------------- meshes
 class MeshError(FvfError):
     """The vertices or faces given to :class:`fvf.TriMesh` are not a valid mesh."""
 
@@ -67,36 +96,136 @@ class OrientationError(MeshError):
     """Two faces sharing an edge traverse it in the same direction."""
 
 
-class FieldShapeError(FvfError):
-    """A function or vector field has the wrong shape, dtype, or non-finite values."""
-
-
 class MeshReadError(FvfError):
     """A mesh file could not be parsed."""
 
 
-class FlowOverflowError(FvfError, FloatingPointError):
-    """A flow or exponential action cannot be computed in floating point: its values
-    overflow, or the time is so long (|t| times the operator's norm) that the steps it
-    needs underflow. Also a :class:`FloatingPointError`."""
+class PolygonTriangulatedWarning(FvfWarning):
+    """The file had polygons with more than 3 vertices; they were fan-triangulated."""
 
 
-class ParameterError(FvfError):
-    """A scalar or option argument is invalid: a non-finite or out-of-range time, step,
-    weight, tolerance or count, or an unknown option name (the message lists the valid
-    ones)."""
+# ---------------------------------------------------------------------------- functions and fields
+class FieldError(FvfError):
+    """A function or vector field given to fvf cannot be used (base class)."""
 
 
-class FvfWarning(UserWarning):
-    """Base class of every warning fvf emits."""
+class FieldShapeError(FieldError):
+    """A function or vector field has the wrong shape or dtype."""
+
+
+class FieldValueError(FieldError):
+    """A function or vector field has values fvf cannot use: NaN or inf entries, or
+    magnitudes out of floating-point reach."""
 
 
 class NonTangentFieldWarning(FvfWarning):
     """A per-face field had a normal component, which was projected away."""
 
 
+class ZeroFieldWarning(FvfWarning):
+    """A field had (numerically) zero vectors; the indices next to them were set to 0."""
+
+
+# ---------------------------------------------------------------------------- options
+class ParameterError(FvfError):
+    """A scalar or option argument is invalid: a non-finite or out-of-range time, step,
+    weight, tolerance or count, or an unknown option name (the message lists the valid
+    ones)."""
+
+
+# ---------------------------------------------------------------------------- flows
+class FlowOverflowError(FvfError, FloatingPointError):
+    """A flow or exponential action cannot be computed in floating point: its values
+    overflow, or the time is so long (|t| times the operator's norm) that the steps it
+    needs underflow. Also a :class:`FloatingPointError`."""
+
+
 class FlowGrowthWarning(FvfWarning):
     """A flow is estimated (or observed) to grow a function's norm beyond the limit."""
+
+
+class ExpmInputError(ParameterError):
+    """Bad input to :func:`fvf.numerics.expm_action` (and to the flows' times): shapes,
+    non-finite values, weights, tol, method. A :class:`ParameterError`."""
+
+
+class KrylovFallbackWarning(FvfWarning):
+    """``skew=True`` was passed but the operator is not skew-adjoint; the general method
+    was used."""
+
+
+class FluidSolveError(FvfError, RuntimeError):
+    """The implicit midpoint equation of a step could not be solved (step too long)."""
+
+
+# ---------------------------------------------------------------------------- spectra
+class SpectralInputError(FvfError):
+    """Bad input to :func:`fvf.smallest_eigenpairs` (shapes, k, tol, non-finite or
+    mass ≤ 0)."""
+
+
+class SpectralSolveError(FvfError, RuntimeError):
+    """Every method of the fallback chain failed to compute the eigenpairs."""
+
+
+class SpectralFallbackWarning(FvfWarning):
+    """The requested eigensolver failed; another one was used (the message says which)."""
+
+
+# ---------------------------------------------------------------------------- design
+class ConstraintError(FvfError):
+    """Design constraints are malformed (shapes, weights, missing arguments)."""
+
+
+class ConstraintIndexError(ConstraintError):
+    """A constraint refers to a face index outside ``[0, m)``."""
+
+
+class ZeroDirectionError(ConstraintError):
+    """A constraint direction is the zero vector, so it prescribes no direction."""
+
+
+class NormalDirectionError(ConstraintError):
+    """A constraint direction is (nearly) normal to its face: its tangent part vanishes."""
+
+
+class ConflictingConstraintError(ConstraintError):
+    """The same face is constrained twice with different targets."""
+
+
+class PointLocationError(ConstraintError):
+    """Barycentric coordinates do not describe a point of their face."""
+
+
+class UnconstrainedComponentWarning(FvfWarning):
+    """A connected component of the mesh has no constraint; the field is zero there."""
+
+
+# ---------------------------------------------------------------------------- data files
+class DataFileError(FvfError):
+    """A data file (``.npz`` or ``.ply``) cannot be read."""
+
+
+class DataKeyError(DataFileError):
+    """A data file lacks a key the command needs."""
+
+
+class MeshMismatchError(DataFileError):
+    """The mesh copy stored in a data file (``vertices``, ``faces``) differs from the mesh."""
+
+
+# ---------------------------------------------------------------------------- pictures
+class MissingExtraError(FvfError, ImportError):
+    """A package of an optional extra (e.g. ``[viz]``: matplotlib, pillow, polyscope) is
+    missing."""
+
+
+class NoDisplayError(FvfError):
+    """An interactive window was asked for where no display exists."""
+
+
+class RenderBackendWarning(FvfWarning):
+    """A rendering backend failed to start; fvf fell back to the next one."""
 
 
 def user_stacklevel() -> int:

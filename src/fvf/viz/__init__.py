@@ -16,22 +16,19 @@ missing. ``docs/viz.md`` documents the conventions.
 - :func:`write_gif`: an animated GIF of frames.
 """
 
-from ._deps import MissingExtraError, NoDisplayError, RenderBackendWarning
+from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
 from .arrows import DEFAULT_ARROW_LENGTH, arrow_segments, default_arrow_scale, spread_faces
 from .backends import BACKENDS, RenderInfo, available_backends, polyscope_status, render, view
 from .camera import View
 from .gif import write_gif
 from .lic import DEFAULT_LIC_LENGTH, lic_noise, lic_texture, unit_field
 from .refine import subdivide
-from .streamlines import streamlines
+from .tracing import streamlines
 
 __all__ = [
     "BACKENDS",
     "DEFAULT_ARROW_LENGTH",
     "DEFAULT_LIC_LENGTH",
-    "MissingExtraError",
-    "NoDisplayError",
-    "RenderBackendWarning",
     "RenderInfo",
     "View",
     "arrow_segments",

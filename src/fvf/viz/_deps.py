@@ -9,23 +9,13 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from ..errors import FvfError, FvfWarning
+from ..errors import FvfError, FvfWarning, MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401 (re-exported)
 
-__all__ = ["MissingExtraError", "NoDisplayError", "RenderBackendWarning", "require"]
+__all__ = [
+    "require",
+]
 
 INSTALL_HINT = "pip install 'fvf[viz]'"
-
-
-class MissingExtraError(FvfError, ImportError):
-    """A package of the optional ``[viz]`` extra (matplotlib, pillow, polyscope) is missing."""
-
-
-class NoDisplayError(FvfError):
-    """An interactive window was asked for where no display exists."""
-
-
-class RenderBackendWarning(FvfWarning):
-    """A rendering backend failed to start; fvf fell back to the next one."""
 
 
 def require(module: str, what: str = "rendering") -> ModuleType:

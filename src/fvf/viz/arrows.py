@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ..fields import as_face_field
-from ..mesh import TriMesh
+from ..mesh.inputs import as_face_field
+from ..mesh.trimesh import TriMesh
 
 __all__ = ["DEFAULT_ARROW_LENGTH", "default_arrow_scale", "arrow_segments", "spread_faces"]
 

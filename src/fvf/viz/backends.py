@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy.typing as npt
 
 from ..errors import FvfError
-from ..mesh import TriMesh
+from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
 from .camera import View
 
@@ -170,7 +170,7 @@ def render(
         :func:`fvf.singularities`), drawn as markers coloured by index
         (:func:`fvf.viz.scene.index_color`) with a legend.
     streamlines : list of ndarray (p_i, 3), optional
-        Polylines on the surface (:func:`fvf.viz.streamlines`).
+        Polylines on the surface (:func:`fvf.viz.tracing`).
     texture : array_like (n,) or (m,), optional
         A grey texture such as :func:`fvf.viz.lic_texture`, with limits at its 1st and
         99th percentiles; with ``function`` too, it darkens the colormap's colours.

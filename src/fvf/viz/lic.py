@@ -9,7 +9,7 @@ time s is ``Φ_{v,s} N`` (eq. 42 for the chapter's flow exp(−s D^V_v)), so the
 the noise flowed forward and backward and averaged. v̂ = v / |v| is the unit field
 (zero where v vanishes), so L is an arc length in mesh units and the streaks have the
 same length everywhere. The integral is the trapezoid rule over ``samples`` equally
-spaced times, all computed by one call of :func:`fvf.flows.flow` (which chains the
+spaced times, all computed by one call of :func:`fvf.flows.dispatch.flow` (which chains the
 times, so the work is that of flowing to ±L once).
 
 Noise (:func:`lic_noise`): independent uniform values at the vertices (seeded), smoothed
@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ..fields import as_face_field, as_vertex_function
-from ..flows import flow
-from ..mesh import TriMesh
+from ..flows.dispatch import flow
+from ..mesh.inputs import as_face_field, as_vertex_function
+from ..mesh.trimesh import TriMesh
 
 __all__ = ["DEFAULT_LIC_LENGTH", "lic_noise", "lic_texture", "unit_field"]
 
@@ -90,7 +90,7 @@ def lic_texture(
     noise : array_like (n,), optional
         The function to convolve instead of the seeded white noise.
     method : {"upwind", "chapter", "skew", "cayley", "spectral"}
-        The flow (:func:`fvf.flows.flow`). ``"upwind"`` (default) is a convex
+        The flow (:func:`fvf.flows.dispatch.flow`). ``"upwind"`` (default) is a convex
         combination of noise values at every time, so T stays in [min N, max N] and
         cannot blow up on any mesh. ``"chapter"`` is the chapter's exp(−s D^V_v)
         (eq. 42), sharper but it may warn (FlowGrowthWarning) for compressible fields,

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ..fields import as_face_field
-from ..mesh import TriMesh
-from ..shapes import midpoint_subdivision
+from ..mesh.inputs import as_face_field
+from ..mesh.shapes import midpoint_subdivision
+from ..mesh.trimesh import TriMesh
 
 __all__ = ["subdivide"]
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import FieldShapeError, FvfError
-from ..mesh import TriMesh
+from ..errors import FieldShapeError, FieldValueError, FvfError
+from ..mesh.trimesh import TriMesh
 from .arrows import arrow_segments, default_arrow_scale, spread_faces
 from .camera import View, as_view, camera_frame
 
@@ -82,7 +82,7 @@ def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str
         )
     if not np.isfinite(a).all():
         bad = np.flatnonzero(~np.isfinite(a))
-        raise FieldShapeError(f"{name} has non-finite values at {on} {bad[:8].tolist()}.")
+        raise FieldValueError(f"{name} has non-finite values at {on} {bad[:8].tolist()}.")
     return a, on
 
 

@@ -1,0 +1,59 @@
+"""Field design: one home for every way of making a tangent field.
+
+- :mod:`.connection`: face connection Laplacians and the smoothest fields (Knöppel et al.
+  2013).
+- :mod:`.constrained`: fields from sparse hard or soft direction constraints.
+- :mod:`.killing`: Killing fields (Azencot et al. 2013).
+- :mod:`.symmetric`: fields consistent with a self-map (Azencot et al. 2017).
+- :mod:`.commuting`: commutation-guided rescaling and as-commuting-as-possible fields (§4.4).
+- :mod:`.indices`: indices and singularities of designed fields (Poincaré–Hopf).
+
+A new design method goes into a module of its own here and is exported below.
+"""
+
+from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
+from .connection import (
+    connection_energy,
+    connection_laplacian,
+    connection_mass,
+    real_connection_laplacian,
+    restrict_to_tangent,
+    smoothest_fields,
+    tangent_basis_matrix,
+)
+from .constrained import closest_faces, design_field, locate_points
+from .indices import (
+    face_indices,
+    face_singularities,
+    singularities,
+    singularity_positions,
+    vertex_indices,
+)
+from .killing import commutator_energy, killing_fields
+from .symmetric import consistency_residual, map_consistent_field
+
+__all__ = [
+    "connection_laplacian",
+    "connection_mass",
+    "connection_energy",
+    "real_connection_laplacian",
+    "restrict_to_tangent",
+    "tangent_basis_matrix",
+    "smoothest_fields",
+    "design_field",
+    "locate_points",
+    "closest_faces",
+    "killing_fields",
+    "commutator_energy",
+    "map_consistent_field",
+    "consistency_residual",
+    "rescaling_operator",
+    "rescale",
+    "acap_energy_matrix",
+    "acap_fields",
+    "vertex_indices",
+    "singularities",
+    "face_indices",
+    "face_singularities",
+    "singularity_positions",
+]

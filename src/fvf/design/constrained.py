@@ -1,0 +1,505 @@
+"""Vector-field design: the smoothest tangent field meeting direction constraints.
+
+The field is piecewise constant, one complex coefficient z_t per face in
+``mesh.face_bases`` (:mod:`fvf.connection`), and its smoothness is the connection energy
+of Knöppel, Crane, Pinkall & Schröder (2013, "Globally optimal direction fields", the
+n = 1 case of their smoothness energy),
+
+.. math::
+
+    E(z) = z^* L z = \\sum_{(s,t)} w_{st} |z_s - r_{st} z_t|^2 ,
+
+with L from :func:`fvf.design.connection.connection_laplacian`. :func:`design_field` minimises it
+subject to constraints on a few faces c with targets τ_c (complex, in the faces' frames):
+
+* **soft**: minimise E(z) + Σ_c w_c A_F(c) |z_c − τ_c|², i.e. solve
+  (L + [w A_F]_C) z = [w A_F]_C τ (one sparse Hermitian solve);
+* **hard**: z_c = τ_c exactly; the constrained unknowns are eliminated and the free ones
+  solve L_FF z_F = −L_FC τ_C.
+
+Without constraints the smoothest field of unit L2 norm is returned: the lowest
+eigenfield of L z = λ [A_F] z (Knöppel et al.'s "globally optimal" field).
+
+Point constraints: a piecewise-constant field has one value per face, so a constraint at
+a point applies to **the face containing the point**. Give points either as (face,
+barycentric coordinates), checked by :func:`locate_points`, or as ambient positions,
+assigned to the nearest face by :func:`closest_faces` (``points=`` of
+:func:`design_field`). A point on an edge or a vertex belongs to several closed faces; the
+face it was given in (barycentric form), or the lowest-numbered nearest face (ambient
+form), receives the constraint.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
+
+from ..calculus import hat_gradients
+from ..errors import (  # noqa: F401 (re-exported)
+    ConflictingConstraintError,
+    ConstraintError,
+    ConstraintIndexError,
+    FvfError,
+    FvfWarning,
+    NormalDirectionError,
+    PointLocationError,
+    UnconstrainedComponentWarning,
+    ZeroDirectionError,
+    format_indices,
+)
+from ..mesh.trimesh import TriMesh
+from .connection import ConnectionKind, _check_kind, connection_laplacian, smoothest_fields
+
+__all__ = [
+    "design_field",
+    "constraint_targets",
+    "locate_points",
+    "closest_faces",
+    "SOFT_WEIGHT",
+    "NORMAL_DIRECTION_RTOL",
+]
+
+#: Default soft weight: w_c A_F(c) = SOFT_WEIGHT · L_cc (the face's own stiffness).
+SOFT_WEIGHT = 100.0
+#: A direction whose in-plane part is below this fraction of its length is rejected.
+NORMAL_DIRECTION_RTOL = 1e-3
+#: A direction shorter than this times the longest one counts as zero.
+_ZERO_RTOL = 1e-12
+#: Duplicate constraints on a face must agree to this relative tolerance.
+_CONFLICT_RTOL = 1e-9
+#: Barycentric coordinates: tolerance on their sum and on negative values.
+_BARY_TOL = 1e-9
+
+
+# ---------------------------------------------------------------------------- inputs
+def _as_faces(mesh: TriMesh, faces: npt.ArrayLike, name: str = "faces") -> np.ndarray:
+    f = np.asarray(faces)
+    if f.ndim == 0:
+        f = f.reshape(1)
+    if f.ndim != 1 or not (np.issubdtype(f.dtype, np.integer) or f.size == 0):
+        raise ConstraintError(
+            f"{name} must be a 1-D array of integer face indices; got shape {f.shape}, "
+            f"dtype {f.dtype}."
+        )
+    f = f.astype(np.int64)
+    m = mesh.n_faces
+    bad = np.flatnonzero((f < 0) | (f >= m))
+    if bad.size:
+        raise ConstraintIndexError(
+            f"constraints {format_indices(bad)} refer to faces outside [0, {m}) (e.g. "
+            f"{name}[{int(bad[0])}] = {int(f[bad[0]])}). Fix: use 0-based face indices of "
+            "this mesh."
+        )
+    return f
+
+
+def _as_vectors(a: npt.ArrayLike, k: int, name: str) -> np.ndarray:
+    v = np.asarray(a)
+    if v.dtype == object or not (
+        np.issubdtype(v.dtype, np.floating) or np.issubdtype(v.dtype, np.integer)
+    ):
+        raise ConstraintError(f"{name} must be a real array; got dtype {v.dtype}.")
+    v = np.asarray(v, dtype=float)
+    if v.ndim == 1 and k == 1 and v.shape == (3,):
+        v = v[None]
+    if v.shape != (k, 3):
+        raise ConstraintError(
+            f"{name} must have shape ({k}, 3), one ambient vector per constraint; got {v.shape}."
+        )
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if bad.size:
+        raise ConstraintError(f"{name} has NaN or inf at constraints {format_indices(bad)}.")
+    return v
+
+
+def constraint_targets(
+    mesh: TriMesh, faces: npt.ArrayLike, directions: npt.ArrayLike, normalize: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Check constraints and turn them into complex targets in the face frames.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    faces : array_like of int, (k,)
+        Constrained face of each constraint.
+    directions : array_like, float (k, 3)
+        Ambient vectors, projected onto their face planes.
+    normalize : bool
+        Scale each projected direction to unit length (else its length is the target
+        magnitude).
+
+    Returns
+    -------
+    faces : int64 (k,)
+    targets : complex128 (k,)
+        τ_c = ``mesh.to_complex`` of the projected (and normalised) direction.
+
+    Raises
+    ------
+    ConstraintIndexError
+        A face index outside [0, m).
+    ZeroDirectionError
+        A zero direction (length below 1e-12 of the longest).
+    NormalDirectionError
+        A direction whose in-plane part is below :data:`NORMAL_DIRECTION_RTOL` (1e-3) of
+        its length (within 0.06° of the normal).
+    ConstraintError
+        Wrong shapes or non-finite values.
+    """
+    f = _as_faces(mesh, faces)
+    d = _as_vectors(directions, f.size, "directions")
+    length = np.linalg.norm(d, axis=1)
+    scale = length.max(initial=0.0)
+    zero = np.flatnonzero(length <= _ZERO_RTOL * scale) if scale > 0 else np.arange(f.size)
+    if zero.size:
+        raise ZeroDirectionError(
+            f"constraints {format_indices(zero)} have a zero direction (faces "
+            f"{format_indices(f[zero])}). Fix: give a non-zero vector in the face plane, or "
+            "drop the constraint."
+        )
+    N = mesh.face_normals[f]
+    tangent = d - np.einsum("ij,ij->i", d, N)[:, None] * N
+    tlen = np.linalg.norm(tangent, axis=1)
+    normal = np.flatnonzero(tlen < NORMAL_DIRECTION_RTOL * length)
+    if normal.size:
+        raise NormalDirectionError(
+            f"constraints {format_indices(normal)} have directions (nearly) normal to their "
+            f"faces {format_indices(f[normal])} (in-plane part "
+            f"{tlen[normal[0]] / length[normal[0]]:.2g} of the length), so the projected "
+            "direction is undefined. Fix: give a vector "
+            "in the face plane (mesh.face_bases[face] spans it)."
+        )
+    B = mesh.face_bases[f]
+    z = np.einsum("kj,kj->k", B[:, 0], tangent) + 1j * np.einsum("kj,kj->k", B[:, 1], tangent)
+    if normalize:
+        z = z / np.abs(z)
+    return f, z
+
+
+def _merge_duplicates(
+    faces: np.ndarray, targets: np.ndarray, weights: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    uniq, first, inverse = np.unique(faces, return_index=True, return_inverse=True)
+    if uniq.size == faces.size:
+        return faces, targets, weights
+    ref = targets[first][inverse]
+    tol = _CONFLICT_RTOL * np.abs(targets).max()
+    bad = np.flatnonzero(np.abs(targets - ref) > tol)
+    if bad.size:
+        raise ConflictingConstraintError(
+            f"faces {format_indices(np.unique(faces[bad]))} are constrained more than once "
+            f"with different targets (constraints {format_indices(bad)}). Fix: keep one "
+            "constraint per face (or average the directions yourself)."
+        )
+    w = np.bincount(inverse, weights=weights, minlength=uniq.size)
+    return uniq, targets[first], w
+
+
+# ---------------------------------------------------------------------------- points
+def locate_points(
+    mesh: TriMesh, faces: npt.ArrayLike, barycentric: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """Check points given by barycentric coordinates; return their faces and positions.
+
+    For a piecewise-constant field, a constraint at a point applies to the face that
+    contains it: here the face it is given in (a point on an edge or vertex stays in the
+    face given).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    faces : array_like of int, (k,)
+    barycentric : array_like, float (k, 3)
+        Coordinates with respect to the corners ``mesh.faces[faces]``; each row must be
+        non-negative and sum to 1 (to 1e-9; rows are renormalised).
+
+    Returns
+    -------
+    faces : int64 (k,)
+        The faces holding the constraints (pass them to :func:`design_field`).
+    positions : float64 (k, 3)
+        The ambient points Σ_i β_i x_i.
+
+    Raises
+    ------
+    ConstraintIndexError
+        A face index outside [0, m).
+    PointLocationError
+        Wrong shape, non-finite values, a row not summing to 1, or a negative coordinate
+        (the point is outside its face), naming the rows.
+    """
+    f = _as_faces(mesh, faces)
+    b = np.asarray(barycentric, dtype=float)
+    if b.ndim == 1 and f.size == 1 and b.shape == (3,):
+        b = b[None]
+    if b.shape != (f.size, 3):
+        raise PointLocationError(
+            f"barycentric must have shape ({f.size}, 3), one row per face; got {b.shape}."
+        )
+    bad = np.flatnonzero(~np.isfinite(b).all(axis=1))
+    if bad.size:
+        raise PointLocationError(f"barycentric has NaN or inf in rows {format_indices(bad)}.")
+    total = b.sum(axis=1)
+    bad = np.flatnonzero(np.abs(total - 1.0) > _BARY_TOL)
+    if bad.size:
+        raise PointLocationError(
+            f"barycentric rows {format_indices(bad)} do not sum to 1 (e.g. {total[bad[0]]:.6g}). "
+            "Fix: divide each row by its sum."
+        )
+    bad = np.flatnonzero((b < -_BARY_TOL).any(axis=1))
+    if bad.size:
+        raise PointLocationError(
+            f"barycentric rows {format_indices(bad)} have negative coordinates: the points "
+            f"lie outside faces {format_indices(f[bad])}. Fix: give the face containing each "
+            "point, or locate ambient points with fvf.design.constrained.closest_faces."
+        )
+    b = np.clip(b, 0.0, None)
+    b /= b.sum(axis=1)[:, None]
+    positions = np.einsum("ki,kij->kj", b, mesh.vertices[mesh.faces[f]])
+    return f, positions
+
+
+def closest_faces(
+    mesh: TriMesh, points: npt.ArrayLike, chunk: int = 1 << 18
+) -> tuple[np.ndarray, np.ndarray]:
+    """The face nearest to each ambient point, and the barycentric coordinates of the
+    nearest point on it.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    points : array_like, float (k, 3)
+    chunk : int
+        Upper bound on point-face pairs evaluated at once (about 250 bytes each).
+
+    Returns
+    -------
+    faces : int64 (k,)
+        For a point on the surface, the face containing it (on a shared edge or vertex the
+        lowest-numbered one).
+    barycentric : float64 (k, 3)
+        Non-negative, summing to 1.
+
+    Notes
+    -----
+    Exact (brute force over all faces, vectorised in chunks of points): O(k m) time. Per
+    face, the barycentric coordinates of the projection follow from the hat gradients,
+    λ_i(p) = δ_i0 + ∇φ_i · (p − x_0) (measured from corner 0, not from the centroid,
+    so that far from the origin only exact coordinate differences enter); when one is
+    negative the nearest point lies on an edge, and the nearest of the three edge points
+    is taken.
+    """
+    p = np.asarray(points, dtype=float)
+    if p.ndim == 1 and p.shape == (3,):
+        p = p[None]
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise PointLocationError(f"points must have shape (k, 3); got {p.shape}.")
+    bad = np.flatnonzero(~np.isfinite(p).all(axis=1))
+    if bad.size:
+        raise PointLocationError(f"points has NaN or inf in rows {format_indices(bad)}.")
+    m = mesh.n_faces
+    X = mesh.vertices[mesh.faces]  # (m, 3 corners, 3)
+    G = hat_gradients(mesh)  # (m, 3, 3)
+    X0 = X[:, 0]
+    N = mesh.face_normals
+    corner0 = np.array([1.0, 0.0, 0.0])
+    out_f = np.empty(p.shape[0], dtype=np.int64)
+    out_b = np.empty((p.shape[0], 3))
+    step = max(1, chunk // m)
+    for lo in range(0, p.shape[0], step):  # chunks of points, each vectorised over faces
+        q = p[lo : lo + step]  # (c, 3)
+        rel = q[:, None, :] - X0[None]  # (c, m, 3)
+        lam = corner0 + np.einsum("tij,ctj->cti", G, rel)  # (c, m, 3)
+        inside = (lam >= 0).all(axis=2)
+        d2 = np.einsum("ctj,tj->ct", rel, N) ** 2
+        bary = lam.copy()
+        # nearest point on each edge (a, b) = corners (i+1, i+2), parameter s in [0, 1]
+        best = np.full(d2.shape, np.inf)
+        for i in range(3):
+            a, b = (i + 1) % 3, (i + 2) % 3
+            e = X[:, b] - X[:, a]  # (m, 3)
+            qa = q[:, None, :] - X[None, :, a]  # (c, m, 3)
+            s = np.clip(np.einsum("ctj,tj->ct", qa, e) / np.einsum("tj,tj->t", e, e), 0, 1)
+            r = qa - s[..., None] * e[None]
+            de = np.einsum("ctj,ctj->ct", r, r)
+            take = ~inside & (de < best)
+            best = np.where(take, de, best)
+            edge_bary = np.zeros(lam.shape)
+            edge_bary[..., a] = 1.0 - s
+            edge_bary[..., b] = s
+            bary = np.where(take[..., None], edge_bary, bary)
+        dist = np.where(inside, d2, best)
+        k = np.argmin(dist, axis=1)
+        rows = np.arange(q.shape[0])
+        out_f[lo : lo + step] = k
+        out_b[lo : lo + step] = bary[rows, k]
+    out_b = np.clip(out_b, 0.0, None)
+    out_b /= out_b.sum(axis=1)[:, None]
+    return out_f, out_b
+
+
+# ---------------------------------------------------------------------------- design
+def _solve(A: sp.sparray, b: np.ndarray) -> np.ndarray:
+    return spla.splu(sp.csc_array(A)).solve(b.astype(complex))
+
+
+def design_field(
+    mesh: TriMesh,
+    faces: npt.ArrayLike | None = None,
+    directions: npt.ArrayLike | None = None,
+    *,
+    points: npt.ArrayLike | None = None,
+    weights: npt.ArrayLike | float | None = None,
+    hard: bool = False,
+    kind: ConnectionKind = "knoppel",
+    normalize: bool = True,
+) -> np.ndarray:
+    """The smoothest tangent field meeting direction constraints (Knöppel et al. 2013).
+
+    Minimises the connection energy E(z) = z^* L z (:func:`fvf.connection_laplacian`,
+    the n = 1 smoothness energy of Knöppel, Crane, Pinkall & Schröder, "Globally optimal
+    direction fields", 2013) of a piecewise-constant field subject to constraints on faces:
+
+    * soft (default): minimise E(z) + Σ_c w_c A_F(c) |z_c − τ_c|²;
+    * hard (``hard=True``): z_c = τ_c exactly, E minimised over the other faces.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    faces : array_like of int, (k,), optional
+        Constrained faces (duplicates allowed when their targets agree; their soft weights
+        add up).
+    directions : array_like, float (k, 3), optional
+        Ambient direction of each constraint, projected onto its face plane; the target
+        τ_c is the projection in complex frame coordinates (unit length when
+        ``normalize``, else its length is the target magnitude).
+    points : array_like, float (k, 3), optional
+        Ambient positions instead of ``faces``: each constraint applies to the face
+        nearest to (containing) its point (:func:`closest_faces`).
+    weights : float or array_like (k,), optional
+        Soft weights w_c > 0 (units 1/area). Default w_c = SOFT_WEIGHT · L_cc / A_F(c)
+        (SOFT_WEIGHT = 100): the penalty on a constrained face is 100 times the face's own
+        diagonal stiffness, so soft constraints are met to about 1%, independently of the
+        mesh size. Not allowed with ``hard=True``.
+    hard : bool
+        Impose the targets exactly (eliminate those unknowns).
+    kind : {"knoppel", "singer_wu"}
+        The connection Laplacian (:mod:`fvf.connection`).
+    normalize : bool
+        Normalise the projected directions to unit length.
+
+    Returns
+    -------
+    ndarray, float64 (m, 3)
+        The field as ambient per-face vectors (tangent). With no constraints: the
+        smoothest field of unit L2 norm, Σ A_F |u|² = 1, the lowest eigenfield of
+        L z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`; its sign/phase is fixed as
+        documented there).
+
+    Raises
+    ------
+    ConstraintIndexError, ZeroDirectionError, NormalDirectionError,
+    ConflictingConstraintError
+        Bad constraints, naming the offending constraint rows and faces
+        (:func:`constraint_targets`).
+    ConstraintError
+        Wrong shapes, non-positive weights, ``faces`` together with ``points``, or
+        ``weights`` with ``hard=True``.
+
+    Warns
+    -----
+    UnconstrainedComponentWarning
+        A connected component (of the faces coupled by L) carries no constraint; the field
+        is zero on it (the minimiser of least norm).
+
+    Notes
+    -----
+    Soft: (L + [w A_F]_C) z = [w A_F]_C τ. Hard: z_C = τ_C and L_FF z_F = −L_FC τ_C.
+    Both systems are Hermitian positive definite on every component with a constraint
+    (a parallel field never vanishes), solved by sparse LU. The soft solution is linear in
+    the targets; with a single constraint on a flat mesh both give the constant field.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fvf
+    >>> from fvf.design.constrained import design_field
+    >>> mesh = fvf.disk(4, 6)
+    >>> u = design_field(mesh, [0], [[2.0, 0.0, 0.0]], hard=True)
+    >>> bool(np.allclose(u, [1.0, 0.0, 0.0]))
+    True
+    """
+    kind = _check_kind(kind)
+    if points is not None:
+        if faces is not None:
+            raise ConstraintError("give either faces or points, not both.")
+        faces, _ = closest_faces(mesh, points)
+    if faces is None and directions is None:
+        if weights is not None:
+            raise ConstraintError("weights were given without constraints.")
+        return smoothest_fields(mesh, 1, kind)[1][0]
+    if faces is None or directions is None:
+        raise ConstraintError("faces (or points) and directions must be given together.")
+    f, tau = constraint_targets(mesh, faces, directions, normalize)
+    if f.size == 0:
+        return design_field(mesh, kind=kind)
+    L = connection_laplacian(mesh, kind)
+    m = mesh.n_faces
+    A = mesh.face_areas
+    if hard and weights is not None:
+        raise ConstraintError("weights apply to soft constraints only (hard=False).")
+    if weights is None:
+        w = SOFT_WEIGHT * L.diagonal().real[f] / A[f]
+    else:
+        w = np.asarray(weights, dtype=float)
+        if w.ndim > 1 or w.size not in (1, f.size):
+            raise ConstraintError(
+                f"weights must be a scalar or have shape ({f.size},), one per constraint; got "
+                f"shape {w.shape}."
+            )
+        w = np.broadcast_to(w.reshape(-1), f.shape).copy()
+        bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
+        if bad.size:
+            raise ConstraintError(
+                f"weights must be finite and > 0; constraints {format_indices(bad)} are not."
+            )
+    f, tau, w = _merge_duplicates(f, tau, w)
+
+    # components of the coupling graph without constraints get the zero field
+    pattern = sp.csr_array((np.ones(L.nnz), L.indices, L.indptr), shape=L.shape)
+    _, label = connected_components(pattern, directed=False)
+    has = np.zeros(label.max() + 1, dtype=bool)
+    has[label[f]] = True
+    active = has[label]
+    if not active.all():
+        free = np.flatnonzero(~active)
+        warnings.warn(
+            f"faces {format_indices(free)} lie in components of the mesh without "
+            "constraints; the field is zero there. Fix: add a constraint per component.",
+            UnconstrainedComponentWarning,
+            stacklevel=2,
+        )
+    z = np.zeros(m, dtype=complex)
+    if hard:
+        fixed = np.zeros(m, dtype=bool)
+        fixed[f] = True
+        z[f] = tau
+        rest = np.flatnonzero(active & ~fixed)
+        if rest.size:
+            Lrr = L[rest][:, rest]
+            rhs = -(L[rest][:, f] @ tau)
+            z[rest] = _solve(Lrr, rhs)
+    else:
+        idx = np.flatnonzero(active)
+        pen = np.zeros(m)
+        pen[f] = w * A[f]
+        S = L[idx][:, idx] + sp.diags_array(pen[idx])
+        rhs = np.zeros(m, dtype=complex)
+        rhs[f] = w * A[f] * tau
+        z[idx] = _solve(S, rhs[idx])
+    return mesh.from_complex(z)

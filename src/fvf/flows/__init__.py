@@ -1,0 +1,33 @@
+"""Flows: functions carried along a field, and fields carried along a flow.
+
+- :mod:`.functional`: the chapter's flow Φ_{v,t} = exp(−t D^V_v) (§3.4–3.5, eq. 42).
+- :mod:`.dispatch`: :func:`flow` and :class:`TransportFlow`, one entrance to every method
+  (the chapter's, and the upwind, skew, Cayley and spectral flows with guarantees).
+- :mod:`.field_transport`: transport of fields Ad_{Φ_{v,t}} (eq. 67) and interpolation
+  (eq. 68).
+- :mod:`.fluid`: ideal fluids by vorticity transport.
+
+A new flow method goes beside the others in :mod:`.dispatch` (its generator and integrator)
+and is listed in :data:`.dispatch.METHODS`.
+"""
+
+from .dispatch import TransportFlow, dual_edge_fluxes, flow, skew_operator, upwind_operator
+from .field_transport import Ad, FieldTransport, TransportResult, interpolate
+from .fluid import FluidResult, fluid_time_step, ideal_fluid
+from .functional import FunctionalFlow
+
+__all__ = [
+    "FunctionalFlow",
+    "flow",
+    "TransportFlow",
+    "dual_edge_fluxes",
+    "upwind_operator",
+    "skew_operator",
+    "Ad",
+    "FieldTransport",
+    "TransportResult",
+    "interpolate",
+    "ideal_fluid",
+    "fluid_time_step",
+    "FluidResult",
+]

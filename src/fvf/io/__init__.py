@@ -1,0 +1,11 @@
+"""Files: mesh formats (:mod:`.meshfile`: OBJ, OFF, PLY) and the data files of functions
+and fields (:mod:`.datafile`: the ``.npz`` schema of the ``fvf`` command).
+
+A new mesh format goes to :mod:`.meshfile` (a reader returning float64 (n, 3) vertices and
+int64 (m, 3) faces, and a writer); a new data format to :mod:`.datafile`.
+"""
+
+from .datafile import DataFile, read_data, write_data
+from .meshfile import read_mesh, read_ply_properties, write_mesh
+
+__all__ = ["read_mesh", "write_mesh", "read_ply_properties", "DataFile", "read_data", "write_data"]

@@ -1,0 +1,484 @@
+"""Functions and fields in files: the ``.npz`` schema of the ``fvf`` command, and PLY properties.
+
+The ``fvf`` subcommands read a mesh (OBJ, OFF, PLY) and a *data file* holding functions
+and fields on it, and write their results as another data file. A data file is an
+uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
+``allow_pickle=False``, so only plain numeric and string arrays are allowed. Keys:
+
+| key        | dtype, shape          | meaning                                        |
+|------------|-----------------------|------------------------------------------------|
+| `f`        | float, (n,) or (k, n) | vertex (PL) function(s), one row per function  |
+| `v`        | float, (m, 3)         | per-face tangent field (ambient xyz per face)  |
+| `u`        | float, (m, 3)         | a second field: bracket partner, or transported|
+| `u1`       | float, (m, 3)         | end field of an interpolation (eq. 68)         |
+| `t`        | float, () or (T,)     | times, when the command line gives none        |
+| `vertices` | float, (n, 3)         | optional copy of the mesh's vertices           |
+| `faces`    | int, (m, 3)           | optional copy of the mesh's faces (0-based)    |
+
+Rows follow the mesh file's vertex and face order. ``v`` is the field that flows or
+transports (or the first of a bracket); ``u`` is the bracket's partner w, the transported
+field u (eq. 67) or u_0 (eq. 68). When ``vertices`` / ``faces`` are present they must
+match the mesh (faces exactly, vertices to :data:`MESH_MATCH_RTOL` of its size), so data
+are never applied to the wrong mesh.
+
+Design constraints (``fvf design --constraints C.npz``, :func:`fvf.design_field`):
+
+| key                | dtype, shape      | meaning                                         |
+|--------------------|-------------------|-------------------------------------------------|
+| `constraint_faces` | int, (k,)         | the constrained faces                           |
+| `directions`       | float, (k, 3)     | ambient directions, projected onto their faces  |
+| `points`           | float, (k, 3)     | ambient points instead of `constraint_faces`    |
+| `barycentric`      | float, (k, 3)     | optional with `constraint_faces`: checked points|
+| `weights`          | float, () or (k,) | optional soft weights (> 0)                     |
+
+A constraint given by a point applies to the face nearest the point
+(:func:`fvf.closest_faces`); barycentric rows must be >= 0 and sum to 1
+(:func:`fvf.locate_points`).
+
+Non-tangent fields are projected onto the face planes with a
+:class:`~fvf.errors.NonTangentFieldWarning` (:func:`fvf.as_face_field`).
+
+What the commands write back: their results (see ``docs/cli.md``), the inputs they used
+(under the same keys), a copy of the mesh (``vertices``, ``faces``) and the provenance
+strings ``fvf_version``, ``command`` (the command line), ``mesh_path`` (absolute) and
+``inputs`` (absolute paths of the data files read, shape (j,)), plus ``created_utc``.
+
+A PLY file can serve as a data file too (:func:`fvf.io.meshfile.read_ply_properties`): each scalar
+vertex property other than x, y, z becomes a function of that name (n,), each scalar face
+property a per-face function (m,), and each triple of face properties ``<p>x, <p>y, <p>z``
+a per-face field ``<p>`` (m, 3) — so ``vx vy vz`` is the field ``v``; the PLY's own
+vertices and faces become ``vertices`` and ``faces``, so they must match the mesh used.
+
+Several data files can be combined with :meth:`DataFile.merged` (a later file's key
+replaces an earlier one's), as the commands do when given several files.
+
+Every problem raises a typed :class:`~fvf.errors.FvfError` naming the file and the key:
+:class:`DataFileError` (unreadable file), :class:`DataKeyError` (a missing key, listing
+the keys present), :class:`~fvf.errors.FieldShapeError` (wrong dtype or shape, with the
+expected shape), :class:`MeshMismatchError` (the stored mesh copy differs from the mesh).
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import re
+import warnings
+import zipfile
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import (  # noqa: F401 (re-exported)
+    DataFileError,
+    DataKeyError,
+    FieldShapeError,
+    FvfError,
+    MeshMismatchError,
+    MeshReadError,
+)
+from ..mesh.inputs import as_face_field, as_vertex_function
+from ..mesh.trimesh import TriMesh
+
+__all__ = [
+    "DataFile",
+    "read_data",
+    "write_data",
+    "MESH_MATCH_RTOL",
+]
+
+#: Stored ``vertices`` must match the mesh's to this fraction of the bounding-box diagonal.
+MESH_MATCH_RTOL = 1e-9
+
+_SELECT = re.compile(r"^(?P<key>[^\[\]]+)(\[(?P<index>\s*-?\d+\s*(,\s*-?\d+\s*)*)\])?$")
+
+
+class DataFile(Mapping):
+    """The arrays of one data file, with checked access by key.
+
+    A read-only mapping ``key -> numpy.ndarray``; the accessors check dtype and shape
+    against a mesh and name the file, the key, its shape and the expected shape in every
+    error.
+
+    Parameters
+    ----------
+    arrays : mapping of str to array_like
+    path : str or os.PathLike
+        Where the arrays came from (used in messages).
+    sources : mapping of str to path, optional
+        The file of each key, when they come from several files (:meth:`merged`).
+    """
+
+    def __init__(
+        self,
+        arrays: Mapping[str, npt.ArrayLike],
+        path: str | os.PathLike,
+        sources: Mapping[str, str | os.PathLike] | None = None,
+    ):
+        self.path = Path(path)
+        self._arrays = {k: np.asarray(a) for k, a in arrays.items()}
+        self._sources = {k: Path(v) for k, v in (sources or {}).items()}
+
+    @classmethod
+    def merged(cls, files: Sequence[DataFile]) -> DataFile:
+        """The keys of several data files in one, a later file's key replacing an earlier's.
+
+        Lets a command take, say, a designed field from one file and functions from another.
+        Each file's mesh copy has been checked on reading; messages name each key's file.
+        """
+        arrays: dict[str, np.ndarray] = {}
+        sources: dict[str, Path] = {}
+        for data in files:
+            for key in data:
+                arrays[key], sources[key] = data[key], data.source(key)
+        return cls(arrays, " + ".join(str(d.path) for d in files), sources)
+
+    def source(self, key: str) -> Path:
+        """The file that ``key`` came from."""
+        return self._sources.get(key, self.path)
+
+    def _at(self, key: str) -> str:
+        return f"{self.source(key)}: key {key!r}"
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in self._arrays:
+            have = ", ".join(sorted(self._arrays)) or "none"
+            raise DataKeyError(
+                f"{self.path}: no key {key!r} (keys present: {have}); add it, e.g. "
+                f"np.savez(path, {key}=...), or pick another key"
+            )
+        return self._arrays[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._arrays
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._arrays)
+
+    def __len__(self) -> int:
+        return len(self._arrays)
+
+    def __repr__(self) -> str:
+        shapes = ", ".join(f"{k}: {a.dtype}{a.shape}" for k, a in self._arrays.items())
+        return f"DataFile({str(self.path)!r}, {{{shapes}}})"
+
+    def _numeric(self, key: str, a: np.ndarray, what: str) -> np.ndarray:
+        if a.dtype == object or not (
+            np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
+        ):
+            raise FieldShapeError(
+                f"{self._at(key)} must hold real numbers ({what}); got dtype {a.dtype} "
+                f"with shape {a.shape}"
+            )
+        return a.astype(np.float64)
+
+    def select(self, spec: str) -> np.ndarray:
+        """The array named by ``spec``: a key, optionally indexed, e.g. ``"f_t[2]"``.
+
+        Parameters
+        ----------
+        spec : str
+            ``KEY`` or ``KEY[i]`` or ``KEY[i, j]`` (integer indices, negative allowed).
+
+        Returns
+        -------
+        numpy.ndarray
+            The (indexed) array, as stored.
+
+        Raises
+        ------
+        DataKeyError
+            Unknown key, or ``spec`` not of the form above.
+        FieldShapeError
+            An index out of range (naming the key's shape).
+        """
+        match = _SELECT.match(spec.strip())
+        if match is None:
+            raise DataKeyError(
+                f"{self.path}: cannot read {spec!r} as KEY or KEY[i] or KEY[i,j] (e.g. f_t[2])"
+            )
+        key = match["key"].strip()
+        a = self[key]
+        if match["index"] is None:
+            return a
+        index = tuple(int(i) for i in match["index"].split(","))
+        if len(index) > a.ndim or any(
+            not -s <= i < s for i, s in zip(index, a.shape, strict=False)
+        ):
+            raise FieldShapeError(
+                f"{self.source(key)}: index {list(index)} is outside key {key!r} of shape "
+                f"{a.shape}; indices select along its leading axes"
+            )
+        return a[index]
+
+    def check_mesh(self, mesh: TriMesh) -> None:
+        """Check the stored ``vertices`` / ``faces`` copies (when present) against ``mesh``.
+
+        Raises
+        ------
+        FieldShapeError
+            A copy has the wrong shape.
+        MeshMismatchError
+            Faces differ, or vertices differ by more than :data:`MESH_MATCH_RTOL` times the
+            bounding-box diagonal (naming the first offending rows).
+        """
+        from ..errors import format_indices
+
+        if "faces" in self:
+            F = self.integers("faces", (None, 3))
+            if F.shape != mesh.faces.shape:
+                raise MeshMismatchError(
+                    f"{self._at('faces')} has shape {F.shape} but the mesh has "
+                    f"{mesh.faces.shape}: the data belong to another mesh; pass that mesh"
+                )
+            bad = np.flatnonzero((F != mesh.faces).any(axis=1))
+            if bad.size:
+                raise MeshMismatchError(
+                    f"{self._at('faces')} differs from the mesh's faces at rows "
+                    f"{format_indices(bad)}: the data belong to another mesh (or a reordered "
+                    "one); pass that mesh"
+                )
+        if "vertices" in self:
+            X = self._numeric("vertices", self["vertices"], "vertex positions")
+            if X.shape != mesh.vertices.shape:
+                raise MeshMismatchError(
+                    f"{self._at('vertices')} has shape {X.shape} but the mesh has "
+                    f"{mesh.vertices.shape}: the data belong to another mesh; pass that mesh"
+                )
+            size = float(np.ptp(mesh.vertices, axis=0).max()) or 1.0
+            bad = np.flatnonzero(~(np.abs(X - mesh.vertices) <= MESH_MATCH_RTOL * size).all(axis=1))
+            if bad.size:
+                raise MeshMismatchError(
+                    f"{self._at('vertices')} differs from the mesh's vertices at rows "
+                    f"{format_indices(bad)}: the data belong to another mesh; pass that mesh"
+                )
+
+    def functions(self, key: str, mesh: TriMesh) -> np.ndarray:
+        """Vertex function(s) under ``key``: float64 (n,) or (k, n), one row per function.
+
+        Raises
+        ------
+        DataKeyError, FieldShapeError
+            Missing key; wrong dtype, shape or non-finite values.
+        """
+        a = self._numeric(key, self[key], "vertex functions")
+        n = mesh.n_vertices
+        if not ((a.ndim == 1 and a.shape[0] == n) or (a.ndim == 2 and a.shape[1] == n)):
+            hint = ""
+            if a.ndim == 2 and a.shape[0] == n:
+                hint = "; it looks like (n, k): store the transpose, one row per function"
+            elif a.shape[-1:] == (mesh.n_faces,):
+                hint = "; it has one value per face: fvf needs one per vertex"
+            raise FieldShapeError(
+                f"{self._at(key)} has shape {a.shape}, expected ({n},) or (k, {n}): "
+                f"vertex functions, one value per mesh vertex{hint}"
+            )
+        as_vertex_function(mesh, a.T, f"{self._at(key)}", columns=True)
+        return a
+
+    def field(self, key: str, mesh: TriMesh) -> np.ndarray:
+        """A per-face tangent field under ``key``: float64 (m, 3), projected onto the faces.
+
+        Raises
+        ------
+        DataKeyError, FieldShapeError
+            Missing key; wrong dtype, shape or non-finite values.
+
+        Warns
+        -----
+        NonTangentFieldWarning
+            The field had a normal component (it is projected away).
+        """
+        a = self._numeric(key, self[key], "a per-face field")
+        m = mesh.n_faces
+        if a.shape != (m, 3):
+            hint = ""
+            if a.shape == (mesh.n_vertices, 3):
+                hint = "; it has one vector per vertex: convert with fvf.vertex_to_face_values"
+            raise FieldShapeError(
+                f"{self._at(key)} has shape {a.shape}, expected ({m}, 3): one ambient "
+                f"xyz vector per mesh face{hint}"
+            )
+        return as_face_field(mesh, a, f"{self._at(key)}")
+
+    def times(self, key: str = "t") -> np.ndarray:
+        """Times under ``key``: float64 (T,) (a scalar becomes (1,)).
+
+        Raises
+        ------
+        DataKeyError, FieldShapeError
+            Missing key; not a finite scalar or 1-D array.
+        """
+        a = self._numeric(key, self[key], "times")
+        if a.ndim > 1 or a.size == 0 or not np.isfinite(a).all():
+            raise FieldShapeError(
+                f"{self._at(key)} must hold finite times, shape () or (T,); got shape {a.shape}"
+            )
+        return np.atleast_1d(a)
+
+    def integers(self, key: str, shape: tuple[int | None, ...]) -> np.ndarray:
+        """Integer indices under ``key`` of the given shape (None: any length): int64."""
+        a = self[key]
+        if not np.issubdtype(a.dtype, np.integer) or not _fits(a.shape, shape):
+            raise FieldShapeError(
+                f"{self._at(key)} has dtype {a.dtype} and shape {a.shape}, expected "
+                f"integers of shape {_shape_text(shape)}"
+            )
+        return a.astype(np.int64)
+
+    def numbers(self, key: str, shape: tuple[int | None, ...]) -> np.ndarray:
+        """Real numbers under ``key`` of the given shape (None: any length): float64."""
+        a = self._numeric(key, self[key], f"shape {_shape_text(shape)}")
+        if not _fits(a.shape, shape):
+            raise FieldShapeError(
+                f"{self._at(key)} has shape {a.shape}, expected {_shape_text(shape)}"
+            )
+        return a
+
+
+def _fits(shape: tuple[int, ...], want: tuple[int | None, ...]) -> bool:
+    return len(shape) == len(want) and all(
+        w is None or s == w for s, w in zip(shape, want, strict=True)
+    )
+
+
+def _shape_text(want: tuple[int | None, ...]) -> str:
+    inner = ", ".join("k" if w is None else str(w) for w in want)
+    return f"({inner},)" if len(want) == 1 else f"({inner})"
+
+
+def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
+    """Read a data file (``.npz``, or ``.ply`` properties) and check it against a mesh.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An ``.npz`` archive with the keys of this module's schema, or a ``.ply`` file whose
+        vertex/face properties become functions and fields (see the module docstring).
+    mesh : TriMesh, optional
+        When given, the stored mesh copies (``vertices``, ``faces``) must match it.
+
+    Returns
+    -------
+    DataFile
+        The arrays by key.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    DataFileError
+        The file is not a readable ``.npz`` (or ``.ply``) file, or holds object arrays.
+    MeshMismatchError
+        The stored mesh copy differs from ``mesh``.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".ply":
+        arrays = _ply_arrays(path)
+    else:
+        if not path.exists():
+            raise FileNotFoundError(2, "No such file or directory", str(path))
+        try:
+            archive = np.load(path, allow_pickle=False)
+            if not isinstance(archive, Mapping):
+                raise DataFileError(
+                    f"{path}: holds a single array, not an .npz archive of named arrays; "
+                    "save it with np.savez(path, f=..., v=...)"
+                )
+            with archive:
+                arrays = {k: archive[k] for k in archive.files}
+        except DataFileError:
+            raise
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+            raise DataFileError(
+                f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
+                f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
+            ) from exc
+    data = DataFile(arrays, path)
+    if mesh is not None:
+        data.check_mesh(mesh)
+    return data
+
+
+def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
+    """Functions and fields from PLY properties (see the module docstring)."""
+    from .meshfile import PolygonTriangulatedWarning, read_mesh, read_ply_properties
+
+    try:
+        vertex, face = read_ply_properties(path)
+        with warnings.catch_warnings():  # reported when the file is read as the mesh
+            warnings.simplefilter("ignore", PolygonTriangulatedWarning)
+            X, F = read_mesh(path)
+    except MeshReadError as exc:
+        raise DataFileError(str(exc)) from exc
+    arrays: dict[str, np.ndarray] = dict(vertex)
+    arrays.update(vertices=X, faces=F)  # the PLY's own mesh: checked against the mesh used
+    for name, values in face.items():
+        arrays.setdefault(name, values)
+    for name in list(face):
+        if name.endswith("x") and len(name) > 1:
+            base = name[:-1]
+            triple = [base + c for c in "xyz"]
+            if all(k in face for k in triple) and base not in vertex:
+                arrays[base] = np.column_stack([face[k] for k in triple])
+    return arrays
+
+
+def _strings(values: Iterable[str]) -> np.ndarray:
+    return np.array([str(v) for v in values], dtype=str)
+
+
+def write_data(
+    path: str | os.PathLike,
+    arrays: Mapping[str, npt.ArrayLike],
+    *,
+    mesh: TriMesh,
+    mesh_path: str | os.PathLike,
+    command: str,
+    inputs: Iterable[str | os.PathLike] = (),
+) -> Path:
+    """Write results as an ``.npz`` data file, with a mesh copy and their provenance.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; ``.npz`` is appended when missing (as ``numpy.savez`` does). Parent
+        folders are created.
+    arrays : mapping of str to array_like
+        The results and the inputs used, by schema key.
+    mesh : TriMesh
+        Stored as ``vertices`` (float64 (n, 3)) and ``faces`` (int64 (m, 3)).
+    mesh_path : str or os.PathLike
+        Stored (absolute) as the string ``mesh_path``.
+    command : str
+        The command line, stored as ``command``.
+    inputs : iterable of path
+        Data files read, stored (absolute) as the string array ``inputs`` (j,).
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
+    from .. import __version__
+
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        path = path.with_name(path.name + ".npz")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = {k: np.asarray(a) for k, a in arrays.items()}
+    out.update(
+        vertices=np.asarray(mesh.vertices, dtype=np.float64),
+        faces=np.asarray(mesh.faces, dtype=np.int64),
+        fvf_version=np.array(__version__),
+        command=np.array(command),
+        mesh_path=np.array(str(Path(mesh_path).resolve())),
+        inputs=_strings(str(Path(p).resolve()) for p in inputs),
+        created_utc=np.array(
+            datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        ),
+    )
+    np.savez(path, **out)
+    return path

@@ -1,0 +1,671 @@
+"""Read and write triangle meshes: Wavefront OBJ, OFF and PLY.
+
+:func:`read_mesh` keeps the file's vertices exactly as stored (order, count, unreferenced
+vertices; OBJ vertices are the ``v`` lines only, never split at UV seams) and returns
+``(vertices, faces)`` ready for :class:`fvf.TriMesh`. Polygons are fan-triangulated with a
+:class:`PolygonTriangulatedWarning`. Every parse failure raises
+:class:`fvf.errors.MeshReadError` naming the file, where the problem is and how to fix it.
+:func:`write_mesh` writes OBJ and OFF as text with 17 significant digits and PLY as binary
+little endian, so a round trip is exact.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import struct
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import (
+    FvfError,
+    MeshIndexError,
+    MeshReadError,
+    MeshShapeError,
+    PolygonTriangulatedWarning,  # noqa: F401 (re-exported)
+)
+
+__all__ = [
+    "read_mesh",
+    "write_mesh",
+]
+
+SUFFIXES = (".obj", ".off", ".ply")
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}  # fmt: skip
+_PLY_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+_FACE_LISTS = ("vertex_indices", "vertex_index")
+_STRUCT = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I"}
+
+
+class _Polygons(NamedTuple):
+    """What a format reader hands to :func:`_triangulate`."""
+
+    vertices: np.ndarray  # (n, 3) float64
+    counts: np.ndarray  # (m,) int64, vertices per polygon
+    flat: np.ndarray  # (counts.sum(),) int64, 0-based indices (-1 when invalid)
+    shown: np.ndarray  # like flat, the indices as written in the file
+    where: Callable[[int], str]  # polygon number -> "line 12" / "face 3"
+    valid: str  # the valid index range, as the file's convention writes it
+
+
+def read_mesh(path: str | os.PathLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """Read a triangle mesh from an OBJ, OFF or PLY file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off`` or
+        ``.ply`` (ascii, binary_little_endian or binary_big_endian).
+
+    Returns
+    -------
+    vertices : numpy.ndarray of float64, shape (n, 3), C-contiguous
+        Vertex positions in file order; every vertex of the file is kept, including
+        vertices no face refers to.
+    faces : numpy.ndarray of int64, shape (m, 3)
+        0-based vertex indices of the triangles. Polygons ``(v0, ..., vk)`` become the
+        fan ``(v0, vi, vi+1)``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    fvf.errors.MeshReadError
+        The suffix is unsupported, or the file cannot be parsed, has no faces, has a face
+        with fewer than 3 vertices or an index out of range.
+
+    Warns
+    -----
+    PolygonTriangulatedWarning
+        Once per file, when polygons with more than 3 vertices were triangulated.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    reader = _READERS.get(suffix)
+    if reader is None:
+        raise MeshReadError(
+            f"{path}: unsupported mesh file suffix {path.suffix!r}; read_mesh reads "
+            f"{', '.join(SUFFIXES)} (case-insensitive): convert the mesh or rename the file"
+        )
+    poly, (faces, n_split) = _parsed(path, lambda p, data: _checked(p, reader(p, data)))
+    if n_split:
+        warnings.warn(
+            f"{path}: fan-triangulated {n_split} polygons with more than 3 vertices into "
+            f"{faces.shape[0]} triangles in all",
+            PolygonTriangulatedWarning,
+            stacklevel=2,
+        )
+    return np.ascontiguousarray(poly.vertices, dtype=np.float64), faces
+
+
+def read_ply_properties(
+    path: str | os.PathLike,
+) -> tuple[dict[str, npt.NDArray[np.float64]], dict[str, npt.NDArray[np.float64]]]:
+    """Read the scalar vertex and face properties of a PLY file, aligned with :func:`read_mesh`.
+
+    Lets a PLY file carry functions (one value per vertex, e.g. ``property float f``) and
+    per-face fields (three face properties, e.g. ``vx vy vz``) next to its mesh. Lists
+    (such as the face index list) are not properties in this sense and are left out.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.ply`` file (ascii or binary), as accepted by :func:`read_mesh`.
+
+    Returns
+    -------
+    vertex_properties : dict of str to numpy.ndarray of float64, shape (n,)
+        Every scalar property of the ``vertex`` element except ``x``, ``y``, ``z``, in
+        file order; n is the number of vertices :func:`read_mesh` returns.
+    face_properties : dict of str to numpy.ndarray of float64, shape (m,)
+        Every scalar property of the ``face`` element. A polygon's value is repeated for
+        each of its fan triangles, so row t belongs to ``read_mesh(path)[1][t]``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    fvf.errors.MeshReadError
+        Not a ``.ply`` file, or the file cannot be read by :func:`read_mesh`.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".ply":
+        raise MeshReadError(
+            f"{path}: only PLY files carry vertex and face properties; got suffix "
+            f"{path.suffix!r} (store functions and fields in an .npz file instead)"
+        )
+
+    def parse(p: Path, data: bytes):
+        values, where, face_list = _parse_ply(p, data)
+        counts, flat = values["face"][face_list]
+        vertices = np.column_stack([values["vertex"][c] for c in "xyz"])
+        _checked(p, _Polygons(vertices, counts, flat, flat, where, f"0..{len(vertices) - 1}"))
+        return values, counts
+
+    values, counts = _parsed(path, parse)
+    ntri = counts - 2  # each polygon becomes counts - 2 fan triangles, in order
+    vertex = {
+        name: np.asarray(a, dtype=np.float64)
+        for name, a in values["vertex"].items()
+        if not isinstance(a, tuple) and name not in ("x", "y", "z")
+    }
+    face = {
+        name: np.repeat(np.asarray(a, dtype=np.float64), ntri)
+        for name, a in values["face"].items()
+        if not isinstance(a, tuple)
+    }
+    return vertex, face
+
+
+def _parsed(path: Path, parse: Callable[[Path, bytes], object]):
+    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError."""
+    data = path.read_bytes()
+    if not data.strip():
+        raise MeshReadError(f"{path}: the file is empty; write a mesh into it or pick another")
+    suffix = path.suffix.lower()
+    try:
+        return parse(path, data)
+    except MeshReadError:
+        raise
+    except (ValueError, TypeError, IndexError, OverflowError, struct.error) as exc:
+        raise MeshReadError(
+            f"{path}: cannot parse this {suffix} file ({type(exc).__name__}: {exc}); "
+            f"check that it is a valid {suffix[1:].upper()} file, or re-export it"
+        ) from exc
+
+
+def _checked(path: Path, poly: _Polygons) -> tuple[_Polygons, tuple[np.ndarray, int]]:
+    """The polygons and their triangulation (:func:`_triangulate`, which checks them)."""
+    return poly, _triangulate(path, poly)
+
+
+def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
+    """Write a triangle mesh as OBJ, OFF (ascii) or PLY (binary little endian).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its suffix (``.obj``, ``.off`` or ``.ply``, case-insensitive) selects
+        the format. Text formats print coordinates with ``%.17g``, so reading the file back
+        with :func:`read_mesh` gives exactly the same arrays.
+    vertices : array_like of float, shape (n, 3)
+        Vertex positions.
+    faces : array_like of int, shape (m, 3)
+        0-based vertex indices of the triangles, in ``[0, n)``.
+
+    Raises
+    ------
+    fvf.errors.FvfError
+        The suffix is unsupported.
+    fvf.errors.MeshShapeError
+        ``vertices`` or ``faces`` have the wrong shape or dtype.
+    fvf.errors.MeshIndexError
+        A face index is outside ``[0, n)``.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise FvfError(f"{path}: cannot write {path.suffix!r} files; use one of {SUFFIXES}")
+    V = np.asarray(vertices, dtype=np.float64)
+    F = np.asarray(faces)
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise MeshShapeError(f"vertices must have shape (n, 3), got {V.shape}")
+    if F.ndim != 2 or F.shape[1] != 3 or not (F.size == 0 or np.issubdtype(F.dtype, np.integer)):
+        raise MeshShapeError(f"faces must be integers of shape (m, 3), got {F.dtype} {F.shape}")
+    F = F.astype(np.int64)
+    if F.size and (F.min() < 0 or F.max() >= len(V)):
+        raise MeshIndexError(f"faces refer to vertices outside [0, {len(V)}); fix the faces")
+    n, m = len(V), len(F)
+    if suffix == ".ply":
+        header = (
+            f"ply\nformat binary_little_endian 1.0\ncomment written by fvf\nelement vertex {n}\n"
+            "property double x\nproperty double y\nproperty double z\n"
+            f"element face {m}\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+        tri = np.empty(m, dtype=[("k", "u1"), ("i", "<i4", (3,))])
+        tri["k"], tri["i"] = 3, F
+        path.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
+        return
+    if suffix == ".obj":
+        v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
+        f_text = ("f %d %d %d\n" * m) % tuple((F + 1).ravel().tolist())
+        text = f"# written by fvf: {n} vertices, {m} faces\n{v_text}{f_text}"
+    else:
+        v_text = ("%.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
+        f_text = ("3 %d %d %d\n" * m) % tuple(F.ravel().tolist())
+        text = f"OFF\n{n} {m} 0\n{v_text}{f_text}"
+    path.write_text(text, encoding="ascii")
+
+
+def _triangulate(path: Path, p: _Polygons) -> tuple[np.ndarray, int]:
+    """Check the polygons of a file and fan-triangulate them: ``(faces (m, 3), #split)``."""
+    n, counts, flat = len(p.vertices), p.counts, p.flat
+    if counts.size == 0:
+        raise MeshReadError(
+            f"{path}: the file has {n} vertices but no faces; read_mesh needs a surface "
+            "mesh, not a point cloud: export the mesh with its faces"
+        )
+    small = np.flatnonzero(counts < 3)
+    if small.size:
+        i = small[0]
+        raise MeshReadError(
+            f"{path}: {p.where(i)}: face has {counts[i]} vertices, but faces need at least 3 "
+            f"({small.size} such faces in all); remove points and edges from the face list"
+        )
+    bad = np.flatnonzero((flat < 0) | (flat >= n))
+    if bad.size:
+        face = int(np.searchsorted(np.cumsum(counts), bad[0], side="right"))
+        raise MeshReadError(
+            f"{path}: {p.where(face)}: face refers to vertex index {p.shown[bad[0]]}, but the "
+            f"file has {n} vertices (valid indices: {p.valid}); {bad.size} out-of-range "
+            "indices in all: fix the faces or the vertex list"
+        )
+    if np.all(counts == 3):
+        return flat.reshape(-1, 3), 0
+    ntri = counts - 2
+    poly = np.repeat(np.arange(counts.size), ntri)
+    first = (np.cumsum(counts) - counts)[poly]
+    j = first + np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    faces = np.column_stack([flat[first], flat[j], flat[j + 1]])
+    return faces, int(np.count_nonzero(counts > 3))
+
+
+# ---------------------------------------------------------------- text helpers
+def _statement_tokens(lines: list[str], at: list[int], key: str) -> tuple[list[str], np.ndarray]:
+    """Tokens of the OBJ statements ``lines[at]``, without the ``key`` and comments.
+
+    Returns the concatenated tokens and the token count of each line. When all lines have
+    one width and no comment, a single join + split does the work: the key then occurs once
+    per line, at multiples of the width, so the lines are aligned.
+    """
+    if not at:
+        return [], np.zeros(0, dtype=np.int64)
+    chosen = [lines[i] for i in at]
+    joined = " ".join(chosen)
+    tokens = joined.split()
+    width = len(chosen[0].split())
+    if (
+        "#" not in joined
+        and len(tokens) == width * len(at)
+        and tokens.count(key) == len(at) == tokens[::width].count(key)
+    ):
+        del tokens[::width]
+        return tokens, np.full(len(at), width - 1, dtype=np.int64)
+    return _flatten([_words(line)[1:] for line in chosen])
+
+
+def _words(line: str) -> list[str]:
+    """The whitespace-separated tokens of a line, without its ``#`` comment."""
+    return (line.split("#", 1)[0] if "#" in line else line).split()
+
+
+def _flatten(rows: list[list[str]]) -> tuple[list[str], np.ndarray]:
+    """Concatenated tokens of ``rows`` and the number of tokens of each row."""
+    return [t for row in rows for t in row], np.fromiter(map(len, rows), np.int64, len(rows))
+
+
+def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str):
+    """``np.array(tokens, kind)``; on failure a MeshReadError naming the line and the token.
+
+    ``counts[i]`` tokens come from the line ``lineno[i]``.
+    """
+    try:
+        return np.array(tokens, dtype=kind).reshape(len(tokens))
+    except (ValueError, OverflowError):
+        pass
+    for k, tok in enumerate(tokens):
+        try:
+            np.array([tok], dtype=kind)
+        except (ValueError, OverflowError):
+            line = lineno[int(np.searchsorted(np.cumsum(counts), k, side="right"))]
+            need = "an integer" if kind is np.int64 else "a number"
+            raise MeshReadError(
+                f"{path}: line {line}: cannot read {tok!r} as {need} in {what}; "
+                "fix or delete that line"
+            ) from None
+    raise MeshReadError(f"{path}: cannot convert the values of {what}; check the file")
+
+
+def _first3(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], what: str):
+    """Vertex positions, shape (k, 3), from the first three numbers of each vertex line."""
+    short = np.flatnonzero(counts < 3)
+    if short.size:
+        i = short[0]
+        raise MeshReadError(
+            f"{path}: line {lineno[i]}: {what} has {counts[i]} coordinates, but needs x y z; "
+            "fix or delete that line"
+        )
+    if np.any(counts != 3):
+        starts = (np.cumsum(counts) - counts).tolist()
+        tokens = [t for s in starts for t in tokens[s : s + 3]]
+        counts = np.full(len(counts), 3, dtype=np.int64)
+    return _numbers(path, tokens, counts, lineno, np.float64, what).reshape(-1, 3)
+
+
+# ---------------------------------------------------------------- OBJ
+def _read_obj(path: Path, data: bytes) -> _Polygons:
+    lines = data.decode("latin-1").split("\n")
+    heads = [line.lstrip() for line in lines]
+
+    def statements(key: str) -> list[int]:
+        return [i for i, s in enumerate(heads) if s[:1] == key and (len(s) == 1 or s[1].isspace())]
+
+    v_at, f_at = statements("v"), statements("f")
+    v_line, f_line = [i + 1 for i in v_at], [i + 1 for i in f_at]
+    tokens, counts = _statement_tokens(lines, v_at, "v")
+    vertices = _first3(path, tokens, counts, v_line, "an OBJ 'v' line")
+    tokens, counts = _statement_tokens(lines, f_at, "f")
+    if "/" in "".join(tokens):  # v/vt/vn: keep the v
+        tokens = [t.partition("/")[0] for t in tokens]
+    raw = _numbers(path, tokens, counts, f_line, np.int64, "an OBJ 'f' line (vertex index)")
+    v_before = np.searchsorted(np.asarray(v_line, dtype=np.int64), f_line)
+    flat = np.where(raw > 0, raw - 1, np.repeat(v_before, counts) + raw)
+    flat[raw == 0] = -1
+    valid = f"1..{len(vertices)}, or -1..-k for the k-th 'v' line before the face"
+    return _Polygons(vertices, counts, flat, raw, lambda i: f"line {f_line[i]}", valid)
+
+
+# ---------------------------------------------------------------- OFF
+def _read_off(path: Path, data: bytes) -> _Polygons:
+    lines = data.decode("latin-1").split("\n")
+    words = [_words(line) for line in lines]
+    content = [i for i, w in enumerate(words) if w]
+    if not content:
+        raise MeshReadError(f"{path}: the file holds only comments; write a mesh into it")
+    first = words[content[0]]
+    if not re.fullmatch(r"(ST)?C?N?4?OFF", first[0]) or first[1:2] == ["BINARY"]:
+        raise MeshReadError(
+            f"{path}: line {content[0] + 1}: expected the OFF header (OFF, COFF, NOFF, CNOFF, "
+            f"STOFF; ascii only) but found {' '.join(first)[:40]!r}; is it an ascii OFF file?"
+        )
+    header, rest = (first[1:], content[1:]) if len(first) > 1 else (None, content[1:])
+    count_line = content[0] + 1
+    if header is None and rest:
+        header, count_line, rest = words[rest[0]], rest[0] + 1, rest[1:]
+    nv = nf = -1
+    if header and len(header) >= 2 and all(w.isascii() and w.isdigit() for w in header[:2]):
+        nv, nf = int(header[0]), int(header[1])
+    if nv < 0:
+        raise MeshReadError(
+            f"{path}: line {count_line}: the OFF header needs the counts 'n_vertices n_faces "
+            f"n_edges' but found {' '.join(header or ['nothing'])[:40]!r}; add the counts line"
+        )
+    if len(rest) < nv + nf:
+        raise MeshReadError(
+            f"{path}: line {count_line}: the OFF header promises {nv} vertices and {nf} faces, "
+            f"but only {len(rest)} data lines follow; the file is truncated or the counts wrong"
+        )
+    v_at, f_at = rest[:nv], rest[nv : nv + nf]
+    v_line, f_line = [i + 1 for i in v_at], [i + 1 for i in f_at]
+    tokens, counts = _flatten([words[i] for i in v_at])
+    vertices = _first3(path, tokens, counts, v_line, "an OFF vertex line")
+    rows = [words[i] for i in f_at]
+    counts = np.fromiter(map(len, rows), np.int64, len(rows))
+    what = "an OFF face line (vertex count)"
+    k = _numbers(path, [r[0] for r in rows], np.ones_like(counts), f_line, np.int64, what)
+    short = np.flatnonzero((k < 0) | (counts < k + 1))
+    if short.size:
+        i = short[0]
+        raise MeshReadError(
+            f"{path}: line {f_line[i]}: the face line says it has {k[i]} vertices but lists "
+            f"only {counts[i] - 1} values; write 'k i0 ... i(k-1)' on one line"
+        )
+    idx = [t for r, c in zip(rows, k.tolist(), strict=True) for t in r[1 : 1 + c]]
+    flat = _numbers(path, idx, k, f_line, np.int64, "an OFF face line (vertex index)")
+    valid = f"0..{len(vertices) - 1}"
+    return _Polygons(vertices, k, flat, flat, lambda i: f"line {f_line[i]}", valid)
+
+
+# ---------------------------------------------------------------- PLY
+class _Prop(NamedTuple):
+    name: str
+    code: str  # numpy type code without byte order, e.g. "f4"
+    count: str | None  # type code of a list's length, None for scalars
+
+
+class _Element(NamedTuple):
+    name: str
+    size: int
+    props: list[_Prop]
+
+
+def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]:
+    """Parse the header: ``(format, elements, byte offset of the body, its line number)``."""
+    lines, pos = [], 0
+    while not lines or lines[-1] != "end_header":
+        nl = data.find(b"\n", pos)
+        if nl < 0:
+            raise MeshReadError(
+                f"{path}: the PLY header has no 'end_header' line; the file is truncated or "
+                "not a PLY file"
+            )
+        lines.append(data[pos:nl].decode("latin-1").strip())
+        pos = nl + 1
+        if lines[0] != "ply":
+            raise MeshReadError(f"{path}: line 1: a PLY file starts with 'ply', not {lines[0]!r}")
+    fmt, elements = None, []
+    for ln, line in enumerate(lines[1:-1], 2):
+        w = line.split()
+        kind = w[0] if w else "comment"
+        if kind in ("comment", "obj_info"):
+            continue
+        if kind == "format" and len(w) == 3 and w[1] in _PLY_FORMATS:
+            fmt = w[1]
+        elif kind == "element" and len(w) == 3 and w[2].isascii() and w[2].isdigit():
+            elements.append(_Element(w[1], int(w[2]), []))
+        elif kind == "property" and elements and len(w) == 3 and w[1] in _PLY_TYPES:
+            elements[-1].props.append(_Prop(w[2], _PLY_TYPES[w[1]], None))
+        elif (kind == "property" and elements and len(w) == 5 and w[1] == "list"
+              and _PLY_TYPES.get(w[2], "f")[0] in "iu" and w[3] in _PLY_TYPES):  # fmt: skip
+            elements[-1].props.append(_Prop(w[4], _PLY_TYPES[w[3]], _PLY_TYPES[w[2]]))
+        else:
+            raise MeshReadError(
+                f"{path}: line {ln}: cannot understand the PLY header line {line[:60]!r}; "
+                f"expected 'format <{'|'.join(_PLY_FORMATS)}> 1.0', 'element <name> <count>' "
+                "or 'property [list <count type>] <type> <name>' with types "
+                f"{', '.join(_PLY_TYPES)}"
+            )
+    if fmt is None:
+        raise MeshReadError(f"{path}: the PLY header has no 'format' line; add one")
+    return fmt, elements, pos, len(lines) + 1
+
+
+def _read_ply(path: Path, data: bytes) -> _Polygons:
+    values, where, face_list = _parse_ply(path, data)
+    vertices = np.column_stack([values["vertex"][c] for c in "xyz"]).astype(np.float64)
+    counts, flat = values["face"][face_list]
+    return _Polygons(vertices, counts, flat, flat, where, f"0..{len(vertices) - 1}")
+
+
+def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str]:
+    """Check and parse a PLY file: ``({element: {property: values}}, where, face list name)``.
+
+    Scalar properties are 1-D arrays; the face index list is ``(counts, flat)``.
+    """
+    fmt, elements, pos, line0 = _ply_header(path, data)
+    byname = {}
+    for el in elements:
+        byname.setdefault(el.name, el)
+    if "vertex" not in byname:
+        raise MeshReadError(f"{path}: the PLY header declares no 'vertex' element; add one")
+    xyz = {p.name: p for p in byname["vertex"].props if p.count is None}
+    if not {"x", "y", "z"} <= set(xyz):
+        raise MeshReadError(
+            f"{path}: the PLY 'vertex' element needs scalar properties x, y and z; "
+            f"it has {[p.name for p in byname['vertex'].props]}"
+        )
+    face = byname.get("face")
+    lists = [p.name for p in face.props if p.count and p.name in _FACE_LISTS] if face else []
+    if not lists:
+        raise MeshReadError(
+            f"{path}: the PLY file has no 'face' element with a 'vertex_indices' (or "
+            "'vertex_index') list property, so it has no faces; read_mesh needs a surface mesh"
+        )
+    if fmt == "ascii":
+        values, where = _ply_ascii(path, data[pos:], elements, line0)
+    else:
+        values, where = _ply_binary(path, data, pos, elements, _PLY_FORMATS[fmt])
+    return values, where, lists[0]
+
+
+def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
+    """Parse an ascii PLY body: one element record per non-blank line."""
+    lines = body.decode("latin-1").split("\n")
+    at = [i for i, line in enumerate(lines) if line.strip()]
+    values, cursor, face_line = {}, 0, []
+    for el in elements:
+        chunk = at[cursor : cursor + el.size]
+        if len(chunk) < el.size:
+            raise MeshReadError(
+                f"{path}: the ascii PLY body ends after {len(chunk)} of the {el.size} "
+                f"'{el.name}' lines; the file is truncated or the header count is wrong"
+            )
+        cursor += el.size
+        if el.name not in ("vertex", "face") or el.name in values:
+            continue
+        # every scalar property (read_ply_properties wants them) and the face index list
+        keep = {
+            p.name: []
+            for p in el.props
+            if p.count is None or (el.name == "face" and p.name in _FACE_LISTS)
+        }
+        lineno = [i + line0 for i in chunk]
+        for i, ln in zip(chunk, lineno, strict=True):
+            t, c = lines[i].split(), 0
+            for p in el.props:
+                if p.count is None:
+                    v, c = t[c : c + 1], c + 1
+                else:
+                    n = int(t[c]) if c < len(t) and re.fullmatch("[0-9]+", t[c]) else -1
+                    if n < 0:
+                        raise MeshReadError(
+                            f"{path}: line {ln}: the list length of '{el.name}' property "
+                            f"'{p.name}' must be a non-negative integer, not {t[c : c + 1]}"
+                        )
+                    v, c = t[c + 1 : c + 1 + n], c + 1 + n
+                if p.name in keep:
+                    keep[p.name].append(v)
+            if c != len(t):
+                raise MeshReadError(
+                    f"{path}: line {ln}: the '{el.name}' line has {len(t)} values but its "
+                    f"header properties describe {c}; fix the line or the header"
+                )
+        out = {}
+        for name, rows in keep.items():
+            n = np.fromiter(map(len, rows), np.int64, len(rows))
+            is_list = name in _FACE_LISTS and el.name == "face"
+            kind = np.int64 if is_list else np.float64
+            what = f"the '{el.name}' property '{name}'"
+            flat = _numbers(path, [x for v in rows for x in v], n, lineno, kind, what)
+            out[name] = (n, flat) if is_list else flat
+        values[el.name] = out
+        if el.name == "face":
+            face_line = lineno
+    return values, lambda i: f"line {face_line[i]} (face {i})"
+
+
+def _ply_binary(path: Path, data: bytes, pos: int, elements: list[_Element], order: str):
+    """Parse a binary PLY body with structured dtypes (Python loop only for mixed lists)."""
+    values = {}
+    for el in elements:
+        out, pos = _binary_element(path, data, pos, el, order)
+        values.setdefault(el.name, out)
+    return values, lambda i: f"face {i} (0-based) of the binary PLY"
+
+
+def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str):
+    """Read the records of one element at byte ``pos``: ``({name: values}, end)``."""
+    if el.size == 0 or not el.props:
+        empty = np.zeros(0, dtype=np.int64)
+        return {p.name: (empty, empty) if p.count else empty for p in el.props}, pos
+    # Guess that every record has the list lengths of the first one; check afterwards.
+    fields, at = [], pos
+    for i, p in enumerate(el.props):
+        if p.count is None:
+            fields.append((f"s{i}", order + p.code))
+            at += int(p.code[1])
+            continue
+        if at + int(p.count[1]) > len(data):
+            break
+        k = int(np.frombuffer(data, order + p.count, 1, at)[0])
+        if k <= 0 or at + k * int(p.code[1]) > len(data):
+            break
+        fields += [(f"c{i}", order + p.count), (f"l{i}", order + p.code, (k,))]
+        at += int(p.count[1]) + k * int(p.code[1])
+    else:
+        dtype = np.dtype(fields)
+        if pos + dtype.itemsize * el.size <= len(data):
+            rec = np.frombuffer(data, dtype, el.size, pos)
+            same = [
+                np.all(rec[f"c{i}"] == rec[f"c{i}"][0]) for i, p in enumerate(el.props) if p.count
+            ]
+            if all(same):
+                out = {}
+                for i, p in enumerate(el.props):
+                    if p.count is None:
+                        out[p.name] = rec[f"s{i}"]
+                    else:
+                        lst = rec[f"l{i}"]
+                        counts = np.full(el.size, lst.shape[1], dtype=np.int64)
+                        out[p.name] = (counts, lst.astype(np.int64).reshape(-1))
+                return out, pos + dtype.itemsize * el.size
+    return _binary_element_slow(path, data, pos, el, order)
+
+
+def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order: str):
+    """Find each record's property offsets in a loop, then gather the values with numpy.
+
+    For lists whose lengths vary (mixed polygons), and to report truncated files.
+    """
+    end, starts, lengths = len(data), [[] for _ in el.props], [[] for _ in el.props]
+    steps = [
+        (starts[j], lengths[j], int(p.code[1]), p.count and struct.Struct(order + _STRUCT[p.count]))
+        for j, p in enumerate(el.props)
+    ]
+    for r in range(el.size):
+        for at, length, size, count in steps:
+            at.append(pos)
+            if not count:
+                pos += size
+                continue
+            k = count.unpack_from(data, pos)[0] if pos + count.size <= end else 0
+            if k < 0:
+                raise MeshReadError(
+                    f"{path}: binary PLY element '{el.name}' record {r}: a list has negative "
+                    f"length {k}; the file is corrupt, re-export it"
+                )
+            length.append(k)
+            pos += count.size + k * size
+        if pos > end:
+            raise MeshReadError(
+                f"{path}: binary PLY ends early: element '{el.name}' record {r} of {el.size} "
+                f"needs {pos} bytes, but the file has {end}; the file is truncated or the "
+                "header's counts are wrong: re-export the mesh"
+            )
+    raw, out = np.frombuffer(data, np.uint8), {}
+    for p, at, k in zip(el.props, starts, lengths, strict=True):
+        at = np.asarray(at, dtype=np.int64)
+        if p.count:
+            k = np.asarray(k, dtype=np.int64)
+            nth = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+            at = np.repeat(at + int(p.count[1]), k) + nth * int(p.code[1])
+        values = raw[at[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
+        out[p.name] = (k, values.astype(np.int64)) if p.count else values
+    return out, pos
+
+
+_READERS: dict[str, Callable[[Path, bytes], _Polygons]] = {
+    ".obj": _read_obj,
+    ".off": _read_off,
+    ".ply": _read_ply,
+}

@@ -1,0 +1,47 @@
+"""Meshes: the validated :class:`TriMesh`, checks of user arrays against it, repairs,
+diagnostics, generated shapes and the built-in meshes.
+
+Where things go: a new mesh quality check goes to :mod:`.diagnostics`, a new repair to
+:mod:`.repair`, a new generated surface to :mod:`.shapes`.
+"""
+
+from .builtin import spot, spot_path
+from .diagnostics import mesh_report
+from .inputs import as_face_field, as_face_function, as_vertex_function
+from .repair import (
+    RepairResult,
+    orient_faces,
+    remove_degenerate_faces,
+    remove_duplicate_faces,
+    remove_duplicate_vertices,
+    remove_unreferenced_vertices,
+    repair_mesh,
+    split_nonmanifold_edges,
+    split_nonmanifold_vertices,
+)
+from .shapes import disk, icosphere, jittered_sphere, midpoint_subdivision, torus
+from .trimesh import TriMesh
+
+__all__ = [
+    "TriMesh",
+    "as_vertex_function",
+    "as_face_function",
+    "as_face_field",
+    "RepairResult",
+    "repair_mesh",
+    "remove_unreferenced_vertices",
+    "remove_duplicate_vertices",
+    "remove_degenerate_faces",
+    "remove_duplicate_faces",
+    "orient_faces",
+    "split_nonmanifold_vertices",
+    "split_nonmanifold_edges",
+    "mesh_report",
+    "icosphere",
+    "jittered_sphere",
+    "torus",
+    "disk",
+    "midpoint_subdivision",
+    "spot",
+    "spot_path",
+]

@@ -1,0 +1,8 @@
+"""Numerical kernels that know nothing about meshes: the action of the matrix exponential
+(:mod:`.expm`), symmetric eigensolvers (:mod:`.eigen`, :mod:`.multilevel`) and
+fill-reducing orderings (:mod:`.ordering`). Reusable and testable alone."""
+
+from .eigen import eigen_residuals, smallest_eigenpairs
+from .expm import expm_action
+
+__all__ = ["expm_action", "smallest_eigenpairs", "eigen_residuals"]
