@@ -5,7 +5,16 @@ A new mesh format goes to :mod:`.meshfile` (a reader returning float64 (n, 3) ve
 int64 (m, 3) faces, and a writer); a new data format to :mod:`.datafile`.
 """
 
+from .atomic import atomic_path
 from .datafile import DataFile, read_data, write_data
 from .meshfile import read_mesh, read_ply_properties, write_mesh
 
-__all__ = ["read_mesh", "write_mesh", "read_ply_properties", "DataFile", "read_data", "write_data"]
+__all__ = [
+    "read_mesh",
+    "write_mesh",
+    "read_ply_properties",
+    "DataFile",
+    "read_data",
+    "write_data",
+    "atomic_path",
+]
