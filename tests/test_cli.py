@@ -541,3 +541,22 @@ def test_several_data_files_are_merged(work, capsys):
                  "--t", "1", "-o", str(out)]) == 2  # fmt: skip
     err = capsys.readouterr().err  # the message names the file the bad key came from
     assert one_line_error(err) and "bad_f.npz: key 'f' has shape (5,)" in err
+
+
+def test_flow_that_grew_exits_5_and_names_the_cli_options(tmp_path, capsys):
+    """A compressible chapter flow that blows up is written but never reported as
+    success: exit status 5, and the advice names the command's options."""
+    from conftest import shared_mesh_path
+
+    mesh, v, f0 = fvf.mesh.builtin.compressible_case(
+        fvf.TriMesh(*fvf.read_mesh(shared_mesh_path("lion-00.off")))
+    )
+    fvf.write_mesh(tmp_path / "lion.off", mesh.vertices, mesh.faces)
+    np.savez(tmp_path / "data.npz", f=f0, v=v)
+    args = ["flow", str(tmp_path / "lion.off"), str(tmp_path / "data.npz"), "--t", "0.05"]
+    status = main([*args, "-o", str(tmp_path / "grew.npz")])
+    err = capsys.readouterr().err
+    assert status == 5 and (tmp_path / "grew.npz").exists()
+    assert "--growth-limit inf" in err and "--method upwind" in err and "np.inf" not in err
+    assert main([*args, "--growth-limit", "inf", "-o", str(tmp_path / "ok.npz")]) == 0
+    assert main([*args, "--method", "upwind", "-o", str(tmp_path / "up.npz")]) == 0

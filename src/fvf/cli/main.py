@@ -23,7 +23,15 @@ import warnings
 from pathlib import Path
 from typing import NoReturn
 
-__all__ = ["main", "EXIT_OK", "EXIT_PROBLEMS", "EXIT_BAD_INPUT", "EXIT_UNAVAILABLE", "EXIT_FAILED"]
+__all__ = [
+    "main",
+    "EXIT_OK",
+    "EXIT_PROBLEMS",
+    "EXIT_BAD_INPUT",
+    "EXIT_UNAVAILABLE",
+    "EXIT_FAILED",
+    "EXIT_GREW",
+]
 
 EXIT_OK = 0
 #: ``fvf info`` found problems in the mesh.
@@ -34,9 +42,13 @@ EXIT_BAD_INPUT = 2
 EXIT_UNAVAILABLE = 3
 #: The computation failed (e.g. a flow overflowed to inf).
 EXIT_FAILED = 4
+#: A flow or transport grew a function or field beyond ``--growth-limit``: the output was
+#: written, but it is not a trustworthy result (``--growth-limit inf`` accepts it).
+EXIT_GREW = 5
 
 _EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input,
-3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed.
+3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
+5 the result grew beyond --growth-limit (written; --growth-limit inf accepts it).
 Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md."""
 
 
@@ -255,12 +267,14 @@ def _cmd_transport(args) -> int:
     data = _load_data(args.data, mesh)
     v, u = data.field(args.field, mesh), data.field(args.transported, mesh)
     t = _times(args, data)
+    growth = {} if args.growth_limit is None else {"growth_limit": args.growth_limit}
     arrays = {"v": v, "u": u, "t": t}
     if args.to is not None or "u1" in data:
         u1 = data.field(args.to or "u1", mesh)
-        arrays.update(u1=u1, u_t=fvf.interpolate(mesh, v, u, u1, t), mode=_str("interpolate"))
+        u_t = fvf.interpolate(mesh, v, u, u1, t, **growth)
+        arrays.update(u1=u1, u_t=u_t, mode=_str("interpolate"))
     else:
-        result = fvf.FieldTransport(mesh, v)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
+        result = fvf.FieldTransport(mesh, v, **growth)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
     _write(args, args.output, arrays, mesh, args.data)
     return EXIT_OK
@@ -462,7 +476,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--field", default="v", metavar="KEY", help="field key (default v)")
     p.add_argument("--k", type=int, help="eigenfunctions of --method spectral (default 50)")
     p.add_argument("--dt", type=float, help="step length of --method cayley")
-    p.add_argument("--growth-limit", type=float, help="warn above this norm growth")
+    p.add_argument(
+        "--growth-limit", type=float, help="exit 5 above this norm growth (default 100; inf: never)"
+    )
     p.add_argument("-o", "--output", required=True, help="output .npz (keys f_t (T,n)|(T,k,n))")
     p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
     p.set_defaults(run=_cmd_flow)
@@ -493,6 +509,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
     p.add_argument("--transported", default="u", metavar="KEY", help="moved field (default u)")
     p.add_argument("--to", metavar="KEY", help="end field: interpolate (default u1 if present)")
+    p.add_argument(
+        "--growth-limit", type=float, help="exit 5 above this L2 growth (default 100; inf: never)"
+    )
     p.add_argument("-o", "--output", required=True, help="output .npz (key u_t (T,m,3))")
     p.set_defaults(run=_cmd_transport)
 
@@ -553,21 +572,44 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split()) or type(exc).__name__
 
 
+#: Python spellings in the library's messages and the command's options that say the same.
+_CLI_SPELLINGS = (
+    ("pass growth_limit=np.inf to accept it", "pass --growth-limit inf to accept it"),
+    ("pass growth_limit=np.inf to silence this", "pass --growth-limit inf to accept it"),
+    ("growth_limit=np.inf", "--growth-limit inf"),
+    ("method='upwind'", "--method upwind"),
+    ("raise max_products", "shorten --t"),
+)
+
+
+def _cli_words(text: str) -> str:
+    """A library message in the command's words (its options, not Python keywords)."""
+    for python, cli in _CLI_SPELLINGS:
+        text = text.replace(python, cli)
+    return text
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    text = f"fvf: warning: {category.__name__}: {' '.join(str(message).split())}"
+    from fvf.errors import FlowGrowthWarning
+
+    if issubclass(category, FlowGrowthWarning):
+        _GREW.append(str(message))
+    text = f"fvf: warning: {category.__name__}: {_cli_words(' '.join(str(message).split()))}"
     if text not in _SHOWN:  # once per distinct message, wherever it was raised
         _SHOWN.add(text)
         print(text, file=sys.stderr)
 
 
 _SHOWN: set[str] = set()
+_GREW: list[str] = []
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the ``fvf`` command with ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
     Exit status: :data:`EXIT_OK` (0), :data:`EXIT_PROBLEMS` (1, ``info`` found problems),
-    :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3), :data:`EXIT_FAILED` (4).
+    :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3), :data:`EXIT_FAILED` (4),
+    :data:`EXIT_GREW` (5, a flow grew beyond ``--growth-limit``; the output was written).
     """
     import numpy as np
 
@@ -578,11 +620,22 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
     _SHOWN.clear()
+    _GREW.clear()
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _show_warning
         try:
-            return args.run(args)
+            status = args.run(args)
+            if status == EXIT_OK and _GREW:
+                print(
+                    "fvf: error: the result grew beyond --growth-limit (see the warning); it "
+                    "was written, but do not trust it: use --method upwind (bounded on every "
+                    "mesh, with or without boundary), shorter times, or pass --growth-limit "
+                    "inf to accept it",
+                    file=sys.stderr,
+                )
+                return EXIT_GREW
+            return status
         except Exception as exc:
             if args.debug:
                 raise
@@ -594,7 +647,7 @@ def main(argv: list[str] | None = None) -> int:
                 status = EXIT_BAD_INPUT
             else:
                 raise
-            print(f"fvf: error: {_one_line(exc)}", file=sys.stderr)
+            print(f"fvf: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
             return status
         except KeyboardInterrupt:
             print("fvf: interrupted", file=sys.stderr)

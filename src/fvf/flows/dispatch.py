@@ -41,6 +41,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..calculus import div
 from ..errors import (
     FlowGrowthWarning,
     FlowOverflowError,
@@ -50,9 +51,15 @@ from ..errors import (
 )
 from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
-from ..numerics.expm import as_times, expm_action
+from ..numerics.expm import MAX_PRODUCTS, as_times, expm_action
 from ..operators.directional import directional_derivatives
-from .functional import GROWTH_LIMIT, FunctionalFlow, hotspots
+from .functional import (
+    GROWTH_LIMIT,
+    FunctionalFlow,
+    check_growth_limit,
+    hotspots,
+    observed_growth,
+)
 
 __all__ = [
     "METHODS",
@@ -73,16 +80,11 @@ DEFAULT_COURANT = 0.5
 #: Largest Poisson mean q·t per uniformization chunk (e^{−q t} stays far from underflow).
 _UNIFORMIZATION_CHUNK = 300.0
 
-#: Most time steps a Cayley flow takes in one call.
-MAX_STEPS = 1e8
-#: Largest q·t of an upwind flow (about that many products with the stochastic matrix).
-MAX_UNIFORMIZATION = 1e9
-
 _OPTIONS = {
-    "chapter": {"growth_limit", "expm", "tol"},
-    "upwind": set(),
-    "skew": {"growth_limit", "expm", "tol"},
-    "cayley": {"growth_limit", "dt", "courant", "operator"},
+    "chapter": {"growth_limit", "expm", "tol", "max_products", "progress"},
+    "upwind": {"max_products"},
+    "skew": {"growth_limit", "expm", "tol", "max_products", "progress"},
+    "cayley": {"growth_limit", "dt", "courant", "operator", "max_products"},
     "spectral": {"k", "basis"},
 }
 
@@ -225,11 +227,6 @@ class _Uniformization:
         if self.P is None or t == 0.0:
             return f.copy()
         lam = self.q * t
-        if not lam <= MAX_UNIFORMIZATION:
-            raise FlowOverflowError(
-                f"the upwind flow to t={t:g} needs about {lam:.3g} products (rate "
-                f"q={self.q:.3g} x t; more than {MAX_UNIFORMIZATION:.0e}); shorten t"
-            )
         chunks = max(1, math.ceil(lam / _UNIFORMIZATION_CHUNK))
         w = _poisson_weights(lam / chunks)
         w = w / w.sum()
@@ -327,7 +324,10 @@ class TransportFlow:
         self.mesh = mesh
         self.method = method
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.growth_limit = float(options.get("growth_limit", GROWTH_LIMIT))
+        self.growth_limit = check_growth_limit(options.get("growth_limit", GROWTH_LIMIT))
+        self.max_products = float(options.get("max_products", MAX_PRODUCTS))
+        if not self.max_products > 0:
+            raise ParameterError(f"max_products must be > 0; got {self.max_products!r}")
         self.stats: dict[str, Any] = {"matvecs": 0, "steps": 0, "factorizations": 0}
         self._chapter: FunctionalFlow | None = None
         self._lu: dict[float, Any] = {}
@@ -340,6 +340,7 @@ class TransportFlow:
                 tangent="ignore",
                 method=options.get("expm", "auto"),
                 tol=options.get("tol", 1e-10),
+                **{k: options[k] for k in ("max_products", "progress") if k in options},
             )
             self.operator = self._chapter.operator
         elif method == "upwind":
@@ -348,11 +349,7 @@ class TransportFlow:
         elif method == "skew":
             self.operator = skew_operator(mesh, self.field, tangent="ignore")
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
-            # [A_V] S + Sᵀ [A_V] = −[A_V][div v] and S_ii = −½ (div v)_i: S is A_V-skew
-            # exactly when its diagonal vanishes; then "auto" uses Lanczos (norm to round-off)
-            scale = float(abs(self.operator).max()) if self.operator.nnz else 0.0
-            diag = float(np.abs(self.operator.diagonal()).max()) if mesh.n_vertices else 0.0
-            self._expm["skew"] = True if diag <= 1e-12 * scale else None
+            self._expm.update({k: options[k] for k in ("max_products", "progress") if k in options})
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
@@ -435,24 +432,24 @@ class TransportFlow:
         with np.errstate(over="ignore"):
             return float(np.exp(mu * abs(t)))
 
-    def _warn_growth(self, t_extreme: float) -> None:
-        bound = self.growth_bound(t_extreme)
-        if bound <= self.growth_limit:
+    def _warn_growth(self, growth: tuple[float, float], t_extreme: float) -> None:
+        """Warn once if the call grew a function's A_V-norm or max norm beyond
+        ``growth_limit``."""
+        if not max(growth) > self.growth_limit:
             return
-        dv = self._divergence if self._chapter is None else None
-        where = ""
-        if dv is not None:
-            worst, faces = hotspots(self.mesh, dv if t_extreme >= 0 else -dv)
-            where = (
-                f" The law d/dt ‖f‖² = ⟨f, [div v] f⟩ allows it: div v reaches "
-                f"{(dv if t_extreme >= 0 else -dv).max():.3g} at vertices "
-                f"{format_indices(worst)}, in faces {format_indices(faces)}."
-            )
+        dv = div(self.mesh) @ self.field.ravel()
+        score = dv if t_extreme >= 0 else -dv
+        worst, faces = hotspots(self.mesh, score)
+        where = (
+            f" div v reaches {score.max():.3g} at vertices {format_indices(worst)}, in faces "
+            f"{format_indices(faces)}."
+        )
         warnings.warn(
-            f"the {self.method} flow to t={t_extreme:g} may grow a function's A_V-norm by "
-            f"up to {bound:.3g}x (limit {self.growth_limit:g}).{where} For compressible "
-            "fields use method='upwind' (bounded by [min f_0, max f_0] on every mesh); "
-            "pass growth_limit=np.inf to silence this.",
+            f"the {self.method} flow to t={t_extreme:g} grew a function's A_V-norm by "
+            f"{growth[0]:.3g}x and its largest value by {growth[1]:.3g}x (limit "
+            f"{self.growth_limit:g}).{where} For compressible fields "
+            "use method='upwind' (bounded by [min f_0, max f_0] on every mesh); pass "
+            "growth_limit=np.inf to accept it.",
             FlowGrowthWarning,
             stacklevel=user_stacklevel(),
         )
@@ -465,11 +462,6 @@ class TransportFlow:
     def _steps(self, dt_total: float) -> tuple[int, float]:
         with np.errstate(over="ignore", divide="ignore"):
             ratio = abs(dt_total) / self.dt
-        if not ratio <= MAX_STEPS:
-            raise FlowOverflowError(
-                f"the Cayley flow to t={dt_total:g} needs {ratio:.3g} steps of dt={self.dt:.3g} "
-                f"(more than {MAX_STEPS:.0e}); shorten t or pass a larger dt"
-            )
         steps = max(1, math.ceil(ratio * (1 - 1e-12)))
         return steps, dt_total / steps
 
@@ -524,10 +516,7 @@ class TransportFlow:
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
-        if self.method in ("skew", "cayley"):
-            for extreme in (times.max(), times.min()):
-                if extreme != 0:
-                    self._warn_growth(float(extreme))
+        self._check_work(times, f0)
         if self.method == "upwind":
             out = _chain(f0, times, self._advance_upwind)
         elif self.method == "skew":
@@ -545,10 +534,35 @@ class TransportFlow:
             out = self._spectral(f0, times)
         if not np.isfinite(out).all():
             raise FlowOverflowError(
-                f"the {self.method} flow overflowed (growth bound "
-                f"{self.growth_bound(float(times.max())):.3g}); use method='upwind'."
+                f"the {self.method} flow overflowed to inf/NaN; use method='upwind' (bounded "
+                "by [min f_0, max f_0] on every mesh) or shorter times."
             )
+        if self.method in ("skew", "cayley") and times.size:
+            extreme = float(times[np.argmax(np.abs(times))])
+            self._warn_growth(observed_growth(self.mesh.vertex_areas, f0, out), extreme)
         return out[0] if scalar else out
+
+    def _check_work(self, times: np.ndarray, f0: np.ndarray) -> None:
+        """Refuse an upwind or Cayley flow estimated to take more than ``max_products``
+        products (the other methods bound their own work)."""
+        if self.method not in ("upwind", "cayley") or times.size == 0:
+            return
+        plus = float(max(times.max(), 0.0))
+        minus = float(max(-times.min(), 0.0))
+        columns = f0.reshape(f0.shape[0], -1).shape[1]
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            if self.method == "upwind":
+                rate = self._upwind[1.0].q
+                work, what = rate * (plus + minus) * columns, f"rate {rate:.3g} x |t|"
+            else:
+                work, what = (plus + minus) / self.dt * columns, f"steps of dt={self.dt:.3g}"
+        if not work <= self.max_products:
+            raise FlowOverflowError(
+                f"the {self.method} flow to t={max(plus, minus):g} needs about {work:.3g} "
+                f"products ({what}, {columns} column(s)), more than "
+                f"max_products={self.max_products:.3g}. Shorten t, flow fewer times or "
+                "columns, or raise max_products."
+            )
 
     def _spectral(self, f0: np.ndarray, times: np.ndarray) -> np.ndarray:
         cols = f0.reshape(f0.shape[0], -1)
@@ -604,7 +618,12 @@ def flow(
           Laplace–Beltrami eigenfunctions, or in a given ``basis``
           (:class:`fvf.SpectralBasis`); f is projected onto the basis first.
     **options
-        Method options as listed; others raise :class:`TypeError`.
+        Method options as listed; others raise :class:`TypeError`. Every method but
+        ``"spectral"`` also takes ``max_products`` (default
+        :data:`fvf.numerics.expm.MAX_PRODUCTS`): a call estimated to take more products
+        with the n x n operator is refused before it starts
+        (:class:`~fvf.errors.FlowOverflowError`, naming the estimate); ``"chapter"`` and
+        ``"skew"`` take ``progress`` (a callable receiving the fraction done).
 
     Returns
     -------
@@ -614,7 +633,15 @@ def flow(
     Raises
     ------
     ParameterError
-        Unknown method (the message lists the methods), bad times.
+        Unknown method (the message lists the methods), bad times or options.
+    FlowOverflowError
+        The flow overflowed to inf/NaN, or its estimated work exceeds ``max_products``.
+
+    Warns
+    -----
+    FlowGrowthWarning
+        When the call grew a function's A_V-norm or its largest value by more than
+        ``growth_limit`` ("chapter", "skew", "cayley").
 
     Examples
     --------

@@ -39,7 +39,7 @@ from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
 from ..operators.brackets import ad
-from .functional import GROWTH_LIMIT
+from .functional import GROWTH_LIMIT, check_growth_limit
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
 
@@ -219,7 +219,7 @@ class FieldTransport:
         method, tol = check_options(method, tol)
         self.method = method
         self.tol = float(tol)
-        self.growth_limit = float(growth_limit)
+        self.growth_limit = check_growth_limit(growth_limit)
         self.stats: dict = {}
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg as sla
 
 from ..calculus import grad, rotate, stiffness, vertex_to_face
 from ..errors import FieldShapeError, ParameterError
@@ -23,6 +22,7 @@ from ..flows.functional import FunctionalFlow
 from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
+from ..numerics.expm import dense_expm_action
 
 __all__ = [
     "SpectralBasis",
@@ -207,7 +207,7 @@ class SpectralBasis:
         Dhat = self.reduced_D(v, tangent="ignore")
         c0 = self.project(f)
         times = np.atleast_1d(np.asarray(t, dtype=float))
-        coeffs = np.stack([sla.expm(-s * Dhat) @ c0 for s in times])  # (T, k)
+        coeffs = dense_expm_action(-Dhat, c0, times)  # (T, k): one eigen-decomposition
         out = coeffs @ self.eigenvectors.T  # (T, n)
         if not error_estimate:
             return out[0] if np.ndim(t) == 0 else out
@@ -220,7 +220,7 @@ class SpectralBasis:
         for T in times:
             mu = phi.growth_rate[0] if T >= 0 else phi.growth_rate[1]
             s = np.linspace(0.0, abs(T), n_quadrature)
-            cs = np.stack([sla.expm(-np.sign(T) * si * Dhat) @ c0 for si in s])  # (q, k)
+            cs = dense_expm_action(-np.sign(T) * Dhat, c0, s)  # (q, k)
             leak = np.sqrt(np.einsum("i,qi->q", a, (cs @ R.T) ** 2))  # (q,)
             weights = np.exp(mu * (abs(T) - s)) * leak
             errs.append(np.exp(mu * abs(T)) * norm0 + np.trapezoid(weights, s))
