@@ -10,8 +10,8 @@ the times).
 
 Growth. For rotated gradients v = J grad g, [A_V] D^V_v is skew-symmetric and the flow
 keeps the A_V-norm. For other fields the discrete flow can grow a function's norm by
-many orders of magnitude on fine or irregular meshes (``docs/notes.md``,
-CHAPTER.md "Facts we measured"). Before flowing, :class:`FunctionalFlow` estimates the
+many orders of magnitude on fine or irregular meshes (``docs/notes.md``;
+``docs/chapter.md``, "Facts we measured"). Before flowing, :class:`FunctionalFlow` estimates the
 A_V-logarithmic norm μ of −D^V_v (the largest eigenvalue of its A_V-symmetric part, by
 a few Lanczos steps); ‖f(t)‖_{A_V} ≤ e^{μ t} ‖f_0‖_{A_V} for every f_0 and t ≥ 0.
 When this bound exceeds ``growth_limit`` (default :data:`GROWTH_LIMIT`) a
@@ -301,7 +301,7 @@ class FunctionalFlow:
             tol=self.tol,
             inner=self.mesh.vertex_areas,
             skew=self._skew_argument,
-            method=method,
+            method=method,  # type: ignore[arg-type]  # expm_action checks the name
             skew_norm=bound,
             return_info=True,
         )
