@@ -48,7 +48,8 @@ def test_times_array_matches_scalars(sphere):
 
 
 def test_divergence_free_flow_keeps_norm(closed):
-    """A_V D^V_v is skew for v = J grad g, so ‖Φ_t f‖_{A_V} = ‖f‖_{A_V} (CHAPTER.md facts)."""
+    """A_V D^V_v is skew for v = J grad g, so ‖Φ_t f‖_{A_V} = ‖f‖_{A_V} (docs/chapter.md,
+    "Facts we measured")."""
     f, g, _ = smooth_functions(closed)
     v = fvf.rotate(closed, fvf.gradient(closed, g))
     v /= np.sqrt((closed.face_areas * (v * v).sum(1)).sum() / closed.total_area)  # unit RMS
@@ -64,7 +65,8 @@ def _lion_setup(name):
 
 
 def test_growth_warning_fires_on_lion():
-    """CHAPTER.md facts: on lion-00 the flow of grad x blows up by t = 0.1; we warn first."""
+    """docs/chapter.md, "Facts we measured": on lion-00 the flow of grad x blows up by
+    t = 0.1; we warn first."""
     mesh, v, f0 = _lion_setup("lion-00.off")
     phi = fvf.FunctionalFlow(mesh, v)
     assert phi.growth_bound(0.1) > 1e10
@@ -83,7 +85,7 @@ def test_growth_warning_fires_on_lion():
     assert phi.stats["method"] == "iom" and phi.stats["wasted_matvecs"] == 0
     # the series, asked for: with R the rigorous bound (1.11x the estimate) its terms grew
     # past its rounding limit and it gave way to Krylov; with R = 1.02x the estimate of
-    # ||K|| (session 9) it needs 107 terms and holds, 7.8e-12 from expm_multiply
+    # ||K|| it needs 107 terms and holds, 7.8e-12 from expm_multiply
     cheb = fvf.FunctionalFlow(mesh, v, method="chebyshev")
     with pytest.warns(fvf.FlowGrowthWarning):
         assert rel(cheb(f0, 0.05), ft) < 1e-10
