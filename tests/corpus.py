@@ -1,4 +1,4 @@
-"""The hostile-input corpus of issue 7: meshes and fields that real data will throw at fvf.
+"""The hostile-input corpus: meshes and fields that real data will throw at fvf.
 
 Three kinds of entries, each a function returning named entries (so nothing is built at
 import time and a test can ask for one entry by name):

@@ -225,7 +225,7 @@ def test_new_methods_on_lion():
     change, integral = _gauss_law(mesh, phi, f0, 0.005, nodes=30)
     # the change is 1.7e-5 ‖f_0‖²; the law holds to round-off of ‖f‖² (W-norm errors of
     # f(t) here are 2e-14 relative whichever Krylov kernels run, and 2⟨f, e⟩ gave 2e-15
-    # or 2.6e-14 of ‖f‖² by the numpy and the compiled ones: docs/notes.md, session 10)
+    # or 2.6e-14 of ‖f‖² by the numpy and the compiled ones)
     assert abs(change) > 1e-5 * sq_norm(mesh, f0)
     assert abs(change - integral) < 1e-12 * sq_norm(mesh, f0)
     assert sq_norm(mesh, phi(f0, 0.005)) <= np.exp(2 * phi.growth_rate[0] * 0.005) * sq_norm(

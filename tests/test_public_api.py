@@ -1,4 +1,4 @@
-"""Every public name of ``fvf`` and ``fvf.chapter`` against every corpus mesh (issue 7).
+"""Every public name of ``fvf`` and ``fvf.chapter`` against every corpus mesh.
 
 :data:`SPECS` maps each public name to how it is called on a mesh and which cheap property
 its result must have. The sweep asserts, for every (name, mesh):

@@ -154,7 +154,7 @@ _MOVED = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     home = _MOVED.get(name)
     if home is None:
         raise AttributeError(f"module 'fvf' has no attribute {name!r}")

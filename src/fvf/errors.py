@@ -233,15 +233,17 @@ def user_stacklevel() -> int:
     the fvf package (the user's call), however deep inside fvf the warning is raised."""
     import sys
     from pathlib import Path
+    from types import FrameType
 
     package = str(Path(__file__).resolve().parent)
-    frame, level = sys._getframe(1), 1  # the caller of user_stacklevel() is level 1
+    frame: FrameType | None = sys._getframe(1)  # the caller of user_stacklevel() is level 1
+    level = 1
     while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(package):
         frame, level = frame.f_back, level + 1
     return level
 
 
-def format_indices(idx, limit: int = 8) -> str:
+def format_indices(idx: object, limit: int = 8) -> str:
     """Format an index list for an error message: the first few and a count.
 
     Parameters

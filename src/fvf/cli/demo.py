@@ -18,15 +18,19 @@ import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..mesh.trimesh import TriMesh
 
 __all__ = ["demo"]
 
 _INSTALL = "pip install 'fvf[viz]'"
 
 
-def _stage(name: str):
+def _stage(name: str) -> float:
     print(f"[fvf demo] {name} ...", flush=True)
     return time.perf_counter()
 
@@ -57,12 +61,14 @@ class _Story:
         self.stages: list[dict] = []
         self.backend: str | None = None
 
-    def begin(self, title: str, fn) -> dict:
+    def begin(self, title: str, fn: object) -> dict:
         st = {"title": title, "numbers": {}, "pictures": [], "skipped": [], "code": fn}
         self.stages.append(st)
         return st
 
-    def picture(self, st: dict, name: str, mesh, caption: str, **kwargs) -> Path | None:
+    def picture(
+        self, st: dict, name: str, mesh: TriMesh, caption: str, **kwargs: Any
+    ) -> Path | None:
         """Render ``name`` into the output folder, or record why it was skipped."""
         if self.skip_reason is not None:
             st["skipped"].append(f"{name}: {self.skip_reason}")
@@ -76,7 +82,7 @@ class _Story:
         return info.path
 
 
-def _robust(f, signed: bool = True) -> tuple[float, float]:
+def _robust(f: np.ndarray, signed: bool = True) -> tuple[float, float]:
     """Colour limits at the 99th percentile of |f|: a few spikes (e.g. at the ears'
     tips) must not wash out the rest of the picture."""
     lim = float(np.percentile(np.abs(f), 99)) or 1.0
@@ -165,6 +171,7 @@ def _flow(s, story):
         import fvf.viz
 
         fine, v_fine, _ = fvf.viz.subdivide(mesh, s.v, levels=2)  # finer canvas for streaks
+        assert v_fine is not None  # a field was given
         lic = fvf.viz.lic_texture(fine, v_fine, method="upwind")
         story.picture(
             st, "fig03_lic.png", fine, "LIC of v: noise averaged along its flow", texture=lic
@@ -487,7 +494,7 @@ def demo(
         print(f"[fvf demo] pictures skipped: {story.skip_reason}", flush=True)
     s = SimpleNamespace(mesh=mesh)
     for fn in STAGES:
-        t = _stage(fn.__doc__.splitlines()[0].rstrip("."))
+        t = _stage((fn.__doc__ or fn.__name__).splitlines()[0].rstrip("."))
         fn(s, story)
         story.stages[-1]["seconds"] = time.perf_counter() - t
     for st in story.stages:

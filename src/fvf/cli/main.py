@@ -21,7 +21,11 @@ import shlex
 import sys
 import warnings
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
+
+if TYPE_CHECKING:
+    from ..io.datafile import DataFile
+    from ..mesh.trimesh import TriMesh
 
 __all__ = [
     "main",
@@ -74,7 +78,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 # ---------------------------------------------------------------------------- helpers
-def _load_mesh(path: str):
+def _load_mesh(path: str) -> TriMesh:
     """The TriMesh of a mesh file; an invalid mesh's error points to ``fvf info``."""
     import fvf
 
@@ -85,7 +89,7 @@ def _load_mesh(path: str):
         raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
 
 
-def _load_data(paths: str | list[str], mesh):
+def _load_data(paths: str | list[str], mesh: TriMesh) -> DataFile:
     """One data file, or several merged (a later file's key replaces an earlier's)."""
     from fvf.io.datafile import DataFile, read_data
 
@@ -186,12 +190,12 @@ def info(path: str, as_json: bool = False) -> dict:
     return report
 
 
-def _cmd_info(args) -> int:
+def _cmd_info(args: argparse.Namespace) -> int:
     report = info(args.mesh, args.json)
     return EXIT_OK if not report["problems"] else EXIT_PROBLEMS
 
 
-def _cmd_demo(args) -> int:
+def _cmd_demo(args: argparse.Namespace) -> int:
     from fvf.cli.demo import demo
 
     demo(args.mesh, Path(args.out))
@@ -206,7 +210,7 @@ _FLOW_OPTIONS = {
 }
 
 
-def _cmd_flow(args) -> int:
+def _cmd_flow(args: argparse.Namespace) -> int:
     import fvf
 
     viz = _viz() if args.png else None
@@ -235,7 +239,7 @@ def _cmd_flow(args) -> int:
     return EXIT_OK
 
 
-def _cmd_bracket(args) -> int:
+def _cmd_bracket(args: argparse.Namespace) -> int:
     import fvf
 
     mesh = _load_mesh(args.mesh)
@@ -260,7 +264,7 @@ def _cmd_bracket(args) -> int:
     return EXIT_OK
 
 
-def _cmd_transport(args) -> int:
+def _cmd_transport(args: argparse.Namespace) -> int:
     import fvf
 
     mesh = _load_mesh(args.mesh)
@@ -280,7 +284,7 @@ def _cmd_transport(args) -> int:
     return EXIT_OK
 
 
-def _cmd_design(args) -> int:
+def _cmd_design(args: argparse.Namespace) -> int:
     import fvf
 
     mesh = _load_mesh(args.mesh)
@@ -333,6 +337,7 @@ def _display_arrays(args, mesh):
     if args.field:
         kwargs["field"] = _numbers_of(data, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
     if args.singularities:
+        assert data is not None  # checked above
         if "singularity_positions" in data and "singularity_indices" in data:
             pos = data.numbers("singularity_positions", (None, 3))
             idx = data.integers("singularity_indices", (pos.shape[0],))
@@ -364,7 +369,7 @@ def _numbers_of(data, spec, shapes):
     return a.astype(float)
 
 
-def _cmd_render(args) -> int:
+def _cmd_render(args: argparse.Namespace) -> int:
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
@@ -378,7 +383,7 @@ def _cmd_render(args) -> int:
     return EXIT_OK
 
 
-def _cmd_view(args) -> int:
+def _cmd_view(args: argparse.Namespace) -> int:
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
@@ -389,7 +394,7 @@ def _cmd_view(args) -> int:
     return EXIT_OK
 
 
-def _str(s: str):
+def _str(s: str) -> Any:
     import numpy as np
 
     return np.array(s)
@@ -402,7 +407,7 @@ def _array(x):
 
 
 # ---------------------------------------------------------------------------- parser
-def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
+def _add(sub: Any, name: str, help: str, example: str) -> argparse.ArgumentParser:
     p = sub.add_parser(
         name,
         help=help,

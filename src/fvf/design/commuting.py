@@ -8,7 +8,7 @@ output is a vertex field measured in the A_V inner product:
 from __future__ import annotations
 
 import warnings
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -37,15 +37,15 @@ def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(np.repeat(mesh.vertex_areas, 3)))
 
 
-def _weight(x, name: str) -> float:
+def _weight(x: object, name: str) -> float:
     """A finite weight >= 0, else :class:`~fvf.errors.ParameterError`."""
     try:
-        x = float(x)
+        value = float(x)  # type: ignore[arg-type]  # any failure is reported below
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}") from exc
-    if not (np.isfinite(x) and x >= 0):
-        raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}")
-    return x
+    if not (np.isfinite(value) and value >= 0):
+        raise ParameterError(f"{name} must be a finite number >= 0; got {value!r}")
+    return value
 
 
 def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
@@ -55,6 +55,24 @@ def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.
     return (ad(mesh, v, tangent="ignore") @ (field_product(mesh, u) @ vertex_to_face(mesh))).tocsr()
 
 
+@overload
+def rescale(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    alpha: float,
+    *,
+    return_energy: Literal[False] = ...,
+) -> np.ndarray: ...
+@overload
+def rescale(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    alpha: float,
+    *,
+    return_energy: Literal[True],
+) -> tuple[np.ndarray, float]: ...
 def rescale(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -62,7 +80,7 @@ def rescale(
     alpha: float,
     *,
     return_energy: bool = False,
-):
+) -> np.ndarray | tuple[np.ndarray, float]:
     """Commutation-guided rescaling: the f minimizing ½‖[v, f u]‖² + (α/2)‖∇f‖², ∫f² = 1.
 
     Solves the generalized eigenproblem (eqs. 65–66) for the smallest eigenpair of

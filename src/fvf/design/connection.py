@@ -95,7 +95,7 @@ restricts to tangent fields as E_B = Bᵀ E B (the chapter's §4.4.2 notation).
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -141,10 +141,10 @@ _FOLDED_ALIGNMENT = 1e-3
 _DENSE_FACES = 600
 
 
-def _check_kind(kind: str) -> str:
+def _check_kind(kind: str) -> ConnectionKind:
     if kind not in KINDS:
         raise FvfError(f"kind must be one of {KINDS}; got {kind!r}.")
-    return kind
+    return cast(ConnectionKind, kind)
 
 
 def _frame_coords(mesh: TriMesh, faces: np.ndarray, vec: np.ndarray) -> np.ndarray:
@@ -189,7 +189,7 @@ def _knoppel_pairs(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.stack([s, t], axis=1), r, w
 
 
-def _singer_wu_geometry(mesh: TriMesh):
+def _singer_wu_geometry(mesh: TriMesh) -> tuple[np.ndarray, ...]:
     """1-ring face pairs, transports, Gaussian kernels and displacements."""
     m, n = mesh.n_faces, mesh.n_vertices
     inc = sp.csr_array(
@@ -275,7 +275,7 @@ def _moment_shares(mesh: TriMesh, faces: np.ndarray, kern: np.ndarray, d: np.nda
     return (1.0 - tau) * moment_share + tau * trace_share
 
 
-def _build_pairs(mesh: TriMesh, kind: str):
+def _build_pairs(mesh: TriMesh, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if kind == "knoppel":
         pairs, r, w = _knoppel_pairs(mesh)
     else:
@@ -483,7 +483,7 @@ def tangent_basis_matrix(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("tangent_basis_matrix", build)
 
 
-def restrict_to_tangent(mesh: TriMesh, E):
+def restrict_to_tangent(mesh: TriMesh, E: Any) -> Any:
     """E_B = Bᵀ E B: an energy on flattened fields (3m, 3m) restricted to tangent fields.
 
     Parameters

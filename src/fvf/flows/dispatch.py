@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -173,7 +174,8 @@ def skew_operator(
 
     Continuously ⟨v, ∇f⟩ = (⟨v, ∇f⟩ + ½ f div v) − ½ f div v, the first term skew in
     L², so the transport ∂f/∂t = −⟨v, ∇f⟩ obeys d/dt ∫f² = ∫ (div v) f². Discretely,
-    with the A_V-adjoint of D^V_v equal to −(D̃^V_v + [div v]) (CHAPTER.md)::
+    with the A_V-adjoint of D^V_v equal to −(D̃^V_v + [div v]) (docs/chapter.md, "Facts we
+    measured")::
 
         S = ½(D^V_v − [A_V]⁻¹ (D^V_v)ᵀ [A_V]) − ½[div v] = ½(D^V_v + D̃^V_v),
 
@@ -240,7 +242,9 @@ class _Uniformization:
         return f
 
 
-def _chain(f0: np.ndarray, times: np.ndarray, advance) -> np.ndarray:
+def _chain(
+    f0: np.ndarray, times: np.ndarray, advance: Callable[[np.ndarray, float, float], np.ndarray]
+) -> np.ndarray:
     """Evaluate a semigroup at sorted times of each sign: advance(f, now, dt) → f(now+dt)."""
     out = np.empty((times.size,) + f0.shape)
     for sign in (1.0, -1.0):
@@ -414,6 +418,7 @@ class TransportFlow:
     @property
     def _divergence(self) -> np.ndarray:
         """(div v)_i = Σ_j F_ij / A_V(i) = −2 S_ii (the diagonal of S)."""
+        assert self.operator is not None  # every method but "spectral" has one
         return -2.0 * self.operator.diagonal()
 
     def growth_bound(self, t: float) -> float:
@@ -465,10 +470,11 @@ class TransportFlow:
         steps = max(1, math.ceil(ratio * (1 - 1e-12)))
         return steps, dt_total / steps
 
-    def _cayley_lu(self, h: float):
+    def _cayley_lu(self, h: float) -> Any:
         lu = self._lu.get(h)
         if lu is None:
             n = self.mesh.n_vertices
+            assert self.operator is not None
             M = (sp.eye_array(n, format="csc") + (0.5 * h) * self.operator).tocsc()
             lu = self._lu[h] = sla.splu(M)
             self.stats["factorizations"] += 1
@@ -511,6 +517,7 @@ class TransportFlow:
         """
         self.stats = {"matvecs": 0, "steps": 0, "factorizations": 0}
         if self.method == "chapter":
+            assert self._chapter is not None
             out = self._chapter(f, t)
             self.stats = self._chapter.stats
             return out
@@ -520,6 +527,7 @@ class TransportFlow:
         if self.method == "upwind":
             out = _chain(f0, times, self._advance_upwind)
         elif self.method == "skew":
+            assert self.operator is not None
             out, self.stats = expm_action(
                 -self.operator,
                 f0,

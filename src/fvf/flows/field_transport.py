@@ -308,7 +308,7 @@ class FieldTransport:
             tol=self.tol,
             inner=np.repeat(self.mesh.face_areas, 3),
             skew=False,
-            method=self.method,
+            method=self.method,  # expm_action checks the name
             return_info=True,
         )
         raw = raw.reshape(times.size, -1)  # (T, 3m)

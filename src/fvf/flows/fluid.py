@@ -38,6 +38,7 @@ exactly for the truncated system, since each D̂ is skew.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -52,6 +53,9 @@ from ..errors import (
 )
 from ..mesh.inputs import as_vertex_function
 from ..mesh.trimesh import TriMesh
+
+if TYPE_CHECKING:
+    from ..spectral.basis import SpectralBasis
 from ..operators.directional import D_V
 
 __all__ = [
@@ -250,7 +254,7 @@ def ideal_fluid(
     *,
     method: str = "midpoint",
     k: int = 64,
-    basis=None,
+    basis: SpectralBasis | None = None,
     tol: float = 1e-13,
     max_iterations: int = 50,
     save_every: int = 1,
@@ -328,7 +332,8 @@ def ideal_fluid(
     psi = solve_psi(omega)
     energy, enstrophy = [0.5 * psi @ (W @ psi)], [a @ omega**2]
     frames, streams, times, iters = [omega], [psi], [0.0], []
-    lu, mids = None, []
+    lu = None
+    mids: list[np.ndarray] = []
     for step in range(1, steps + 1):
         x = _extrapolate(mids, omega)  # predicted ω_{k+½}
         scale = max(norm(omega), 1e-300)
@@ -405,7 +410,8 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
 
     c = basis.project(omega)
     energy, enstrophy = [0.5 * np.sum(c * c * inv_lam)], [c @ c]
-    coeffs, times, iters, mids = [c], [0.0], [], []
+    coeffs, times, iters = [c], [0.0], []
+    mids: list[np.ndarray] = []
     for step in range(1, steps + 1):
         x = _extrapolate(mids, c)
         scale = max(float(np.linalg.norm(c)), 1e-300)
@@ -428,12 +434,12 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
         if step % save_every == 0 or step == steps:
             coeffs.append(c)
             times.append(step * dt)
-    coeffs = np.array(coeffs)
+    C = np.array(coeffs)
     return FluidResult(
         mesh,
         np.array(times),
-        coeffs @ Phi.T,
-        (-coeffs * inv_lam) @ Phi.T,
+        C @ Phi.T,
+        (-C * inv_lam) @ Phi.T,
         np.array(energy),
         np.array(enstrophy),
         np.array(iters, dtype=np.int64),

@@ -387,8 +387,8 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
                     f"{path}: holds a single array, not an .npz archive of named arrays; "
                     "save it with np.savez(path, f=..., v=...)"
                 )
-            with archive:
-                arrays = {k: archive[k] for k in archive.files}
+            with archive:  # type: ignore[attr-defined]  # an NpzFile, checked above
+                arrays = {k: archive[k] for k in archive.files}  # type: ignore[attr-defined]
         except DataFileError:
             raise
         except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
@@ -480,5 +480,5 @@ def write_data(
             datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         ),
     )
-    np.savez(path, **out)
+    np.savez(path, **out)  # type: ignore[arg-type]  # numpy's stub types **kwds as bool
     return path

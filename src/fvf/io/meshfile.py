@@ -17,7 +17,7 @@ import struct
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +34,8 @@ __all__ = [
     "read_mesh",
     "write_mesh",
 ]
+
+_T = TypeVar("_T")
 
 SUFFIXES = (".obj", ".off", ".ply")
 _PLY_TYPES = {
@@ -145,7 +147,7 @@ def read_ply_properties(
             f"{path.suffix!r} (store functions and fields in an .npz file instead)"
         )
 
-    def parse(p: Path, data: bytes):
+    def parse(p: Path, data: bytes) -> tuple[dict, np.ndarray]:
         values, where, face_list = _parse_ply(p, data)
         counts, flat = values["face"][face_list]
         vertices = np.column_stack([values["vertex"][c] for c in "xyz"])
@@ -167,7 +169,7 @@ def read_ply_properties(
     return vertex, face
 
 
-def _parsed(path: Path, parse: Callable[[Path, bytes], object]):
+def _parsed(path: Path, parse: Callable[[Path, bytes], _T]) -> _T:
     """``parse(path, bytes)`` with every parse failure turned into a MeshReadError."""
     data = path.read_bytes()
     if not data.strip():
@@ -314,7 +316,9 @@ def _flatten(rows: list[list[str]]) -> tuple[list[str], np.ndarray]:
     return [t for row in rows for t in row], np.fromiter(map(len, rows), np.int64, len(rows))
 
 
-def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str):
+def _numbers(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], kind: type, what: str
+) -> np.ndarray:
     """``np.array(tokens, kind)``; on failure a MeshReadError naming the line and the token.
 
     ``counts[i]`` tokens come from the line ``lineno[i]``.
@@ -336,7 +340,9 @@ def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, wha
     raise MeshReadError(f"{path}: cannot convert the values of {what}; check the file")
 
 
-def _first3(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], what: str):
+def _first3(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], what: str
+) -> np.ndarray:
     """Vertex positions, shape (k, 3), from the first three numbers of each vertex line."""
     short = np.flatnonzero(counts < 3)
     if short.size:
@@ -430,7 +436,7 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
 class _Prop(NamedTuple):
     name: str
     code: str  # numpy type code without byte order, e.g. "f4"
-    count: str | None  # type code of a list's length, None for scalars
+    count: str | None  # type: ignore[assignment]  # type code of a list's length, None for scalars
 
 
 class _Element(NamedTuple):
@@ -441,7 +447,8 @@ class _Element(NamedTuple):
 
 def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]:
     """Parse the header: ``(format, elements, byte offset of the body, its line number)``."""
-    lines, pos = [], 0
+    lines: list[str] = []
+    pos = 0
     while not lines or lines[-1] != "end_header":
         nl = data.find(b"\n", pos)
         if nl < 0:
@@ -493,7 +500,7 @@ def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str
     Scalar properties are 1-D arrays; the face index list is ``(counts, flat)``.
     """
     fmt, elements, pos, line0 = _ply_header(path, data)
-    byname = {}
+    byname: dict[str, _Element] = {}
     for el in elements:
         byname.setdefault(el.name, el)
     if "vertex" not in byname:
@@ -518,11 +525,14 @@ def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str
     return values, where, lists[0]
 
 
-def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
+def _ply_ascii(
+    path: Path, body: bytes, elements: list[_Element], line0: int
+) -> tuple[dict, Callable[[int], str]]:
     """Parse an ascii PLY body: one element record per non-blank line."""
     lines = body.decode("latin-1").split("\n")
     at = [i for i, line in enumerate(lines) if line.strip()]
-    values, cursor, face_line = {}, 0, []
+    values: dict[str, dict] = {}
+    cursor, face_line = 0, []
     for el in elements:
         chunk = at[cursor : cursor + el.size]
         if len(chunk) < el.size:
@@ -534,7 +544,7 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
         if el.name not in ("vertex", "face") or el.name in values:
             continue
         # every scalar property (read_ply_properties wants them) and the face index list
-        keep = {
+        keep: dict[str, list[list[str]]] = {
             p.name: []
             for p in el.props
             if p.count is None or (el.name == "face" and p.name in _FACE_LISTS)
@@ -560,36 +570,41 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
                     f"{path}: line {ln}: the '{el.name}' line has {len(t)} values but its "
                     f"header properties describe {c}; fix the line or the header"
                 )
-        out = {}
+        out: dict[str, object] = {}
         for name, rows in keep.items():
-            n = np.fromiter(map(len, rows), np.int64, len(rows))
+            lens = np.fromiter(map(len, rows), np.int64, len(rows))
             is_list = name in _FACE_LISTS and el.name == "face"
             kind = np.int64 if is_list else np.float64
             what = f"the '{el.name}' property '{name}'"
-            flat = _numbers(path, [x for v in rows for x in v], n, lineno, kind, what)
-            out[name] = (n, flat) if is_list else flat
+            flat = _numbers(path, [x for v in rows for x in v], lens, lineno, kind, what)
+            out[name] = (lens, flat) if is_list else flat
         values[el.name] = out
         if el.name == "face":
             face_line = lineno
     return values, lambda i: f"line {face_line[i]} (face {i})"
 
 
-def _ply_binary(path: Path, data: bytes, pos: int, elements: list[_Element], order: str):
+def _ply_binary(
+    path: Path, data: bytes, pos: int, elements: list[_Element], order: str
+) -> tuple[dict, Callable[[int], str]]:
     """Parse a binary PLY body with structured dtypes (Python loop only for mixed lists)."""
-    values = {}
+    values: dict[str, dict] = {}
     for el in elements:
         out, pos = _binary_element(path, data, pos, el, order)
         values.setdefault(el.name, out)
     return values, lambda i: f"face {i} (0-based) of the binary PLY"
 
 
-def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str):
+def _binary_element(
+    path: Path, data: bytes, pos: int, el: _Element, order: str
+) -> tuple[dict, int]:
     """Read the records of one element at byte ``pos``: ``({name: values}, end)``."""
     if el.size == 0 or not el.props:
         empty = np.zeros(0, dtype=np.int64)
         return {p.name: (empty, empty) if p.count else empty for p in el.props}, pos
     # Guess that every record has the list lengths of the first one; check afterwards.
-    fields, at = [], pos
+    fields: list[tuple] = []
+    at = pos
     for i, p in enumerate(el.props):
         if p.count is None:
             fields.append((f"s{i}", order + p.code))
@@ -610,7 +625,7 @@ def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str)
                 np.all(rec[f"c{i}"] == rec[f"c{i}"][0]) for i, p in enumerate(el.props) if p.count
             ]
             if all(same):
-                out = {}
+                out: dict[str, object] = {}
                 for i, p in enumerate(el.props):
                     if p.count is None:
                         out[p.name] = rec[f"s{i}"]
@@ -622,12 +637,16 @@ def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str)
     return _binary_element_slow(path, data, pos, el, order)
 
 
-def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order: str):
+def _binary_element_slow(
+    path: Path, data: bytes, pos: int, el: _Element, order: str
+) -> tuple[dict, int]:
     """Find each record's property offsets in a loop, then gather the values with numpy.
 
     For lists whose lengths vary (mixed polygons), and to report truncated files.
     """
-    end, starts, lengths = len(data), [[] for _ in el.props], [[] for _ in el.props]
+    end = len(data)
+    starts: list[list[int]] = [[] for _ in el.props]
+    lengths: list[list[int]] = [[] for _ in el.props]
     steps = [
         (starts[j], lengths[j], int(p.code[1]), p.count and struct.Struct(order + _STRUCT[p.count]))
         for j, p in enumerate(el.props)
@@ -653,13 +672,13 @@ def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order:
                 "header's counts are wrong: re-export the mesh"
             )
     raw, out = np.frombuffer(data, np.uint8), {}
-    for p, at, k in zip(el.props, starts, lengths, strict=True):
-        at = np.asarray(at, dtype=np.int64)
+    for p, at_list, k_list in zip(el.props, starts, lengths, strict=True):
+        idx = np.asarray(at_list, dtype=np.int64)
+        k = np.asarray(k_list, dtype=np.int64)
         if p.count:
-            k = np.asarray(k, dtype=np.int64)
             nth = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
-            at = np.repeat(at + int(p.count[1]), k) + nth * int(p.code[1])
-        values = raw[at[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
+            idx = np.repeat(idx + int(p.count[1]), k) + nth * int(p.code[1])
+        values = raw[idx[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
         out[p.name] = (k, values.astype(np.int64)) if p.count else values
     return out, pos
 

@@ -1,5 +1,5 @@
 """Built-in meshes shipped with the package, the fields of the chapter's Fig. 12 scene, and
-the compressible (lion) case of CHAPTER.md's measured facts."""
+the compressible (lion) case of docs/chapter.md, "Facts we measured"."""
 
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ def fig12_fields(
 
 
 def compressible_case(mesh: TriMesh) -> tuple[TriMesh, np.ndarray, np.ndarray]:
-    """CHAPTER.md's lion case ("Facts we measured") on any mesh.
+    """The lion case of docs/chapter.md ("Facts we measured") on any mesh.
 
     The mesh is centred and scaled to unit radius; v = grad x with unit L2 norm
     (Σ_f |v_f|² area_f = 1); f0 = sin 3y + z. On lion-00 the chapter's flow of f0 along v

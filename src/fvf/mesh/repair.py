@@ -292,7 +292,9 @@ def _edge_pairs(
     return ha, hb, np.flatnonzero(counts > 2), (edges, counts, edge_of)
 
 
-def _nonmanifold_message(F: np.ndarray, edges, counts, edge_of, bad) -> str:
+def _nonmanifold_message(
+    F: np.ndarray, edges: np.ndarray, counts: np.ndarray, edge_of: np.ndarray, bad: np.ndarray
+) -> str:
     faces = np.unique(np.flatnonzero(np.isin(edge_of, bad)) // 3)
     dup = np.flatnonzero(_duplicate_faces(F)[0])
     hint = (

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cached_property
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,8 @@ from ..errors import (
 )
 
 __all__ = ["TriMesh"]
+
+_T = TypeVar("_T")
 
 #: A face whose area is below this times its longest edge squared counts as degenerate.
 DEGENERATE_AREA_RTOL = 1e-14
@@ -102,6 +104,7 @@ class TriMesh:
 
     vertices: np.ndarray
     faces: np.ndarray
+    _cache: dict[str, Any]
 
     def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
         X, F = _validate_arrays(vertices, faces)
@@ -125,7 +128,7 @@ class TriMesh:
             f"euler_characteristic={self.euler_characteristic})"
         )
 
-    def cached(self, key: str, build: Callable[[], Any]) -> Any:
+    def cached(self, key: str, build: Callable[[], _T]) -> _T:
         """Return ``build()`` computed once per mesh and stored under ``key``.
 
         Used by :mod:`fvf.calculus` to cache operators that depend on the mesh only.
@@ -133,23 +136,24 @@ class TriMesh:
         cache = self._cache
         if key not in cache:
             cache[key] = build()
-        return cache[key]
+        value: _T = cache[key]
+        return value
 
     # ------------------------------------------------------------------ sizes
     @property
     def n_vertices(self) -> int:
         """Number of vertices n."""
-        return self.vertices.shape[0]
+        return int(self.vertices.shape[0])
 
     @property
     def n_faces(self) -> int:
         """Number of faces m."""
-        return self.faces.shape[0]
+        return int(self.faces.shape[0])
 
     @property
     def n_edges(self) -> int:
         """Number of undirected edges."""
-        return self.edges.shape[0]
+        return int(self.edges.shape[0])
 
     # ------------------------------------------------------------------ geometry
     @cached_property
@@ -233,15 +237,15 @@ class TriMesh:
         """
         u = np.asarray(u, dtype=float)
         N = self.face_normals
-        return u - np.einsum("ij,ij->i", u, N)[:, None] * N
+        return np.asarray(u - np.einsum("ij,ij->i", u, N)[:, None] * N)
 
     def to_local(self, u: npt.ArrayLike) -> np.ndarray:
         """Ambient (m, 3) tangent vectors to coordinates (m, 2) in :attr:`face_bases`."""
-        return np.einsum("tij,tj->ti", self.face_bases, np.asarray(u, dtype=float))
+        return np.asarray(np.einsum("tij,tj->ti", self.face_bases, np.asarray(u, dtype=float)))
 
     def from_local(self, a: npt.ArrayLike) -> np.ndarray:
         """Coordinates (m, 2) in :attr:`face_bases` to ambient tangent vectors (m, 3)."""
-        return np.einsum("tij,ti->tj", self.face_bases, np.asarray(a, dtype=float))
+        return np.asarray(np.einsum("tij,ti->tj", self.face_bases, np.asarray(a, dtype=float)))
 
     def to_complex(self, u: npt.ArrayLike) -> np.ndarray:
         """Ambient (m, 3) tangent vectors to complex numbers (m,) ``a0 + i a1`` in the frames.

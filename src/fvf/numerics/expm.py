@@ -369,16 +369,19 @@ def skew_bound(
     float
         R (0 for a W-symmetric A); with ``return_products``, (R, products).
     """
-    if isinstance(A, _SkewParts):
-        parts, n = A, A.M.shape[0]
-    else:
-        A, n = _check_operator(A)
-        if isinstance(A, spla.LinearOperator):
-            raise ExpmInputError("skew_bound needs an explicit (sparse or dense) A")
-        parts = _SkewParts(A, _check_weights(inner, n))
+    A, n = _check_operator(A)
+    if isinstance(A, spla.LinearOperator):
+        raise ExpmInputError("skew_bound needs an explicit (sparse or dense) A")
+    bound, products = _power_bound(_SkewParts(A, _check_weights(inner, n)), steps)
+    return (bound, products) if return_products else bound
+
+
+def _power_bound(parts: _SkewParts, steps: int) -> tuple[float, int]:
+    """(Collatz–Wielandt bound of ρ(|S|) after at most ``steps`` power steps, products)."""
     absS = parts.abs_scaled()
+    n = absS.shape[0]
     if absS.nnz == 0 or n == 0:
-        return (0.0, 0) if return_products else 0.0
+        return 0.0, 0
     x = np.ones(n)
     y = absS @ x
     bound = float(y.max())
@@ -386,8 +389,7 @@ def skew_bound(
     for _ in range(max(int(steps), 0)):
         if bound == 0.0:
             break
-        x = y / bound
-        x = np.maximum(x, 1e-300)  # Collatz–Wielandt needs x > 0
+        x = np.maximum(y / bound, 1e-300)  # Collatz–Wielandt needs x > 0
         y = absS @ x
         products += 1
         new = float((y / x).max())
@@ -395,7 +397,7 @@ def skew_bound(
         bound = min(bound, new)
         if not improved:
             break
-    return (bound, products) if return_products else bound
+    return bound, products
 
 
 class PreparedOperator:
@@ -460,7 +462,7 @@ class PreparedOperator:
         """(R, products spent the first time) from :func:`skew_bound` (cached)."""
         if "bound" in self._cache:
             return self._cache["bound"], 0
-        R, spent = skew_bound(self.parts, return_products=True)
+        R, spent = _power_bound(self.parts, 8)
         self._cache["bound"] = R
         return R, spent
 
@@ -554,7 +556,7 @@ def expm_action(
     tol: float = 1e-10,
     inner: npt.ArrayLike | None = None,
     skew: bool | None = None,
-    method: Method = "auto",
+    method: str = "auto",
     norm: Literal["max", "inner"] = "max",
     m_max: int | None = None,
     skew_norm: float | None = None,
@@ -649,7 +651,7 @@ def expm_action(
     if isinstance(A, PreparedOperator):
         if inner is not None:
             raise ExpmInputError("a PreparedOperator carries its inner product; pass inner=None")
-        prepared = A
+        prepared: PreparedOperator | None = A
     else:
         A, n = _check_operator(A)
         prepared = None if isinstance(A, spla.LinearOperator) else PreparedOperator(A, inner)
@@ -1118,7 +1120,7 @@ class _Basis:
         self.top = np.full(Y.shape[1], 1e-300)  # largest |h| so far (breakdown scale)
         return beta
 
-    def extend(self, op: _Counted) -> None:
+    def extend(self, op: Callable[[np.ndarray], np.ndarray]) -> None:
         """Add one vector to every column's basis (Lanczos for skew, else IOM)."""
         j = self.m
         Wj = op(self.U[j])
@@ -1161,7 +1163,7 @@ def _max_factor(basis: _Basis, Y: np.ndarray, beta: np.ndarray, maxnorm: bool) -
 
 
 def _krylov_step(
-    op: _Counted,
+    op: Callable[[np.ndarray], np.ndarray],
     basis: _Basis,
     Y: np.ndarray,
     rem: float,

@@ -7,6 +7,8 @@ area-weighted average on vertices D^V_v f (n,).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -119,7 +121,7 @@ def Dbar_V(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
     return (face_to_vertex(mesh) @ Dbar_F(mesh, f)).tocsr()
 
 
-def extract_field(mesh: TriMesh, D) -> np.ndarray:
+def extract_field(mesh: TriMesh, D: Any) -> np.ndarray:
     """Recover a field from its operator by applying it to the coordinates (Lemma 9, eq. 40).
 
     Parameters

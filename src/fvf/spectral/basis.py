@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -117,7 +118,7 @@ class SpectralBasis:
         return self.eigenvectors @ c
 
     # ------------------------------------------------------------------ operators
-    def reduce(self, O) -> np.ndarray:
+    def reduce(self, O: Any) -> np.ndarray:
         """Ô = Φᵀ [A_V] O Φ: any n x n operator (sparse, dense or LinearOperator) -> (k, k)."""
         n = self.mesh.n_vertices
         if O.shape != (n, n):
@@ -172,6 +173,26 @@ class SpectralBasis:
         return float(np.linalg.norm(C) / (np.linalg.norm(D) * max(abs(lam[-1]), 1e-300)))
 
     # ------------------------------------------------------------------ flows
+    @overload
+    def reduced_flow(
+        self,
+        v: npt.ArrayLike,
+        f: npt.ArrayLike,
+        t: float | npt.ArrayLike,
+        *,
+        error_estimate: Literal[False] = ...,
+        n_quadrature: int = ...,
+    ) -> np.ndarray: ...
+    @overload
+    def reduced_flow(
+        self,
+        v: npt.ArrayLike,
+        f: npt.ArrayLike,
+        t: float | npt.ArrayLike,
+        *,
+        error_estimate: Literal[True],
+        n_quadrature: int = ...,
+    ) -> tuple[np.ndarray, Any]: ...
     def reduced_flow(
         self,
         v: npt.ArrayLike,
@@ -180,7 +201,7 @@ class SpectralBasis:
         *,
         error_estimate: bool = False,
         n_quadrature: int = 33,
-    ):
+    ) -> np.ndarray | tuple[np.ndarray, Any]:
         """Flow a function in the reduced basis: Φ exp(−t D̂_v) Φᵀ[A_V] f (eq. 42 reduced).
 
         Parameters
@@ -216,7 +237,7 @@ class SpectralBasis:
         R = phi.operator @ self.eigenvectors - self.eigenvectors @ Dhat  # (n, k) leakage
         e0 = f - self.eigenvectors @ c0
         norm0 = float(np.sqrt(a @ (e0 * e0)))
-        errs = []
+        errs: list[float] = []
         for T in times:
             mu = phi.growth_rate[0] if T >= 0 else phi.growth_rate[1]
             s = np.linspace(0.0, abs(T), n_quadrature)
@@ -224,10 +245,9 @@ class SpectralBasis:
             leak = np.sqrt(np.einsum("i,qi->q", a, (cs @ R.T) ** 2))  # (q,)
             weights = np.exp(mu * (abs(T) - s)) * leak
             errs.append(np.exp(mu * abs(T)) * norm0 + np.trapezoid(weights, s))
-        errs = np.array(errs)
         if np.ndim(t) == 0:
             return out[0], float(errs[0])
-        return out, errs
+        return out, np.array(errs)
 
     # ------------------------------------------------------------------ inverse problem
     def field_from_operator(
@@ -290,7 +310,7 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     return np.stack([G, JG], axis=1).reshape(-1, mesh.n_faces, 3)
 
 
-def laplace_basis(mesh: TriMesh, k: int, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+def laplace_basis(mesh: TriMesh, k: int, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """The k smallest Laplace–Beltrami eigenpairs: (eigenvalues (k,), eigenvectors (n, k)).
 
     One-off form of :class:`SpectralBasis` (A_V-orthonormal eigenvectors, ascending

@@ -18,6 +18,7 @@ import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy.typing as npt
 
@@ -41,7 +42,7 @@ _PROBE = (
     "b = ps.screenshot_to_buffer(transparent_bg=False)\n"
     "assert b.shape[2] == 4\n"
 )
-_STATUS: dict = {}
+_STATUS: dict[str, Any] = {}
 
 
 @dataclass
@@ -92,6 +93,7 @@ def polyscope_status() -> str | None:
         return "disabled by FVF_VIZ_BACKEND=matplotlib"  # not cached: the setting may change
     if "polyscope" in _STATUS:
         return _STATUS["polyscope"]
+    reason: str | None
     if importlib.util.find_spec("polyscope") is None:
         reason = f"polyscope is not installed ({INSTALL_HINT})"
     else:
@@ -252,7 +254,7 @@ def render(
         if image is None:
             if backend == "polyscope-egl":
                 raise FvfError(f"backend 'polyscope-egl' is not available: {reason}")
-            if importlib.util.find_spec("polyscope") is not None and "disabled" not in reason:
+            if reason and importlib.util.find_spec("polyscope") and "disabled" not in reason:
                 _warn_once(reason)
             fallback = reason
     if image is None:
@@ -276,7 +278,7 @@ def render(
     )
 
 
-def view(mesh: TriMesh, **kwargs) -> None:
+def view(mesh: TriMesh, **kwargs: Any) -> None:
     """Open polyscope's interactive window on a mesh (the same options as :func:`render`).
 
     Raises

@@ -59,6 +59,7 @@ def compose(
         if cb.get("label"):
             bar.set_label(cb["label"], fontsize=9)
     if scene.markers is not None and len(scene.markers):
+        assert scene.marker_indices is not None  # set together with the markers
         kinds, counts = np.unique(scene.marker_indices, return_counts=True)
         handles = [
             Line2D(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,7 +38,7 @@ def write_gif(frames: list, path: str | Path, fps: float = 4.0, loop: int = 0) -
         raise FvfError("write_gif needs at least one frame")
     if not fps > 0:
         raise FvfError(f"fps must be positive; got {fps!r}")
-    images = []
+    images: list[Any] = []
     for fr in frames:
         if isinstance(fr, (str, Path)):
             im = Image.open(fr).convert("RGB")

@@ -154,7 +154,7 @@ def streamlines(
     if length is None:
         length = 12.0 * mesh.mean_edge_length
     start = mesh.face_centroids[seed_faces]
-    parts = []
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = []
     for sign in (1.0, -1.0):
         if (sign > 0 and direction == "backward") or (sign < 0 and direction == "forward"):
             parts.append(None)
