@@ -23,6 +23,7 @@ __all__ = [
     "OrientationError",
     "MeshReadError",
     "PolygonTriangulatedWarning",
+    "MeshScaleError",
     "FieldError",
     "FieldShapeError",
     "FieldValueError",
@@ -50,6 +51,9 @@ __all__ = [
     "MissingExtraError",
     "NoDisplayError",
     "RenderBackendWarning",
+    "OutputError",
+    "InputOverwriteError",
+    "OutputWriteError",
     "format_indices",
 ]
 
@@ -102,6 +106,11 @@ class MeshReadError(FvfError):
 
 class PolygonTriangulatedWarning(FvfWarning):
     """The file had polygons with more than 3 vertices; they were fan-triangulated."""
+
+
+class MeshScaleError(MeshError):
+    """The coordinates are so large (or so small) that face areas overflow (or underflow)
+    float64; rescale the vertices."""
 
 
 # ---------------------------------------------------------------------------- functions and fields
@@ -226,6 +235,22 @@ class NoDisplayError(FvfError):
 
 class RenderBackendWarning(FvfWarning):
     """A rendering backend failed to start; fvf fell back to the next one."""
+
+
+# ---------------------------------------------------------------------------- output files
+class OutputError(FvfError):
+    """An output file cannot be written where asked (base class)."""
+
+
+class InputOverwriteError(OutputError):
+    """An output path is an input file of the same command (the same path, a hard link
+    or a symbolic link to it); fvf never replaces its inputs unless told to (``--force``,
+    ``overwrite_inputs=True``)."""
+
+
+class OutputWriteError(OutputError):
+    """Writing an output failed (disk full, file size limit, read-only file system, no
+    permission). Nothing was written: a file already at the path is unchanged."""
 
 
 def user_stacklevel() -> int:

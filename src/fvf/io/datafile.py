@@ -61,6 +61,7 @@ expected shape), :class:`MeshMismatchError` (the stored mesh copy differs from t
 from __future__ import annotations
 
 import datetime
+import math
 import os
 import re
 import warnings
@@ -76,16 +77,20 @@ from ..errors import (  # noqa: F401 (re-exported)
     DataKeyError,
     FieldShapeError,
     FvfError,
+    InputOverwriteError,
     MeshMismatchError,
     MeshReadError,
 )
 from ..mesh.inputs import as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
+from .atomic import atomic_path, check_not_input
+from .inputfile import read_bytes, regular_file
 
 __all__ = [
     "DataFile",
     "read_data",
     "write_data",
+    "data_path",
     "MESH_MATCH_RTOL",
 ]
 
@@ -118,7 +123,9 @@ class DataFile(Mapping):
         sources: Mapping[str, str | os.PathLike] | None = None,
     ):
         self.path = Path(path)
-        self._arrays = {k: np.asarray(a) for k, a in arrays.items()}
+        self._arrays = {
+            k: a if isinstance(a, _NpzMember) else np.asarray(a) for k, a in arrays.items()
+        }
         self._sources = {k: Path(v) for k, v in (sources or {}).items()}
 
     @classmethod
@@ -128,11 +135,11 @@ class DataFile(Mapping):
         Lets a command take, say, a designed field from one file and functions from another.
         Each file's mesh copy has been checked on reading; messages name each key's file.
         """
-        arrays: dict[str, np.ndarray] = {}
+        arrays: dict[str, np.ndarray | _NpzMember] = {}
         sources: dict[str, Path] = {}
         for data in files:
-            for key in data:
-                arrays[key], sources[key] = data[key], data.source(key)
+            for key in data:  # unread keys stay unread (a key is loaded when used)
+                arrays[key], sources[key] = data._arrays[key], data.source(key)
         return cls(arrays, " + ".join(str(d.path) for d in files), sources)
 
     def source(self, key: str) -> Path:
@@ -149,7 +156,10 @@ class DataFile(Mapping):
                 f"{self.path}: no key {key!r} (keys present: {have}); add it, e.g. "
                 f"np.savez(path, {key}=...), or pick another key"
             )
-        return self._arrays[key]
+        a = self._arrays[key]
+        if isinstance(a, _NpzMember):
+            a = self._arrays[key] = a.load()
+        return a
 
     def __contains__(self, key: object) -> bool:
         return key in self._arrays
@@ -161,7 +171,10 @@ class DataFile(Mapping):
         return len(self._arrays)
 
     def __repr__(self) -> str:
-        shapes = ", ".join(f"{k}: {a.dtype}{a.shape}" for k, a in self._arrays.items())
+        shapes = ", ".join(
+            f"{k}: {'(not read yet)' if isinstance(a, _NpzMember) else f'{a.dtype}{a.shape}'}"
+            for k, a in self._arrays.items()
+        )
         return f"DataFile({str(self.path)!r}, {{{shapes}}})"
 
     def _numeric(self, key: str, a: np.ndarray, what: str) -> np.ndarray:
@@ -352,11 +365,16 @@ def _shape_text(want: tuple[int | None, ...]) -> str:
 def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     """Read a data file (``.npz``, or ``.ply`` properties) and check it against a mesh.
 
+    An ``.npz`` key is read when it is first used (``data[key]``), so keys a command does
+    not use cost nothing, whatever they hold; each key's stored header (dtype, shape) is
+    checked against its size in the archive before any memory is allocated for it.
+
     Parameters
     ----------
     path : str or os.PathLike
         An ``.npz`` archive with the keys of this module's schema, or a ``.ply`` file whose
-        vertex/face properties become functions and fields (see the module docstring).
+        vertex/face properties become functions and fields (see the module docstring). It
+        must be a regular file (not a FIFO or a device).
     mesh : TriMesh, optional
         When given, the stored mesh copies (``vertices``, ``faces``) must match it.
 
@@ -370,7 +388,9 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     FileNotFoundError
         The file does not exist.
     DataFileError
-        The file is not a readable ``.npz`` (or ``.ply``) file, or holds object arrays.
+        The file is not a regular file or not a readable ``.npz`` (or ``.ply``) file; a
+        key holds object arrays, declares more data than it holds, or does not fit in
+        memory (raised when the key is read).
     MeshMismatchError
         The stored mesh copy differs from ``mesh``.
     """
@@ -378,28 +398,81 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     if path.suffix.lower() == ".ply":
         arrays = _ply_arrays(path)
     else:
-        if not path.exists():
-            raise FileNotFoundError(2, "No such file or directory", str(path))
-        try:
-            archive = np.load(path, allow_pickle=False)
-            if not isinstance(archive, Mapping):
-                raise DataFileError(
-                    f"{path}: holds a single array, not an .npz archive of named arrays; "
-                    "save it with np.savez(path, f=..., v=...)"
-                )
-            with archive:
-                arrays = {k: archive[k] for k in archive.files}
-        except DataFileError:
-            raise
-        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-            raise DataFileError(
-                f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
-                f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
-            ) from exc
+        arrays = _npz_members(path)
     data = DataFile(arrays, path)
     if mesh is not None:
         data.check_mesh(mesh)
     return data
+
+
+class _NpzMember:
+    """One array of an ``.npz`` archive, read on demand (:meth:`load`)."""
+
+    def __init__(self, path: Path, member: str, key: str) -> None:
+        self.path, self.member, self.key = path, member, key
+
+    def _fail(self, why: str) -> DataFileError:
+        return DataFileError(f"{self.path}: key {self.key!r} {why}")
+
+    def load(self) -> np.ndarray:
+        """The array, after checking that its header matches the stored bytes."""
+        try:
+            with zipfile.ZipFile(self.path) as archive:
+                info = archive.getinfo(self.member)
+                with archive.open(info) as fh:
+                    version = np.lib.format.read_magic(fh)
+                    if version == (1, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+                    else:
+                        shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+                    start = fh.tell()
+                if dtype.hasobject:
+                    raise self._fail(
+                        "holds Python objects, which fvf does not read (allow_pickle=False); "
+                        "store numbers or strings"
+                    )
+                declared = math.prod(shape) * dtype.itemsize
+                stored = info.file_size - start
+                if declared != stored:
+                    raise self._fail(
+                        f"declares dtype {dtype} and shape {shape} ({declared} bytes) but "
+                        f"holds {stored} bytes: the archive is damaged or truncated; "
+                        "write it again"
+                    )
+                with archive.open(info) as fh:
+                    return np.lib.format.read_array(fh, allow_pickle=False)
+        except DataFileError:
+            raise
+        except MemoryError:
+            raise self._fail("does not fit in memory") from None
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            raise self._fail(
+                f"cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())}); "
+                "write the file again with np.savez"
+            ) from exc
+
+
+def _npz_members(path: Path) -> dict[str, _NpzMember]:
+    """The keys of an ``.npz`` archive, unread."""
+    regular_file(path, DataFileError)
+    if read_bytes(path, DataFileError, head=6) == b"\x93NUMPY":
+        raise DataFileError(
+            f"{path}: holds a single array, not an .npz archive of named arrays; "
+            "save it with np.savez(path, f=..., v=...)"
+        )
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise DataFileError(
+            f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
+            f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
+        ) from exc
+    members = {}
+    for name in names:
+        key = name[:-4] if name.endswith(".npy") else name
+        members[key] = _NpzMember(path, name, key)
+    return members
 
 
 def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
@@ -438,8 +511,12 @@ def write_data(
     mesh_path: str | os.PathLike,
     command: str,
     inputs: Iterable[str | os.PathLike] = (),
+    overwrite_inputs: bool = False,
 ) -> Path:
     """Write results as an ``.npz`` data file, with a mesh copy and their provenance.
+
+    The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`), and never
+    onto the mesh file or a data file it was computed from.
 
     Parameters
     ----------
@@ -456,17 +533,27 @@ def write_data(
         The command line, stored as ``command``.
     inputs : iterable of path
         Data files read, stored (absolute) as the string array ``inputs`` (j,).
+    overwrite_inputs : bool
+        Allow ``path`` to be ``mesh_path`` or one of ``inputs`` (default: refuse).
 
     Returns
     -------
     pathlib.Path
         The file written.
+
+    Raises
+    ------
+    InputOverwriteError
+        ``path`` is the mesh file or an input (also through a link), and
+        ``overwrite_inputs`` is false.
+    OutputWriteError
+        The file could not be written (disk full, ...); a file already there is unchanged.
     """
     from .. import __version__
 
-    path = Path(path)
-    if path.suffix.lower() != ".npz":
-        path = path.with_name(path.name + ".npz")
+    path = data_path(path)
+    inputs = list(inputs)
+    check_not_input(path, [mesh_path, *inputs], force=overwrite_inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
     out = {k: np.asarray(a) for k, a in arrays.items()}
     out.update(
@@ -480,5 +567,12 @@ def write_data(
             datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         ),
     )
-    np.savez(path, **out)
+    with atomic_path(path) as tmp:
+        np.savez(tmp, **out)
     return path
+
+
+def data_path(path: str | os.PathLike) -> Path:
+    """The file :func:`write_data` writes for ``path``: ``.npz`` appended when missing."""
+    path = Path(path)
+    return path if path.suffix.lower() == ".npz" else path.with_name(path.name + ".npz")

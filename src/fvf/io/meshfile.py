@@ -29,6 +29,8 @@ from ..errors import (
     MeshShapeError,
     PolygonTriangulatedWarning,  # noqa: F401 (re-exported)
 )
+from .atomic import atomic_path
+from .inputfile import read_bytes
 
 __all__ = [
     "read_mesh",
@@ -167,9 +169,45 @@ def read_ply_properties(
     return vertex, face
 
 
+#: Bytes of a file's start that are checked before the whole file is read.
+SNIFF_BYTES = 1 << 16
+_BOM = b"\xef\xbb\xbf"
+
+
+def _sniff(path: Path, head: bytes) -> None:
+    """Refuse, from its first bytes, a file that cannot be a mesh of its suffix, before a
+    possibly huge file is read whole."""
+    suffix = path.suffix.lower()
+    head = head.removeprefix(_BOM)
+    if suffix == ".ply":
+        if head[:3] != b"ply" and head.strip():
+            first = head[:40].split(b"\n")[0].decode("latin-1").strip()
+            raise MeshReadError(
+                f"{path}: line 1: a PLY file starts with 'ply', not {first!r}; is it a PLY file?"
+            )
+        return
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise MeshReadError(
+            f"{path}: the file is UTF-16 text; save it as ASCII or UTF-8 (fvf reads "
+            f"{suffix[1:].upper()} as 8-bit text)"
+        )
+    if b"\x00" in head:
+        k = head.index(b"\x00")
+        raise MeshReadError(
+            f"{path}: byte {k} is NUL: this is a binary file, not a text "
+            f"{suffix[1:].upper()} file; check the file (or its suffix)"
+        )
+
+
 def _parsed(path: Path, parse: Callable[[Path, bytes], object]):
-    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError."""
-    data = path.read_bytes()
+    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError.
+
+    The path must be a regular file (not a FIFO or a device); its start is checked
+    (:func:`_sniff`) before it is read whole, with a size check; a UTF-8 byte order mark
+    is dropped.
+    """
+    _sniff(path, read_bytes(path, MeshReadError, head=SNIFF_BYTES))
+    data = read_bytes(path, MeshReadError).removeprefix(_BOM)
     if not data.strip():
         raise MeshReadError(f"{path}: the file is empty; write a mesh into it or pick another")
     suffix = path.suffix.lower()
@@ -234,7 +272,8 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
         )
         tri = np.empty(m, dtype=[("k", "u1"), ("i", "<i4", (3,))])
         tri["k"], tri["i"] = 3, F
-        path.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
         return
     if suffix == ".obj":
         v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
@@ -244,7 +283,8 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
         v_text = ("%.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
         f_text = ("3 %d %d %d\n" * m) % tuple(F.ravel().tolist())
         text = f"OFF\n{n} {m} 0\n{v_text}{f_text}"
-    path.write_text(text, encoding="ascii")
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="ascii")
 
 
 def _triangulate(path: Path, p: _Polygons) -> tuple[np.ndarray, int]:
@@ -314,11 +354,42 @@ def _flatten(rows: list[list[str]]) -> tuple[list[str], np.ndarray]:
     return [t for row in rows for t in row], np.fromiter(map(len, rows), np.int64, len(rows))
 
 
+#: Numbers in text mesh files: C/printf decimal syntax. Python's float() and int() also
+#: take underscores ("1_0" is 10), "nan", "inf" and "infinity": not part of these formats.
+_REAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_REAL_CHARS = frozenset("0123456789+-.eE")
+_INTEGER_CHARS = frozenset("0123456789+-")
+
+
+def _strict(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str) -> None:
+    """Refuse tokens that Python would convert but the file format does not allow."""
+    allowed = _INTEGER_CHARS if kind is np.int64 else _REAL_CHARS
+    if set("".join(tokens)) <= allowed:  # only digits, signs, '.', 'e': float()/int() decide
+        return
+    grammar = _INTEGER if kind is np.int64 else _REAL
+    for k, tok in enumerate(tokens):
+        if grammar.fullmatch(tok) is None:
+            line = lineno[int(np.searchsorted(np.cumsum(counts), k, side="right"))]
+            if kind is not np.int64 and tok.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+                why = "is not a finite number; vertex positions and values must be finite"
+            elif "_" in tok:
+                why = "has an underscore, which is not part of numbers in mesh files"
+            else:
+                need = "an integer" if kind is np.int64 else "a decimal number"
+                why = f"is not {need}"
+            raise MeshReadError(
+                f"{path}: line {line}: {tok!r} in {what} {why}; fix or delete that line"
+            )
+
+
 def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str):
     """``np.array(tokens, kind)``; on failure a MeshReadError naming the line and the token.
 
-    ``counts[i]`` tokens come from the line ``lineno[i]``.
+    ``counts[i]`` tokens come from the line ``lineno[i]``. Tokens must be numbers in C
+    syntax (:func:`_strict`), not merely something ``float()`` accepts.
     """
+    _strict(path, tokens, counts, lineno, kind, what)
     try:
         return np.array(tokens, dtype=kind).reshape(len(tokens))
     except (ValueError, OverflowError):
@@ -352,9 +423,17 @@ def _first3(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]
     return _numbers(path, tokens, counts, lineno, np.float64, what).reshape(-1, 3)
 
 
+def _text_lines(data: bytes) -> list[str]:
+    """The lines of a text file, whatever its line endings (LF, CRLF or CR alone)."""
+    text = data.decode("latin-1")
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    return text.split("\n")
+
+
 # ---------------------------------------------------------------- OBJ
 def _read_obj(path: Path, data: bytes) -> _Polygons:
-    lines = data.decode("latin-1").split("\n")
+    lines = _text_lines(data)
     heads = [line.lstrip() for line in lines]
 
     def statements(key: str) -> list[int]:
@@ -377,7 +456,7 @@ def _read_obj(path: Path, data: bytes) -> _Polygons:
 
 # ---------------------------------------------------------------- OFF
 def _read_off(path: Path, data: bytes) -> _Polygons:
-    lines = data.decode("latin-1").split("\n")
+    lines = _text_lines(data)
     words = [_words(line) for line in lines]
     content = [i for i, w in enumerate(words) if w]
     if not content:
@@ -408,7 +487,10 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
     v_at, f_at = rest[:nv], rest[nv : nv + nf]
     v_line, f_line = [i + 1 for i in v_at], [i + 1 for i in f_at]
     tokens, counts = _flatten([words[i] for i in v_at])
-    vertices = _first3(path, tokens, counts, v_line, "an OFF vertex line")
+    if "4" in first[0]:  # 4OFF: homogeneous x y z w, the point (x, y, z) / w
+        vertices = _homogeneous(path, tokens, counts, v_line)
+    else:
+        vertices = _first3(path, tokens, counts, v_line, "an OFF vertex line")
     rows = [words[i] for i in f_at]
     counts = np.fromiter(map(len, rows), np.int64, len(rows))
     what = "an OFF face line (vertex count)"
@@ -426,6 +508,29 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
     return _Polygons(vertices, k, flat, flat, lambda i: f"line {f_line[i]}", valid)
 
 
+def _homogeneous(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]):
+    """Vertex positions (k, 3) of a 4OFF file: (x, y, z) / w from each line's x y z w."""
+    short = np.flatnonzero(counts < 4)
+    if short.size:
+        i = short[0]
+        raise MeshReadError(
+            f"{path}: line {lineno[i]}: a 4OFF vertex needs x y z w (homogeneous "
+            f"coordinates) but has {counts[i]} values; fix that line or the header"
+        )
+    starts = (np.cumsum(counts) - counts).tolist()
+    xyzw = [t for s in starts for t in tokens[s : s + 4]]
+    four = np.full(len(counts), 4, dtype=np.int64)
+    what = "a 4OFF vertex line"
+    X = _numbers(path, xyzw, four, lineno, np.float64, what).reshape(-1, 4)
+    zero = np.flatnonzero(X[:, 3] == 0)
+    if zero.size:
+        raise MeshReadError(
+            f"{path}: line {lineno[zero[0]]}: w = 0 puts the 4OFF vertex at infinity "
+            f"({zero.size} such vertices); fix the coordinates"
+        )
+    return X[:, :3] / X[:, 3:]
+
+
 # ---------------------------------------------------------------- PLY
 class _Prop(NamedTuple):
     name: str
@@ -440,10 +545,14 @@ class _Element(NamedTuple):
 
 
 def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]:
-    """Parse the header: ``(format, elements, byte offset of the body, its line number)``."""
+    """Parse the header: ``(format, elements, byte offset of the body, its line number)``.
+
+    Header lines end with LF, CRLF or (old Mac files) CR alone, as the first line does.
+    """
     lines, pos = [], 0
+    eol = b"\r" if data[3:4] == b"\r" and data[4:5] != b"\n" else b"\n"
     while not lines or lines[-1] != "end_header":
-        nl = data.find(b"\n", pos)
+        nl = data.find(eol, pos)
         if nl < 0:
             raise MeshReadError(
                 f"{path}: the PLY header has no 'end_header' line; the file is truncated or "
@@ -520,7 +629,7 @@ def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str
 
 def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
     """Parse an ascii PLY body: one element record per non-blank line."""
-    lines = body.decode("latin-1").split("\n")
+    lines = _text_lines(body)
     at = [i for i, line in enumerate(lines) if line.strip()]
     values, cursor, face_line = {}, 0, []
     for el in elements:
