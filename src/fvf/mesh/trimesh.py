@@ -20,6 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import (
     DegenerateFaceError,
     MeshIndexError,
+    MeshScaleError,
     MeshShapeError,
     NonFiniteError,
     NonManifoldError,
@@ -32,6 +33,11 @@ __all__ = ["TriMesh"]
 
 #: A face whose area is below this times its longest edge squared counts as degenerate.
 DEGENERATE_AREA_RTOL = 1e-14
+
+#: The extent of a mesh (largest side of its bounding box) must lie in this range: the
+#: fourth power of the extent (squared areas) and of its inverse (squared Laplacian
+#: entries) must stay normal float64 numbers.
+EXTENT_RANGE = (1e-75, 1e75)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -54,10 +60,11 @@ class TriMesh:
     Parameters
     ----------
     vertices : array_like, shape (n, 3)
-        Vertex positions X; converted to a read-only C-contiguous float64 array.
+        Vertex positions X; copied into a read-only C-contiguous float64 array (the
+        caller's array is never changed, and changing it later does not change the mesh).
     faces : array_like of int, shape (m, 3)
         Vertex indices of each face, counter-clockwise about the outward normal
-        (right-hand rule); converted to read-only int64.
+        (right-hand rule); copied into read-only int64.
 
     Raises
     ------
@@ -65,6 +72,9 @@ class TriMesh:
         Wrong shapes, dtypes, or an empty mesh.
     NonFiniteError
         NaN or inf coordinates.
+    MeshScaleError
+        The mesh's extent is outside :data:`EXTENT_RANGE` (areas would overflow or
+        underflow float64).
     MeshIndexError
         A face index outside ``[0, n)`` or a face that repeats a vertex.
     UnreferencedVertexError
@@ -464,6 +474,15 @@ class TriMesh:
 
     # ------------------------------------------------------------------ validation
     def _validate_geometry(self) -> None:
+        extent = float(np.ptp(self.vertices, axis=0).max())
+        lo, hi = EXTENT_RANGE
+        if extent > 0 and not lo <= extent <= hi:
+            raise MeshScaleError(
+                f"the vertices span {extent:.3g} (largest side of the bounding box), so face "
+                f"areas (~{extent:.3g}²) {'overflow' if extent > hi else 'underflow'} "
+                f"float64; fvf needs an extent in [{lo:g}, {hi:g}]. Fix: rescale the "
+                f"vertices, e.g. V / {extent:.3g}."
+            )
         n = self.n_vertices
         used = np.zeros(n, dtype=bool)
         used[self.faces.ravel()] = True
@@ -585,8 +604,9 @@ def _validate_arrays(
             f"faces must be an integer array; got dtype {F.dtype}. Fix: faces.astype(np.int64) "
             "if the values are whole numbers."
         )
-    X = np.ascontiguousarray(X, dtype=np.float64)
-    F = np.ascontiguousarray(F, dtype=np.int64)
+    # copies: the mesh's arrays are made read-only, the caller's must stay as they are
+    X = np.array(X, dtype=np.float64, order="C", copy=True)
+    F = np.array(F, dtype=np.int64, order="C", copy=True)
     finite = np.isfinite(X).all(axis=1)
     if not finite.all():
         bad = np.flatnonzero(~finite)
