@@ -48,7 +48,15 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.inputs import (
+    TangentPolicy,
+    as_count,
+    as_face_field,
+    as_growth_limit,
+    as_positive,
+    as_vertex_function,
+    max_row_norm,
+)
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, expm_action
 from ..operators.directional import directional_derivatives
@@ -327,7 +335,7 @@ class TransportFlow:
         self.mesh = mesh
         self.method = method
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.growth_limit = float(options.get("growth_limit", GROWTH_LIMIT))
+        self.growth_limit = as_growth_limit(options.get("growth_limit", GROWTH_LIMIT))
         self.stats: dict[str, Any] = {"matvecs": 0, "steps": 0, "factorizations": 0}
         self._chapter: FunctionalFlow | None = None
         self._lu: dict[float, Any] = {}
@@ -365,23 +373,26 @@ class TransportFlow:
                 self.operator = self._chapter.operator
             else:
                 self.operator = skew_operator(mesh, self.field, tangent="ignore")
-            speed = float(np.sqrt((self.field**2).sum(1)).max())
+            speed = max_row_norm(self.field)  # no overflow for |v| ~ 1e200
             dt = options.get("dt")
             if dt is None:
-                courant = float(options.get("courant", DEFAULT_COURANT))
+                courant = as_positive(options.get("courant", DEFAULT_COURANT), "courant")
                 dt = courant * mesh.mean_edge_length / speed if speed > 0 else np.inf
                 mu = max(self.growth_rate)
                 if mu > 0:  # h μ / 2 ≤ ½: no pole of the Cayley map near growing modes
                     dt = min(dt, 1.0 / mu)
-            if not dt > 0:
-                raise ParameterError(f"dt must be positive; got {dt!r}")
-            self.dt = float(dt)
+                if not dt > 0:  # the field is so large that the step underflows
+                    raise FlowOverflowError(
+                        f"the Cayley step for this field (max |v| = {speed:.3g}) underflows "
+                        "to 0; scale the field down (and the times up by as much)"
+                    )
+            self.dt = as_positive(dt, "dt", allow_inf=True)
         else:  # spectral
             from ..spectral.basis import SpectralBasis
 
             basis = options.get("basis")
             if basis is None:
-                basis = SpectralBasis(mesh, int(options.get("k", 50)))
+                basis = SpectralBasis(mesh, as_count(options.get("k", 50), "k", minimum=1))
             elif basis.mesh is not mesh:
                 raise ParameterError(
                     "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
@@ -524,6 +535,8 @@ class TransportFlow:
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames: every method returns (0,) + f.shape
+            return np.empty((0,) + f0.shape)
         if self.method in ("skew", "cayley"):
             for extreme in (times.max(), times.min()):
                 if extreme != 0:
@@ -544,9 +557,12 @@ class TransportFlow:
         else:
             out = self._spectral(f0, times)
         if not np.isfinite(out).all():
+            bound = ""
+            if self.method in ("skew", "cayley"):
+                bound = f" (growth bound {self.growth_bound(float(times.max())):.3g})"
             raise FlowOverflowError(
-                f"the {self.method} flow overflowed (growth bound "
-                f"{self.growth_bound(float(times.max())):.3g}); use method='upwind'."
+                f"the {self.method} flow overflowed{bound}; use shorter times, a smaller "
+                "field or method='upwind'."
             )
         return out[0] if scalar else out
 
@@ -578,7 +594,8 @@ def flow(
     f : array_like (n,) or (n, k)
         Function(s) at time 0.
     t : float or array_like (T,)
-        Time(s), any sign and order.
+        Time(s), any sign and order. An empty array gives an empty result,
+        shape ``(0,) + f.shape``, for every method.
     method : {"chapter", "upwind", "skew", "cayley", "spectral"}
         - ``"chapter"`` (default): exp(−t D^V_v) (eq. 42), :class:`fvf.FunctionalFlow`.
           Warns (:class:`~fvf.errors.FlowGrowthWarning`) when it may blow up. Options
@@ -614,7 +631,12 @@ def flow(
     Raises
     ------
     ParameterError
-        Unknown method (the message lists the methods), bad times.
+        Unknown method (the message lists the methods), bad times, bad options
+        (``growth_limit`` below 1 or NaN, ``dt`` or ``courant`` not positive, ``k`` not
+        a positive integer, an unknown ``tangent`` policy).
+    FlowOverflowError
+        The result overflowed (also for ``"spectral"``), or the field is too large for
+        the method's steps.
 
     Examples
     --------

@@ -35,7 +35,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field
+from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
 from ..operators.brackets import ad
@@ -219,7 +219,7 @@ class FieldTransport:
         method, tol = check_options(method, tol)
         self.method = method
         self.tol = float(tol)
-        self.growth_limit = float(growth_limit)
+        self.growth_limit = as_growth_limit(growth_limit)
         self.stats: dict = {}
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
@@ -301,6 +301,8 @@ class FieldTransport:
         """
         u = as_face_field(self.mesh, u, "u")
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames (as fvf.flow)
+            return TransportResult(np.empty((0,) + u.shape), np.empty(0))
         raw, self.stats = expm_action(
             self.operator,
             u.ravel(),

@@ -35,7 +35,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import (
     _abs_of,
@@ -127,7 +127,7 @@ class FunctionalFlow:
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
-        self.growth_limit = float(growth_limit)
+        self.growth_limit = as_growth_limit(growth_limit)
         self.method = method
         self.tol = float(tol)
         self.stats: dict = {}
@@ -281,6 +281,8 @@ class FunctionalFlow:
         """
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames (as every method of fvf.flow)
+            return np.empty((0,) + f0.shape)
         grows = False
         for extreme in (times.max(), times.min()):
             if extreme != 0:
