@@ -6,24 +6,43 @@ are documented in :mod:`fvf.fieldio` and ``docs/cli.md`` (``f`` vertex functions
 and ``u`` per-face fields, ``t`` times, ...).
 
 Exit status: 0 success; 1 ``fvf info`` found problems in the mesh; 2 bad input (a missing
-or unreadable file, an invalid mesh, wrong data keys or shapes, bad options); 3 a feature
-unavailable here (``fvf.viz`` or its ``[viz]`` extra missing, no display for ``view``);
-4 the computation failed (e.g. a flow overflowed). Errors are one line on stderr,
-``fvf: error: <cause>``; ``--debug`` shows the traceback instead. Warnings (fvf's
-:class:`~fvf.errors.FvfWarning`) are one line each, ``fvf: warning: <cause>``.
+or unreadable file, an invalid mesh, wrong data keys or shapes, bad options, an output
+that is an input); 3 a feature unavailable here (``fvf.viz`` or its ``[viz]`` extra
+missing, no display for ``view``); 4 the computation failed (e.g. a flow overflowed, out
+of memory); 5 an output could not be written (disk full, file size limit); 130 / 143
+interrupted (SIGINT / SIGTERM). Errors are one line on stderr, ``fvf: error: <cause>``;
+``--debug`` shows the traceback instead. Warnings (fvf's :class:`~fvf.errors.FvfWarning`)
+are one line each, ``fvf: warning: <cause>``.
+
+Files (``docs/files.md``): every output is written whole or not at all (a temporary file
+beside it, renamed when complete), and no command writes onto one of its inputs (also
+through a link) unless given ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import shlex
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 from typing import NoReturn
 
-__all__ = ["main", "EXIT_OK", "EXIT_PROBLEMS", "EXIT_BAD_INPUT", "EXIT_UNAVAILABLE", "EXIT_FAILED"]
+__all__ = [
+    "main",
+    "EXIT_OK",
+    "EXIT_PROBLEMS",
+    "EXIT_BAD_INPUT",
+    "EXIT_UNAVAILABLE",
+    "EXIT_FAILED",
+    "EXIT_WRITE_FAILED",
+    "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
+]
 
 EXIT_OK = 0
 #: ``fvf info`` found problems in the mesh.
@@ -32,11 +51,19 @@ EXIT_PROBLEMS = 1
 EXIT_BAD_INPUT = 2
 #: The feature is not available here (fvf.viz or its extra missing, no display).
 EXIT_UNAVAILABLE = 3
-#: The computation failed (e.g. a flow overflowed to inf).
+#: The computation failed (e.g. a flow overflowed to inf, or memory ran out).
 EXIT_FAILED = 4
+#: An output could not be written (disk full, file size limit, read-only file system);
+#: a file already at the output path is unchanged.
+EXIT_WRITE_FAILED = 5
+#: Interrupted by SIGINT (Ctrl-C) / terminated by SIGTERM; no output is half-written.
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 _EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input,
-3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed.
+3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
+5 output not written (disk full...), 130/143 interrupted.
+Outputs are written whole or not at all, never onto an input (unless --force).
 Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md."""
 
 
@@ -52,6 +79,34 @@ def _version() -> str:
 
 class Unavailable(RuntimeError):
     """A feature the command needs is not available on this machine."""
+
+
+#: A number on the command line: decimal, as in C (Python's float() would also take
+#: "1_0" as 10, and "nan", "inf", "infinity").
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _real(text: str) -> float:
+    """argparse type: a finite decimal number."""
+    if _DECIMAL.fullmatch(text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite decimal number (e.g. 0.5)")
+    return float(text)
+
+
+def _real_or_inf(text: str) -> float:
+    """argparse type: a finite decimal number or ``inf``."""
+    return float("inf") if text.strip().lower() in ("inf", "+inf") else _real(text)
+
+
+def _integer(text: str) -> int:
+    """argparse type: a decimal integer (no underscores)."""
+    if re.fullmatch(r"[+-]?[0-9]+", text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer (e.g. 50)")
+    return int(text)
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that outputs being written are cleaned up."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -89,8 +144,8 @@ def _times(args, data):
 
     if args.t:
         try:
-            values = [float(x) for item in args.t for x in item.split(",") if x.strip()]
-        except ValueError:
+            values = [_real(x) for item in args.t for x in item.split(",") if x.strip()]
+        except argparse.ArgumentTypeError:
             values = []
         if not values or not np.isfinite(values).all():
             raise ValueError(
@@ -115,6 +170,28 @@ def _viz():
     return viz
 
 
+def _inputs(args) -> list:
+    """Every file a command reads: the mesh, the data files, the constraints."""
+    data = getattr(args, "data", None) or []
+    data = [data] if isinstance(data, str) else list(data)
+    return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None)]
+
+
+def _check_outputs(args, *outputs) -> None:
+    """Refuse, before any work, outputs that are inputs (unless --force)."""
+    from fvf.io.atomic import check_not_input
+
+    for option, path in outputs:
+        if path is not None:
+            check_not_input(path, _inputs(args), force=args.force, option=option)
+
+
+def _data_output(args) -> tuple[str, str]:
+    from fvf.io.datafile import data_path
+
+    return "-o", str(data_path(args.output))
+
+
 def _write(args, out, arrays, mesh, inputs=()):
     import numpy as np
 
@@ -129,7 +206,13 @@ def _write(args, out, arrays, mesh, inputs=()):
             )
 
     path = write_data(
-        out, arrays, mesh=mesh, mesh_path=args.mesh, command=args.command_line, inputs=inputs
+        out,
+        arrays,
+        mesh=mesh,
+        mesh_path=args.mesh,
+        command=args.command_line,
+        inputs=inputs,
+        overwrite_inputs=args.force,
     )
     shapes = ", ".join(f"{k} {tuple(v.shape)}" for k, v in arrays.items() if v.ndim)
     print(f"wrote {path}: {shapes}")
@@ -197,6 +280,7 @@ _FLOW_OPTIONS = {
 def _cmd_flow(args) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args), ("--png", args.png))
     viz = _viz() if args.png else None
     mesh = _load_mesh(args.mesh)
     data = _load_data(args.data, mesh)
@@ -226,6 +310,7 @@ def _cmd_flow(args) -> int:
 def _cmd_bracket(args) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
     data = _load_data(args.data, mesh)
     v, w = data.field(args.first, mesh), data.field(args.second, mesh)
@@ -251,6 +336,7 @@ def _cmd_bracket(args) -> int:
 def _cmd_transport(args) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
     data = _load_data(args.data, mesh)
     v, u = data.field(args.field, mesh), data.field(args.transported, mesh)
@@ -269,6 +355,7 @@ def _cmd_transport(args) -> int:
 def _cmd_design(args) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
     arrays, inputs, kwargs = {}, [], {"hard": args.hard, "kind": args.kind}
     kwargs["normalize"] = not args.keep_length
@@ -351,6 +438,7 @@ def _numbers_of(data, spec, shapes):
 
 
 def _cmd_render(args) -> int:
+    _check_outputs(args, ("-o", args.output))
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
@@ -399,6 +487,17 @@ def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
     # --debug after the command too (SUPPRESS keeps the top-level value when absent)
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG)
     return p
+
+
+def _add_output(p: argparse.ArgumentParser, help: str) -> None:
+    """``-o/--output`` and ``--force`` (allow the output to be an input)."""
+    p.add_argument("-o", "--output", required=True, help=help)
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="allow an output to replace an input file (refused by default); a link there "
+        "is replaced, never written through",
+    )
 
 
 def _add_display_options(p: argparse.ArgumentParser) -> None:
@@ -460,10 +559,12 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="chapter", help="default: chapter")
     p.add_argument("--function", default="f", metavar="KEY", help="function key (default f)")
     p.add_argument("--field", default="v", metavar="KEY", help="field key (default v)")
-    p.add_argument("--k", type=int, help="eigenfunctions of --method spectral (default 50)")
-    p.add_argument("--dt", type=float, help="step length of --method cayley")
-    p.add_argument("--growth-limit", type=float, help="warn above this norm growth")
-    p.add_argument("-o", "--output", required=True, help="output .npz (keys f_t (T,n)|(T,k,n))")
+    p.add_argument("--k", type=_integer, help="eigenfunctions of --method spectral (default 50)")
+    p.add_argument("--dt", type=_real, help="step length of --method cayley")
+    p.add_argument(
+        "--growth-limit", type=_real_or_inf, help="warn above this norm growth (>= 1, or inf)"
+    )
+    _add_output(p, "output .npz (keys f_t (T,n)|(T,k,n))")
     p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
     p.set_defaults(run=_cmd_flow)
 
@@ -478,7 +579,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--first", default="v", metavar="KEY", help="first field key (default v)")
     p.add_argument("--second", default="u", metavar="KEY", help="second field key (default u)")
     p.add_argument("--function", metavar="KEY", help="functions to apply both brackets to")
-    p.add_argument("-o", "--output", required=True, help="output .npz")
+    _add_output(p, "output .npz")
     p.set_defaults(run=_cmd_bracket)
 
     p = _add(
@@ -493,7 +594,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
     p.add_argument("--transported", default="u", metavar="KEY", help="moved field (default u)")
     p.add_argument("--to", metavar="KEY", help="end field: interpolate (default u1 if present)")
-    p.add_argument("-o", "--output", required=True, help="output .npz (key u_t (T,m,3))")
+    _add_output(p, "output .npz (key u_t (T,m,3))")
     p.set_defaults(run=_cmd_transport)
 
     p = _add(
@@ -507,11 +608,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--soft", type=float, metavar="W", help="soft weight of every constraint")
+    mode.add_argument("--soft", type=_real, metavar="W", help="soft weight of every constraint")
     mode.add_argument("--hard", action="store_true", help="meet the constraints exactly")
     p.add_argument("--kind", choices=("knoppel", "singer_wu"), default="knoppel")
     p.add_argument("--keep-length", action="store_true", help="don't normalize directions")
-    p.add_argument("-o", "--output", required=True, help="output .npz (keys v, singularity_*)")
+    _add_output(p, "output .npz (keys v, singularity_*)")
     p.set_defaults(run=_cmd_design)
 
     p = _add(
@@ -521,14 +622,14 @@ def parser() -> argparse.ArgumentParser:
         "fvf render mesh.obj designed.npz --field v --singularities -o field.png",
     )
     _add_display_options(p)
-    p.add_argument("-o", "--output", required=True, help="output PNG")
+    _add_output(p, "output PNG")
     p.add_argument("--cmap", help="matplotlib colormap name (default viridis)")
-    p.add_argument("--clim", nargs=2, type=float, metavar=("LO", "HI"), help="color range")
-    p.add_argument("--arrow-scale", type=float, help="arrow length per unit field (absolute)")
-    p.add_argument("--size", nargs=2, type=int, metavar=("W", "H"), help="pixels (800 600)")
+    p.add_argument("--clim", nargs=2, type=_real, metavar=("LO", "HI"), help="color range")
+    p.add_argument("--arrow-scale", type=_real, help="arrow length per unit field (absolute)")
+    p.add_argument("--size", nargs=2, type=_integer, metavar=("W", "H"), help="pixels (800 600)")
     p.add_argument("--title", help="picture title")
-    p.add_argument("--view", nargs=2, type=float, metavar=("AZ", "EL"), help="camera, degrees")
-    p.add_argument("--max-arrows", type=int, help="arrows at about this many faces (1500)")
+    p.add_argument("--view", nargs=2, type=_real, metavar=("AZ", "EL"), help="camera, degrees")
+    p.add_argument("--max-arrows", type=_integer, help="arrows at about this many faces (1500)")
     p.add_argument("--backend", help="auto (default), polyscope-egl or matplotlib")
     p.set_defaults(run=_cmd_render)
 
@@ -577,8 +678,11 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2), already printed
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
+    args.force = getattr(args, "force", False)
     _SHOWN.clear()
-    with warnings.catch_warnings():
+    from fvf.errors import OutputWriteError
+
+    with warnings.catch_warnings(), _terminate_cleanly():
         warnings.simplefilter("default")
         warnings.showwarning = _show_warning
         try:
@@ -586,9 +690,17 @@ def main(argv: list[str] | None = None) -> int:
         except Exception as exc:
             if args.debug:
                 raise
-            if isinstance(exc, (Unavailable, ImportError)):
+            if isinstance(exc, OutputWriteError):
+                status = EXIT_WRITE_FAILED
+            elif isinstance(exc, (Unavailable, ImportError)):
                 status = EXIT_UNAVAILABLE
             elif isinstance(exc, (FloatingPointError, np.linalg.LinAlgError, RuntimeError)):
+                status = EXIT_FAILED
+            elif isinstance(exc, MemoryError):
+                exc = MemoryError(
+                    f"out of memory ({exc or 'allocation failed'}); use a smaller "
+                    "mesh, fewer times or fewer functions"
+                )
                 status = EXIT_FAILED
             elif isinstance(exc, (ValueError, OSError, KeyError)):
                 status = EXIT_BAD_INPUT
@@ -597,8 +709,32 @@ def main(argv: list[str] | None = None) -> int:
             print(f"fvf: error: {_one_line(exc)}", file=sys.stderr)
             return status
         except KeyboardInterrupt:
-            print("fvf: interrupted", file=sys.stderr)
-            return 130
+            print("fvf: interrupted; no output was half-written", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except _Terminated:
+            print("fvf: terminated; no output was half-written", file=sys.stderr)
+            return EXIT_TERMINATED
+
+
+class _terminate_cleanly:
+    """While a command runs in the main thread, SIGTERM raises :class:`_Terminated` (so
+    the temporary file of an output being written is removed) instead of killing the
+    process outright; the previous handler is restored afterwards."""
+
+    def __enter__(self):
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGTERM, self._raise)
+        return self
+
+    @staticmethod
+    def _raise(signum, frame):
+        raise _Terminated()
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+        return False
 
 
 if __name__ == "__main__":  # pragma: no cover

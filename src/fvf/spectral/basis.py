@@ -11,6 +11,7 @@ problem: the field whose reduced operator is closest to a given k x k matrix.
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -20,9 +21,11 @@ import scipy.linalg as sla
 from ..calculus import grad, rotate, stiffness, vertex_to_face
 from ..errors import FieldShapeError, ParameterError
 from ..flows.functional import FunctionalFlow
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..io.atomic import atomic_path
+from ..mesh.inputs import TangentPolicy, as_count, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
+from ..numerics.expm import as_times
 
 __all__ = [
     "SpectralBasis",
@@ -78,22 +81,36 @@ class SpectralBasis:
         cache_dir: str | Path | None = None,
     ) -> None:
         self.mesh = mesh
-        self.k = int(k)
+        self.k = as_count(k, "k", 1)
         self.tol = float(tol)
         path = None
         if cache_dir is not None:
             path = Path(cache_dir) / f"lb-{self.cache_key()}.npz"
-            if path.exists():
-                with np.load(path) as data:
-                    self.eigenvalues = data["eigenvalues"]
-                    self.eigenvectors = data["eigenvectors"]
+            if self._load_cache(path):
                 return
         self.eigenvalues, self.eigenvectors = smallest_eigenpairs(
             stiffness(mesh), mesh.vertex_areas, self.k, tol=self.tol, seed=seed
         )
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(path, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+            with atomic_path(path) as tmp:  # whole or not at all: never a half-written cache
+                np.savez(tmp, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+
+    def _load_cache(self, path: Path) -> bool:
+        """Take the eigenpairs from a cache file; False (recompute) when it is missing or
+        unreadable, or holds arrays of the wrong shape (never trusted blindly)."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                values, vectors = data["eigenvalues"], data["eigenvectors"]
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return False
+        n = self.mesh.n_vertices
+        if values.shape != (self.k,) or vectors.shape != (n, self.k):
+            return False
+        if not (np.isfinite(values).all() and np.isfinite(vectors).all()):
+            return False
+        self.eigenvalues, self.eigenvectors = values, vectors
+        return True
 
     def cache_key(self) -> str:
         """sha256 of the mesh arrays, k and tol: the on-disk cache's file name."""
@@ -206,8 +223,9 @@ class SpectralBasis:
         f = as_vertex_function(self.mesh, f)
         Dhat = self.reduced_D(v, tangent="ignore")
         c0 = self.project(f)
-        times = np.atleast_1d(np.asarray(t, dtype=float))
-        coeffs = np.stack([sla.expm(-s * Dhat) @ c0 for s in times])  # (T, k)
+        times, _ = as_times(t)
+        # (T, k); no times give no frames, (0, n), as every flow of fvf.flow
+        coeffs = np.array([sla.expm(-s * Dhat) @ c0 for s in times]).reshape(-1, self.k)
         out = coeffs @ self.eigenvectors.T  # (T, n)
         if not error_estimate:
             return out[0] if np.ndim(t) == 0 else out
