@@ -42,6 +42,7 @@ OPTIONAL = [
     ("Command line", "cli.md"),
     ("Mesh repair", "repair.md"),
     ("Meshes with boundary", "boundary.md"),
+    ("Files: what fvf guarantees", "files.md"),
 ]
 
 
