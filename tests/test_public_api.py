@@ -688,6 +688,12 @@ SPECS: dict[str, Spec] = {
         hostile="face_field",
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
     ),
+    "as_mesh": Spec(
+        lambda fn, mesh, c: (fn(mesh), fn((mesh.vertices.copy(), mesh.faces.copy()))),
+        lambda r, mesh, c: (
+            (r[0] is mesh and np.array_equal(r[1].faces, mesh.faces)) or pytest.fail("as_mesh")
+        ),
+    ),
     "as_face_function": Spec(
         lambda fn, mesh, c: fn(mesh, mesh.face_areas),
         lambda r, mesh, c: np.testing.assert_array_equal(r, mesh.face_areas),

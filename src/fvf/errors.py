@@ -24,6 +24,7 @@ __all__ = [
     "MeshReadError",
     "PolygonTriangulatedWarning",
     "MeshScaleError",
+    "DuplicateVertexWarning",
     "FieldError",
     "FieldShapeError",
     "FieldValueError",
@@ -111,6 +112,12 @@ class PolygonTriangulatedWarning(FvfWarning):
 class MeshScaleError(MeshError):
     """The coordinates are so large (or so small) that face areas overflow (or underflow)
     float64; rescale the vertices."""
+
+
+class DuplicateVertexWarning(FvfWarning):
+    """Many vertices sit at the position of another vertex and the mesh falls apart into
+    pieces along them (a triangle soup, or a mesh split at UV seams); weld them with
+    :func:`fvf.remove_duplicate_vertices`."""
 
 
 # ---------------------------------------------------------------------------- functions and fields

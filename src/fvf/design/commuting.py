@@ -16,6 +16,7 @@ import scipy.sparse as sp
 
 from ..calculus import field_product, stiffness, vertex_to_face
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
@@ -48,6 +49,7 @@ def _weight(x, name: str) -> float:
     return x
 
 
+@takes_mesh
 def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
     """F(v, u) = ad_v [u]• I_F^V: sparse (3n, n), f ↦ [v, f u] as a vertex field (eq. 65)."""
     v = as_face_field(mesh, v, "v")
@@ -55,6 +57,7 @@ def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.
     return (ad(mesh, v, tangent="ignore") @ (field_product(mesh, u) @ vertex_to_face(mesh))).tocsr()
 
 
+@takes_mesh
 def rescale(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -96,6 +99,7 @@ def rescale(
     return (f, 0.5 * float(lam[0])) if return_energy else f
 
 
+@takes_mesh
 def acap_energy_matrix(
     mesh: TriMesh, v: npt.ArrayLike, lam: float, kind: ConnectionKind = "knoppel"
 ) -> sp.csr_array:
@@ -116,6 +120,7 @@ def acap_energy_matrix(
     return (0.5 * (E + E.T)).tocsr()
 
 
+@takes_mesh
 def acap_fields(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -37,6 +37,7 @@ from ..errors import (
     ZeroFieldWarning,  # noqa: F401 (re-exported)
     format_indices,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
 from ..mesh.trimesh import _cross
 
@@ -106,6 +107,7 @@ def _angle_defects(mesh: TriMesh) -> np.ndarray:
     return TWO_PI - total
 
 
+@takes_mesh
 def vertex_indices(
     mesh: TriMesh,
     u: npt.ArrayLike,
@@ -236,6 +238,7 @@ def vertex_indices(
     return index
 
 
+@takes_mesh
 def singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
@@ -293,6 +296,7 @@ def _as_vertex_field(mesh: TriMesh, U: npt.ArrayLike, name: str) -> np.ndarray:
     return as_vertex_function(mesh, U, name, columns=True)
 
 
+@takes_mesh
 def face_indices(
     mesh: TriMesh,
     U: npt.ArrayLike,
@@ -386,6 +390,7 @@ def face_indices(
     return index
 
 
+@takes_mesh
 def face_singularities(
     mesh: TriMesh,
     U: npt.ArrayLike,
@@ -415,6 +420,7 @@ def face_singularities(
     return ids, index[ids]
 
 
+@takes_mesh
 def singularity_positions(
     mesh: TriMesh, ids: npt.ArrayLike, kind: Literal["vertex", "face"] = "vertex"
 ) -> np.ndarray:

@@ -48,6 +48,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import (
     TangentPolicy,
     as_count,
@@ -96,6 +97,7 @@ _OPTIONS = {
 
 
 # ---------------------------------------------------------------------------- operators
+@takes_mesh
 def dual_edge_fluxes(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -137,6 +139,7 @@ def _rows_and_diagonal(A: sp.csr_array) -> tuple[np.ndarray, np.ndarray]:
     return rows, rows == A.indices
 
 
+@takes_mesh
 def upwind_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -172,6 +175,7 @@ def upwind_operator(
     return sp.csr_array((data, F.indices, F.indptr), shape=F.shape)
 
 
+@takes_mesh
 def skew_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -312,6 +316,7 @@ class TransportFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -575,6 +580,7 @@ class TransportFlow:
         return out.reshape((times.size,) + f0.shape)
 
 
+@takes_mesh
 def flow(
     mesh: TriMesh,
     v: npt.ArrayLike,

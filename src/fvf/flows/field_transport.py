@@ -35,6 +35,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
@@ -206,6 +207,7 @@ class FieldTransport:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -325,6 +327,7 @@ class FieldTransport:
         return TransportResult(np.stack(out), np.array(normal))
 
 
+@takes_mesh
 def Ad(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -341,6 +344,7 @@ def Ad(
     return FieldTransport(mesh, v, growth_limit=growth_limit)(u, t).fields
 
 
+@takes_mesh
 def interpolate(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -51,6 +51,7 @@ from ..errors import (
     FluidSolveError,  # noqa: F401 (re-exported)
     ParameterError,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..operators.directional import D_V
@@ -99,6 +100,7 @@ class StreamFunctionSolver:
     True
     """
 
+    @takes_mesh
     def __init__(self, mesh: TriMesh) -> None:
         self.mesh = mesh
         labels = mesh.vertex_components
@@ -131,6 +133,7 @@ class StreamFunctionSolver:
         return self._remove_means(psi)
 
 
+@takes_mesh
 def stream_velocity(mesh: TriMesh, psi: npt.ArrayLike) -> np.ndarray:
     """u = J grad ψ: the divergence-free velocity of a stream function, (m, 3)."""
     return rotate(mesh, gradient(mesh, psi))
@@ -220,6 +223,7 @@ class FluidResult:
         }
 
 
+@takes_mesh
 def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) -> float:
     """A step length for a Courant number: c · mean edge length / max |u(ω_0)|.
 
@@ -243,6 +247,7 @@ def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) 
     return courant * mesh.mean_edge_length / speed
 
 
+@takes_mesh
 def ideal_fluid(
     mesh: TriMesh,
     omega0: npt.ArrayLike,

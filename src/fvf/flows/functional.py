@@ -35,6 +35,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import (
@@ -53,6 +54,7 @@ __all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots"]
 GROWTH_LIMIT = 100.0
 
 
+@takes_mesh
 def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` vertices of largest ``score`` (n,) and the faces around them.
 
@@ -113,6 +115,7 @@ class FunctionalFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,

@@ -33,6 +33,7 @@ from ..errors import (
     ParameterError,
     format_indices,
 )
+from .convert import takes_mesh
 
 if TYPE_CHECKING:
     from .trimesh import TriMesh
@@ -166,6 +167,7 @@ def _check_finite(a: np.ndarray, name: str, what: str) -> None:
         )
 
 
+@takes_mesh
 def as_vertex_function(
     mesh: TriMesh, f: npt.ArrayLike, name: str = "f", columns: bool = False
 ) -> np.ndarray:
@@ -193,6 +195,7 @@ def as_vertex_function(
     return a
 
 
+@takes_mesh
 def as_face_function(mesh: TriMesh, f: npt.ArrayLike, name: str = "f") -> np.ndarray:
     """Check a PC function: float64 (m,).
 
@@ -213,6 +216,7 @@ def as_face_function(mesh: TriMesh, f: npt.ArrayLike, name: str = "f") -> np.nda
     return a
 
 
+@takes_mesh
 def as_face_field(
     mesh: TriMesh, u: npt.ArrayLike, name: str = "v", tangent: TangentPolicy = "project"
 ) -> np.ndarray:

@@ -8,6 +8,7 @@ on first use and cached on the instance.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from functools import cached_property
 from typing import Any
@@ -19,6 +20,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import (
     DegenerateFaceError,
+    DuplicateVertexWarning,
     MeshIndexError,
     MeshScaleError,
     MeshShapeError,
@@ -27,12 +29,26 @@ from ..errors import (
     OrientationError,
     UnreferencedVertexError,
     format_indices,
+    user_stacklevel,
 )
 
 __all__ = ["TriMesh"]
 
 #: A face whose area is below this times its longest edge squared counts as degenerate.
 DEGENERATE_AREA_RTOL = 1e-14
+
+#: Warn (:class:`DuplicateVertexWarning`) when more than this fraction of the edges are
+#: boundary edges and of the vertices sit on another vertex: a triangle soup. Meshes of
+#: fewer than ``SOUP_MIN_FACES`` faces are not judged (a few triangles cut apart on
+#: purpose, e.g. by :func:`fvf.split_nonmanifold_edges`, look the same).
+SOUP_FRACTION = 0.25
+SOUP_MIN_FACES = 32
+
+_WELD = (
+    "weld them first: `V, F, _ = fvf.remove_duplicate_vertices(V, F)` (`fvf repair` in the "
+    "shell; with trimesh, load with `trimesh.load(path, merge_tex=True, merge_norm=True)` "
+    "or call `mesh.merge_vertices()`)"
+)
 
 #: The extent of a mesh (largest side of its bounding box) must lie in this range: the
 #: fourth power of the extent (squared areas) and of its inverse (squared Laplacian
@@ -119,7 +135,19 @@ class TriMesh:
         object.__setattr__(self, "faces", _readonly(F))
         object.__setattr__(self, "_cache", {})
         self._validate_geometry()
-        self._validate_topology()
+        try:
+            self._validate_topology()
+        except (NonManifoldError, OrientationError) as exc:
+            shared = _coincident_vertices(self.vertices)
+            if not shared:
+                raise
+            raise type(exc)(
+                f"{shared} of the {self.n_vertices} vertices sit at the position of another "
+                "vertex: the mesh was split (at UV seams, or into a triangle soup), which "
+                f"makes it fall apart. Fix: {_WELD}. The check found: "
+                f"{str(exc).split(' Fix:')[0]}"
+            ) from None
+        self._warn_if_soup()
 
     # ------------------------------------------------------------------ immutability
     def __setattr__(self, name: str, value: Any) -> None:
@@ -504,6 +532,24 @@ class TriMesh:
                 "then `fvf.remove_degenerate_faces(V, F)` (or `fvf.repair_mesh(V, F)`)."
             )
 
+    def _warn_if_soup(self) -> None:
+        """Warn when the mesh is a triangle soup: mostly boundary edges, and most vertices
+        sitting on another (checked only when the boundary is that large)."""
+        counts = self._edge_data[2]
+        boundary = int(np.count_nonzero(counts == 1))
+        if self.n_faces < SOUP_MIN_FACES or boundary <= SOUP_FRACTION * counts.size:
+            return
+        shared = _coincident_vertices(self.vertices)
+        if shared > SOUP_FRACTION * self.n_vertices:
+            warnings.warn(
+                f"{shared} of the {self.n_vertices} vertices sit at the position of another "
+                f"vertex and {boundary} of the {counts.size} edges are boundary edges: this "
+                "is a triangle soup (or a mesh split at its UV seams), so fvf sees "
+                f"separate pieces, not one surface. If it should be one surface, {_WELD}.",
+                DuplicateVertexWarning,
+                stacklevel=user_stacklevel(),
+            )
+
     def _validate_topology(self) -> None:
         counts = self._edge_data[2]
         bad = np.flatnonzero(counts > 2)
@@ -561,6 +607,11 @@ class TriMesh:
                 f"{int(fans[bad].max())} separate fans (two surfaces touch at a vertex). Fix: "
                 "`fvf.split_nonmanifold_vertices(V, F)` gives each fan its own copy."
             )
+
+
+def _coincident_vertices(X: np.ndarray) -> int:
+    """How many vertices sit exactly at the position of an earlier one."""
+    return int(X.shape[0] - np.unique(X, axis=0).shape[0])
 
 
 def _as_array(a: npt.ArrayLike, name: str) -> np.ndarray:

@@ -22,6 +22,7 @@ from ..calculus import (
     vertex_to_face,
 )
 from ..errors import FieldValueError, ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
 from ..mesh.trimesh import TriMesh
 from .directional import D_V, centered_vertices, directional_derivatives
@@ -39,6 +40,7 @@ __all__ = [
 ]
 
 
+@takes_mesh
 def bracket_V(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -51,6 +53,7 @@ def bracket_V(
     return (Dv @ Dw - Dw @ Dv).tocsr()
 
 
+@takes_mesh
 def bracket_F(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -81,6 +84,7 @@ def bracket_F(
     return mesh.assemble_vertex_operator(local)
 
 
+@takes_mesh
 def B(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -95,6 +99,7 @@ def B(
     return block_diagonal(blocks)
 
 
+@takes_mesh
 def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """ad_v: sparse (3n, 3m), w ↦ D^F_{[v,w]} X (eqs. 62–63), in fvf's layout.
 
@@ -123,6 +128,7 @@ def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> s
     return sp.bsr_array((blocks.reshape(-1, 3, 3)[order], faces_of, indptr), shape=(3 * n, 3 * m))
 
 
+@takes_mesh
 def commutator_field(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> np.ndarray:
@@ -165,6 +171,7 @@ def _scaled_back(unit: np.ndarray, scale: float, what: str) -> np.ndarray:
     return out
 
 
+@takes_mesh
 def bracket_norm(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -199,6 +206,7 @@ def bracket_norm(
     return _scaled_back(np.linalg.norm(unit, axis=1), scale, "commutator's norm")
 
 
+@takes_mesh
 def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
     """‖∇g‖² / ‖g‖² = gᵀWg / gᵀ[A_V]g per column: a scale-free roughness of PL functions.
 
@@ -226,6 +234,7 @@ def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
     return num / np.where(den > 0, den, 1.0)
 
 
+@takes_mesh
 def bracket_smoothness(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, functions: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:

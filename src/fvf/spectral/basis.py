@@ -22,6 +22,7 @@ from ..calculus import grad, rotate, stiffness, vertex_to_face
 from ..errors import FieldShapeError, ParameterError
 from ..flows.functional import FunctionalFlow
 from ..io.atomic import atomic_path
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_count, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
@@ -71,6 +72,7 @@ class SpectralBasis:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -308,6 +310,7 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     return np.stack([G, JG], axis=1).reshape(-1, mesh.n_faces, 3)
 
 
+@takes_mesh
 def laplace_basis(mesh: TriMesh, k: int, **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """The k smallest Laplace–Beltrami eigenpairs: (eigenvalues (k,), eigenvectors (n, k)).
 

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import FvfError, ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
 from .camera import View
@@ -149,6 +150,7 @@ def _warn_once(reason: str) -> None:
         )
 
 
+@takes_mesh
 def render(
     mesh: TriMesh,
     path: str | Path,
@@ -331,6 +333,7 @@ def check_render_options(size, clim, max_arrows, arrow_scale) -> tuple[int, int]
     return int(width), int(height)
 
 
+@takes_mesh
 def view(mesh: TriMesh, **kwargs) -> None:
     """Open polyscope's interactive window on a mesh (the same options as :func:`render`).
 
