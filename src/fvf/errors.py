@@ -49,6 +49,7 @@ __all__ = [
     "DataFileError",
     "DataKeyError",
     "MeshMismatchError",
+    "LegacyLayoutWarning",
     "MissingExtraError",
     "NoDisplayError",
     "RenderBackendWarning",
@@ -228,6 +229,11 @@ class DataKeyError(DataFileError):
 
 class MeshMismatchError(DataFileError):
     """The mesh copy stored in a data file (``vertices``, ``faces``) differs from the mesh."""
+
+
+class LegacyLayoutWarning(FvfWarning):
+    """A data file stores several functions as rows, (k, n), the layout of files from
+    older fvf versions; it was read transposed, as (n, k), one column per function."""
 
 
 # ---------------------------------------------------------------------------- pictures

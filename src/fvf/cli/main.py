@@ -64,11 +64,16 @@ _EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input
 3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
 5 output not written (disk full...), 130/143 interrupted.
 Outputs are written whole or not at all, never onto an input (unless --force).
-Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md."""
+Data files: .npz with keys f (n,)|(n,k), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md.
+A key option can name another file: --field designed.npz:v. -o *.ply/.vtp/.vtu writes the
+results as mesh properties (ParaView, MeshLab); a .ply output is a valid fvf input."""
 
 
 _DEBUG = "show the traceback of an error instead of one line"
-_MERGE = "(or PLY properties); several files: a later one's keys replace an earlier one's"
+_MERGE = (
+    "(or PLY properties); several files: a later one's keys replace an earlier one's; a key "
+    "option may name its own file: --field other.npz:v"
+)
 
 
 def _version() -> str:
@@ -138,6 +143,60 @@ def _load_data(paths: str | list[str], mesh):
     return files[0] if len(files) == 1 else DataFile.merged(files)
 
 
+def _split_source(spec: str) -> tuple[str | None, str]:
+    """``FILE.npz:KEY`` -> (FILE.npz, KEY); a plain ``KEY`` -> (None, KEY)."""
+    from fvf.io.datafile import MESH_DATA_SUFFIXES
+
+    head, sep, key = spec.rpartition(":")
+    if sep and Path(head).suffix.lower() in (".npz", *MESH_DATA_SUFFIXES) and key:
+        return head, key
+    return None, spec
+
+
+class _Sources:
+    """The data files of a command, and keys named ``FILE.npz:KEY`` from other files
+    (read on first use, checked against the mesh, listed as inputs)."""
+
+    def __init__(self, args, mesh):
+        self.mesh, self.extra = mesh, {}
+        self.data = _load_data(args.data, mesh) if args.data else None
+        self.paths = list(args.data or [])
+
+    def _file(self, spec: str):
+        from fvf.io.datafile import read_data
+
+        path, key = _split_source(spec)
+        if path is None:
+            if self.data is None:
+                raise ValueError(
+                    f"no data file to read key {key!r} from: give a DATA file, or name the "
+                    f"file in the option, e.g. fields.npz:{key}"
+                )
+            return self.data, key
+        if path not in self.extra:
+            self.extra[path] = read_data(path, self.mesh)
+            self.paths.append(path)
+        return self.extra[path], key
+
+    def has(self, spec: str) -> bool:
+        path, key = _split_source(spec)
+        if path is not None:
+            return True
+        return self.data is not None and key in self.data
+
+    def field(self, spec: str):
+        data, key = self._file(spec)
+        return data.field(key, self.mesh)
+
+    def functions(self, spec: str):
+        data, key = self._file(spec)
+        return data.functions(key, self.mesh)
+
+    def select(self, spec: str):
+        data, key = self._file(spec)
+        return data, data.select(key, self.mesh.n_vertices)
+
+
 def _times(args, data):
     """The times of ``--t``, else the data file's ``t``: float64 (T,)."""
     import numpy as np
@@ -170,11 +229,16 @@ def _viz():
     return viz
 
 
+_KEY_OPTIONS = ("field", "function", "first", "second", "transported", "to")
+
+
 def _inputs(args) -> list:
-    """Every file a command reads: the mesh, the data files, the constraints."""
+    """Every file a command reads: the mesh, the data files, the constraints, and the
+    files named in ``FILE.npz:KEY`` options."""
     data = getattr(args, "data", None) or []
     data = [data] if isinstance(data, str) else list(data)
-    return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None)]
+    named = [_split_source(getattr(args, o, None) or "")[0] for o in _KEY_OPTIONS]
+    return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None), *named]
 
 
 def _check_outputs(args, *outputs) -> None:
@@ -251,15 +315,70 @@ def info(path: str, as_json: bool = False) -> dict:
     for hint in report.get("hints", []):
         print(f"  hint: {hint}")
     for problem in report["problems"]:
-        print(f"  problem: {problem}")
+        print(f"  problem: {_shell_fix(problem)}")
     if not report["problems"]:
         print("  no problems found")
+    elif _repairable(report):
+        fixed = Path(path).stem + "_fixed" + Path(path).suffix
+        print(f"  fix: fvf repair {shlex.quote(str(path))} -o {shlex.quote(fixed)}")
     return report
+
+
+def _shell_fix(problem: str) -> str:
+    """A problem line whose Python fix names repair steps, told for the shell instead."""
+    from fvf.mesh.repair import REPAIR_STEPS
+
+    text, sep, fix = problem.partition(" Fix: ")
+    steps = re.findall(r"fvf\.(\w+)\(", fix)
+    if not sep or not steps or not all(step in REPAIR_STEPS for step in steps):
+        return problem
+    return f"{text} Fixed by `fvf repair` (step {', '.join(dict.fromkeys(steps))})."
+
+
+def _repairable(report: dict) -> bool:
+    """Whether ``fvf repair`` addresses the problems (all but non-finite coordinates,
+    bad shapes and non-orientable surfaces)."""
+    fixable = ("Unreferenced", "Duplicate", "Degenerate", "NonManifold", "Orientation")
+    return any(p.split(":")[0].startswith(fixable) for p in report["problems"])
 
 
 def _cmd_info(args) -> int:
     report = info(args.mesh, args.json)
     return EXIT_OK if not report["problems"] else EXIT_PROBLEMS
+
+
+def _cmd_repair(args) -> int:
+    import numpy as np
+
+    import fvf
+    from fvf.io.atomic import atomic_path
+
+    out = Path(args.output)
+    maps = out.with_name(out.stem + ".maps.npz")
+    _check_outputs(args, ("-o", str(out)), ("the index maps", str(maps)))
+    V, F = fvf.read_mesh(args.mesh)
+    result = fvf.repair_mesh(V, F, tol=args.tol)
+    mesh = result.mesh  # the repaired mesh must be valid (else: what is left, status 2)
+    fvf.write_mesh(out, mesh.vertices, mesh.faces)
+    with atomic_path(maps) as tmp:
+        np.savez(
+            tmp,
+            vertex_origin=result.vertex_origin,
+            vertex_map=result.vertex_map,
+            face_origin=result.face_origin,
+            face_map=result.face_map,
+            flipped=result.flipped,
+            log=np.array(list(result.log) or ["nothing to repair"]),
+            mesh_path=np.array(str(Path(args.mesh).resolve())),
+            command=np.array(args.command_line),
+        )
+    for line in result.log or ("nothing to repair",):
+        print(f"  {line}")
+    print(
+        f"wrote {out} ({mesh.n_vertices} vertices, {mesh.n_faces} faces) and {maps} "
+        "(vertex_origin, vertex_map, face_origin, face_map, flipped: old <-> new indices)"
+    )
+    return EXIT_OK
 
 
 def _cmd_demo(args) -> int:
@@ -283,9 +402,9 @@ def _cmd_flow(args) -> int:
     _check_outputs(args, _data_output(args), ("--png", args.png))
     viz = _viz() if args.png else None
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, f = data.field(args.field, mesh), data.functions(args.function, mesh)
-    t = _times(args, data)
+    src = _Sources(args, mesh)
+    v, f = src.field(args.field), src.functions(args.function)
+    t = _times(args, src.data)
     options = {}
     for name, methods in _FLOW_OPTIONS.items():
         if getattr(args, name) is None:
@@ -296,12 +415,11 @@ def _cmd_flow(args) -> int:
                 f"{flag} applies to --method {' or '.join(methods)}, not {args.method!r}"
             )
         options[name] = getattr(args, name)
-    f_t = fvf.flow(mesh, v, f.T, t, method=args.method, **options)  # (T, n) or (T, n, k)
-    f_t = f_t if f.ndim == 1 else f_t.transpose(0, 2, 1)  # (T, k, n): rows are functions
+    f_t = fvf.flow(mesh, v, f, t, method=args.method, **options)  # (T, n) or (T, n, k)
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
-    _write(args, args.output, arrays, mesh, args.data)
+    _write(args, args.output, arrays, mesh, src.paths)
     if viz is not None:
-        last = f_t[-1] if f.ndim == 1 else f_t[-1, 0]
+        last = f_t[-1] if f.ndim == 1 else f_t[-1, :, 0]
         title = f"flow ({args.method}) at t = {t[-1]:g}"
         _render(viz, mesh, args.png, function=last, field=v, title=title)
     return EXIT_OK
@@ -312,8 +430,8 @@ def _cmd_bracket(args) -> int:
 
     _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, w = data.field(args.first, mesh), data.field(args.second, mesh)
+    src = _Sources(args, mesh)
+    v, w = src.field(args.first), src.field(args.second)
     commutator = fvf.commutator_field(mesh, v, w)  # (n, 3), eq. 54 applied to X
     arrays = {
         "v": v,
@@ -324,12 +442,12 @@ def _cmd_bracket(args) -> int:
         "bracket_norm": fvf.bracket_norm(mesh, v, w, where="vertex"),
         "bracket_norm_face": fvf.bracket_norm(mesh, v, w, where="face"),
     }
-    if args.function is not None or "f" in data:
-        f = data.functions(args.function or "f", mesh)
+    if args.function is not None or src.has("f"):
+        f = src.functions(args.function or "f")
         arrays["f"] = f
-        arrays["bracket_F_f"] = (fvf.bracket_F(mesh, v, w) @ f.T).T  # eq. 54
-        arrays["bracket_V_f"] = (fvf.bracket_V(mesh, v, w) @ f.T).T  # eq. 46
-    _write(args, args.output, arrays, mesh, args.data)
+        arrays["bracket_F_f"] = fvf.bracket_F(mesh, v, w) @ f  # eq. 54, shape of f
+        arrays["bracket_V_f"] = fvf.bracket_V(mesh, v, w) @ f  # eq. 46
+    _write(args, args.output, arrays, mesh, src.paths)
     return EXIT_OK
 
 
@@ -338,17 +456,17 @@ def _cmd_transport(args) -> int:
 
     _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, u = data.field(args.field, mesh), data.field(args.transported, mesh)
-    t = _times(args, data)
+    src = _Sources(args, mesh)
+    v, u = src.field(args.field), src.field(args.transported)
+    t = _times(args, src.data)
     arrays = {"v": v, "u": u, "t": t}
-    if args.to is not None or "u1" in data:
-        u1 = data.field(args.to or "u1", mesh)
+    if args.to is not None or src.has("u1"):
+        u1 = src.field(args.to or "u1")
         arrays.update(u1=u1, u_t=fvf.interpolate(mesh, v, u, u1, t), mode=_str("interpolate"))
     else:
         result = fvf.FieldTransport(mesh, v)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
-    _write(args, args.output, arrays, mesh, args.data)
+    _write(args, args.output, arrays, mesh, src.paths)
     return EXIT_OK
 
 
@@ -398,15 +516,16 @@ def _display_arrays(args, mesh):
     import fvf
 
     kwargs = {}
-    data = _load_data(args.data, mesh) if args.data else None
-    if data is None and (args.function or args.field or args.singularities):
-        raise ValueError("--function, --field and --singularities need a DATA file")
+    src = _Sources(args, mesh)
+    data = src.data
+    if args.singularities and data is None and not args.field:
+        raise ValueError("--singularities needs a DATA file or a --field")
     if args.function:
-        kwargs["function"] = _numbers_of(data, args.function, [(mesh.n_vertices,), (mesh.n_faces,)])
+        kwargs["function"] = _numbers_of(src, args.function, [(mesh.n_vertices,), (mesh.n_faces,)])
     if args.field:
-        kwargs["field"] = _numbers_of(data, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
+        kwargs["field"] = _numbers_of(src, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
     if args.singularities:
-        if "singularity_positions" in data and "singularity_indices" in data:
+        if data is not None and "singularity_positions" in data and "singularity_indices" in data:
             pos = data.numbers("singularity_positions", (None, 3))
             idx = data.integers("singularity_indices", (pos.shape[0],))
         elif "field" in kwargs and kwargs["field"].shape[0] == mesh.n_faces:
@@ -424,15 +543,16 @@ def _display_arrays(args, mesh):
     return kwargs, args.data
 
 
-def _numbers_of(data, spec, shapes):
+def _numbers_of(src, spec, shapes):
     from fvf.errors import FieldShapeError
 
-    a = data.select(spec)
+    data, a = src.select(spec)
     if a.dtype.kind not in "fiu" or a.shape not in shapes:
         want = " or ".join(str(s) for s in shapes)
         raise FieldShapeError(
             f"{data.path}: {spec!r} has dtype {a.dtype} and shape {a.shape}, expected real "
-            f"numbers of shape {want} (select one row with KEY[i])"
+            f"numbers of shape {want} (select a time with KEY[i], a function with "
+            "KEY[:, j] or KEY[i, :, j])"
         )
     return a.astype(float)
 
@@ -549,12 +669,26 @@ def parser() -> argparse.ArgumentParser:
 
     p = _add(
         sub,
+        "repair",
+        "repair a mesh (fvf.repair_mesh): weld, drop unreferenced vertices, degenerate and "
+        "duplicate faces, split non-manifold edges and vertices, orient; writes the index maps",
+        "fvf repair scan.obj -o scan_fixed.obj   (maps: scan_fixed.maps.npz)",
+    )
+    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument(
+        "--tol", type=_real, default=0.0, help="weld vertices closer than this (default 0)"
+    )
+    _add_output(p, "repaired mesh (.obj, .off, .ply); the maps go to <stem>.maps.npz beside it")
+    p.set_defaults(run=_cmd_repair)
+
+    p = _add(
+        sub,
         "flow",
         "flow vertex functions along a per-face field: f(t) = Phi_{v,t} f (eq. 42, fvf.flow)",
         "fvf flow mesh.obj field.npz --t 0 0.5 1 --method upwind -o flowed.npz --png f.png",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys f (n,)|(k,n), v (m,3) " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys f (n,)|(n,k), v (m,3) " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times, e.g. --t 0 0.5 1 (or key t)")
     p.add_argument("--method", choices=METHODS, default="chapter", help="default: chapter")
     p.add_argument("--function", default="f", metavar="KEY", help="function key (default f)")
@@ -564,7 +698,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--growth-limit", type=_real_or_inf, help="warn above this norm growth (>= 1, or inf)"
     )
-    _add_output(p, "output .npz (keys f_t (T,n)|(T,k,n))")
+    _add_output(p, "output .npz (keys f_t (T,n)|(T,n,k)), or .ply/.vtp/.vtu")
     p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
     p.set_defaults(run=_cmd_flow)
 
@@ -575,7 +709,7 @@ def parser() -> argparse.ArgumentParser:
         "fvf bracket mesh.obj fields.npz -o bracket.npz   (fields.npz: v, u; optional f)",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, f] " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, f] " + _MERGE)
     p.add_argument("--first", default="v", metavar="KEY", help="first field key (default v)")
     p.add_argument("--second", default="u", metavar="KEY", help="second field key (default u)")
     p.add_argument("--function", metavar="KEY", help="functions to apply both brackets to")
@@ -589,7 +723,7 @@ def parser() -> argparse.ArgumentParser:
         "fvf transport mesh.obj fields.npz --t 0 0.25 0.5 -o moved.npz   (keys v, u [, u1])",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, u1] " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, u1] " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times (interpolation: in [0, 1])")
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
     p.add_argument("--transported", default="u", metavar="KEY", help="moved field (default u)")

@@ -227,33 +227,68 @@ def _checked(path: Path, poly: _Polygons) -> tuple[_Polygons, tuple[np.ndarray, 
     return poly, _triangulate(path, poly)
 
 
-def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
-    """Write a triangle mesh as OBJ, OFF (ascii) or PLY (binary little endian).
+#: Formats :func:`write_mesh` writes besides :data:`SUFFIXES` (through meshio or PyVista).
+VTK_SUFFIXES = (".vtu", ".vtp")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
+
+
+def write_mesh(
+    path: str | os.PathLike,
+    vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    *,
+    vertex_data: dict[str, npt.ArrayLike] | None = None,
+    face_data: dict[str, npt.ArrayLike] | None = None,
+    comments: tuple[str, ...] = (),
+) -> None:
+    """Write a triangle mesh as OBJ, OFF (ascii), PLY (binary little endian) or VTK.
+
+    The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`).
 
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; its suffix (``.obj``, ``.off`` or ``.ply``, case-insensitive) selects
-        the format. Text formats print coordinates with ``%.17g``, so reading the file back
-        with :func:`read_mesh` gives exactly the same arrays.
+        Output file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off``,
+        ``.ply``, or VTK XML for ParaView: ``.vtu`` (through meshio, else PyVista) or
+        ``.vtp`` (through PyVista); both are optional (``pip install 'fvf[vtk]'``). Text
+        formats print coordinates with ``%.17g``, so reading the file back with
+        :func:`read_mesh` gives exactly the same arrays.
     vertices : array_like of float, shape (n, 3)
         Vertex positions.
     faces : array_like of int, shape (m, 3)
         0-based vertex indices of the triangles, in ``[0, n)``.
+    vertex_data, face_data : dict of str to array_like, optional
+        Per-vertex (n,) / (n, 3) and per-face (m,) / (m, 3) arrays (functions, fields,
+        marks), PLY and VTK only. In a PLY a scalar array ``p`` is the property ``p`` and a
+        3-vector array the three properties ``px py pz``, exactly what
+        :func:`read_ply_properties` and :func:`fvf.io.read_data` read back (a face triple
+        ``vx vy vz`` is the field ``v``). In VTK they are point and cell data of those
+        names (3-vectors as vectors). Names: letters, digits, ``_ . -``.
+    comments : tuple of str
+        PLY ``comment`` lines (provenance).
 
     Raises
     ------
     fvf.errors.FvfError
-        The suffix is unsupported.
+        The suffix is unsupported, or data were given for OBJ/OFF (which cannot hold
+        them), or a name is not usable.
+    fvf.errors.FieldShapeError
+        A data array has neither n nor m rows, or is not (k,) / (k, 3).
     fvf.errors.MeshShapeError
         ``vertices`` or ``faces`` have the wrong shape or dtype.
     fvf.errors.MeshIndexError
         A face index is outside ``[0, n)``.
+    fvf.errors.MissingExtraError
+        ``.vtu`` without meshio or PyVista, ``.vtp`` without PyVista.
+    fvf.errors.OutputWriteError
+        The file could not be written; a file already at ``path`` is unchanged.
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in SUFFIXES:
-        raise FvfError(f"{path}: cannot write {path.suffix!r} files; use one of {SUFFIXES}")
+    if suffix not in SUFFIXES + VTK_SUFFIXES:
+        raise FvfError(
+            f"{path}: cannot write {path.suffix!r} files; use one of {SUFFIXES + VTK_SUFFIXES}"
+        )
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces)
     if V.ndim != 2 or V.shape[1] != 3:
@@ -263,18 +298,22 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
     F = F.astype(np.int64)
     if F.size and (F.min() < 0 or F.max() >= len(V)):
         raise MeshIndexError(f"faces refer to vertices outside [0, {len(V)}); fix the faces")
-    n, m = len(V), len(F)
-    if suffix == ".ply":
-        header = (
-            f"ply\nformat binary_little_endian 1.0\ncomment written by fvf\nelement vertex {n}\n"
-            "property double x\nproperty double y\nproperty double z\n"
-            f"element face {m}\nproperty list uchar int vertex_indices\nend_header\n"
+    vdata = _checked_data(vertex_data, len(V), "vertex_data", ("x", "y", "z"))
+    fdata = _checked_data(face_data, len(F), "face_data", ("vertex_indices",))
+    if (vdata or fdata) and suffix in (".obj", ".off"):
+        raise FvfError(
+            f"{path}: {suffix[1:].upper()} files cannot hold vertex or face data; write "
+            ".ply (read back by fvf.io.read_data) or .vtp/.vtu (ParaView)"
         )
-        tri = np.empty(m, dtype=[("k", "u1"), ("i", "<i4", (3,))])
-        tri["k"], tri["i"] = 3, F
+    if suffix == ".ply":
+        data = _ply_bytes(V, F, vdata, fdata, comments)
         with atomic_path(path) as tmp:
-            tmp.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
+            tmp.write_bytes(data)
         return
+    if suffix in VTK_SUFFIXES:
+        _write_vtk(path, V, F, vdata, fdata)
+        return
+    n, m = len(V), len(F)
     if suffix == ".obj":
         v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
         f_text = ("f %d %d %d\n" * m) % tuple((F + 1).ravel().tolist())
@@ -285,6 +324,101 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
         text = f"OFF\n{n} {m} 0\n{v_text}{f_text}"
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="ascii")
+
+
+def _checked_data(
+    data: dict[str, npt.ArrayLike] | None, rows: int, what: str, reserved: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """Each array as float64 (rows,) or (rows, 3), names checked."""
+    from ..errors import FieldShapeError
+
+    out = {}
+    for name, a in (data or {}).items():
+        a = np.asarray(a)
+        if a.dtype.kind not in "biuf":
+            raise FieldShapeError(f"{what}[{name!r}] must hold real numbers; got {a.dtype}")
+        if not (a.shape == (rows,) or a.shape == (rows, 3)):
+            raise FieldShapeError(
+                f"{what}[{name!r}] has shape {a.shape}; expected ({rows},) or ({rows}, 3)"
+            )
+        names = [name] if a.ndim == 1 else [name + c for c in "xyz"]
+        if _NAME.fullmatch(name) is None or set(names) & set(reserved):
+            raise FvfError(
+                f"{what}: {name!r} cannot be a property name (letters, digits, _ . - and not "
+                f"{', '.join(reserved)})"
+            )
+        out[name] = a.astype(np.float64)
+    return out
+
+
+def _ply_bytes(V, F, vdata: dict, fdata: dict, comments: tuple[str, ...]) -> bytes:
+    """Binary little-endian PLY with double properties after x y z / the index list."""
+
+    def columns(data: dict) -> list[tuple[str, np.ndarray]]:
+        out = []
+        for name, a in data.items():
+            out += (
+                [(name, a)] if a.ndim == 1 else [(name + c, a[:, i]) for i, c in enumerate("xyz")]
+            )
+        return out
+
+    vcols = [("x", V[:, 0]), ("y", V[:, 1]), ("z", V[:, 2]), *columns(vdata)]
+    fcols = columns(fdata)
+    lines = ["ply", "format binary_little_endian 1.0", "comment written by fvf"]
+    lines += [f"comment {' '.join(c.split())}" for c in comments]
+    lines += [f"element vertex {len(V)}", *[f"property double {n}" for n, _ in vcols]]
+    lines += [f"element face {len(F)}", "property list uchar int vertex_indices"]
+    lines += [f"property double {n}" for n, _ in fcols]
+    header = "\n".join([*lines, "end_header"]) + "\n"
+    vrec = np.empty(len(V), dtype=[(n, "<f8") for n, _ in vcols])
+    for n, a in vcols:
+        vrec[n] = a
+    frec = np.empty(
+        len(F), dtype=[("k", "u1"), ("i", "<i4", (3,))] + [(n, "<f8") for n, _ in fcols]
+    )
+    frec["k"], frec["i"] = 3, F
+    for n, a in fcols:
+        frec[n] = a
+    return header.encode("ascii") + vrec.tobytes() + frec.tobytes()
+
+
+def _write_vtk(path: Path, V, F, vdata: dict, fdata: dict) -> None:
+    """.vtu through meshio (else PyVista), .vtp through PyVista."""
+    import importlib.util
+
+    from ..errors import MissingExtraError
+
+    suffix = path.suffix.lower()
+    have_meshio = importlib.util.find_spec("meshio") is not None
+    have_pyvista = importlib.util.find_spec("pyvista") is not None
+    if suffix == ".vtu" and have_meshio:
+        import meshio
+
+        mesh = meshio.Mesh(
+            V,
+            [("triangle", F)],
+            point_data=dict(vdata),
+            cell_data={k: [a] for k, a in fdata.items()},
+        )
+        with atomic_path(path) as tmp:
+            meshio.write(tmp, mesh, file_format="vtu")
+        return
+    if not have_pyvista:
+        need = "meshio or PyVista" if suffix == ".vtu" else "PyVista"
+        raise MissingExtraError(
+            f"{path}: writing {suffix} files needs {need}: pip install 'fvf[vtk]'"
+        )
+    import pyvista
+
+    cells = np.column_stack([np.full(len(F), 3), F]).ravel()
+    poly = pyvista.PolyData(V, cells)
+    for k, a in vdata.items():
+        poly.point_data[k] = a
+    for k, a in fdata.items():
+        poly.cell_data[k] = a
+    grid = poly if suffix == ".vtp" else poly.cast_to_unstructured_grid()
+    with atomic_path(path) as tmp:
+        grid.save(str(tmp), binary=True)
 
 
 def _triangulate(path: Path, p: _Polygons) -> tuple[np.ndarray, int]:

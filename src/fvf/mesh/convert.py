@@ -124,12 +124,12 @@ def mesh_arrays(obj: Any) -> tuple[np.ndarray, np.ndarray] | None:
         return _meshio(obj)
     if module.startswith("pyvista"):
         return _pyvista(obj)
-    if hasattr(obj, "vertlist") and hasattr(obj, "facelist"):  # pyFM
-        return np.asarray(obj.vertlist), np.asarray(obj.facelist)
     if module.startswith("open3d") and hasattr(obj, "triangles"):
         return np.asarray(obj.vertices), np.asarray(obj.triangles)
-    if hasattr(obj, "vertices") and hasattr(obj, "faces"):  # trimesh, RepairResult, ...
+    if hasattr(obj, "vertices") and hasattr(obj, "faces"):  # trimesh, pyFM, RepairResult
         return np.asarray(obj.vertices), np.asarray(obj.faces)
+    if hasattr(obj, "vertlist") and hasattr(obj, "facelist"):  # older pyFM
+        return np.asarray(obj.vertlist), np.asarray(obj.facelist)
     if hasattr(obj, "points") and hasattr(obj, "cells"):  # meshio-like
         return _meshio(obj)
     return None
