@@ -108,9 +108,7 @@ __all__ = [
 #: Stored ``vertices`` must match the mesh's to this fraction of the bounding-box diagonal.
 MESH_MATCH_RTOL = 1e-9
 
-_SELECT = re.compile(
-    r"^(?P<key>[^\[\]]+)(\[(?P<index>\s*(-?\d+|:)\s*(,\s*(-?\d+|:)\s*)*)\])?$"
-)
+_SELECT = re.compile(r"^(?P<key>[^\[\]]+)(\[(?P<index>\s*(-?\d+|:)\s*(,\s*(-?\d+|:)\s*)*)\])?$")
 
 
 class DataFile(Mapping):
