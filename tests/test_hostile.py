@@ -83,6 +83,7 @@ def test_4off_divides_by_w_and_large_files_stay_fast(tmp_path):
     assert np.array_equal(F, mesh.faces)
 
 
+@pytest.mark.perf
 def test_strict_numbers_cost_nothing_on_clean_files(tmp_path):
     """The check of number syntax takes one pass over the characters: a 20k-face OBJ
     reads as fast as before (the check is below 15 % of the read)."""
@@ -222,10 +223,12 @@ def test_cli_options_are_refused_in_one_line(work, capsys, alarm):
         if args[0] == "render" and not viz:
             continue
         argv = [args[0], str(d / "ico.obj"), str(d / "fields.npz"), *args[1:]]
-        argv += ["--field", "v", "-o", str(d / "o.png")] if args[0] == "render" else ["-o", "o"]
+        out = ["-o", str(d / "o.png")] if args[0] == "render" else ["-o", str(d / "o")]
+        argv += ["--field", "v", *out] if args[0] == "render" else out
         status = main(argv)
         err = capsys.readouterr().err
         assert status == EXIT_BAD_INPUT and err.count("\n") == 1 and words in err, (args, err)
+        assert not (d / "o.npz").exists() and not (d / "o.png").exists()
 
 
 # ---------------------------------------------------------------------------- sizes
