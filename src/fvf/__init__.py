@@ -90,6 +90,7 @@ from .mesh import (
     TriMesh,
     as_face_field,
     as_face_function,
+    as_mesh,
     as_vertex_function,
     disk,
     icosphere,
@@ -191,6 +192,7 @@ __all__ = [
     "as_face_field",
     "as_face_function",
     "as_vertex_function",
+    "as_mesh",
     # calculus (§3.1)
     "face_areas",
     "vertex_areas",

@@ -6,6 +6,11 @@ the stage function's source (the exact calls that made them, read with :mod:`ins
 Pictures need the optional extra (``pip install 'fvf[viz]'``); without it every stage
 still runs and reports its numbers, and its pictures are listed as skipped with the
 reason.
+
+Every file of the output folder is written atomically (:func:`fvf.io.atomic.atomic_path`),
+one after the other: a demo interrupted mid-way leaves the files it had completed (each
+whole) and no half-written one; ``summary.json`` and ``index.html`` come last, so their
+presence means the run finished.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh
+from ..io.atomic import atomic_path, atomic_write_text
 
 __all__ = ["demo"]
 
@@ -389,7 +395,8 @@ def _fig12(s, story):
     for f in frames:
         strip.paste(f, (x, 0))
         x += f.width
-    strip.save(story.out / "fig12_strip.png")
+    with atomic_path(story.out / "fig12_strip.png") as tmp:
+        strip.save(tmp, format="PNG")
     st["pictures"].append({"file": "fig12_strip.png", "caption": "the frames side by side"})
     fvf.viz.write_gif(files + files[-2:0:-1], story.out / "fig12_interpolation.gif", fps=4)
     st["pictures"].append({"file": "fig12_interpolation.gif", "caption": "animated (GIF)"})
@@ -506,12 +513,12 @@ def demo(
     report["pictures"] = [p["file"] for st in story.stages for p in st["pictures"]]
     report["backend"] = story.backend
     report["seconds"] = time.perf_counter() - t0
-    (out / "summary.json").write_text(json.dumps(report, indent=2))
-    np.savez(out / "fluid.npz", vorticity=s.fluid.vorticity, times=s.fluid.times)
-    np.savez(
-        out / "flow.npz", vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v
-    )
-    (out / "index.html").write_text(_html(report, story))
+    with atomic_path(out / "fluid.npz") as tmp:
+        np.savez(tmp, vorticity=s.fluid.vorticity, times=s.fluid.times)
+    with atomic_path(out / "flow.npz") as tmp:
+        np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v)
+    atomic_write_text(out / "summary.json", json.dumps(report, indent=2))
+    atomic_write_text(out / "index.html", _html(report, story))
     print(
         f"[fvf demo] done in {report['seconds']:.1f}s; wrote {out}/index.html, "
         f"{out}/summary.json and {len(report['pictures'])} pictures"

@@ -16,6 +16,7 @@ import scipy.sparse as sp
 
 from ..calculus import field_product, stiffness, vertex_to_face
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
@@ -48,6 +49,7 @@ def _weight(x: object, name: str) -> float:
     return value
 
 
+@takes_mesh
 def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
     """F(v, u) = ad_v [u]• I_F^V: sparse (3n, n), f ↦ [v, f u] as a vertex field (eq. 65)."""
     v = as_face_field(mesh, v, "v")
@@ -73,6 +75,7 @@ def rescale(
     *,
     return_energy: Literal[True],
 ) -> tuple[np.ndarray, float]: ...
+@takes_mesh
 def rescale(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -114,6 +117,7 @@ def rescale(
     return (f, 0.5 * float(lam[0])) if return_energy else f
 
 
+@takes_mesh
 def acap_energy_matrix(
     mesh: TriMesh, v: npt.ArrayLike, lam: float, kind: ConnectionKind = "knoppel"
 ) -> sp.csr_array:
@@ -134,6 +138,7 @@ def acap_energy_matrix(
     return (0.5 * (E + E.T)).tocsr()
 
 
+@takes_mesh
 def acap_fields(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -50,14 +50,22 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import (
+    TangentPolicy,
+    as_count,
+    as_face_field,
+    as_growth_limit,
+    as_positive,
+    as_vertex_function,
+    max_row_norm,
+)
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, as_times, expm_action
 from ..operators.directional import directional_derivatives
 from .functional import (
     GROWTH_LIMIT,
     FunctionalFlow,
-    check_growth_limit,
     hotspots,
     observed_growth,
 )
@@ -91,6 +99,7 @@ _OPTIONS = {
 
 
 # ---------------------------------------------------------------------------- operators
+@takes_mesh
 def dual_edge_fluxes(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -132,6 +141,7 @@ def _rows_and_diagonal(A: sp.csr_array) -> tuple[np.ndarray, np.ndarray]:
     return rows, rows == A.indices
 
 
+@takes_mesh
 def upwind_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -167,6 +177,7 @@ def upwind_operator(
     return sp.csr_array((data, F.indices, F.indptr), shape=F.shape)
 
 
+@takes_mesh
 def skew_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -305,6 +316,7 @@ class TransportFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -328,7 +340,7 @@ class TransportFlow:
         self.mesh = mesh
         self.method = method
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.growth_limit = check_growth_limit(options.get("growth_limit", GROWTH_LIMIT))
+        self.growth_limit = as_growth_limit(options.get("growth_limit", GROWTH_LIMIT))
         self.max_products = float(options.get("max_products", MAX_PRODUCTS))
         if not self.max_products > 0:
             raise ParameterError(f"max_products must be > 0; got {self.max_products!r}")
@@ -366,23 +378,26 @@ class TransportFlow:
                 self.operator = self._chapter.operator
             else:
                 self.operator = skew_operator(mesh, self.field, tangent="ignore")
-            speed = float(np.sqrt((self.field**2).sum(1)).max())
+            speed = max_row_norm(self.field)  # no overflow for |v| ~ 1e200
             dt = options.get("dt")
             if dt is None:
-                courant = float(options.get("courant", DEFAULT_COURANT))
+                courant = as_positive(options.get("courant", DEFAULT_COURANT), "courant")
                 dt = courant * mesh.mean_edge_length / speed if speed > 0 else np.inf
                 mu = max(self.growth_rate)
                 if mu > 0:  # h μ / 2 ≤ ½: no pole of the Cayley map near growing modes
                     dt = min(dt, 1.0 / mu)
-            if not dt > 0:
-                raise ParameterError(f"dt must be positive; got {dt!r}")
-            self.dt = float(dt)
+                if not dt > 0:  # the field is so large that the step underflows
+                    raise FlowOverflowError(
+                        f"the Cayley step for this field (max |v| = {speed:.3g}) underflows "
+                        "to 0; scale the field down (and the times up by as much)"
+                    )
+            self.dt = as_positive(dt, "dt", allow_inf=True)
         else:  # spectral
             from ..spectral.basis import SpectralBasis
 
             basis = options.get("basis")
             if basis is None:
-                basis = SpectralBasis(mesh, int(options.get("k", 50)))
+                basis = SpectralBasis(mesh, as_count(options.get("k", 50), "k", minimum=1))
             elif basis.mesh is not mesh:
                 raise ParameterError(
                     "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
@@ -523,6 +538,8 @@ class TransportFlow:
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames: every method returns (0,) + f.shape
+            return np.empty((0,) + f0.shape)
         self._check_work(times, f0)
         if self.method == "upwind":
             out = _chain(f0, times, self._advance_upwind)
@@ -581,6 +598,7 @@ class TransportFlow:
         return out.reshape((times.size,) + f0.shape)
 
 
+@takes_mesh
 def flow(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -600,7 +618,8 @@ def flow(
     f : array_like (n,) or (n, k)
         Function(s) at time 0.
     t : float or array_like (T,)
-        Time(s), any sign and order.
+        Time(s), any sign and order. An empty array gives an empty result,
+        shape ``(0,) + f.shape``, for every method.
     method : {"chapter", "upwind", "skew", "cayley", "spectral"}
         - ``"chapter"`` (default): exp(−t D^V_v) (eq. 42), :class:`fvf.FunctionalFlow`.
           Warns (:class:`~fvf.errors.FlowGrowthWarning`) when it may blow up. Options
@@ -641,9 +660,12 @@ def flow(
     Raises
     ------
     ParameterError
-        Unknown method (the message lists the methods), bad times or options.
+        Unknown method (the message lists the methods), bad times, bad options
+        (``growth_limit`` below 1 or NaN, ``dt`` or ``courant`` not positive, ``k`` not
+        a positive integer, an unknown ``tangent`` policy, ``max_products`` not positive).
     FlowOverflowError
-        The flow overflowed to inf/NaN, or its estimated work exceeds ``max_products``.
+        The result overflowed (also for ``"spectral"``), the field is too large for the
+        method's steps, or the estimated work exceeds ``max_products``.
 
     Warns
     -----

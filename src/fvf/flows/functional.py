@@ -35,7 +35,8 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, PreparedOperator, as_times, check_options, expm_action
 from ..operators.directional import D_V
@@ -46,6 +47,7 @@ __all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots", "observed_growth"]
 GROWTH_LIMIT = 100.0
 
 
+@takes_mesh
 def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` vertices of largest ``score`` (n,) and the faces around them.
 
@@ -148,6 +150,7 @@ class FunctionalFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -164,7 +167,7 @@ class FunctionalFlow:
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
-        self.growth_limit = check_growth_limit(growth_limit)
+        self.growth_limit = as_growth_limit(growth_limit)
         self.method = method
         self.tol = float(tol)
         self.max_products = max_products
@@ -298,6 +301,8 @@ class FunctionalFlow:
         """
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames (as every method of fvf.flow)
+            return np.empty((0,) + f0.shape)
         try:
             out, self.stats = expm_action(
                 self.generator,
@@ -320,18 +325,3 @@ class FunctionalFlow:
         self.stats["growth"] = growth
         self._warn_growth(growth, times)
         return out[0] if scalar else out
-
-
-def check_growth_limit(growth_limit: Any) -> float:
-    """A growth limit: a number ≥ 1 (``np.inf`` allowed), else :class:`ParameterError`."""
-    from ..errors import ParameterError
-
-    try:
-        value = float(growth_limit)
-    except (TypeError, ValueError):
-        value = float("nan")
-    if isinstance(growth_limit, bool) or not value >= 1.0:
-        raise ParameterError(
-            f"growth_limit must be a number >= 1 (np.inf to never warn); got {growth_limit!r}"
-        )
-    return value

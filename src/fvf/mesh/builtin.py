@@ -7,6 +7,7 @@ from importlib import resources
 
 import numpy as np
 
+from .convert import takes_mesh
 from .trimesh import TriMesh
 
 __all__ = ["spot", "spot_path", "fig12_fields", "compressible_case"]
@@ -24,6 +25,7 @@ def spot() -> TriMesh:
     return TriMesh(*read_mesh(spot_path()))
 
 
+@takes_mesh
 def fig12_fields(
     mesh: TriMesh, theta: float = 2.4, width: float = 0.9
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,6 +61,7 @@ def fig12_fields(
     return u0, u1, v
 
 
+@takes_mesh
 def compressible_case(mesh: TriMesh) -> tuple[TriMesh, np.ndarray, np.ndarray]:
     """The lion case of docs/chapter.md ("Facts we measured") on any mesh.
 

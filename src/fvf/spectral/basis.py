@@ -11,6 +11,7 @@ problem: the field whose reduced operator is closest to a given k x k matrix.
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from pathlib import Path
 from typing import Any, Literal, overload
 
@@ -20,10 +21,12 @@ import numpy.typing as npt
 from ..calculus import grad, rotate, stiffness, vertex_to_face
 from ..errors import FieldShapeError, ParameterError
 from ..flows.functional import FunctionalFlow
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..io.atomic import atomic_path
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_count, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
-from ..numerics.expm import dense_expm_action
+from ..numerics.expm import as_times, dense_expm_action
 
 __all__ = [
     "SpectralBasis",
@@ -69,6 +72,7 @@ class SpectralBasis:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -79,22 +83,36 @@ class SpectralBasis:
         cache_dir: str | Path | None = None,
     ) -> None:
         self.mesh = mesh
-        self.k = int(k)
+        self.k = as_count(k, "k", 1)
         self.tol = float(tol)
         path = None
         if cache_dir is not None:
             path = Path(cache_dir) / f"lb-{self.cache_key()}.npz"
-            if path.exists():
-                with np.load(path) as data:
-                    self.eigenvalues = data["eigenvalues"]
-                    self.eigenvectors = data["eigenvectors"]
+            if self._load_cache(path):
                 return
         self.eigenvalues, self.eigenvectors = smallest_eigenpairs(
             stiffness(mesh), mesh.vertex_areas, self.k, tol=self.tol, seed=seed
         )
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(path, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+            with atomic_path(path) as tmp:  # whole or not at all: never a half-written cache
+                np.savez(tmp, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+
+    def _load_cache(self, path: Path) -> bool:
+        """Take the eigenpairs from a cache file; False (recompute) when it is missing or
+        unreadable, or holds arrays of the wrong shape (never trusted blindly)."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                values, vectors = data["eigenvalues"], data["eigenvectors"]
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return False
+        n = self.mesh.n_vertices
+        if values.shape != (self.k,) or vectors.shape != (n, self.k):
+            return False
+        if not (np.isfinite(values).all() and np.isfinite(vectors).all()):
+            return False
+        self.eigenvalues, self.eigenvectors = values, vectors
+        return True
 
     def cache_key(self) -> str:
         """sha256 of the mesh arrays, k and tol: the on-disk cache's file name."""
@@ -227,8 +245,10 @@ class SpectralBasis:
         f = as_vertex_function(self.mesh, f)
         Dhat = self.reduced_D(v, tangent="ignore")
         c0 = self.project(f)
-        times = np.atleast_1d(np.asarray(t, dtype=float))
-        coeffs = dense_expm_action(-Dhat, c0, times)  # (T, k): one eigen-decomposition
+        times, _ = as_times(t)
+        # (T, k), one eigen-decomposition for all times; no times give (0, n), as every
+        # flow of fvf.flow
+        coeffs = dense_expm_action(-Dhat, c0, times).reshape(-1, self.k)
         out = coeffs @ self.eigenvectors.T  # (T, n)
         if not error_estimate:
             return out[0] if np.ndim(t) == 0 else out
@@ -310,6 +330,7 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     return np.stack([G, JG], axis=1).reshape(-1, mesh.n_faces, 3)
 
 
+@takes_mesh
 def laplace_basis(mesh: TriMesh, k: int, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """The k smallest Laplace–Beltrami eigenpairs: (eigenvalues (k,), eigenvectors (n, k)).
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.atomic import atomic_path
 from ._deps import require
 from .scene import Scene, index_color
 
@@ -75,4 +76,7 @@ def compose(
             for k, c in zip(kinds, counts, strict=True)
         ]
         ax.legend(handles=handles, loc="lower left", fontsize=8, frameon=True)
-    fig.savefig(str(path), dpi=100, facecolor="white", pil_kwargs={"compress_level": 3})
+    with atomic_path(path) as tmp:  # whole or not at all
+        fig.savefig(
+            str(tmp), format="png", dpi=100, facecolor="white", pil_kwargs={"compress_level": 3}
+        )

@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from ..calculus import hat_gradients
 from ..errors import FvfError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 from .arrows import spread_faces
@@ -22,6 +23,7 @@ from .arrows import spread_faces
 __all__ = ["streamlines", "trace"]
 
 
+@takes_mesh
 def trace(
     mesh: TriMesh,
     field: npt.ArrayLike,
@@ -105,6 +107,7 @@ def trace(
     return np.stack(positions), np.array(step_faces).reshape(-1, k), steps
 
 
+@takes_mesh
 def streamlines(
     mesh: TriMesh,
     field: npt.ArrayLike,
