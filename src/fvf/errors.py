@@ -50,6 +50,9 @@ __all__ = [
     "MissingExtraError",
     "NoDisplayError",
     "RenderBackendWarning",
+    "BatchInputError",
+    "BatchOutputError",
+    "BatchWarning",
     "format_indices",
 ]
 
@@ -226,6 +229,23 @@ class NoDisplayError(FvfError):
 
 class RenderBackendWarning(FvfWarning):
     """A rendering backend failed to start; fvf fell back to the next one."""
+
+
+# ---------------------------------------------------------------------------- batch processing
+class BatchInputError(FvfError):
+    """The inputs of :func:`fvf.batch.run` cannot be used: a path that does not exist, a
+    folder or pattern without a mesh file, a malformed pairs file, or a Dask scheduler that
+    cannot be reached."""
+
+
+class BatchOutputError(FvfError):
+    """The output folder of :func:`fvf.batch.run` cannot be used: it is not a folder, or
+    another batch is writing into it (its lock is held)."""
+
+
+class BatchWarning(FvfWarning):
+    """A batch runs, but not as documented: e.g. the cluster's workers have several threads
+    and declare no ``MESH`` resource, so a worker may hold several meshes at once."""
 
 
 def user_stacklevel() -> int:
