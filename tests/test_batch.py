@@ -321,6 +321,19 @@ def test_summary_csv_columns(tmp_path):
     assert back[0]["seconds"] == "0.1" and back[1]["n"] == "" and back[1]["fields_x"] == "2"
 
 
+def test_small_jobs_travel_in_groups_large_ones_alone():
+    chunks = batch_driver.chunks
+    assert list(chunks([1000, 10, 10, 10, 10, 500], capacity=1)) == [(0,), (5,), (1, 2, 3, 4)]
+    sizes = [10] * 40
+    groups = list(chunks(sizes, capacity=2))  # 400 bytes for 2 threads: 8 groups of 5
+    assert [len(g) for g in groups] == [5] * 8
+    assert sorted(i for g in groups for i in g) == list(range(40))
+    many = list(chunks([1] * 100, capacity=1))  # never more than CHUNK_MAX per task
+    assert max(len(g) for g in many) == batch_driver.CHUNK_MAX
+    big = batch_driver.CHUNK_BYTES
+    assert list(chunks([big, big, 3 * big], capacity=1)) == [(2,), (0,), (1,)]
+
+
 class _FakeClient:
     """What fvf.batch.driver._prepare asks of a client."""
 
@@ -526,14 +539,18 @@ def test_killed_worker_job_is_retried_and_a_killer_mesh_fails(tmp_path):
             killer_thread.join(timeout=60)
             assert killed and killed[0] not in c.run(os.getpid).values()  # a new process
             assert len(rows) == 10 and all(r["status"] == "ok" for r in rows.values()), rows
+            tiny = [_write(tmp_path / "tiny" / f"t{i}.off", fvf.icosphere(1)) for i in range(5)]
+            sizes = [os.path.getsize(p) for p in [killer, *tiny, *files[:2]]]
+            assert any(0 in g and len(g) > 1 for g in batch_driver.chunks(sizes, 2))
             rows = rows_by_mesh(
-                fvf.batch.run([killer, *files[:2]], out, ["info", "basis", die], k=K,
+                fvf.batch.run([killer, *tiny, *files[:2]], out, ["info", "basis", die], k=K,
                               client=c, progress=False)
             )  # fmt: skip
         cluster.close()
     assert rows["killer"]["status"] == "failed"
     assert rows["killer"]["error"].startswith("KilledWorker: the worker process died")
     assert rows["m00"]["status"] == "skipped" and rows["m01"]["status"] == "skipped"
+    assert all(rows[f"t{i}"]["status"] in ("ok", "skipped") for i in range(5))  # its group
     for f in files:
         assert_ok_file(out / "meshes" / f"{f.stem}.npz")
 

@@ -17,6 +17,7 @@ import logging
 import os
 import time
 import uuid
+from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -25,7 +26,7 @@ from ..errors import BatchInputError, BatchWarning, MissingExtraError, Parameter
 from .inputs import MeshInput, PairInput, plan_inputs
 from .progress import Progress
 from .registry import Task, registered_tasks, resolve_tasks
-from .runner import MeshJob, PairJob, run_job
+from .runner import MeshJob, PairJob, run_jobs
 from .store import columns_of, options_text, output_lock, remove_temporaries, write_summary
 
 __all__ = [
@@ -35,6 +36,7 @@ __all__ = [
     "MESH_RESOURCE",
     "SUMMARY_INTERVAL",
     "local_cluster_config",
+    "chunks",
 ]
 
 INSTALL_HINT = "pip install 'fvf[batch]'"
@@ -48,6 +50,15 @@ MESH_RESOURCE = "MESH"
 
 #: Seconds between two rewrites of ``summary.csv`` while a batch runs.
 SUMMARY_INTERVAL = 10.0
+
+#: Input bytes that make one Dask task: smaller files are grouped up to this size.
+CHUNK_BYTES = 256 * 1024
+
+#: At most this many jobs in one Dask task.
+CHUNK_MAX = 16
+
+#: Groups are made small enough to give each thread of the cluster this many tasks.
+CHUNKS_PER_THREAD = 4
 
 #: Seconds between two looks at the cluster's size (an adaptive cluster grows and shrinks).
 CAPACITY_INTERVAL = 2.0
@@ -309,47 +320,95 @@ def _capacity(client, resources) -> int:
     return max(1, sum(client.nthreads().values()))
 
 
-def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -> None:
-    """Run the jobs, largest files first, at most one per worker thread at a time; put each
-    row into ``rows`` (by job index) as it finishes. On an interrupt the jobs in flight are
-    cancelled (the rows so far stay in ``rows``).
+def chunks(sizes: Sequence[int], capacity: int) -> deque[tuple[int, ...]]:
+    """Group jobs into Dask tasks: large files alone, small ones together, largest first.
 
-    Jobs are handed to the scheduler only as threads free up (``as_completed.add``): a
-    worker then never holds a job waiting behind the one it runs, so a worker that dies
-    takes down only its own job, and that job alone counts towards ``retries``; and the
-    scheduler holds a few tasks, not one per mesh of a very large batch.
+    A Dask task costs a few milliseconds of scheduling (tens on a loaded machine), as much
+    as a small mesh's computation. Files smaller than the target size travel in groups
+    whose files add up to it, at most :data:`CHUNK_MAX` jobs; the target is
+    :data:`CHUNK_BYTES`, smaller when that would leave fewer than :data:`CHUNKS_PER_THREAD`
+    tasks per thread of the cluster (so the work still spreads over every worker).
+
+    Parameters
+    ----------
+    sizes : sequence of int
+        Bytes of input of each job.
+    capacity : int
+        Jobs the cluster runs at once.
+
+    Returns
+    -------
+    collections.deque of tuple of int
+        Job indices per task, in the order to submit them (largest files first).
+    """
+    order = sorted(range(len(sizes)), key=lambda i: -sizes[i])
+    target = min(CHUNK_BYTES, sum(sizes) / (CHUNKS_PER_THREAD * max(capacity, 1)))
+    groups: deque[tuple[int, ...]] = deque()
+    current: list[int] = []
+    total = 0
+    for i in order:
+        if sizes[i] >= target:
+            groups.append((i,))
+            continue
+        current.append(i)
+        total += sizes[i]
+        if total >= target or len(current) >= CHUNK_MAX:
+            groups.append(tuple(current))
+            current, total = [], 0
+    if current:
+        groups.append(tuple(current))
+    return groups
+
+
+def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -> None:
+    """Run the jobs, largest files first, at most one task per worker thread at a time; put
+    each row into ``rows`` (by job index) as it finishes. On an interrupt the tasks in
+    flight are cancelled (the rows so far stay in ``rows``).
+
+    Tasks (one job, or a group of small ones: :func:`chunks`) are handed to the scheduler
+    only as threads free up (``as_completed.add``): a worker then never holds a task
+    waiting behind the one it runs, so a worker that dies takes down only its own task,
+    which alone counts towards ``retries``; and the scheduler holds a few tasks, not one
+    per mesh of a very large batch. A group whose workers died too often is split and its
+    jobs rerun one by one (those finished are then skipped), so only the job that kills
+    its workers ends as ``failed``.
     """
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:8]
-    waiting = iter(sorted(range(len(jobs)), key=lambda i: -_size(jobs[i])))
-    futures: dict[Any, int] = {}
-    done = as_completed()
     state = {"capacity": _capacity(client, resources), "checked": time.monotonic()}
+    waiting = chunks([_size(job) for job in jobs], state["capacity"])
+    futures: dict[Any, tuple[int, ...]] = {}
+    done = as_completed()
 
     def submit_more() -> None:
         if time.monotonic() - state["checked"] > CAPACITY_INTERVAL:  # workers come and go
             state.update(capacity=_capacity(client, resources), checked=time.monotonic())
-        while len(futures) < state["capacity"]:
-            i = next(waiting, None)
-            if i is None:
-                return
-            job = jobs[i]
-            key = f"fvf-batch-{job.name}-{token}"
-            future = client.submit(run_job, job, key=key, pure=False, resources=resources)
-            futures[future] = i
+        while waiting and len(futures) < state["capacity"]:
+            group = waiting.popleft()
+            first = jobs[group[0]].name
+            key = f"fvf-batch-{first}{f'+{len(group) - 1}' if len(group) > 1 else ''}-{token}"
+            batch = [jobs[i] for i in group]
+            future = client.submit(run_jobs, batch, key=key, pure=False, resources=resources)
+            futures[future] = group
             done.add(future)
 
     submit_more()
     try:
         for future in done:
-            i = futures.pop(future)
+            group = futures.pop(future)
             try:
-                rows[i] = future.result()
+                results = future.result()
             except Exception as exc:  # KilledWorker, a lost scheduler, ...
-                rows[i] = _lost_row(jobs[i], exc, retries)
+                if len(group) > 1 and type(exc).__name__ == "KilledWorker":
+                    waiting.extendleft((i,) for i in reversed(group))
+                    results = []
+                else:
+                    results = [_lost_row(jobs[i], exc, retries) for i in group]
             future.release()
-            progress.update(rows[i])
+            for i, row in zip(group, results, strict=False):
+                rows[i] = row
+                progress.update(row)
             save(rows)
             submit_more()
     finally:

@@ -34,7 +34,7 @@ from . import tasks as _builtin  # noqa: F401 (registers the built-in tasks)
 from .registry import MeshContext, PairContext, Task, TaskOutput, _lookup
 from .store import KEY_FIELD, file_sha256, result_key, stored_row
 
-__all__ = ["MeshJob", "PairJob", "run_job"]
+__all__ = ["MeshJob", "PairJob", "run_job", "run_jobs"]
 
 
 @dataclass(frozen=True)
@@ -259,3 +259,9 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
     row["seconds"] = time.perf_counter() - start
     row["peak_mb"] = _peak_mb(reset)
     return row
+
+
+def run_jobs(jobs: Sequence[MeshJob | PairJob]) -> list[dict[str, Any]]:
+    """:func:`run_job` for several jobs, one after the other (what one Dask task runs: a
+    large mesh alone, or a group of small ones); their rows, in order."""
+    return [run_job(job) for job in jobs]
