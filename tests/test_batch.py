@@ -151,7 +151,7 @@ def client():
 # ---------------------------------------------------------------------------- without dask
 def test_import_fvf_does_not_import_dask():
     code = (
-        "import sys, fvf, fvf.batch; fvf.batch.registered_tasks(); "
+        "import sys, fvf; fvf.batch.registered_tasks(); "
         "bad = [m for m in ('dask', 'distributed', 'pandas', 'tqdm') if m in sys.modules]; "
         "sys.exit(1 if bad else 0)"
     )
@@ -332,6 +332,26 @@ def test_small_jobs_travel_in_groups_large_ones_alone():
     assert max(len(g) for g in many) == batch_driver.CHUNK_MAX
     big = batch_driver.CHUNK_BYTES
     assert list(chunks([big, big, 3 * big], capacity=1)) == [(2,), (0,), (1,)]
+
+
+def test_progress_line_counts_and_eta():
+    import io
+
+    from fvf.batch.progress import Progress
+
+    stream = io.StringIO()  # not a terminal: plain lines, at most every 5 s and at the end
+    progress = Progress(3, file=stream)
+    progress.note("fvf batch: Dask dashboard at http://127.0.0.1:1/status")
+    for status in ("ok", "failed", "skipped"):
+        progress.update({"status": status})
+    progress.close()
+    lines = stream.getvalue().splitlines()
+    assert lines[0].endswith("/status")
+    assert lines[-1].startswith("fvf batch: 3/3 done (1 skipped, 1 failed), 0:00:0")
+    assert lines[-1].endswith("ETA 0:00:00") and len(lines) == 3  # first line and last
+    silent = io.StringIO()
+    Progress(1, enabled=False, file=silent).update({"status": "ok"})
+    assert silent.getvalue() == ""
 
 
 class _FakeClient:

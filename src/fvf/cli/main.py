@@ -400,10 +400,12 @@ def _cmd_batch(args) -> int:
         f"{len(rows)} jobs: {counts['ok']} ok, {counts['skipped']} skipped, "
         f"{counts['failed']} failed; summary in {Path(args.output) / 'summary.csv'}"
     )
-    for r in rows:
-        if r["status"] == "failed":
-            print(f"failed: {r['mesh']}: {r['error']}", file=sys.stderr)
-    return EXIT_PROBLEMS if counts["failed"] else EXIT_OK
+    failed = [r for r in rows if r["status"] == "failed"]
+    for r in failed[:20]:
+        print(f"fvf: failed: {r['mesh']}: {r['error']}", file=sys.stderr)
+    if len(failed) > 20:
+        print(f"fvf: ... and {len(failed) - 20} more failed (summary.csv)", file=sys.stderr)
+    return EXIT_PROBLEMS if failed else EXIT_OK
 
 
 def _str(s: str):
