@@ -66,12 +66,9 @@ def make_corpus(folder: Path, shared: bool = True) -> dict[str, dict]:
     if shared and SHARED_MESHES.is_dir():
         for name in SHARED_SMALL:
             corpus[Path(name).stem] = {"path": shared_mesh_path(name), "good": True}
-    truncated = folder / "bad" / "truncated.off"
-    text = good["torus"].with_suffix(".obj")  # noqa: F841 (documentation of the source)
-    _write(folder / "bad" / "full.off", fvf.torus(20, 10))
-    full = (folder / "bad" / "full.off").read_text()
-    truncated.write_text(full[: len(full) // 2])
-    (folder / "bad" / "full.off").unlink()
+    truncated = _write(folder / "bad" / "truncated.off", fvf.torus(20, 10))
+    full = truncated.read_text()
+    truncated.write_text(full[: len(full) // 2])  # cut in the middle of the vertex lines
     nonmanifold = folder / "bad" / "nonmanifold.off"
     fvf.write_mesh(nonmanifold, *_nonmanifold())
     notes = folder / "bad" / "notes.txt"
@@ -612,12 +609,16 @@ def test_sigint_then_rerun_resumes(tmp_path):
 
 
 @pytest.mark.slow
-def test_scheduler_and_workers_started_separately(batch, tmp_path):
-    """The same batch through --scheduler against ``dask scheduler`` and two ``dask worker``
-    processes on 127.0.0.1 gives the same results as the local cluster."""
-    corpus, out_local, inputs, _ = batch
+def test_scheduler_and_workers_started_separately(tmp_path):
+    """``fvf batch --scheduler`` against ``dask scheduler`` and two ``dask worker`` processes
+    started here on 127.0.0.1: the same rows and results as the library called directly
+    (and as the local cluster of the default tests)."""
+    import json
+
+    corpus = make_corpus(tmp_path / "in")
     bindir = Path(sys.executable).parent
-    port_file = tmp_path / "scheduler.json"
+    scheduler_file = tmp_path / "scheduler.json"
+    quiet = {"env": ENV, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
     procs = [
         subprocess.Popen(
             [
@@ -630,20 +631,16 @@ def test_scheduler_and_workers_started_separately(batch, tmp_path):
                 "--dashboard-address",
                 "127.0.0.1:0",
                 "--scheduler-file",
-                str(port_file),
+                str(scheduler_file),
             ],
-            env=ENV,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
+            **quiet,
         )  # fmt: skip
     ]
     try:
         deadline = time.monotonic() + 60
-        while not port_file.exists() and time.monotonic() < deadline:
+        while not scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
-        import json
-
-        address = json.loads(port_file.read_text())["address"]
+        address = json.loads(scheduler_file.read_text())["address"]
         for _ in range(2):
             procs.append(
                 subprocess.Popen(
@@ -660,22 +657,23 @@ def test_scheduler_and_workers_started_separately(batch, tmp_path):
                         "--resources",
                         "MESH=1",
                     ],
-                    env=ENV,
-                    stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL,
+                    **quiet,
                 )  # fmt: skip
             )
         out = tmp_path / "out"
-        args = ["batch", *map(str, inputs), "-o", str(out), "--scheduler", address]
-        assert main([*args, "--k", str(K), "--quiet"]) == EXIT_PROBLEMS  # the broken files
-        local = {r["mesh"]: r for r in read_csv(out_local / "summary.csv")}
-        remote = {r["mesh"]: r for r in read_csv(out / "summary.csv")}
-        assert {m: r["status"] for m, r in remote.items()} == {
-            m: ("ok" if r["status"] == "skipped" else r["status"]) for m, r in local.items()
-        }
+        inputs = [str(v["path"]) for v in corpus.values()]
+        args = ["batch", *inputs, "-o", str(out), "--scheduler", address, "--k", str(K)]
+        assert main([*args, "--quiet"]) == EXIT_PROBLEMS  # the broken files
+        rows = {r["mesh"]: r for r in read_csv(out / "summary.csv")}
+        assert rows.keys() == corpus.keys()
         for name, item in corpus.items():
             if item["good"]:
+                assert rows[name]["status"] == "ok", rows[name]
                 assert_same_results(out / "meshes" / f"{name}.npz", direct(item["path"]))
+            else:
+                assert rows[name]["status"] == "failed"
+                assert rows[name]["error"].startswith(item["error"])
+        assert no_temporaries(out)
     finally:
         for p in reversed(procs):
             p.send_signal(signal.SIGINT)

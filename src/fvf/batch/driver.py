@@ -250,7 +250,7 @@ def _connected(client, scheduler, workers, memory_limit, retries) -> Iterator[tu
         )
         try:
             with distributed.Client(cluster) as c:
-                yield c, f"a local cluster of {n} worker processes"
+                yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
         finally:
             cluster.close()
 
