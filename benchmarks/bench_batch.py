@@ -5,20 +5,24 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_batch.py                 # mixed + small corpora, 3 repeats
     .venv/bin/python benchmarks/bench_batch.py --repeats 5 --k 20
     .venv/bin/python benchmarks/bench_batch.py --quick         # smoke test (fewer meshes, 1 repeat)
+    .venv/bin/python benchmarks/bench_batch.py --in-worker --only small   # loop here vs in a worker
 
 Two corpora, written to a temporary folder (the shared meshes are read from
 ``../shared/meshes`` or ``$FVF_SHARED_MESHES`` and never copied):
 
 - **mixed**: every shared mesh up to ~23k faces (12 meshes: knight, woody, spot, bunny,
   fertility, bob, 3holes, rocker-arm, camelhead, sphere_s2, faust, lion) and generated
-  spheres, jittered spheres, tori and disks of 80 to 23k faces: 44 meshes in all;
+  spheres, jittered spheres, tori and disks of 80 to 23k faces: 40 meshes in all;
 - **small**: 40 generated meshes of 80 to 1,300 faces (42 to 650 vertices), where the
   per-mesh cost of the batch machinery (scheduling, hashing, the result file) shows most.
 
 Each mesh runs the default tasks (``info, basis, fields, singularities``, ``k``
 eigenpairs). The **serial loop** calls the same library functions in this process, one
 mesh after the other, and writes each mesh's arrays with ``numpy.savez`` (the batch
-writes one result file per mesh too, and fsyncs it). The **batch** runs
+writes one result file per mesh too, and fsyncs it). The **run_job loop** calls
+``fvf.batch.run_job`` (the worker side of the batch) on each mesh in this process,
+without Dask: the batch's own per-mesh work (hashing the file, looking for a stored
+result, the atomic result file, the row). The **batch** runs
 ``fvf.batch.run`` on a local cluster of 1 or 2 single-threaded worker processes started
 before the timer (its start-up, the same for every batch, is timed separately); each
 repeat writes into a fresh folder, so nothing is skipped. Before the timed runs, the loop
@@ -77,7 +81,7 @@ def _write(folder: Path, name: str, mesh) -> Path:
 
 
 def mixed_corpus(folder: Path, quick: bool) -> list[Path]:
-    """Shared meshes (those present) and generated ones, 80 to ~23k faces: 44 files."""
+    """Shared meshes (those present) and generated ones, 80 to ~23k faces: 40 files."""
     folder.mkdir(parents=True, exist_ok=True)
     files = [SHARED / n for n in SHARED_MIXED if (SHARED / n).exists()]
     generated = []
@@ -140,6 +144,24 @@ def serial_loop(files: list[Path], out: Path, k: int) -> tuple[float, float]:
     return time.perf_counter() - start, time.process_time() - cpu
 
 
+def runner_loop(files: list[Path], out: Path, k: int) -> tuple[float, float]:
+    """``fvf.batch.run_job`` on each mesh in this process, no Dask: what the batch does per
+    mesh besides the library (hash, result check, atomic result file, summary row)."""
+    from fvf.batch.runner import MeshJob, run_job
+    from fvf.batch.store import options_text
+
+    tasks = ("info", "basis", "fields", "singularities")
+    opts = {"k": k, "n": None}
+    text = options_text(tasks, opts)
+    start, cpu = time.perf_counter(), time.process_time()
+    for path in files:
+        result = str(out / f"{path.stem}.npz")
+        row = run_job(MeshJob(path.stem, str(path), result, tasks, opts, text, "bench"))
+        if row["status"] != "ok":
+            raise RuntimeError(f"run_job failed: {row}")
+    return time.perf_counter() - start, time.process_time() - cpu
+
+
 def _cpu() -> float:
     return time.process_time()
 
@@ -180,8 +202,32 @@ def batch(files: list[Path], out: Path, k: int, client) -> tuple[float, float]:
     return seconds, cpu
 
 
+def _loop_in_worker(files: list[Path], out: Path, k: int) -> tuple[float, float]:
+    return serial_loop(files, out, k)
+
+
+def in_worker(files: list[Path], k: int, repeats: int, client, tmp: Path) -> None:
+    """The serial loop here and inside one Dask worker process (as one task): the cost of
+    the worker's own machinery (event loop, monitors) on the same computation."""
+    client.submit(_loop_in_worker, files[:2], tmp / "warm-iw", k, pure=False).result()
+    serial_loop(files[:2], tmp / "warm-ih", k)
+    here, there = [], []
+    for r in range(repeats):
+        here.append(serial_loop(files, tmp / f"ih{r}", k))
+        job = client.submit(_loop_in_worker, files, tmp / f"iw{r}", k, pure=False)
+        there.append(job.result())
+    print("\n| serial loop | median wall (s) | median CPU (s) | runs (wall s) |")
+    print("|---|---|---|---|")
+    for label, runs in (("in this process", here), ("inside a Dask worker", there)):
+        walls = ", ".join(f"{w:.2f}" for w, _ in runs)
+        print(
+            f"| {label} | {statistics.median(w for w, _ in runs):.2f} | "
+            f"{statistics.median(c for _, c in runs):.2f} | {walls} |"
+        )
+
+
 def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, tmp: Path):
-    labels = ("serial loop", "batch, 1 worker", "batch, 2 workers")
+    labels = ("serial loop", "run_job loop, no Dask", "batch, 1 worker", "batch, 2 workers")
     wall: dict[str, list[float]] = {label: [] for label in labels}
     cpu: dict[str, list[float]] = {label: [] for label in labels}
     warm = files[-2:]  # first calls (lazy imports, caches) outside the timer, everywhere
@@ -193,6 +239,11 @@ def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, t
         w, c = serial_loop(files, out, k)
         wall["serial loop"].append(w)
         cpu["serial loop"].append(c)
+        shutil.rmtree(out)
+        out = tmp / f"{name}-runner-{r}"
+        w, c = runner_loop(files, out, k)
+        wall["run_job loop, no Dask"].append(w)
+        cpu["run_job loop, no Dask"].append(c)
         shutil.rmtree(out)
         for workers, client in clients.items():
             label = f"batch, {workers} worker{'s' if workers > 1 else ''}"
@@ -240,6 +291,9 @@ def main() -> None:
     parser.add_argument("--k", type=int, default=20, help="eigenpairs per mesh (default 20)")
     parser.add_argument("--quick", action="store_true", help="few meshes, one repeat")
     parser.add_argument("--only", choices=("mixed", "small"), help="one corpus only")
+    parser.add_argument(
+        "--in-worker", action="store_true", help="the serial loop here and inside a worker"
+    )
     args = parser.parse_args()
     repeats = 1 if args.quick else args.repeats
     threadpool_limits(1)
@@ -263,6 +317,9 @@ def main() -> None:
             if args.only and name != args.only:
                 continue
             files = make(tmp / name, args.quick)
+            if args.in_worker:
+                in_worker(files, args.k, repeats, clients[1], tmp)
+                continue
             wall, cpu = measure(name, files, args.k, repeats, clients, tmp)
             report(name, files, wall, cpu, startup)
         print(f"\nload average after: {os.getloadavg()}")
