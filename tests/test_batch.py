@@ -166,6 +166,14 @@ def test_missing_dask_is_a_missing_extra_error(monkeypatch, tmp_path):
     assert not (tmp_path / "out").exists()  # nothing started, nothing written
 
 
+def test_cli_help_lists_the_tasks(capsys):
+    assert main(["batch", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "example:" in out and "fvf batch" in out and "exit status" in out
+    for name, task in fvf.batch.registered_tasks().items():
+        assert f"{name} " in out and task.description[:30] in " ".join(out.split())
+
+
 def test_find_meshes_files_folders_globs(tmp_path):
     a = _write(tmp_path / "a" / "x.off", fvf.icosphere(1))
     b = _write(tmp_path / "b" / "x.off", fvf.icosphere(1))
