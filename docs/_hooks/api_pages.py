@@ -33,6 +33,7 @@ GROUPS = {
     "Field design": ["design"],
     "Numerics": ["numerics"],
     "Chapter names and errors": ["chapter", "errors"],
+    "Batch processing": ["batch"],
     "Command line and pictures": ["cli", "viz"],
 }
 
