@@ -91,7 +91,7 @@ def direct(path: Path, k: int = K) -> dict[str, np.ndarray]:
         "vertices": mesh.vertices,
         "faces": mesh.faces,
         "eigenvalues": lam,
-        "eigenfunctions": phi.T,
+        "eigenfunctions": phi,
         "v": v,
         "singularity_vertices": ids,
         "singularity_indices": index,
@@ -105,8 +105,8 @@ def assert_same_results(result: Path, expected: dict[str, np.ndarray]) -> None:
             got = data[key]
             assert got.shape == want.shape, key
             if key == "eigenfunctions":  # eigenvectors are defined up to sign
-                signs = np.sign((got * want).sum(axis=1))
-                got = got * signs[:, None]
+                signs = np.sign((got * want).sum(axis=0))  # one function per column
+                got = got * signs[None, :]
             np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-11, err_msg=key)
 
 
@@ -435,7 +435,7 @@ def test_batch_result_is_a_cli_data_file(batch):
     data = read_data(out / "meshes" / "torus.npz", fvf.TriMesh(*fvf.read_mesh(path)))
     assert str(data["mesh_path"]) == str(Path(path).resolve())
     assert data.field("v", fvf.TriMesh(*fvf.read_mesh(path))).shape == (400, 3)
-    assert data.functions("eigenfunctions", fvf.TriMesh(*fvf.read_mesh(path))).shape == (K, 200)
+    assert data.functions("eigenfunctions", fvf.TriMesh(*fvf.read_mesh(path))).shape == (200, K)
 
 
 def test_batch_rerun_skips_and_resumes(batch, client):

@@ -200,6 +200,7 @@ def _write_pair(job: PairJob, ctx: PairContext, extra: dict) -> None:
         "fvf_version": np.array(__version__),
         "command": np.array(job.command),
         "created_utc": np.array(now),
+        "layout": np.array("columns"),
         **extra,
     }
     with atomic_path(path) as tmp:

@@ -61,7 +61,7 @@ SUMMARY_COLUMNS = (
 )
 
 #: Version of the result layout; part of every key, so a new layout recomputes.
-RESULT_SCHEMA = 1
+RESULT_SCHEMA = 2
 
 #: The key of a result file under which its hash is stored.
 KEY_FIELD = "batch_key"

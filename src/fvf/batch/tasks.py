@@ -7,7 +7,7 @@ Each task, its library call and the arrays it stores:
 - ``info`` (mesh, before validation): :func:`fvf.mesh.diagnostics.mesh_report`;
   ``info_report`` (the report as a JSON string).
 - ``basis`` (mesh): :func:`fvf.laplace_basis` with ``k``; ``eigenvalues`` (k,),
-  ``eigenfunctions`` (k, n), one function per row.
+  ``eigenfunctions`` (n, k), one function per column (the library's layout).
 - ``fields`` (mesh): :func:`fvf.design_field` (with ``n`` when it takes one); ``v`` (m, 3).
 - ``singularities`` (mesh, after ``fields``): :func:`fvf.singularities` of ``v``;
   ``singularity_vertices``, ``singularity_indices``, ``singularity_positions``.
@@ -20,7 +20,7 @@ Each task, its library call and the arrays it stores:
 Keys follow the data-file schema of the ``fvf`` command (``docs/cli.md``): `v` is a
 per-face field and the `singularity_*` keys are those of ``fvf design``, so ``fvf render
 MESH RESULT.npz --field v --singularities`` draws a result; `eigenfunctions` holds one
-function per row, so ``--function eigenfunctions[3]`` draws one.
+function per column, so ``--function "eigenfunctions[:,3]"`` draws one.
 """
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ def basis(ctx: MeshContext) -> TaskOutput:
     """The k smallest eigenpairs of the cotangent Laplacian, L φ = λ A_V φ."""
     lam, phi = fvf.laplace_basis(ctx.mesh, int(ctx.options["k"]))
     figures = {f"lambda_{i}": float(lam[i]) for i in range(1, min(4, lam.size))}
-    return TaskOutput({"eigenvalues": lam, "eigenfunctions": np.ascontiguousarray(phi.T)}, figures)
+    return TaskOutput({"eigenvalues": lam, "eigenfunctions": np.ascontiguousarray(phi)}, figures)
 
 
 @register_task(
