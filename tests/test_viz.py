@@ -281,8 +281,9 @@ def test_n_direction_fields_draw_n_strokes_per_face(sphere, tmp_path, backend):
     )
     px = near_color(picture(info.path), info.extra["arrow_colors"][0], tol=45).sum()
     assert px > 8 * info.n_arrows  # four strokes per face
-    with pytest.raises(fvf.FvfError, match="positive integer"):
-        viz.render(sphere, tmp_path / "x.png", field=v, n=0, backend=backend)
+    for bad in (0, 2.5, -4):
+        with pytest.raises(fvf.FvfError, match="positive integer"):
+            viz.render(sphere, tmp_path / "x.png", field=v, n=bad, backend=backend)
 
 
 def test_robust_colour_range_excludes_outliers(sphere, tmp_path):

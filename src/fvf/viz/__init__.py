@@ -5,17 +5,20 @@
 needs and raises :class:`MissingExtraError` (with the install command) when it is
 missing. ``docs/viz.md`` documents the conventions.
 
-- :func:`render`: one PNG of a mesh with a colormapped function, arrows, singularity
-  markers, streamlines and/or a grey texture; headless polyscope (EGL) when it starts,
-  else matplotlib; the backend used is reported in the returned :class:`RenderInfo`.
+- :func:`render`: one PNG of a mesh with a colormapped function (robust colour limits,
+  :func:`robust_limits`), arrows or N-direction strokes sized in pixels, singularity
+  markers with a legend (:func:`index_color`, :func:`index_label`), streamlines and/or a
+  grey texture, in one or several views (:func:`two_sides`; the up axis from
+  :func:`detect_up_axis`); headless polyscope (EGL) when it starts, else matplotlib; the
+  backend used is reported in the returned :class:`RenderInfo`.
 - :func:`view`: polyscope's interactive window.
-- :func:`arrow_segments`: the arrows' start and end points (in the faces' planes).
+- :func:`arrow_segments`: the arrows' start and end points (in the faces' planes);
+  :func:`direction_set`: the N directions of an N-direction field.
 - :func:`streamlines`: integral curves traced exactly from face to face.
 - :func:`surface_lic`: line integral convolution traced on the surface at a resolution
   of its own (a :class:`LicTexture` for ``render(texture=...)``).
 - :func:`lic_texture`: line integral convolution the operator way,
   ``(1/2L) ∫_{−L}^{L} Φ_{v̂,s} N ds`` (chapter §3.5, Fig. 3).
-- :func:`two_sides`: a view and its opposite, for two panels side by side.
 - :func:`write_gif`: an animated GIF of frames.
 """
 

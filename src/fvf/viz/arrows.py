@@ -123,9 +123,9 @@ def direction_set(mesh: TriMesh, field: npt.ArrayLike, n: int) -> np.ndarray:
         ``[k, t] = cos(2πk/N) u_t + sin(2πk/N) n_t × u_t``: u_t turned by 2πk/N about the
         face normal n_t (counter-clockwise seen from the normal's side), same length.
     """
-    n = int(n)
-    if n < 1:
+    if isinstance(n, bool) or not float(n).is_integer() or int(n) < 1:
         raise FvfError(f"n (directions per face) must be a positive integer; got {n!r}")
+    n = int(n)
     u = mesh.from_local(mesh.to_local(as_face_field(mesh, field, "field")))
     ju = np.cross(mesh.face_normals, u)
     ang = 2.0 * np.pi * np.arange(n) / n

@@ -216,8 +216,8 @@ def contrast_color(
 
 
 def outline_color(color: npt.ArrayLike) -> tuple[float, float, float]:
-    """Black or white, whichever sets ``color`` off more (a halo around overlays)."""
-    return (1.0, 1.0, 1.0) if srgb_to_lab(color)[0] < 55.0 else (0.0, 0.0, 0.0)
+    """The halo around an overlay: black, or white around a dark colour (L* < 35)."""
+    return (1.0, 1.0, 1.0) if srgb_to_lab(color)[0] < 35.0 else (0.0, 0.0, 0.0)
 
 
 #: Singularity colours by index: warm for positive, cool for negative, darker with |index|.

@@ -457,8 +457,8 @@ def lic_texture(
     Returns
     -------
     ndarray float64 (n,)
-        T at the vertices. Use a grey colormap with limits at T's 1st and 99th
-        percentiles (what :func:`fvf.viz.render` does for ``texture=``).
+        T at the vertices. :func:`fvf.viz.render` draws it in grey with ``texture=``,
+        histogram-equalized.
     """
     if samples < 2:
         raise ValueError(f"samples must be at least 2; got {samples}")

@@ -4,8 +4,8 @@ Everything here is measured in the picture's pixels and converted to mesh units 
 panel's scale (pixels per mesh unit, :func:`fit`), so arrows, strokes, markers and
 curves have the same on-screen size on a 5k-face and on a 750k-face mesh:
 
-- the arrow spacing (default :func:`default_spacing`: 1/26 of the panel's smaller side,
-  between 12 and 40 pixels) sets which faces carry an arrow (:func:`screen_spread`), the
+- the arrow spacing (default :func:`default_spacing`: 1/22 of the panel's smaller side,
+  between 14 and 40 pixels) sets which faces carry an arrow (:func:`screen_spread`), the
   default arrow length (the robust longest arrow is :data:`ARROW_FILL` of the spacing) and
   the glyph's shaft, head and halo;
 - singularity markers have a radius of :data:`MARKER_RADIUS` spacings (at least 4.5 px).
@@ -44,7 +44,7 @@ ARROW_FILL = 0.8
 #: Arrows are never drawn longer than this many spacings (longer ones are capped).
 ARROW_CAP = 1.3
 #: Glyph proportions, in spacings: shaft half-width, head half-width, head length, halo.
-SHAFT, HEAD_WIDTH, HEAD_LENGTH, HALO = 0.06, 0.22, 0.36, 0.05
+SHAFT, HEAD_WIDTH, HEAD_LENGTH, HALO = 0.075, 0.25, 0.38, 0.035
 #: Half-width of N-direction strokes, in spacings.
 STROKE = 0.07
 #: Singularity marker radius, in spacings.
@@ -54,8 +54,8 @@ MARGIN = 1.06
 
 
 def default_spacing(width: int, height: int) -> float:
-    """Default pixels between arrows: ``min(width, height) / 26`` clipped to [12, 40]."""
-    return float(np.clip(min(width, height) / 26.0, 12.0, 40.0))
+    """Default pixels between arrows: ``min(width, height) / 22`` clipped to [14, 40]."""
+    return float(np.clip(min(width, height) / 22.0, 14.0, 40.0))
 
 
 def fit(
@@ -126,14 +126,16 @@ def layer_scale(layer: FieldLayer, spacing_mesh: float) -> float:
 
 
 def _fill(scene: Scene) -> float:
-    """The default arrow length in spacings: shorter when several fields share a face."""
+    """The default arrow length in spacings: shorter when several fields interleave."""
     return ARROW_FILL if len(scene.fields) < 2 else 0.6
 
 
-def _pick_faces(scene, frame, centre, s, spacing, v):
+def _pick_faces(scene, frame, centre, s, spacing, v, shift=0.0):
+    """Faces of one field's glyphs; ``shift`` (in cells) moves the grid diagonally, so
+    several fields take turns on an interleaved lattice."""
     mesh = scene.field_mesh
     q = mesh.face_centroids @ frame.T
-    xy = (q[:, :2] - centre) * s
+    xy = (q[:, :2] - centre) * s + shift * spacing
     cand = _candidates(scene, frame, v)
     faces = screen_spread(xy, q[:, 2], cand, spacing, spacing / s)
     if scene.max_arrows is not None and faces.size > scene.max_arrows:
@@ -145,8 +147,8 @@ def _pick_faces(scene, frame, centre, s, spacing, v):
 def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int]:
     """The glyphs of one field at the chosen faces: arrows, or N strokes per face.
 
-    With several fields, arrows start at the centroid (each face shows a little frame of
-    arrows) instead of being centred on it.
+    With several fields, each has its own faces: the cells of field i are shifted by
+    i / (number of fields) of a cell diagonally.
     """
     mesh = scene.field_mesh
     c, nrm = mesh.face_centroids[faces], mesh.face_normals[faces]
@@ -165,7 +167,6 @@ def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int
             head_width=HEAD_WIDTH * spacing_mesh,
             head_length=HEAD_LENGTH * spacing_mesh,
         )
-        kw["pivot"] = "tail" if len(scene.fields) > 1 else "middle"
         poly = arrow_glyphs(c, vec, nrm, **kw)
         halo = arrow_glyphs(c, vec, nrm, outline=halo_w, **kw)
         tris, anchors, normals = ARROW_TRIANGLES, c, nrm
@@ -219,12 +220,15 @@ def panel_overlay(
     PanelOverlay
     """
     centre, s = fit(scene.mesh.vertices, frame, zoom, width, height)
-    spacing = scene.arrow_spacing or default_spacing(width, height)
+    spacing = scene.arrow_spacing or default_spacing(width, height) * (
+        1.0 if len(scene.fields) < 2 else 1.5  # room for the interleaved lattices
+    )
     if spacing_mesh is None:
         spacing_mesh = spacing / s
     out = PanelOverlay(pixel_scale=s, centre=centre, spacing=spacing)
-    for layer in scene.fields:
-        faces = _pick_faces(scene, frame, centre, s, spacing, layer.vectors)
+    for i, layer in enumerate(scene.fields):
+        shift = i / len(scene.fields)
+        faces = _pick_faces(scene, frame, centre, s, spacing, layer.vectors, shift)
         scale = layer_scale(layer, spacing_mesh * _fill(scene) / ARROW_FILL)
         glyphs, capped = _layer_glyphs(scene, layer, faces, scale, spacing_mesh)
         out.glyphs.append(glyphs)

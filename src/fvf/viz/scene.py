@@ -201,9 +201,9 @@ def _field_list(field: object) -> list:
 def _layers(mesh, fields, n, arrow_scale, labels, palette, avoid, arrow_color):
     from .colors import robust_limits
 
-    n = int(n)
-    if n < 1 or n != float(n):
+    if isinstance(n, bool) or not float(n).is_integer() or int(n) < 1:
         raise FvfError(f"n (directions per face) must be a positive integer; got {n!r}")
+    n = int(n)
     if arrow_scale is not None and not float(arrow_scale) > 0:
         raise FvfError(f"arrow_scale must be positive; got {arrow_scale!r}")
     if labels is not None and len(labels) != len(fields):
