@@ -61,16 +61,34 @@ def section_lines(section: dict) -> list[str]:
             )
         lines.append("")
     lines += [f"*skipped: {_cell(x)}*\n" for x in section["skipped"]]
-    for pic in section["pictures"]:
-        width = "100%" if pic.get("wide") else "560"
-        lines.append(f'![{_cell(pic["caption"])}](gallery/{pic["file"]}){{ width="{width}" }}\n')
-        note = f"*{_cell(pic['caption'])}* (`{pic['file']}`)"
-        if pic.get("colors"):
-            note += f"; {_cell(pic['colors'])}"
-        if pic.get("link"):
-            note += f"; animated: [{pic['link']}](gallery/{pic['link']})"
-        lines.append(note + ".\n")
+    pictures = section["pictures"]
+    i = 0
+    while i < len(pictures):  # wide pictures alone, runs of single-view ones two per row
+        j = i + 1
+        if not pictures[i].get("wide"):
+            while j < len(pictures) and not pictures[j].get("wide"):
+                j += 1
+        run = pictures[i:j]
+        width = "100%" if run[0].get("wide") else ("49%" if len(run) > 1 else "560")
+        lines.append(
+            " ".join(
+                f'![{_cell(p["caption"])}](gallery/{p["file"]}){{ width="{width}" }}' for p in run
+            )
+            + "\n"
+        )
+        order = "Left to right, top to bottom: " if len(run) > 1 else ""
+        lines.append(order + "; ".join(_caption(p) for p in run) + ".\n")
+        i = j
     return lines
+
+
+def _caption(pic: dict) -> str:
+    text = f"*{_cell(pic['caption'])}* (`{pic['file']}`"
+    if pic.get("colors"):
+        text += f"; {_cell(pic['colors'])}"
+    if pic.get("link"):
+        text += f"; animated: [{pic['link']}](gallery/{pic['link']})"
+    return text + ")"
 
 
 def page(report: dict) -> str:

@@ -132,7 +132,7 @@ def _fill(scene: Scene) -> float:
 
 def _pick_faces(scene, frame, centre, s, spacing, v, shift=0.0):
     """Faces of one field's glyphs; ``shift`` (in cells) moves the grid diagonally, so
-    several fields take turns on an interleaved lattice."""
+    several fields take turns on an interleaved lattice (field i of k: i / k)."""
     mesh = scene.field_mesh
     q = mesh.face_centroids @ frame.T
     xy = (q[:, :2] - centre) * s + shift * spacing
@@ -145,11 +145,7 @@ def _pick_faces(scene, frame, centre, s, spacing, v, shift=0.0):
 
 
 def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int]:
-    """The glyphs of one field at the chosen faces: arrows, or N strokes per face.
-
-    With several fields, each has its own faces: the cells of field i are shifted by
-    i / (number of fields) of a cell diagonally.
-    """
+    """The glyphs of one field at the chosen faces: arrows, or N strokes per face."""
     mesh = scene.field_mesh
     c, nrm = mesh.face_centroids[faces], mesh.face_normals[faces]
     u = layer.vectors[faces]  # tangent (checked by as_face_field)
