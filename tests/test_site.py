@@ -134,26 +134,37 @@ def _gen_gallery():
 
 
 def test_gallery_generator_lays_out_the_demo_report():
-    """docs/gen_gallery.py turns the demo's index.html into Markdown: a section per stage,
-    its numbers (without the machine-dependent seconds), its pictures and skip notes."""
+    """docs/gen_gallery.py turns the demo's report data into Markdown: a section per
+    section, its numbers with what they should be and ✓/✗, its pictures and skip notes."""
     gen = _gen_gallery()
-    report = gen.Report()
-    report.feed(
-        "<p>Mesh: m.obj (4 vertices). Rendered with: matplotlib. Total time 1.5 s.</p>"
-        "<h2>Brackets (eqs. 46, 54)</h2><table><tr><td>nnz |x|</td><td>12</td></tr>"
-        "<tr><td>seconds</td><td>0.1</td></tr></table>"
-        "<figure><a href='a.png'><img src='a.png' alt='first [v,w]'></a></figure>"
-        "<figure><a href='b.gif'><img src='b.gif' alt='second'></a></figure>"
-        "<details><summary>calls</summary><pre>x = fvf.ad(mesh, v)  # not a number</pre></details>"
-        "<h2>Fig. 11</h2><p class='skip'>skipped: needs the [viz] extra</p>"
-    )
+    number = {"label": "nnz |x|", "shown": "12", "expect": "≤ 20", "tol": "", "mark": "✓"}
+    report = {
+        "mesh": "m.obj",
+        "n_vertices": 4,
+        "n_faces": 4,
+        "euler_characteristic": 2,
+        "backend": "matplotlib",
+        "checks": [{"ok": True}, {"ok": None}],
+        "sections": [
+            {
+                "title": "Brackets (eqs. 46, 54)",
+                "numbers": [dict(number, note="1-ring")],
+                "pictures": [
+                    {"file": "a.png", "caption": "first [v,w]", "colors": "h per vertex"},
+                    {"file": "b.png", "caption": "second", "wide": True, "link": "b.gif"},
+                ],
+                "skipped": [],
+            },
+            {"title": "Fig. 11", "numbers": [], "pictures": [], "skipped": ["needs [viz]"]},
+        ],
+    }
     text = gen.page(report)
     assert "## Brackets (eqs. 46, 54)" in text and "## Fig. 11" in text
-    assert "| nnz \\|x\\| | `12` |" in text and "seconds" not in text.split("## Brackets")[1]
-    assert "![first [v,w]](gallery/a.png)" in text and "(gallery/b.gif)" in text
-    assert "*skipped: needs the [viz] extra*" in text
-    assert "Mesh: m.obj (4 vertices). Rendered with: matplotlib.*" in text
-    assert "Total time" not in text
+    assert "| nnz \\|x\\| | `12` | ≤ 20 | — | ✓ | 1-ring |" in text
+    assert "![first [v,w]](gallery/a.png)" in text and "h per vertex" in text
+    assert '(gallery/b.png){ width="100%" }' in text and "(gallery/b.gif)" in text
+    assert "*skipped: needs [viz]*" in text
+    assert "Rendered with: matplotlib. 1 of 1 checks pass.*" in text
 
 
 def test_gallery_page_shows_every_committed_picture():

@@ -579,7 +579,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
-    for name in ("arrow_scale", "cmap", "title", "backend", "max_arrows"):
+    for name in ("arrow_scale", "cmap", "title", "backend", "max_arrows", "arrow_spacing"):
         if getattr(args, name) is not None:
             kwargs[name] = getattr(args, name)
     for name in ("clim", "size", "view"):
@@ -818,7 +818,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--size", nargs=2, type=_integer, metavar=("W", "H"), help="pixels (800 600)")
     p.add_argument("--title", help="picture title")
     p.add_argument("--view", nargs=2, type=_real, metavar=("AZ", "EL"), help="camera, degrees")
-    p.add_argument("--max-arrows", type=_integer, help="arrows at about this many faces (1500)")
+    p.add_argument("--max-arrows", type=_integer, help="at most about this many arrows per view")
+    p.add_argument(
+        "--arrow-spacing", type=_real, help="pixels between arrows (default: 1/22 of the view)"
+    )
     p.add_argument("--backend", help="auto (default), polyscope-egl or matplotlib")
     p.set_defaults(run=_cmd_render)
 

@@ -28,7 +28,6 @@ from ..errors import FvfError, ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
-from .camera import View
 
 __all__ = [
     "BACKENDS",
@@ -78,11 +77,13 @@ class RenderInfo:
     arrow_scale : float or None
         Mesh units per unit of |v| of the arrows drawn (None without a field).
     n_arrows, n_streamlines, n_singularities : int
-        What was drawn (arrows at most ``max_arrows``).
+        What was drawn (faces with arrows or strokes, summed over the panels).
     clim : tuple of float or None
         Colormap limits of ``function``.
     fallback : str or None
         Why the preferred backend was not used, when ``backend="auto"`` fell back.
+    extra : dict
+        Panels, arrow spacing (pixels), arrow colours, capped arrows, the up axis used.
     """
 
     path: Path
@@ -158,21 +159,25 @@ def render(
     path: str | Path,
     *,
     function: npt.ArrayLike | None = None,
-    field: npt.ArrayLike | None = None,
+    field: Any = None,
     singularities: tuple | None = None,
     streamlines: list | None = None,
-    texture: npt.ArrayLike | None = None,
+    texture: Any = None,
     arrow_scale: float | None = None,
     cmap: str = "viridis",
-    clim: tuple[float, float] | None = None,
-    view: View | tuple | dict | None = None,
+    clim: tuple[float, float] | str | None = None,
+    view: Any = None,
     size: tuple[int, int] = (800, 600),
     title: str | None = None,
     backend: str = "auto",
-    max_arrows: int | None = 1500,
+    max_arrows: int | None = None,
     colorbar_label: str | None = None,
+    n: int = 1,
+    arrow_spacing: float | None = None,
+    field_labels: list | tuple | None = None,
+    arrow_color: tuple | None = None,
 ) -> RenderInfo:
-    """Render a mesh with a function, a field, singularities, streamlines or a texture.
+    """Render a mesh with a function, fields, singularities, streamlines or a texture.
 
     Parameters
     ----------
@@ -180,45 +185,71 @@ def render(
     path : str or Path
         Output PNG.
     function : array_like (n,) or (m,), optional
-        Vertex or face scalars, drawn with ``cmap`` and a colorbar.
-    field : array_like (m, 3), optional
-        Per-face tangent vectors, drawn as arrows from the face centroids built in each
-        face's own basis (:func:`fvf.viz.arrow_segments`), so they lie in the face planes.
+        Vertex or face scalars, drawn with ``cmap`` and a labelled colorbar.
+    field : array_like (m, 3) or list of them, optional
+        Per-face tangent vectors, drawn as flat arrows in the faces' planes
+        (:mod:`fvf.viz.overlay`), about one per ``arrow_spacing`` pixels, each field in
+        its own colour chosen to contrast with the surface's colours
+        (:func:`fvf.viz.colors.contrast_color`); name them with ``field_labels``.
     singularities : (ndarray (k, 3), ndarray (k,)), optional
         Positions and indices (e.g. :func:`fvf.singularity_positions` and
-        :func:`fvf.singularities`), drawn as markers coloured by index
-        (:func:`fvf.viz.scene.index_color`) with a legend.
+        :func:`fvf.singularities`; indices may be fractions k/N), drawn as discs coloured
+        by index (:func:`fvf.viz.colors.index_color`) with a legend giving each index's
+        colour and count.
     streamlines : list of ndarray (p_i, 3), optional
-        Polylines on the surface (:func:`fvf.viz.tracing`).
-    texture : array_like (n,) or (m,), optional
-        A grey texture such as :func:`fvf.viz.lic_texture`, with limits at its 1st and
-        99th percentiles; with ``function`` too, it darkens the colormap's colours.
+        Polylines on the surface (:func:`fvf.viz.streamlines`).
+    texture : array_like (n,) or (m,), or LicTexture, optional
+        A grey texture: a :class:`fvf.viz.LicTexture` (:func:`fvf.viz.surface_lic`,
+        drawn on its own finer canvas) or values per vertex / face, histogram-equalized.
+        With ``function`` too, it darkens the colormap's colours.
     arrow_scale : float, optional
-        Absolute arrow scale: an arrow is ``arrow_scale · |v_t|`` long in mesh units.
-        Default :func:`fvf.viz.arrows.default_arrow_scale`: the longest arrow is one
-        mean edge length.
+        Absolute arrow scale: an arrow is ``arrow_scale · |v_t|`` long in mesh units
+        (pass the same value to compare magnitudes across pictures). Default: the robust
+        longest arrow is 0.8 of the arrow spacing.
     cmap : str
         A matplotlib colormap name.
-    clim : (float, float), optional
-        Colormap limits (default: the function's min and max).
-    view : View or (azimuth, elevation[, up[, zoom]]) or dict, optional
-        Camera (:class:`fvf.viz.View`; default a three-quarter view, y up).
+    clim : (float, float) or {"robust", "symmetric", "full"}, optional
+        Colormap limits. Default ``"robust"``: the area-weighted 1st and 99th percentiles,
+        moved back to the min / max when nothing lies far beyond them
+        (:func:`fvf.viz.colors.robust_limits`); ``"symmetric"``: ``±`` the robust maximum
+        of ``|f|``; ``"full"``: min and max. Clipped values show as triangles on the
+        colorbar.
+    view : View, tuple, dict, or a list of them, optional
+        Camera (:class:`fvf.viz.View`; default a three-quarter view with the up axis
+        detected, :func:`fvf.viz.camera.detect_up_axis`). A list draws one panel per view
+        side by side, e.g. :func:`fvf.viz.two_sides` for both halves of a closed surface.
     size : (int, int)
-        (width, height) of the PNG in pixels, each in [64, :data:`MAX_SIZE`] (height
-        from 48).
+        (width, height) of the PNG in pixels (all panels together), each in [64,
+        :data:`MAX_SIZE`] (height from 48).
     title : str, optional
         Drawn above the picture.
     backend : {"auto", "polyscope-egl", "matplotlib"}
         ``"auto"``: the first of :func:`available_backends`.
-    max_arrows : int or None
-        Draw arrows at about this many faces (>= 1) spread evenly over the surface
-        (:func:`fvf.viz.arrows.spread_faces`); None draws one per face.
+    max_arrows : int, optional
+        At most about this many arrows per panel (>= 1; the spacing grows to fit).
     colorbar_label : str, optional
-        Label of the colorbar.
+        Label of the colorbar (default "value").
+    n : int
+        Directions per face of ``field``: 1 draws arrows; N ≥ 2 draws the N directions
+        (the representative turned by 2πk/N about the face normal,
+        :func:`fvf.viz.arrows.direction_set`) as N strokes from the centroid, each half an
+        arrow long.
+    arrow_spacing : float, optional
+        Pixels between arrows (default :func:`fvf.viz.overlay.default_spacing`: 1/22 of
+        the panel's smaller side, 14 to 40 px; 1.5 times that with several fields, whose
+        arrows interleave). Glyph sizes follow it.
+    field_labels : list of str, optional
+        Names of the fields in the legend.
+    arrow_color : (r, g, b), optional
+        Colour of the first field's arrows instead of the automatic contrasting one.
 
     Returns
     -------
     RenderInfo
+        ``n_arrows`` counts the glyphs' faces over all panels; ``extra["panels"]`` the
+        number of panels, ``extra["arrow_spacing"]`` the spacing in pixels,
+        ``extra["arrow_colors"]`` the fields' colours, ``extra["capped_arrows"]`` the
+        arrows drawn shorter than their length (longer than 1.3 spacings).
 
     Raises
     ------
@@ -233,7 +264,8 @@ def render(
     OutputWriteError
         The PNG could not be written (a file already at ``path`` is unchanged).
     """
-    from .compose import compose, layout
+    from .compose import compose, has_legend, layout
+    from .overlay import panel_overlay
     from .scene import build_scene
 
     t0 = time.perf_counter()
@@ -255,18 +287,60 @@ def render(
         clim=clim,
         view=view,
         colorbar_label=colorbar_label,
+        n=n,
+        arrow_spacing=arrow_spacing,
+        field_labels=field_labels,
+        arrow_color=arrow_color,
     )
-    sw, sh = layout(width, height, title, scene.colorbar is not None)
+    lay = layout(
+        width, height, title, scene.colorbar is not None, has_legend(scene), len(scene.frames)
+    )
+    pw, ph = lay.panel_width, lay.panel_height
+    if pw < 32 or ph < 32:
+        raise FvfError(f"size {size!r} leaves panels of {pw} x {ph} pixels; make it larger")
+    overlays = []
+    for frame, v in zip(scene.frames, scene.views, strict=True):
+        first = overlays[0] if overlays else None
+        spacing_mesh = None if first is None else first.spacing / first.pixel_scale
+        overlays.append(panel_overlay(scene, frame, v.zoom, pw, ph, spacing_mesh))
+    used, fallback, images = _draw_panels(scene, overlays, pw, ph, backend)
+    path = Path(path)
+    compose(images, scene, path, width, height, title)
+    return RenderInfo(
+        path=path,
+        backend=used,
+        size=(width, height),
+        seconds=time.perf_counter() - t0,
+        arrow_scale=overlays[0].arrow_scale,
+        n_arrows=sum(o.n_arrows for o in overlays),
+        n_streamlines=len(scene.lines),
+        n_singularities=0 if scene.markers is None else len(scene.markers),
+        clim=None if scene.colorbar is None else tuple(scene.colorbar["clim"]),
+        fallback=fallback,
+        extra={
+            "panels": len(overlays),
+            "arrow_spacing": overlays[0].spacing,
+            "arrow_colors": [lay_.color for lay_ in scene.fields],
+            "capped_arrows": sum(o.n_capped for o in overlays),
+            "up": scene.views[0].up,
+        },
+    )
+
+
+def _draw_panels(scene, overlays, pw, ph, backend) -> tuple[str, str | None, list]:
+    """Draw every panel with polyscope when it works (and is wanted), else matplotlib."""
     fallback = None
-    image = None
     if backend in ("auto", "polyscope-egl"):
         reason = polyscope_status()
         if reason is None:
             from .ps_backend import draw_polyscope
 
             try:
-                image = draw_polyscope(scene, sw, sh)
-                used = "polyscope-egl"
+                images = [
+                    draw_polyscope(scene, pw, ph, frame, v, o)
+                    for frame, v, o in zip(scene.frames, scene.views, overlays, strict=True)
+                ]
+                return "polyscope-egl", None, images
             except MissingExtraError:
                 raise
             except Exception as exc:  # polyscope's own errors: fall back (unless asked for it)
@@ -274,31 +348,18 @@ def render(
                     raise
                 reason = f"polyscope failed: {type(exc).__name__}: {exc}"
                 _STATUS["polyscope"] = reason
-        if image is None:
-            if backend == "polyscope-egl":
-                raise FvfError(f"backend 'polyscope-egl' is not available: {reason}")
-            if reason and importlib.util.find_spec("polyscope") and "disabled" not in reason:
-                _warn_once(reason)
-            fallback = reason
-    if image is None:
-        from .mpl_backend import draw_matplotlib
+        if backend == "polyscope-egl":
+            raise FvfError(f"backend 'polyscope-egl' is not available: {reason}")
+        if reason and importlib.util.find_spec("polyscope") and "disabled" not in reason:
+            _warn_once(reason)
+        fallback = reason
+    from .mpl_backend import draw_matplotlib
 
-        image = draw_matplotlib(scene, sw, sh)
-        used = "matplotlib"
-    path = Path(path)
-    compose(image, scene, path, width, height, title)
-    return RenderInfo(
-        path=path,
-        backend=used,
-        size=(width, height),
-        seconds=time.perf_counter() - t0,
-        arrow_scale=scene.arrow_scale,
-        n_arrows=0 if scene.arrows is None else len(scene.arrows),
-        n_streamlines=len(scene.lines),
-        n_singularities=0 if scene.markers is None else len(scene.markers),
-        clim=None if scene.colorbar is None else tuple(scene.colorbar["clim"]),
-        fallback=fallback,
-    )
+    images = [
+        draw_matplotlib(scene, pw, ph, frame, v.zoom, o)
+        for frame, v, o in zip(scene.frames, scene.views, overlays, strict=True)
+    ]
+    return "matplotlib", fallback, images
 
 
 def check_render_options(
@@ -320,7 +381,12 @@ def check_render_options(
             raise ParameterError(
                 f"size: the {name} must be an integer in [{low}, {MAX_SIZE}] pixels; got {value!r}"
             )
-    if clim is not None:
+    if isinstance(clim, str):
+        if clim not in ("robust", "symmetric", "full"):
+            raise ParameterError(
+                f"clim must be 'robust', 'symmetric', 'full' or (low, high); got {clim!r}"
+            )
+    elif clim is not None:
         try:
             lo, hi = (float(c) for c in clim)
         except (TypeError, ValueError):
@@ -329,8 +395,7 @@ def check_render_options(
             raise ParameterError(f"clim must be two finite numbers with low < high; got {clim!r}")
     if max_arrows is not None and not (isinstance(max_arrows, Integral) and int(max_arrows) >= 1):
         raise ParameterError(
-            f"max_arrows must be a positive integer (or None for one arrow per face); got "
-            f"{max_arrows!r}"
+            f"max_arrows must be a positive integer (or None: no cap); got {max_arrows!r}"
         )
     if arrow_scale is not None and not (
         isinstance(arrow_scale, Real) and 0 < float(arrow_scale) < np.inf

@@ -1,4 +1,10 @@
-"""The picture around the rendered scene: title, colorbar and singularity legend."""
+"""The picture around the rendered panels: title, colorbar and legend.
+
+Layout: a title band on top (when there is a title), the panels side by side below it,
+and a side column on the right holding the colorbar (labelled, with extension triangles
+when the colour range clips values) and the legend (singularity indices with their
+colours and counts, and the labels of the fields drawn).
+"""
 
 from __future__ import annotations
 
@@ -8,74 +14,144 @@ import numpy as np
 
 from ..io.atomic import atomic_path
 from ._deps import require
-from .scene import Scene, index_color
+from .colors import index_color, index_label
+from .scene import Scene
 
-__all__ = ["layout", "compose"]
+__all__ = ["Layout", "compose", "layout"]
 
 TITLE_HEIGHT = 34
-COLORBAR_WIDTH = 96
+COLORBAR_WIDTH = 100
+LEGEND_WIDTH = 124
+PANEL_GAP = 6
 
 
-def layout(width: int, height: int, title: str | None, colorbar: bool) -> tuple[int, int]:
-    """Size (width, height) in pixels left for the 3-D scene."""
-    return width - (COLORBAR_WIDTH if colorbar else 0), height - (TITLE_HEIGHT if title else 0)
+class Layout:
+    """Pixel sizes of a picture's parts (see :func:`layout`)."""
+
+    def __init__(self, width, height, title, colorbar, legend, panels):
+        self.width, self.height = width, height
+        self.title = TITLE_HEIGHT if title else 0
+        self.side = LEGEND_WIDTH if legend else (COLORBAR_WIDTH if colorbar else 0)
+        self.panels = max(1, int(panels))
+        self.scene_width = width - self.side
+        self.scene_height = height - self.title
+        self.gap = PANEL_GAP if self.panels > 1 else 0
+        self.panel_width = (self.scene_width - self.gap * (self.panels - 1)) // self.panels
+        self.panel_height = self.scene_height
+
+
+def has_legend(scene: Scene) -> bool:
+    """Whether the picture gets a legend: singularities, or labelled fields."""
+    return scene.markers is not None or any(f.label for f in scene.fields)
+
+
+def layout(
+    width: int,
+    height: int,
+    title: str | None,
+    colorbar: bool,
+    legend: bool = False,
+    panels: int = 1,
+) -> Layout:
+    """Sizes of the title band, the panels and the side column, in pixels."""
+    return Layout(width, height, title, colorbar, legend, panels)
+
+
+def _legend_handles(scene: Scene) -> list:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    for f in scene.fields:
+        if f.label:
+            handles.append(Patch(facecolor=f.color, edgecolor="black", label=f.label))
+    if scene.markers is not None:
+        assert scene.marker_indices is not None  # set together with the markers
+        kinds, counts = np.unique(np.round(scene.marker_indices, 9), return_counts=True)
+        if kinds.size == 0:
+            handles.append(Line2D([], [], linestyle="none", label="no singularities"))
+        for k, c in zip(kinds, counts, strict=True):
+            handles.append(
+                Line2D(
+                    [],
+                    [],
+                    marker="o",
+                    linestyle="none",
+                    markersize=9,
+                    markerfacecolor=index_color(k),
+                    markeredgecolor="black",
+                    label=f"index {index_label(k)} ({c})",
+                )
+            )
+    return handles
 
 
 def compose(
-    image: np.ndarray, scene: Scene, path: str | Path, width: int, height: int, title: str | None
+    panels: list[np.ndarray] | np.ndarray,
+    scene: Scene,
+    path: str | Path,
+    width: int,
+    height: int,
+    title: str | None,
 ) -> None:
-    """Write ``image`` (the scene) with title, colorbar and legend as a PNG of the given size."""
+    """Write the panels with title, colorbar and legend as a PNG of the given size."""
     require("matplotlib")
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
 
-    sw, sh = layout(width, height, title, scene.colorbar is not None)
+    images = [panels] if isinstance(panels, np.ndarray) else list(panels)
+    legend = has_legend(scene)
+    lay = layout(width, height, title, scene.colorbar is not None, legend, len(images))
+    strip = np.full((lay.scene_height, lay.scene_width, 3), 255, dtype=np.uint8)
+    for i, im in enumerate(images):
+        x = i * (lay.panel_width + lay.gap)
+        h, w = min(im.shape[0], lay.scene_height), min(im.shape[1], lay.panel_width)
+        strip[:h, x : x + w] = im[:h, :w, :3]
+        if i:  # a thin rule between panels
+            strip[int(0.1 * h) : int(0.9 * h), x - lay.gap // 2] = 215
     fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100, facecolor="white")
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.0, 0.0, sw / width, sh / height))
-    ax.set_xlim(0, sw)
-    ax.set_ylim(0, sh)
-    # pixels copied as they are (no resampling): the scene fills the axes' rectangle
-    fig.figimage(np.ascontiguousarray(image[:sh, :sw]), xo=0, yo=0, origin="upper", zorder=0)
-    ax.set_axis_off()
+    fig.figimage(strip, xo=0, yo=0, origin="upper", zorder=0)
+    small = width < 600
     if title:
         fig.text(
-            0.5,
+            0.5 * lay.scene_width / width,
             1.0 - 0.5 * TITLE_HEIGHT / height,
             title,
             ha="center",
             va="center",
-            fontsize=12 if width >= 600 else 9,
+            fontsize=10 if small else 12,
         )
+    x0 = (lay.scene_width + 10) / width
+    sh = lay.scene_height / height
     if scene.colorbar is not None:
         cb = scene.colorbar
-        cax = fig.add_axes(((sw + 14) / width, 0.12 * sh / height, 16 / width, 0.76 * sh / height))
+        bottom, top = (0.50, 0.92) if legend else (0.10, 0.90)
+        cax = fig.add_axes((x0 + 4 / width, bottom * sh, 14 / width, (top - bottom) * sh))
         sm = ScalarMappable(Normalize(*cb["clim"]), matplotlib.colormaps[cb["cmap"]])
-        bar = fig.colorbar(sm, cax=cax)
-        bar.ax.tick_params(labelsize=8)
-        if cb.get("label"):
-            bar.set_label(cb["label"], fontsize=9)
-    if scene.markers is not None and len(scene.markers):
-        assert scene.marker_indices is not None  # set together with the markers
-        kinds, counts = np.unique(scene.marker_indices, return_counts=True)
-        handles = [
-            Line2D(
-                [],
-                [],
-                marker="o",
-                linestyle="none",
-                markersize=8,
-                markerfacecolor=index_color(k),
-                markeredgecolor="black",
-                label=f"index {int(k):+d} ({c})",
-            )
-            for k, c in zip(kinds, counts, strict=True)
-        ]
-        ax.legend(handles=handles, loc="lower left", fontsize=8, frameon=True)
+        bar = fig.colorbar(sm, cax=cax, extend=cb.get("extend", "neither"))
+        bar.ax.tick_params(labelsize=7 if small else 8)
+        bar.formatter.set_powerlimits((-3, 4))
+        bar.set_label(cb.get("label") or "value", fontsize=8 if small else 9)
+    if legend:
+        top = 0.46 if scene.colorbar is not None else 0.95
+        lax = fig.add_axes((lay.scene_width / width, 0.02, lay.side / width, top * sh))
+        lax.set_axis_off()
+        lax.set_zorder(3)
+        lax.legend(
+            handles=_legend_handles(scene),
+            loc="upper left",
+            fontsize=7 if small else 8,
+            frameon=False,
+            title="singularities" if scene.markers is not None else None,
+            title_fontsize=7 if small else 8,
+            borderaxespad=0.2,
+            handletextpad=0.3,
+            alignment="left",
+        )
     with atomic_path(path) as tmp:  # whole or not at all
         fig.savefig(
             str(tmp), format="png", dpi=100, facecolor="white", pil_kwargs={"compress_level": 3}

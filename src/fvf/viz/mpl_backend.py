@@ -2,9 +2,9 @@
 
 Faces are projected with the camera frame, back faces of closed meshes are culled, the
 rest are drawn far to near (painter's algorithm) with a colour scaled by a Lambert
-term, so the shape reads. Arrows, streamlines and markers are drawn on top, keeping
-only the parts that are not hidden: a face-id buffer (the faces drawn again with their
-ids as colours, without antialiasing) gives the surface depth seen at each pixel.
+term, so the shape reads. Arrows, strokes, streamlines and markers are drawn on top,
+keeping only the parts that are not hidden: a face-id buffer (the faces drawn again with
+their ids as colours, without antialiasing) gives the surface depth seen at each pixel.
 """
 
 from __future__ import annotations
@@ -15,27 +15,23 @@ from typing import Any
 import numpy as np
 
 from ._deps import require
-from .scene import Scene, index_color, shade
+from .overlay import PanelOverlay, fit
+from .scene import Scene, shade
 
 __all__ = ["draw_matplotlib", "projection"]
 
-_MARGIN = 1.06
-
 
 def projection(
-    scene: Scene, width: int, height: int
+    scene: Scene, width: int, height: int, frame: np.ndarray | None = None, zoom: float = 1.0
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """Pixel coordinates (x right, y up) and depth (larger is nearer) of 3-D points.
 
     Returns a function ``P (k, 3) -> (xy (k, 2), depth (k,))`` fitting the whole mesh in
-    a ``width`` x ``height`` picture with a small margin (divided by ``view.zoom``).
+    a ``width`` x ``height`` panel (:func:`fvf.viz.overlay.fit`). ``frame`` defaults to
+    the scene's first.
     """
-    R = scene.frame
-    Q = scene.mesh.vertices @ R.T
-    lo, hi = Q[:, :2].min(0), Q[:, :2].max(0)
-    centre = 0.5 * (lo + hi)
-    ext = np.maximum(hi - lo, 1e-300) * _MARGIN
-    s = min(width / ext[0], height / ext[1]) * scene.view.zoom
+    R = scene.frame if frame is None else frame
+    centre, s = fit(scene.mesh.vertices, R, zoom, width, height)
 
     def project(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = np.asarray(P, float).reshape(-1, 3) @ R.T
@@ -46,11 +42,10 @@ def projection(
 
 
 def _figure(width: int, height: int, background: Any) -> tuple[Any, Any, Any]:
-    mpl = require("matplotlib")
+    require("matplotlib")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    del mpl
     fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100, facecolor=background)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
@@ -66,37 +61,54 @@ def _rgb(canvas: Any) -> np.ndarray:
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
 
-def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
-    """Render a scene to an RGB image, uint8 (height, width, 3), white background."""
+def _points(px: float) -> float:
+    """Pixels to points at 100 dpi."""
+    return 0.72 * px
+
+
+def draw_matplotlib(
+    scene: Scene,
+    width: int,
+    height: int,
+    frame: np.ndarray | None = None,
+    zoom: float = 1.0,
+    overlay: PanelOverlay | None = None,
+) -> np.ndarray:
+    """Render one panel of a scene to an RGB image, uint8 (height, width, 3), white ground.
+
+    ``frame`` and ``zoom`` default to the scene's first view; ``overlay`` (arrows,
+    markers, line width: :func:`fvf.viz.overlay.panel_overlay`) is computed when omitted.
+    """
     require("matplotlib")
     from matplotlib.collections import LineCollection, PolyCollection
 
+    from .overlay import panel_overlay
+
+    frame = scene.frame if frame is None else frame
+    if overlay is None:
+        overlay = panel_overlay(scene, frame, zoom, width, height)
     mesh = scene.mesh
     X, F = mesh.vertices, mesh.faces
-    project = projection(scene, width, height)
+    project = projection(scene, width, height, frame, zoom)
     xy, depth = project(X)
-    right, up, back = scene.frame
+    back = frame[2]
     N = mesh.face_normals
     facing = N @ back
     faces = np.flatnonzero(facing > 0) if mesh.is_closed else np.arange(mesh.n_faces)
     face_depth = depth[F].mean(1)
     order = faces[np.argsort(face_depth[faces], kind="stable")]  # far to near
     polys = xy[F[order]]
-    # colours: flat per face, scaled by a Lambert term (scene.shade)
     base = scene.colors[F[order]].mean(1) if scene.colors_on == "vertices" else scene.colors[order]
-    shade_ = shade(scene, N[order])
-    face_rgb = np.clip(base * shade_[:, None], 0.0, 1.0)
+    face_rgb = np.clip(base * shade(scene, N[order], frame)[:, None], 0.0, 1.0)
 
     fig, canvas, ax = _figure(width, height, "white")
     ax.add_collection(
         PolyCollection(polys, facecolors=face_rgb, edgecolors=face_rgb, linewidths=0.3)
     )
-    has_overlay = scene.arrows is not None or scene.lines or scene.markers is not None
-    if has_overlay:
-        visible = _visibility(
-            polys, order, face_depth, width, height, mesh.mean_edge_length, project
-        )
-    lw = max(0.6, width / 900.0)
+    if not (overlay.glyphs or scene.lines or scene.markers is not None):
+        return _rgb(canvas)
+    tol = max(1.5 * mesh.mean_edge_length, 3.0 / overlay.pixel_scale)
+    visible = _visibility(polys, order, face_depth, width, height, tol, project)
     if scene.lines:
         segs: list[np.ndarray] = []
         for line in scene.lines:
@@ -105,46 +117,44 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
             keep = ok[:-1] & ok[1:]
             segs.extend(np.stack([p[:-1][keep], p[1:][keep]], axis=1))
         if segs:
-            ax.add_collection(LineCollection(segs, colors=[scene.line_color], linewidths=lw))
-    if scene.arrows is not None and len(scene.arrows):
-        A = scene.arrows
-        front = (facing[scene.arrow_faces] > 0) | (not mesh.is_closed)
-        ok = front & visible(A[:, 0])
-        p0, _ = project(A[ok, 0])
-        p1, _ = project(A[ok, 1])
-        ax.quiver(
-            p0[:, 0],
-            p0[:, 1],
-            p1[:, 0] - p0[:, 0],
-            p1[:, 1] - p0[:, 1],
-            angles="xy",
-            scale_units="xy",
-            scale=1.0,
-            color=scene.line_color,
-            width=0.0016,
-            headwidth=4.0,
-            headlength=4.5,
-            headaxislength=4.0,
-            minlength=0.5,
-        )
+            ax.add_collection(
+                LineCollection(
+                    segs, colors=[scene.line_color], linewidths=_points(overlay.line_width)
+                )
+            )
+    for g in overlay.glyphs:
+        ok = visible(g.anchors)
+        if not ok.any():
+            continue
+        for polys_3d, color, z in ((g.halo, g.halo_color, 3), (g.polygons, g.color, 4)):
+            k, p = polys_3d[ok].shape[:2]
+            pts, _ = project(polys_3d[ok].reshape(-1, 3))
+            ax.add_collection(
+                PolyCollection(
+                    pts.reshape(k, p, 2),
+                    facecolors=[color],
+                    edgecolors=[color],
+                    linewidths=_points(0.3),
+                    zorder=z,
+                )
+            )
     if scene.markers is not None and len(scene.markers):
         ok = visible(scene.markers)
         p, _ = project(scene.markers[ok])
-        assert scene.marker_indices is not None  # set together with the markers
-        cols = [index_color(i) for i in scene.marker_indices[ok]]
+        r_px = overlay.marker_radius * overlay.pixel_scale
         ax.scatter(
             p[:, 0],
             p[:, 1],
-            s=max(45.0, (width / 800.0) ** 2 * 90.0),
-            c=cols,
+            s=_points(2 * r_px) ** 2,
+            c=overlay.marker_colors[ok] if overlay.marker_colors is not None else None,
             edgecolors="black",
-            linewidths=0.8,
+            linewidths=_points(max(1.0, 0.18 * r_px)),
             zorder=5,
         )
     return _rgb(canvas)
 
 
-def _visibility(polys, order, face_depth, width, height, edge, project):
+def _visibility(polys, order, face_depth, width, height, tol, project):
     """A test ``P (k, 3) -> bool (k,)``: is each surface point seen (not hidden)?"""
     from matplotlib.collections import PolyCollection
 
@@ -155,7 +165,6 @@ def _visibility(polys, order, face_depth, width, height, edge, project):
     buf = _rgb(canvas).astype(np.int64)
     idbuf = (buf[:, :, 0] << 16) | (buf[:, :, 1] << 8) | buf[:, :, 2]  # 0: background
     seen_depth = np.concatenate([[-np.inf], face_depth[order]])
-    tol = 1.5 * edge
 
     def visible(P: np.ndarray) -> np.ndarray:
         p, d = project(P)

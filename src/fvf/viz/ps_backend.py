@@ -1,10 +1,12 @@
 """The polyscope backend: OpenGL through EGL without a display (headless), or a window.
 
 polyscope keeps one global state per process: :func:`init_headless` starts it once
-(``ps.init("openGL3_egl")``), each picture removes the previous structures, registers
-the mesh, colours, arrows (a tangent vector quantity in the faces' own bases),
-streamlines (a curve network) and markers (a point cloud), places the camera with the
-same frame as the matplotlib backend, and reads the frame buffer.
+(``ps.init("openGL3_egl")``), each panel removes the previous structures, registers
+the mesh and its colours, the glyphs of :mod:`fvf.viz.overlay` (flat arrows and strokes
+in the faces' planes, lifted a little along the normals, over a slightly larger halo),
+streamlines (a curve network) and markers (a coloured sphere in front of a black one),
+all sized in pixels of the picture, places the camera with the same frame as the
+matplotlib backend, and reads the frame buffer.
 """
 
 from __future__ import annotations
@@ -17,9 +19,10 @@ from typing import Any
 import numpy as np
 
 from ._deps import require
-from .scene import Scene, index_color, shade
+from .overlay import PanelOverlay
+from .scene import Scene, shade
 
-__all__ = ["init_headless", "draw_polyscope", "populate"]
+__all__ = ["init_headless", "draw_polyscope", "place_camera", "populate"]
 
 _STATE: dict = {}
 
@@ -58,6 +61,7 @@ def init_headless():
         ps.set_use_prefs_file(False)  # no .polyscope.ini in the user's working directory
         with _quiet():
             ps.init("openGL3_egl")
+        ps.set_SSAA_factor(2)  # antialiased glyph edges
     except Exception as exc:  # polyscope raises RuntimeError, or others from its bindings
         _STATE["error"] = f"{type(exc).__name__}: {exc}"
         raise
@@ -65,8 +69,36 @@ def init_headless():
     return ps
 
 
-def populate(ps: Any, scene: Scene) -> None:
-    """Register the scene's mesh, colours, arrows, streamlines and markers in polyscope."""
+def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, color) -> None:
+    """Register flat polygons (k, p, 3), triangulated alike, as one unlit surface mesh."""
+    k, p = polys.shape[:2]
+    faces = (np.arange(k)[:, None, None] * p + triangles[None]).reshape(-1, 3)
+    ps.register_surface_mesh(
+        name,
+        polys.reshape(-1, 3),
+        faces,
+        color=tuple(color),
+        material="flat",
+        edge_width=0.0,
+        smooth_shade=False,
+        back_face_policy="identical",
+    )
+
+
+def populate(
+    ps: Any, scene: Scene, frame: np.ndarray | None = None, overlay: PanelOverlay | None = None
+) -> None:
+    """Register the scene's mesh, colours, glyphs, streamlines and markers in polyscope.
+
+    ``frame`` (the panel's camera frame) defaults to the scene's first; ``overlay`` (the
+    glyphs and sizes of :func:`fvf.viz.overlay.panel_overlay`) is computed for a 1024 x 768
+    panel when omitted.
+    """
+    from .overlay import panel_overlay
+
+    frame = scene.frame if frame is None else frame
+    if overlay is None:
+        overlay = panel_overlay(scene, frame, scene.view.zoom, 1024, 768)
     mesh = scene.mesh
     ps.remove_all_structures()
     ps.set_ground_plane_mode("none")
@@ -81,26 +113,15 @@ def populate(ps: Any, scene: Scene) -> None:
     s = ps.register_surface_mesh(
         "mesh", mesh.vertices, mesh.faces, edge_width=0.0, smooth_shade=False, material="flat"
     )
-    colors = np.clip(scene.colors * shade(scene, N)[:, None], 0.0, 1.0)
+    colors = np.clip(scene.colors * shade(scene, N, frame)[:, None], 0.0, 1.0)
     s.add_color_quantity("colors", colors, defined_on=scene.colors_on, enabled=True)
-    radius = 0.003
-    if scene.arrows is not None and len(scene.arrows):
-        # arrows in the faces' own bases (mesh.face_bases), only at the chosen faces
-        a = np.zeros((mesh.n_faces, 2))
-        d = scene.arrows[:, 1] - scene.arrows[:, 0]
-        B = mesh.face_bases
-        a[scene.arrow_faces] = np.einsum("kij,kj->ki", B[scene.arrow_faces], d)
-        s.add_tangent_vector_quantity(
-            "field",
-            a,
-            B[:, 0],
-            B[:, 1],
-            defined_on="faces",
-            vectortype="ambient",
-            enabled=True,
-            color=scene.line_color,
-            radius=radius,
-        )
+    px = 1.0 / overlay.pixel_scale  # mesh units per pixel
+    for i, g in enumerate(overlay.glyphs):
+        # lifted along the normals so they stay above the surface; the halo a little less
+        # (and so behind the glyph, seen from the eye)
+        up = g.normals[:, None, :]
+        _glyph_mesh(ps, f"halo {i}", g.halo + (g.lift - 0.5 * px) * up, g.triangles, g.halo_color)
+        _glyph_mesh(ps, f"field {i}", g.polygons + g.lift * up, g.triangles, g.color)
     if scene.lines:
         nodes = np.concatenate(scene.lines)
         starts = np.cumsum([0] + [len(x) for x in scene.lines[:-1]])
@@ -110,43 +131,79 @@ def populate(ps: Any, scene: Scene) -> None:
                 for k, x in zip(starts, scene.lines, strict=True)
             ]
         )
-        ps.register_curve_network(
-            "streamlines",
-            nodes,
-            edges,
-            radius=0.7 * radius,
-            color=scene.line_color,
-            material="flat",
+        net = ps.register_curve_network(
+            "streamlines", nodes, edges, color=scene.line_color, material="flat"
         )
+        net.set_radius(0.5 * overlay.line_width * px, relative=False)
     if scene.markers is not None and len(scene.markers):
-        pc = ps.register_point_cloud("singularities", scene.markers, radius=0.014, material="clay")
-        assert scene.marker_indices is not None  # set together with the markers
-        cols = np.array([index_color(i) for i in scene.marker_indices])
-        pc.add_color_quantity("index", cols, enabled=True)
+        # a black sphere with a smaller coloured one pushed toward the eye far enough
+        # to be in front of it over its whole disc: a coloured disc with a black rim
+        r = overlay.marker_radius
+        inner = r - max(1.0 * px, 0.16 * r)
+        pc = ps.register_point_cloud(
+            "singularity rims", scene.markers, color=(0.0, 0.0, 0.0), material="flat"
+        )
+        pc.set_radius(r, relative=False)
+        shift = 1.1 * np.sqrt(r * r - inner * inner) + px
+        pc = ps.register_point_cloud(
+            "singularities", scene.markers + shift * frame[2], material="flat"
+        )
+        pc.set_radius(inner, relative=False)
+        pc.add_color_quantity("index", overlay.marker_colors, enabled=True)
 
 
-def place_camera(ps: Any, scene: Scene, width: int, height: int) -> None:
-    """Look at the mesh along the scene's camera frame, fitting it in the picture."""
-    back = scene.frame[2]
+def place_camera(
+    ps: Any,
+    scene: Scene,
+    width: int,
+    height: int,
+    frame: np.ndarray | None = None,
+    view: Any = None,
+) -> None:
+    """Look at the mesh along the panel's camera frame with the matplotlib backend's fit.
+
+    The projection is orthographic, with the same centre and pixels per mesh unit as
+    :func:`fvf.viz.overlay.fit`, so both backends put every point at the same pixel.
+    polyscope's orthographic half-height is ``2 tan(fov/2) · length_scale``: the length
+    scale is fixed (three bounding-box diagonals, which also keeps the mesh between the
+    near and far clipping planes) and the field of view chosen to match.
+    """
+    from .overlay import fit
+
+    frame = scene.frame if frame is None else frame
+    view = scene.view if view is None else view
     X = scene.mesh.vertices
-    q = X @ scene.frame.T
-    lo, hi = q.min(0), q.max(0)
-    centre = scene.frame.T @ (0.5 * (lo + hi))
-    fov = np.radians(ps.get_vertical_fov_degrees())
-    tan_v = np.tan(fov / 2)
-    tan_h = tan_v * width / height
-    half = 0.5 * (hi - lo) * 1.08 / scene.view.zoom
-    dist = max(half[1] / tan_v, half[0] / tan_h) + 0.4 * half[2]
-    ps.set_up_dir(f"{scene.view.up}_up")
-    ps.look_at(centre + dist * back, centre)
+    centre2, s = fit(X, frame, view.zoom, width, height)
+    depth = X @ frame[2]
+    centre = frame[:2].T @ centre2 + frame[2] * 0.5 * (depth.min() + depth.max())
+    length = 3.0 * float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
+    ps.set_automatically_compute_scene_extents(False)
+    ps.set_length_scale(length)
+    ps.set_bounding_box(X.min(0), X.max(0))
+    ps.set_view_projection_mode("orthographic")
+    ps.set_vertical_fov_degrees(float(np.degrees(2.0 * np.arctan(height / (4.0 * s * length)))))
+    ps.look_at_dir(centre + length * frame[2], centre, frame[1])
 
 
-def draw_polyscope(scene: Scene, width: int, height: int) -> np.ndarray:
-    """Render a scene headless to an RGB image, uint8 (height, width, 3)."""
+def draw_polyscope(
+    scene: Scene,
+    width: int,
+    height: int,
+    frame: np.ndarray | None = None,
+    view: Any = None,
+    overlay: PanelOverlay | None = None,
+) -> np.ndarray:
+    """Render one panel of a scene headless to an RGB image, uint8 (height, width, 3)."""
+    from .overlay import panel_overlay
+
+    frame = scene.frame if frame is None else frame
+    view = scene.view if view is None else view
+    if overlay is None:
+        overlay = panel_overlay(scene, frame, view.zoom, width, height)
     ps = init_headless()
     ps.set_window_size(int(width), int(height))
-    populate(ps, scene)
-    place_camera(ps, scene, width, height)
+    populate(ps, scene, frame, overlay)
+    place_camera(ps, scene, width, height, frame, view)
     buf = np.asarray(ps.screenshot_to_buffer(transparent_bg=False))
     ps.remove_all_structures()
     img = buf[:, :, :3]

@@ -1,8 +1,11 @@
 """What a picture shows, checked and turned into colours: the input of every backend.
 
-A :class:`Scene` holds the mesh, per-vertex or per-face RGB colours (a colormapped
-function, a grey texture, or both multiplied), arrow segments, singularity markers and
-streamline polylines, and the camera frame. Backends only draw it.
+A :class:`Scene` holds the drawn surface with per-vertex or per-face RGB colours (a
+colormapped function, a grey texture, or both multiplied), the tangent fields to draw as
+arrows or N-direction strokes (:class:`FieldLayer`), singularity markers, streamline
+polylines, the colorbar, and one camera frame per panel. What depends on the picture's
+pixels (which faces carry an arrow, glyph sizes) is computed per panel by
+:mod:`fvf.viz.overlay`; backends only draw.
 """
 
 from __future__ import annotations
@@ -14,60 +17,87 @@ import numpy.typing as npt
 
 from ..errors import FieldShapeError, FieldValueError, FvfError
 from ..mesh.convert import takes_mesh
+from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
-from .arrows import arrow_segments, default_arrow_scale, spread_faces
-from .camera import View, as_view, camera_frame
+from .camera import View, as_views, camera_frame, resolve_up
+from .colors import contrast_color, equalize, index_color, index_label, resolve_clim
 
-__all__ = ["Scene", "SURFACE_COLOR", "index_color", "build_scene", "shade"]
+__all__ = [
+    "FieldLayer",
+    "Scene",
+    "SURFACE_COLOR",
+    "build_scene",
+    "equalize",
+    "index_color",
+    "index_label",
+    "shade",
+]
 
 #: Colour of a surface that shows no function: light blue-grey.
 SURFACE_COLOR = (0.80, 0.83, 0.88)
-#: Colour of arrows and streamlines over a plain surface / over a colormapped one.
+#: Overlay colour when nothing else decides (kept for callers of the old name).
 LINE_COLOR = (0.08, 0.08, 0.10)
-_INDEX_COLORS = {
-    1: (0.86, 0.12, 0.12),
-    -1: (0.10, 0.35, 0.90),
-    2: (1.0, 0.55, 0.0),
-    -2: (0.0, 0.75, 0.85),
-}
+#: Range of the shading factor :func:`shade` multiplies colours by.
+SHADE_RANGE = (0.42, 1.0)
+#: A grey texture ``g`` in [0, 1] multiplies the colours by ``TEXTURE_FLOOR + (1 − floor) g``.
+TEXTURE_FLOOR = 0.4
 
 
-def index_color(index: int) -> tuple[float, float, float]:
-    """Marker colour of a singularity of the given index (+1 red, −1 blue, +2 orange,
-    −2 cyan, any other purple)."""
-    return _INDEX_COLORS.get(int(index), (0.55, 0.25, 0.70))
+@dataclass
+class FieldLayer:
+    """One tangent field to draw: arrows (``n == 1``) or N strokes per face."""
+
+    vectors: np.ndarray  # (m, 3) per face of Scene.field_mesh
+    n: int
+    scale: float | None  # absolute arrow scale (mesh units per unit |v|), None: per picture
+    top: float  # robust maximum of |v| (the length the default scale maps to the spacing)
+    color: tuple
+    label: str | None = None
 
 
 @dataclass
 class Scene:
     """A checked picture description (see :func:`build_scene`)."""
 
-    mesh: TriMesh
+    mesh: TriMesh  # the drawn surface (a finer canvas when a LicTexture is shown)
     colors: np.ndarray  # (n, 3) or (m, 3) RGB in [0, 1]
     colors_on: str  # "vertices" or "faces"
-    frame: np.ndarray  # (3, 3) camera frame rows right, up, back
-    view: View
-    arrows: np.ndarray | None = None  # (k, 2, 3)
-    arrow_faces: np.ndarray | None = None  # (k,)
-    arrow_scale: float | None = None
+    frames: list  # one (3, 3) camera frame (rows right, up, back) per panel
+    views: list  # one resolved View per panel
+    field_mesh: TriMesh  # the mesh the fields, markers and lines refer to
+    fields: list[FieldLayer] = field(default_factory=list)
+    arrow_spacing: float | None = None  # pixels between arrows (None: from the size)
+    max_arrows: int | None = None
     markers: np.ndarray | None = None  # (s, 3)
-    marker_indices: np.ndarray | None = None  # (s,)
+    marker_indices: np.ndarray | None = None  # (s,) float: k or k/N
     lines: list[np.ndarray] = field(default_factory=list)
     line_color: tuple = LINE_COLOR
-    colorbar: dict | None = None  # {"cmap", "clim", "label"}
+    colorbar: dict | None = None  # {"cmap", "clim", "label", "extend"}
+    palette: np.ndarray | None = None  # (k, 3) colours the surface can show
+
+    @property
+    def frame(self) -> np.ndarray:
+        """The first panel's camera frame."""
+        return self.frames[0]
+
+    @property
+    def view(self) -> View:
+        """The first panel's view."""
+        return self.views[0]
 
 
-def shade(scene: Scene, normals: np.ndarray) -> np.ndarray:
+def shade(scene: Scene, normals: np.ndarray, frame: np.ndarray | None = None) -> np.ndarray:
     """Lambert factor of unit normals (k, 3) under a light above-right of the eye, (k,).
 
     ``0.42 + 0.58 |⟨N, l⟩|``: both backends multiply the colours by it (polyscope draws
     them with its unlit "flat" material), so the shape reads and the colours stay close
-    to the colorbar's.
+    to the colorbar's. ``frame`` defaults to the first panel's.
     """
-    right, up, back = scene.frame
+    right, up, back = scene.frame if frame is None else frame
     light = 0.35 * right + 0.55 * up + back
     light = light / np.linalg.norm(light)
-    return 0.42 + 0.58 * np.abs(normals @ light)
+    lo, hi = SHADE_RANGE
+    return lo + (hi - lo) * np.abs(normals @ light)
 
 
 def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str]:
@@ -87,6 +117,10 @@ def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str
     return a, on
 
 
+def _areas(mesh: TriMesh, on: str) -> np.ndarray:
+    return mesh.vertex_areas if on == "vertices" else mesh.face_areas
+
+
 def _to_vertices(mesh: TriMesh, a: np.ndarray) -> np.ndarray:
     """Face values (m, ...) to vertex values by area-weighted averaging."""
     w = np.repeat(mesh.face_areas, 3)
@@ -101,83 +135,174 @@ def _to_vertices(mesh: TriMesh, a: np.ndarray) -> np.ndarray:
     return num / np.bincount(idx, weights=w, minlength=mesh.n_vertices)[:, None]
 
 
+def _surface(mesh, function, texture, cmap, clim, colorbar_label, mpl):
+    """Colours of the drawn mesh, where they live, the colorbar and the possible colours."""
+    from .lic import LicTexture
+
+    colorbar = None
+    lic = texture if isinstance(texture, LicTexture) else None
+    drawn = mesh if lic is None else lic.mesh
+    colors, on = np.tile(np.asarray(SURFACE_COLOR), (drawn.n_vertices, 1)), "vertices"
+    palette = np.asarray([SURFACE_COLOR])
+    if function is not None:
+        f, on = _values(mesh, function, "function")
+        lo, hi, below, above = resolve_clim(f, _areas(mesh, on), clim)
+        try:
+            cm = mpl.colormaps[cmap]
+        except KeyError as exc:
+            raise FvfError(f"unknown colormap {cmap!r} (a matplotlib colormap name)") from exc
+        if lic is not None:  # carry the function over to the canvas
+            f, on = (
+                (lic.vertex_values(f), "vertices")
+                if on == "vertices"
+                else (
+                    f[lic.parent],
+                    "faces",
+                )
+            )
+        colors = cm(np.clip((f - lo) / (hi - lo), 0.0, 1.0))[:, :3]
+        extend = {(False, False): "neither", (True, False): "min", (False, True): "max"}
+        colorbar = {
+            "cmap": cmap,
+            "clim": (lo, hi),
+            "label": colorbar_label,
+            "extend": extend.get((below, above), "both"),
+        }
+        palette = cm(np.linspace(0.0, 1.0, 64))[:, :3]
+    if texture is not None:
+        if lic is not None:
+            g, t_on = lic.values, "vertices"
+        else:
+            t, t_on = _values(mesh, texture, "texture")
+            g = equalize(t, _areas(mesh, t_on))
+        if function is None:
+            colors, on = np.repeat(g[:, None], 3, axis=1), t_on
+            palette = np.linspace(0.0, 1.0, 16)[:, None].repeat(3, axis=1)
+        else:
+            if on != t_on:  # bring both to the vertices
+                colors = _to_vertices(drawn, colors) if on == "faces" else colors
+                g = _to_vertices(drawn, g[:, None])[:, 0] if t_on == "faces" else g
+                on = "vertices"
+            colors = colors * (TEXTURE_FLOOR + (1.0 - TEXTURE_FLOOR) * g[:, None])
+            palette = np.vstack([palette, palette * TEXTURE_FLOOR])
+    shades = np.linspace(*SHADE_RANGE, 4)
+    palette = (palette[None] * shades[:, None, None]).reshape(-1, 3)
+    return drawn, np.asarray(colors, float), on, colorbar, palette
+
+
+def _field_list(field: object) -> list:
+    """One field or a list of fields."""
+    if field is None:
+        return []
+    if isinstance(field, (list, tuple)) and field and np.ndim(field[0]) == 2:
+        return list(field)
+    return [field]
+
+
+def _layers(mesh, fields, n, arrow_scale, labels, palette, avoid, arrow_color):
+    from .colors import robust_limits
+
+    if isinstance(n, bool) or not float(n).is_integer() or int(n) < 1:
+        raise FvfError(f"n (directions per face) must be a positive integer; got {n!r}")
+    n = int(n)
+    if arrow_scale is not None and not float(arrow_scale) > 0:
+        raise FvfError(f"arrow_scale must be positive; got {arrow_scale!r}")
+    if labels is not None and len(labels) != len(fields):
+        raise FvfError(f"field_labels has {len(labels)} names for {len(fields)} fields")
+    layers: list[FieldLayer] = []
+    taken = list(avoid)
+    for i, f in enumerate(fields):
+        v = as_face_field(mesh, f, "field")
+        speed = np.sqrt((v * v).sum(1))
+        top = robust_limits(speed, mesh.face_areas)[1] if speed.max(initial=0) > 0 else 1.0
+        if arrow_color is not None and i == 0:
+            color = tuple(float(c) for c in arrow_color)
+        else:
+            color = contrast_color(palette, np.asarray(taken).reshape(-1, 3))
+        taken.append(color)
+        scale = None if arrow_scale is None else float(arrow_scale)
+        layers.append(
+            FieldLayer(v, n, scale, float(top), color, None if labels is None else labels[i])
+        )
+    return layers
+
+
+def _markers(singularities) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        P, ind = singularities
+    except (TypeError, ValueError) as exc:
+        raise FvfError("singularities must be a pair (positions (k, 3), indices (k,))") from exc
+    P, ind = np.asarray(P, float).reshape(-1, 3), np.asarray(ind, dtype=float).ravel()
+    if P.shape[0] != ind.shape[0]:
+        raise FieldShapeError(
+            f"singularity positions ({P.shape[0]}) and indices ({ind.shape[0]}) differ"
+        )
+    if not (np.isfinite(P).all() and np.isfinite(ind).all()):
+        raise FieldValueError("singularity positions and indices must be finite")
+    return P, ind
+
+
 @takes_mesh
 def build_scene(
     mesh: TriMesh,
     *,
     function: npt.ArrayLike | None = None,
-    field: npt.ArrayLike | None = None,
+    field: object = None,
     singularities: tuple | None = None,
     streamlines: list | None = None,
-    texture: npt.ArrayLike | None = None,
+    texture: object = None,
     arrow_scale: float | None = None,
-    max_arrows: int | None = 1500,
+    max_arrows: int | None = None,
     cmap: str = "viridis",
-    clim: tuple[float, float] | None = None,
-    view: View | tuple | dict | None = None,
+    clim: tuple[float, float] | str | None = None,
+    view: object = None,
     colorbar_label: str | None = None,
+    n: int = 1,
+    arrow_spacing: float | None = None,
+    field_labels: list | tuple | None = None,
+    arrow_color: tuple | None = None,
 ) -> Scene:
     """Check the inputs of :func:`fvf.viz.render` and build a :class:`Scene`."""
     from ._deps import require
+    from .lic import LicTexture
 
     mpl = require("matplotlib")
     if not isinstance(mesh, TriMesh):
         raise FvfError(f"mesh must be a fvf.TriMesh; got {type(mesh).__name__}")
-    view = as_view(view)
-    colorbar = None
-    colors, on = np.tile(np.asarray(SURFACE_COLOR), (mesh.n_vertices, 1)), "vertices"
-    if function is not None:
-        f, on = _values(mesh, function, "function")
-        lo, hi = (float(f.min()), float(f.max())) if clim is None else map(float, clim)
-        if not hi > lo:
-            lo, hi = lo - 0.5, hi + 0.5
-        try:
-            cm = mpl.colormaps[cmap]
-        except KeyError as exc:
-            raise FvfError(f"unknown colormap {cmap!r} (a matplotlib colormap name)") from exc
-        colors = cm(np.clip((f - lo) / (hi - lo), 0.0, 1.0))[:, :3]
-        colorbar = {"cmap": cmap, "clim": (lo, hi), "label": colorbar_label}
-    if texture is not None:
-        t, t_on = _values(mesh, texture, "texture")
-        p1, p99 = np.percentile(t, [1, 99])
-        g = np.clip((t - p1) / max(p99 - p1, 1e-300), 0.0, 1.0)
-        if function is None:
-            colors, on = np.repeat(g[:, None], 3, axis=1), t_on
-        else:
-            if on != t_on:  # bring both to the vertices
-                colors = _to_vertices(mesh, colors) if on == "faces" else colors
-                g = _to_vertices(mesh, g[:, None])[:, 0] if t_on == "faces" else g
-                on = "vertices"
-            colors = colors * (0.25 + 0.75 * g[:, None])
-    scene = Scene(
-        mesh,
-        np.asarray(colors, float),
-        on,
-        camera_frame(view, mesh.vertices),
-        view,
-        colorbar=colorbar,
+    if isinstance(texture, LicTexture) and texture.source_faces != mesh.n_faces:
+        raise FieldShapeError(
+            f"the LIC texture was computed on a mesh with {texture.source_faces} faces; "
+            f"this one has {mesh.n_faces}"
+        )
+    if arrow_spacing is not None and not float(arrow_spacing) >= 2:
+        raise FvfError(f"arrow_spacing must be at least 2 pixels; got {arrow_spacing!r}")
+    centroid = mesh.face_areas @ mesh.face_centroids / max(mesh.total_area, 1e-300)
+    views = [resolve_up(v, mesh.vertices, centroid) for v in as_views(view)]
+    drawn, colors, on, colorbar, palette = _surface(
+        mesh, function, texture, cmap, clim, colorbar_label, mpl
     )
-    if field is not None:
-        scale = default_arrow_scale(mesh, field) if arrow_scale is None else float(arrow_scale)
-        if not scale > 0:
-            raise FvfError(f"arrow_scale must be positive; got {arrow_scale!r}")
-        faces = spread_faces(mesh, max_arrows)
-        scene.arrows = arrow_segments(mesh, field, scale)[faces]
-        scene.arrow_faces, scene.arrow_scale = faces, scale
+    scene = Scene(
+        drawn,
+        colors,
+        on,
+        [camera_frame(v, mesh.vertices) for v in views],
+        views,
+        mesh,
+        arrow_spacing=None if arrow_spacing is None else float(arrow_spacing),
+        max_arrows=max_arrows,
+        colorbar=colorbar,
+        palette=palette,
+    )
+    avoid: list = []
     if singularities is not None:
-        try:
-            P, ind = singularities
-        except (TypeError, ValueError) as exc:
-            raise FvfError("singularities must be a pair (positions (k, 3), indices (k,))") from exc
-        P, ind = np.asarray(P, float).reshape(-1, 3), np.asarray(ind).ravel()
-        if P.shape[0] != ind.shape[0]:
-            raise FieldShapeError(
-                f"singularity positions ({P.shape[0]}) and indices ({ind.shape[0]}) differ"
-            )
-        scene.markers, scene.marker_indices = P, ind.astype(np.int64)
+        scene.markers, scene.marker_indices = _markers(singularities)
+        avoid = [index_color(i) for i in np.unique(scene.marker_indices)]
+    scene.fields = _layers(
+        mesh, _field_list(field), n, arrow_scale, field_labels, palette, avoid, arrow_color
+    )
     if streamlines is not None:
         lines = [np.asarray(x, float).reshape(-1, 3) for x in streamlines]
         scene.lines = [x for x in lines if x.shape[0] >= 2]
-    if function is not None or texture is not None:
-        scene.line_color = (0.85, 0.05, 0.05)
+        taken = avoid + [lay.color for lay in scene.fields]
+        scene.line_color = contrast_color(palette, np.asarray(taken).reshape(-1, 3))
     return scene

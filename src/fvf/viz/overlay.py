@@ -1,0 +1,239 @@
+"""What is drawn over the surface in one panel, sized in pixels: arrows, strokes, markers.
+
+Everything here is measured in the picture's pixels and converted to mesh units with the
+panel's scale (pixels per mesh unit, :func:`fit`), so arrows, strokes, markers and
+curves have the same on-screen size on a 5k-face and on a 750k-face mesh:
+
+- the arrow spacing (default :func:`default_spacing`: 1/22 of the panel's smaller side,
+  between 14 and 40 pixels) sets which faces carry an arrow (:func:`screen_spread`), the
+  default arrow length (the robust longest arrow is :data:`ARROW_FILL` of the spacing) and
+  the glyph's shaft, head and halo;
+- singularity markers have a radius of :data:`MARKER_RADIUS` spacings (at least 4.5 px).
+
+Both backends call :func:`panel_overlay` and draw the same glyphs (flat polygons in the
+faces' planes), so their pictures agree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .arrows import (
+    ARROW_TRIANGLES,
+    STROKE_TRIANGLES,
+    arrow_glyphs,
+    screen_spread,
+    stroke_glyphs,
+)
+from .colors import index_color, outline_color
+from .scene import FieldLayer, Scene
+
+__all__ = [
+    "ARROW_FILL",
+    "Glyphs",
+    "PanelOverlay",
+    "default_spacing",
+    "fit",
+    "panel_overlay",
+]
+
+#: The robust longest arrow is this fraction of the arrow spacing (default scale).
+ARROW_FILL = 0.8
+#: Arrows are never drawn longer than this many spacings (longer ones are capped).
+ARROW_CAP = 1.3
+#: Glyph proportions, in spacings: shaft half-width, head half-width, head length, halo.
+SHAFT, HEAD_WIDTH, HEAD_LENGTH, HALO = 0.075, 0.25, 0.38, 0.035
+#: Half-width of N-direction strokes, in spacings.
+STROKE = 0.07
+#: Singularity marker radius, in spacings.
+MARKER_RADIUS = 0.36
+#: Margin around the mesh in a panel (1.06: 3% on each side).
+MARGIN = 1.06
+
+
+def default_spacing(width: int, height: int) -> float:
+    """Default pixels between arrows: ``min(width, height) / 22`` clipped to [14, 40]."""
+    return float(np.clip(min(width, height) / 22.0, 14.0, 40.0))
+
+
+def fit(
+    vertices: np.ndarray, frame: np.ndarray, zoom: float, width: int, height: int
+) -> tuple[np.ndarray, float]:
+    """Screen centre (mesh units, in the frame) and pixels per mesh unit of a panel.
+
+    Orthographic: the bounding box of the projected vertices, grown by :data:`MARGIN`,
+    fits the panel; ``zoom`` > 1 magnifies.
+    """
+    Q = vertices @ frame[:2].T
+    lo, hi = Q.min(0), Q.max(0)
+    ext = np.maximum(hi - lo, 1e-300) * MARGIN
+    return 0.5 * (lo + hi), float(min(width / ext[0], height / ext[1]) * zoom)
+
+
+@dataclass
+class Glyphs:
+    """Flat polygons of one field layer in one panel (mesh units, in the faces' planes)."""
+
+    polygons: np.ndarray  # (k, p, 3)
+    halo: np.ndarray  # (k, p, 3): the same grown by the halo width
+    triangles: np.ndarray  # (t, 3) local corner indices of one polygon
+    anchors: np.ndarray  # (k, 3): the face centroid each glyph belongs to
+    normals: np.ndarray  # (k, 3)
+    color: tuple
+    halo_color: tuple
+    lift: float  # offset along the normal that keeps the glyph above the surface
+    label: str | None = None
+
+
+@dataclass
+class PanelOverlay:
+    """Everything drawn over the surface in one panel."""
+
+    pixel_scale: float  # pixels per mesh unit
+    centre: np.ndarray  # (2,) screen centre in the frame's (right, up) coordinates
+    spacing: float  # pixels between arrows
+    glyphs: list[Glyphs] = field(default_factory=list)
+    arrow_scale: float | None = None
+    n_arrows: int = 0
+    n_capped: int = 0
+    marker_colors: np.ndarray | None = None  # (s, 3)
+    marker_radius: float = 0.0  # mesh units
+    line_width: float = 1.0  # pixels
+
+
+#: Faces seen more obliquely than this (cosine between normal and view) carry no glyph:
+#: a flat glyph seen edge-on is a sliver.
+GRAZING = 0.3
+
+
+def _candidates(scene: Scene, frame: np.ndarray, v: np.ndarray) -> np.ndarray:
+    mesh = scene.field_mesh
+    facing = mesh.face_normals @ frame[2]
+    ok = ((v * v).sum(1) > 0) & ((facing if mesh.is_closed else np.abs(facing)) > GRAZING)
+    return np.flatnonzero(ok)
+
+
+def layer_scale(layer: FieldLayer, spacing_mesh: float) -> float:
+    """The arrow scale of a layer: its own, or the robust longest arrow filling the spacing.
+
+    ``spacing_mesh`` is the default length of the robust longest arrow, in mesh units.
+    """
+    if layer.scale is not None:
+        return layer.scale
+    return ARROW_FILL * spacing_mesh / layer.top
+
+
+def _fill(scene: Scene) -> float:
+    """The default arrow length in spacings: shorter when several fields interleave."""
+    return ARROW_FILL if len(scene.fields) < 2 else 0.6
+
+
+def _pick_faces(scene, frame, centre, s, spacing, v, shift=0.0):
+    """Faces of one field's glyphs; ``shift`` (in cells) moves the grid diagonally, so
+    several fields take turns on an interleaved lattice (field i of k: i / k)."""
+    mesh = scene.field_mesh
+    q = mesh.face_centroids @ frame.T
+    xy = (q[:, :2] - centre) * s + shift * spacing
+    cand = _candidates(scene, frame, v)
+    faces = screen_spread(xy, q[:, 2], cand, spacing, spacing / s)
+    if scene.max_arrows is not None and faces.size > scene.max_arrows:
+        wider = spacing * np.sqrt(faces.size / max(scene.max_arrows, 1)) * 1.05
+        faces = screen_spread(xy, q[:, 2], cand, wider, wider / s)
+    return faces
+
+
+def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int]:
+    """The glyphs of one field at the chosen faces: arrows, or N strokes per face."""
+    mesh = scene.field_mesh
+    c, nrm = mesh.face_centroids[faces], mesh.face_normals[faces]
+    u = layer.vectors[faces]  # tangent (checked by as_face_field)
+    ang = 2.0 * np.pi * np.arange(layer.n) / layer.n  # as direction_set, on these faces only
+    d = np.cos(ang)[:, None, None] * u[None] + np.sin(ang)[:, None, None] * np.cross(nrm, u)[None]
+    length = scale * np.linalg.norm(d[0], axis=1)
+    cap = ARROW_CAP * spacing_mesh
+    capped = int((length > cap).sum())
+    factor = np.minimum(length, cap) / np.maximum(length, 1e-300)
+    halo_w = HALO * spacing_mesh
+    if layer.n == 1:
+        vec = d[0] * (scale * factor)[:, None]
+        kw = dict(
+            shaft=SHAFT * spacing_mesh,
+            head_width=HEAD_WIDTH * spacing_mesh,
+            head_length=HEAD_LENGTH * spacing_mesh,
+        )
+        poly = arrow_glyphs(c, vec, nrm, **kw)
+        halo = arrow_glyphs(c, vec, nrm, outline=halo_w, **kw)
+        tris, anchors, normals = ARROW_TRIANGLES, c, nrm
+    else:  # N strokes from the centroid, each half an arrow long
+        vec = (d * (0.5 * scale * factor)[None, :, None]).reshape(-1, 3)
+        starts = np.tile(c, (layer.n, 1))
+        normals = np.tile(nrm, (layer.n, 1))
+        poly = stroke_glyphs(starts, vec, normals, STROKE * spacing_mesh)
+        halo = stroke_glyphs(starts, vec, normals, STROKE * spacing_mesh, outline=halo_w)
+        tris, anchors = STROKE_TRIANGLES, starts
+    lift = 0.12 * float(np.minimum(length, cap).max(initial=0.0)) + 0.5 * halo_w
+    glyphs = Glyphs(
+        poly,
+        halo,
+        tris,
+        anchors,
+        normals,
+        layer.color,
+        outline_color(layer.color),
+        lift,
+        layer.label,
+    )
+    return glyphs, capped
+
+
+def panel_overlay(
+    scene: Scene,
+    frame: np.ndarray,
+    zoom: float,
+    width: int,
+    height: int,
+    spacing_mesh: float | None = None,
+) -> PanelOverlay:
+    """Glyphs, marker sizes and line width of one panel.
+
+    Parameters
+    ----------
+    scene : Scene
+    frame : ndarray (3, 3)
+        The panel's camera frame.
+    zoom : float
+    width, height : int
+        The panel's size in pixels.
+    spacing_mesh : float, optional
+        The arrow spacing in mesh units; default the pixel spacing at this panel's scale.
+        :func:`fvf.viz.render` passes the first panel's, so every panel uses the same
+        arrow scale.
+
+    Returns
+    -------
+    PanelOverlay
+    """
+    centre, s = fit(scene.mesh.vertices, frame, zoom, width, height)
+    spacing = scene.arrow_spacing or default_spacing(width, height) * (
+        1.0 if len(scene.fields) < 2 else 1.5  # room for the interleaved lattices
+    )
+    if spacing_mesh is None:
+        spacing_mesh = spacing / s
+    out = PanelOverlay(pixel_scale=s, centre=centre, spacing=spacing)
+    for i, layer in enumerate(scene.fields):
+        shift = i / len(scene.fields)
+        faces = _pick_faces(scene, frame, centre, s, spacing, layer.vectors, shift)
+        scale = layer_scale(layer, spacing_mesh * _fill(scene) / ARROW_FILL)
+        glyphs, capped = _layer_glyphs(scene, layer, faces, scale, spacing_mesh)
+        out.glyphs.append(glyphs)
+        out.n_arrows += faces.size
+        out.n_capped += capped
+        out.arrow_scale = scale if out.arrow_scale is None else out.arrow_scale
+    if scene.markers is not None:
+        assert scene.marker_indices is not None  # set together with the markers
+        out.marker_colors = np.array([index_color(i) for i in scene.marker_indices]).reshape(-1, 3)
+        out.marker_radius = max(4.5, MARKER_RADIUS * spacing) / s
+    out.line_width = max(1.2, 0.08 * spacing)
+    return out
