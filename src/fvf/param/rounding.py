@@ -1,0 +1,182 @@
+r"""Integer conditions of a seamless parameterization: lattice of admissible integers, rounding.
+
+The integer unknowns z (chain translations and singular-vertex positions, see
+:mod:`fvf.param.seams`) must satisfy the closing conditions C z = 0 (integer C). Gaussian
+elimination with unit pivots writes the solutions as z = N w with an integer matrix N and
+free integers w, so that *every* integer w gives integer z satisfying C z = 0: rounding w
+keeps the parameterization seamless exactly. Rows without a unit pivot (a condition such
+as 2 z₁ = z₂) are reported; the parameterization then keeps those few unknowns real.
+
+:func:`greedy_round` rounds the free integers in rounds, each followed by a re-solve of the
+remaining unknowns (the adaptive rounding of Bommes et al. 2009, §5, done in batches:
+each round fixes the half of the remaining integers closest to an integer).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..numerics.eigen import factor_spd
+
+__all__ = ["integer_lattice", "greedy_round"]
+
+
+def integer_lattice(C: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarray:
+    """An integer basis N of the lattice {z ∈ ℤ^p : C z = 0}: z = N w, w ∈ ℤ^f.
+
+    Unit pivots first: a ±1 entry of the sparsest remaining row (Markowitz), among the
+    ``prefer`` columns first, is eliminated, which keeps N integer and sparse. The rows
+    left without a unit entry (parity conditions such as 2 z₁ = z₂ + z₃, met at cones of
+    index ±1/4) are solved exactly by integer column reduction (:func:`_integer_kernel`).
+
+    Parameters
+    ----------
+    C : float64 (k, p)
+        Integer-valued constraint matrix.
+    prefer : bool (p,), optional
+        Columns to eliminate first (the chain translations).
+
+    Returns
+    -------
+    N : float64 (p, f)
+        Integer matrix whose columns span the lattice: z = N w satisfies C z = 0 and is
+        integer for every integer w, and every such z has that form.
+    """
+    A = np.array(C, dtype=np.float64)
+    k, p = A.shape
+    pref = np.ones(p, dtype=bool) if prefer is None else np.asarray(prefer, dtype=bool)
+    active = np.ones(k, dtype=bool)
+    pivots: list[tuple[int, int]] = []
+    while True:
+        rows = np.flatnonzero(active)
+        if rows.size == 0:
+            break
+        sub = A[rows]
+        nz = np.abs(sub) > 0.5
+        nnz = nz.sum(axis=1)
+        active[rows[nnz == 0]] = False
+        unit = np.abs(np.abs(sub) - 1.0) < 1e-9
+        r = c = -1
+        for mask in (unit & pref[None, :], unit):
+            has = mask.any(axis=1)
+            if has.any():
+                cand = np.flatnonzero(has)
+                i = cand[np.argmin(nnz[cand])]
+                r, c = int(rows[i]), int(np.flatnonzero(mask[i])[0])
+                break
+        if r < 0:
+            break
+        A[r] /= A[r, c]
+        others = np.flatnonzero(np.abs(A[:, c]) > 0.5)
+        others = others[others != r]
+        A[others] -= A[others, c][:, None] * A[r][None, :]
+        pivots.append((r, c))
+        active[r] = False
+    pcols = np.array([c for _, c in pivots], dtype=np.int64)
+    free = np.setdiff1d(np.arange(p), pcols)
+    N = np.zeros((p, free.size))
+    N[free, np.arange(free.size)] = 1.0
+    for r, c in pivots:
+        N[c] = -A[r, free]
+    left = np.flatnonzero(active)
+    if left.size:
+        K = _integer_kernel(np.round(A[left][:, free]).astype(np.int64))
+        N = N @ K
+    return np.round(N)
+
+
+def _integer_kernel(C: np.ndarray) -> np.ndarray:
+    """Basis of {w ∈ ℤ^f : C w = 0} by unimodular column operations, float64 (f, f − rank).
+
+    Column-style Hermite reduction of [C; I] (Cohen 1993, Alg. 2.4.10): each row of C is
+    reduced to one non-zero entry by Euclid steps on the columns; the identity block
+    records the operations, and its columns beyond the rank span the integer kernel.
+    """
+    k, f = C.shape
+    M = np.vstack([C, np.eye(f, dtype=np.int64)]).astype(np.int64)
+    col = 0
+    for i in range(k):
+        while col < f:
+            js = col + np.flatnonzero(M[i, col:] != 0)
+            if js.size == 0:
+                break
+            j = js[np.argmin(np.abs(M[i, js]))]
+            M[:, [col, j]] = M[:, [j, col]]
+            rest = col + 1 + np.flatnonzero(M[i, col + 1 :] != 0)
+            if rest.size == 0:
+                col += 1
+                break
+            q = M[i, rest] // M[i, col]
+            M[:, rest] -= np.outer(M[:, col], q)
+        if np.abs(M).max() > 2**40:
+            raise OverflowError("integer kernel entries grew too large")
+    return M[k:, col:].astype(np.float64)
+
+
+def greedy_round(
+    H: sp.csr_array,
+    g: np.ndarray,
+    integer: np.ndarray,
+    batch: float = 0.05,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Minimize ½ yᵀH y − gᵀy with y[integer] ∈ ℤ by greedy rounding.
+
+    The real unknowns are eliminated once (one sparse factorization of their block and one
+    solve per integer unknown), leaving the dense Schur complement S w = r in the k
+    integer unknowns. Rounding then follows Bommes et al. (2009, §5): repeatedly fix the
+    unknowns closest to an integer (a ``batch`` fraction of those left, at least one) and
+    re-solve the others, so that later roundings absorb earlier ones.
+
+    Parameters
+    ----------
+    H : sparse (p, p)
+        Symmetric positive definite.
+    g : float64 (p,)
+    integer : int64 (k,)
+        Unknowns to round.
+    batch : float
+        Fraction of the remaining integers fixed per step (1 = direct rounding).
+
+    Returns
+    -------
+    y : float64 (p,)
+        The rounded solution (y[integer] exact integers).
+    y_real : float64 (p,)
+        The real minimizer before rounding.
+    """
+    p = H.shape[0]
+    H = sp.csr_array(H)
+    integer = np.asarray(integer, dtype=np.int64)
+    real = np.setdiff1d(np.arange(p), integer)
+    Hrr = H[real][:, real]
+    Hri = H[real][:, integer].toarray()
+    fac = factor_spd(Hrr)
+    sol = fac.solve(np.column_stack([g[real], Hri]))
+    yr0, Z = sol[:, 0], sol[:, 1:]  # y_real = yr0 − Z w
+    S = H[integer][:, integer].toarray() - Hri.T @ Z
+    r = g[integer] - Hri.T @ yr0
+    S = 0.5 * (S + S.T)
+    w = np.linalg.solve(S, r) if integer.size else np.zeros(0)
+    y_real = np.empty(p)
+    y_real[integer] = w
+    y_real[real] = yr0 - Z @ w
+    fixed = np.zeros(integer.size, dtype=bool)
+    values = w.copy()
+    while not fixed.all():
+        left = np.flatnonzero(~fixed)
+        dist = np.abs(values[left] - np.round(values[left]))
+        count = max(1, int(np.ceil(batch * left.size)))
+        pick = left[np.argsort(dist, kind="stable")[:count]]
+        pick = np.union1d(pick, left[dist < 1e-6])
+        values[pick] = np.round(values[pick])
+        fixed[pick] = True
+        left = np.flatnonzero(~fixed)
+        if left.size:
+            done = np.flatnonzero(fixed)
+            rhs = r[left] - S[np.ix_(left, done)] @ values[done]
+            values[left] = np.linalg.solve(S[np.ix_(left, left)], rhs)
+    y = np.empty(p)
+    y[integer] = values
+    y[real] = yr0 - Z @ values
+    return y, y_real
