@@ -128,7 +128,9 @@ def _curvature_target(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
     return z2**2 / np.maximum(mag, floor) ** 2, np.clip(aniso / ANISOTROPY_FULL, 0.0, 1.0) ** 2
 
 
-def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.ndarray:
+def default_cross_field(
+    mesh: TriMesh, align: Alignment = "curvature", length_scale: float | None = None
+) -> np.ndarray:
     """A cross field for the parameterization: representative vector per face, float64 (m, 3).
 
     Parameters
@@ -138,6 +140,10 @@ def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.nda
         ``"curvature"``: smooth and aligned with the principal curvature directions where
         the surface is anisotropic (the energy of the module docstring);
         ``"smooth"``: the smoothest unit cross field (smallest eigenvector).
+    length_scale : float, optional
+        Length below which curvature directions are smoothed out: λ = CURVATURE_WEIGHT /
+        length_scale² (default: the mean edge length). A parameterization passes its
+        target edge length, so that the field has no detail smaller than a quad.
 
     Returns
     -------
@@ -148,7 +154,8 @@ def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.nda
         raise ParameterError(f"align must be one of {ALIGNMENTS}; got {align!r}")
     L = _connection4(mesh)
     A = mesh.face_areas
-    lam = CURVATURE_WEIGHT / mesh.mean_edge_length**2
+    ell = mesh.mean_edge_length if length_scale is None else float(length_scale)
+    lam = CURVATURE_WEIGHT / ell**2
     z = _smallest_eigenvector(L, A)
     if align == "curvature":
         q, w = _curvature_target(mesh)

@@ -7,9 +7,8 @@ free integers w, so that *every* integer w gives integer z satisfying C z = 0: r
 keeps the parameterization seamless exactly. Rows without a unit pivot (a condition such
 as 2 z₁ = z₂) are reported; the parameterization then keeps those few unknowns real.
 
-:func:`greedy_round` rounds the free integers in rounds, each followed by a re-solve of the
-remaining unknowns (the adaptive rounding of Bommes et al. 2009, §5, done in batches:
-each round fixes the half of the remaining integers closest to an integer).
+:class:`MixedIntegerSolver` rounds the free integers greedily, each batch followed by a
+re-solve of the remaining unknowns (the adaptive rounding of Bommes et al. 2009, §5).
 """
 
 from __future__ import annotations
@@ -19,7 +18,7 @@ import scipy.sparse as sp
 
 from ..numerics.eigen import factor_spd
 
-__all__ = ["integer_lattice", "greedy_round"]
+__all__ = ["integer_lattice", "MixedIntegerSolver"]
 
 
 def integer_lattice(C: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarray:
@@ -114,69 +113,71 @@ def _integer_kernel(C: np.ndarray) -> np.ndarray:
     return M[k:, col:].astype(np.float64)
 
 
-def greedy_round(
-    H: sp.csr_array,
-    g: np.ndarray,
-    integer: np.ndarray,
-    batch: float = 0.05,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Minimize ½ yᵀH y − gᵀy with y[integer] ∈ ℤ by greedy rounding.
+class MixedIntegerSolver:
+    """Minimize ½ yᵀH y − gᵀy with y[integer] ∈ ℤ, for several right-hand sides g.
 
     The real unknowns are eliminated once (one sparse factorization of their block and one
-    solve per integer unknown), leaving the dense Schur complement S w = r in the k
-    integer unknowns. Rounding then follows Bommes et al. (2009, §5): repeatedly fix the
-    unknowns closest to an integer (a ``batch`` fraction of those left, at least one) and
-    re-solve the others, so that later roundings absorb earlier ones.
+    solve per integer unknown), leaving the dense Schur complement S of the k integer
+    unknowns; :meth:`real` and :meth:`rounded` then cost one sparse solve each.
 
     Parameters
     ----------
     H : sparse (p, p)
         Symmetric positive definite.
-    g : float64 (p,)
     integer : int64 (k,)
         Unknowns to round.
-    batch : float
-        Fraction of the remaining integers fixed per step (1 = direct rounding).
-
-    Returns
-    -------
-    y : float64 (p,)
-        The rounded solution (y[integer] exact integers).
-    y_real : float64 (p,)
-        The real minimizer before rounding.
     """
-    p = H.shape[0]
-    H = sp.csr_array(H)
-    integer = np.asarray(integer, dtype=np.int64)
-    real = np.setdiff1d(np.arange(p), integer)
-    Hrr = H[real][:, real]
-    Hri = H[real][:, integer].toarray()
-    fac = factor_spd(Hrr)
-    sol = fac.solve(np.column_stack([g[real], Hri]))
-    yr0, Z = sol[:, 0], sol[:, 1:]  # y_real = yr0 − Z w
-    S = H[integer][:, integer].toarray() - Hri.T @ Z
-    r = g[integer] - Hri.T @ yr0
-    S = 0.5 * (S + S.T)
-    w = np.linalg.solve(S, r) if integer.size else np.zeros(0)
-    y_real = np.empty(p)
-    y_real[integer] = w
-    y_real[real] = yr0 - Z @ w
-    fixed = np.zeros(integer.size, dtype=bool)
-    values = w.copy()
-    while not fixed.all():
-        left = np.flatnonzero(~fixed)
-        dist = np.abs(values[left] - np.round(values[left]))
-        count = max(1, int(np.ceil(batch * left.size)))
-        pick = left[np.argsort(dist, kind="stable")[:count]]
-        pick = np.union1d(pick, left[dist < 1e-6])
-        values[pick] = np.round(values[pick])
-        fixed[pick] = True
-        left = np.flatnonzero(~fixed)
-        if left.size:
-            done = np.flatnonzero(fixed)
-            rhs = r[left] - S[np.ix_(left, done)] @ values[done]
-            values[left] = np.linalg.solve(S[np.ix_(left, left)], rhs)
-    y = np.empty(p)
-    y[integer] = values
-    y[real] = yr0 - Z @ values
-    return y, y_real
+
+    def __init__(self, H: sp.csr_array, integer: np.ndarray) -> None:
+        H = sp.csr_array(H)
+        p = H.shape[0]
+        self.p = p
+        self.integer = np.asarray(integer, dtype=np.int64)
+        self.real_idx = np.setdiff1d(np.arange(p), self.integer)
+        Hr = H[self.real_idx]
+        self.Hri = Hr[:, self.integer].toarray()
+        self.fac = factor_spd(Hr[:, self.real_idx])
+        self.Z = self.fac.solve(self.Hri) if self.integer.size else np.zeros((self.real_idx.size, 0))
+        S = H[self.integer][:, self.integer].toarray() - self.Hri.T @ self.Z
+        self.S = 0.5 * (S + S.T)
+
+    def _reduced(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        yr0 = self.fac.solve(g[self.real_idx])
+        return yr0, g[self.integer] - self.Hri.T @ yr0
+
+    def _assemble(self, yr0: np.ndarray, w: np.ndarray) -> np.ndarray:
+        y = np.empty(self.p)
+        y[self.integer] = w
+        y[self.real_idx] = yr0 - self.Z @ w
+        return y
+
+    def real(self, g: np.ndarray) -> np.ndarray:
+        """The real minimizer (no rounding), float64 (p,)."""
+        yr0, r = self._reduced(g)
+        w = np.linalg.solve(self.S, r) if self.integer.size else np.zeros(0)
+        return self._assemble(yr0, w)
+
+    def rounded(self, g: np.ndarray, batch: float = 0.05) -> np.ndarray:
+        """Greedy rounding (Bommes et al. 2009, §5) in batches: repeatedly fix the unknowns
+        closest to an integer (a ``batch`` fraction of those left, at least one) and
+        re-solve the others; ``batch=1`` is direct rounding. Returns y (p,), y[integer] ∈ ℤ.
+        """
+        yr0, r = self._reduced(g)
+        S = self.S
+        k = self.integer.size
+        values = np.linalg.solve(S, r) if k else np.zeros(0)
+        fixed = np.zeros(k, dtype=bool)
+        while not fixed.all():
+            left = np.flatnonzero(~fixed)
+            dist = np.abs(values[left] - np.round(values[left]))
+            count = max(1, int(np.ceil(batch * left.size)))
+            pick = left[np.argsort(dist, kind="stable")[:count]]
+            pick = np.union1d(pick, left[dist < 1e-6])
+            values[pick] = np.round(values[pick])
+            fixed[pick] = True
+            left = np.flatnonzero(~fixed)
+            if left.size:
+                done = np.flatnonzero(fixed)
+                rhs = r[left] - S[np.ix_(left, done)] @ values[done]
+                values[left] = np.linalg.solve(S[np.ix_(left, left)], rhs)
+        return self._assemble(yr0, values)

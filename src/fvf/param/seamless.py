@@ -37,7 +37,7 @@ from ..errors import (
 from ..mesh.trimesh import TriMesh
 from .cutgraph import CutMesh, comb_and_cut
 from .frames import Alignment, cross_field_angles, default_cross_field
-from .rounding import greedy_round, integer_lattice
+from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, seam_system
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
@@ -165,6 +165,63 @@ def _energy_matrix(mesh: TriMesh, cm: CutMesh, frame: np.ndarray) -> tuple[sp.cs
     return A, b
 
 
+def _energy_matrix_rhs(mesh: TriMesh, frame: np.ndarray) -> np.ndarray:
+    """b (4m,) of :func:`_energy_matrix` for a frame (m, 2, 2)."""
+    return (frame * np.sqrt(mesh.face_areas)[:, None, None]).reshape(-1)
+
+
+def _fitted_scale(
+    mesh: TriMesh, cm: CutMesh, fit: np.ndarray, h: float, sc: np.ndarray, smooth: int = 3
+) -> np.ndarray:
+    """New per-face scales (a, b): fitted gradient lengths along X̂, Ŷ, smoothed, normalized.
+
+    ``fit`` (4m,) is √A_t (∇u, ∇v) of the current real solution. The logs of a and b are
+    averaged ``smooth`` times over faces sharing an uncut edge (where the frames' labels
+    agree); the result is scaled so that Σ_t A_t a_t b_t = Σ_t A_t (same quad count).
+    """
+    A = mesh.face_areas
+    G = fit.reshape(-1, 2, 2) / np.sqrt(A)[:, None, None]
+    c, s = np.cos(cm.angles), np.sin(cm.angles)
+    a = (G[:, 0, 0] * c + G[:, 0, 1] * s) * h
+    b = (-G[:, 1, 0] * s + G[:, 1, 1] * c) * h
+    la = np.log(np.clip(a, 0.25, 4.0))
+    lb = np.log(np.clip(b, 0.25, 4.0))
+    ef = mesh.edge_faces
+    ok = (~cm.cut) & (ef >= 0).all(axis=1)
+    m = mesh.n_faces
+    W = sp.coo_array((np.ones(ok.sum()), (ef[ok, 0], ef[ok, 1])), shape=(m, m))
+    W = (W + W.T + sp.eye_array(m)).tocsr()
+    W = sp.diags_array(1.0 / W.sum(axis=1)) @ W
+    for _ in range(smooth):
+        la, lb = W @ la, W @ lb
+    new = np.exp(np.stack([la, lb], axis=1))
+    new /= np.sqrt(np.sum(A * new[:, 0] * new[:, 1]) / A.sum())
+    return new
+
+
+def _distortion(mesh: TriMesh, fit: np.ndarray, frame: np.ndarray):
+    """Per-face distortion |σ₁ − 1| + |σ₂ − 1| of J F⁻¹ and flip flags (J = (∇u, ∇v)).
+
+    ``fit`` (4m,) is √A_t (∇u, ∇v); ``frame`` (m, 2, 2) the target rows (X, Y).
+    """
+    J = fit.reshape(-1, 2, 2) / np.sqrt(mesh.face_areas)[:, None, None]
+    M = J @ np.linalg.inv(frame)
+    sv = np.linalg.svd(M, compute_uv=False)
+    det = np.linalg.det(J)
+    return np.abs(sv - 1.0).sum(axis=1), ~(det > 0)
+
+
+def _stiffen(mesh: TriMesh, w: np.ndarray, distortion: np.ndarray, flips: np.ndarray):
+    """Bommes et al.'s update w ← w + min(distortion, 5), ×4 on flipped faces and their
+    edge neighbours."""
+    w = w + np.minimum(distortion, 5.0)
+    hot = flips.copy()
+    adj = mesh.face_adjacency[flips]
+    hot[adj[adj >= 0]] = True
+    w[hot] *= 4.0
+    return w
+
+
 def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
     """(X, Y) per face in local coordinates, float64 (m, 2, 2): rows X and Y = J X."""
     c, s = np.cos(cm.angles), np.sin(cm.angles)
@@ -230,6 +287,8 @@ def seamless_parameterization(
     align: Alignment = "curvature",
     scale: npt.ArrayLike | None = None,
     rounding_batch: float = 0.05,
+    scale_iterations: int = 3,
+    stiffening_iterations: int = 8,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -248,9 +307,18 @@ def seamless_parameterization(
         Default field when ``field`` is None.
     scale : array_like (m, 2), optional
         Positive per-face scalings (a, b) of the frame (a u, b J u) (e.g. a commuting
-        rescaling); default 1.
+        rescaling); default: adapted to the field by ``scale_iterations`` rounds of
+        fitting and rescaling (below).
     rounding_batch : float
         Fraction of the remaining integers fixed per greedy step (1 = direct rounding).
+    scale_iterations : int
+        When ``scale`` is None: rounds of "fit, then rescale the frame by the fitted
+        gradient lengths" (a, b per face, smoothed over uncut neighbours), which lowers
+        the curl of the frame before rounding; 0 keeps the unit frame.
+    stiffening_iterations : int
+        While uv triangles are flipped after rounding: rounds of local stiffening (Bommes
+        et al. 2009, §6): the weight of each face grows with its distortion (flipped faces
+        and their neighbours most) and the rounded solve is repeated.
 
     Returns
     -------
@@ -261,7 +329,7 @@ def seamless_parameterization(
     """
     _check_mesh(mesh)
     h = edge_length_for(mesh, target_faces, edge_length)
-    u = default_cross_field(mesh, align) if field is None else field
+    u = default_cross_field(mesh, align, length_scale=h) if field is None else field
     phi = cross_field_angles(mesh, u)
     sc = None
     if scale is not None:
@@ -273,18 +341,37 @@ def seamless_parameterization(
     cm = comb_and_cut(mesh, phi)
     _check_cones(mesh, cm)
     ss = seam_system(mesh, cm)
-    frame = _local_frame(cm, h, sc)
-    A, b = _energy_matrix(mesh, cm, frame)
+    A, _ = _energy_matrix(mesh, cm, _local_frame(cm, h, None))
     Q, integer, _, _ = _variables(ss, cm)
     K = (A @ ss.P @ Q).tocsr()
-    H = (K.T @ K).tocsr()
-    g = K.T @ b
-    y, y_real = greedy_round(H, g, integer, batch=rounding_batch)
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer)
+    if sc is None:
+        sc = np.ones((mesh.n_faces, 2))
+        for _ in range(scale_iterations):
+            b = _energy_matrix_rhs(mesh, _local_frame(cm, h, sc))
+            y_real = solver.real(K.T @ b)
+            sc = _fitted_scale(mesh, cm, K @ y_real, h, sc)
+    frame = _local_frame(cm, h, sc)
+    b = _energy_matrix_rhs(mesh, frame)
+    y_real = solver.real(K.T @ b)
+    weights = np.ones(mesh.n_faces)
+    for it in range(stiffening_iterations + 1):
+        if it:
+            sw = np.repeat(np.sqrt(weights), 4)
+            Kw = sp.diags_array(sw) @ K
+            solver = MixedIntegerSolver((Kw.T @ Kw).tocsr(), integer)
+            y = solver.rounded(Kw.T @ (sw * b), batch=rounding_batch)
+        else:
+            y = solver.rounded(K.T @ b, batch=rounding_batch)
+        x = (ss.P @ (Q @ y)).reshape(-1, 2)
+        uv = x[cm.wedges]
+        distortion, flips = _distortion(mesh, K @ y, frame)
+        if not flips.any():
+            break
+        weights = _stiffen(mesh, weights, distortion, flips)
     bnorm = float(np.linalg.norm(b))
     res_real = float(np.linalg.norm(K @ y_real - b)) / bnorm
     res = float(np.linalg.norm(K @ y - b)) / bnorm
-    x = (ss.P @ (Q @ y)).reshape(-1, 2)
-    uv = x[cm.wedges]
     flipped = uv_flips(uv)
     if flipped.size:
         warnings.warn(
