@@ -24,7 +24,7 @@ from __future__ import annotations
 import warnings as _warnings
 from importlib import metadata as _metadata
 
-from . import chapter, design, flows, io, mesh, numerics, operators, spectral
+from . import chapter, design, flows, io, mesh, numerics, operators, param, spectral
 from .calculus import (
     div,
     divergence,
@@ -126,6 +126,13 @@ from .operators import (
     directional_derivatives,
     dirichlet_ratio,
     extract_field,
+)
+from .param import (
+    QuadQuality,
+    SeamlessParameterization,
+    quad_mesh,
+    quad_quality,
+    seamless_parameterization,
 )
 from .spectral import (
     SpectralBasis,
@@ -282,5 +289,12 @@ __all__ = [
     "spectral",
     "design",
     "numerics",
+    # parameterization and quad meshes
+    "param",
+    "seamless_parameterization",
+    "SeamlessParameterization",
+    "quad_mesh",
+    "quad_quality",
+    "QuadQuality",
     *_errors_all,
 ]

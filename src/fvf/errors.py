@@ -244,6 +244,21 @@ def user_stacklevel() -> int:
     return level
 
 
+# ---------------------------------------------------------------------------- quads
+class ParameterizationInputError(FvfError):
+    """A mesh or cross field the seamless parameterization cannot handle (boundary,
+    several components, cones of unsupported index)."""
+
+
+class FlippedParameterizationWarning(FvfWarning):
+    """Some uv triangles of a parameterization are flipped or degenerate."""
+
+
+class QuadExtractionError(FvfError, RuntimeError):
+    """Quad extraction met a parameterization it cannot turn into a valid quad mesh
+    (flipped or degenerate uv triangles, a target too coarse for the topology)."""
+
+
 def format_indices(idx, limit: int = 8) -> str:
     """Format an index list for an error message: the first few and a count.
 
@@ -263,18 +278,3 @@ def format_indices(idx, limit: int = 8) -> str:
     shown = ", ".join(str(int(i)) for i in idx[:limit])
     more = ", ..." if idx.size > limit else ""
     return f"[{shown}{more}] ({idx.size} in all)"
-
-
-# ---------------------------------------------------------------------------- parameterization and quads
-class ParameterizationInputError(FvfError):
-    """A mesh or cross field the seamless parameterization cannot handle (boundary,
-    several components, cones of unsupported index)."""
-
-
-class FlippedParameterizationWarning(FvfWarning):
-    """Some uv triangles of a parameterization are flipped or degenerate."""
-
-
-class QuadExtractionError(FvfError, RuntimeError):
-    """Quad extraction met a parameterization it cannot turn into a valid quad mesh
-    (flipped or degenerate uv triangles, a target too coarse for the topology)."""

@@ -35,7 +35,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from ..design.connection import connection_pairs
 from ..mesh.trimesh import TriMesh
 
-__all__ = ["CutMesh", "comb_and_cut"]
+__all__ = ["CutMesh", "comb_and_cut", "raw_jumps", "residuals_for"]
 
 HALF_PI = 0.5 * np.pi
 
@@ -61,6 +61,10 @@ class CutMesh:
     n_wedges : int
     dual_parent : int64 (m,)
         Parent face in the combing tree (−1 at the root).
+    raw : int64 (E,)
+        Jumps between the uncombed representatives (the field's topology).
+    residual : float64 (E,)
+        Turning ρ_e of the field across each edge beyond its jump.
     """
 
     angles: np.ndarray
@@ -71,6 +75,8 @@ class CutMesh:
     wedges: np.ndarray
     n_wedges: int
     dual_parent: np.ndarray
+    raw: np.ndarray
+    residual: np.ndarray
 
 
 def _wrap(a: np.ndarray, period: float) -> np.ndarray:
@@ -108,44 +114,46 @@ def _dual_tree(mesh: TriMesh, root: int) -> tuple[np.ndarray, np.ndarray]:
     return order.astype(np.int64), pred
 
 
-def _comb(mesh: TriMesh, phi: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
-    """Turn each representative by k π/2 to match its tree parent; returns combed angles."""
-    pairs, r, _ = connection_pairs(mesh, "knoppel")
-    # transport of a face's angle into its parent's frame, per (child, parent) edge
-    m = mesh.n_faces
-    key = pairs[:, 0] * m + pairs[:, 1]
-    arg_r = np.angle(r)
-    psi = phi.copy()
-    levels = _tree_levels(parent, order)
-    sorter = np.argsort(key)
-    ks = key[sorter]
-    for level in levels[1:]:
-        p = parent[level]
-        # angle of the child's representative in the parent's frame
-        k1 = p * m + level
-        i1 = np.clip(np.searchsorted(ks, k1), 0, ks.size - 1)
-        direct = ks[i1] == k1  # pair (s=p, t=child): r maps child → parent
-        k2 = level * m + p
-        i2 = np.clip(np.searchsorted(ks, k2), 0, ks.size - 1)
-        ar = np.where(direct, arg_r[sorter[i1]], -arg_r[sorter[i2]])
-        transported = phi[level] + ar
-        k = np.round((psi[p] - transported) / HALF_PI)
-        psi[level] = phi[level] + k * HALF_PI
-    return psi
+def raw_jumps(mesh: TriMesh, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jumps between uncombed representatives: φ_s − (φ_t + arg r_st) = j_e π/2 + ρ_e.
 
-
-def _jumps(mesh: TriMesh, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Period jump p_e and residual ρ_e per edge: ψ_s − (ψ_t + arg r_st) = p π/2 + ρ."""
+    Returns j (E,) int64 (rounded, 0 on boundary edges) and ρ (E,) ∈ (−π/4, π/4].
+    """
     pairs, r, _ = connection_pairs(mesh, "knoppel")
     interior = np.flatnonzero((mesh.edge_faces >= 0).all(axis=1))
-    d = _wrap(psi[pairs[:, 0]] - psi[pairs[:, 1]] - np.angle(r), 2.0 * np.pi)
-    p = np.round(d / HALF_PI)
-    rho = d - p * HALF_PI
+    d = _wrap(phi[pairs[:, 0]] - phi[pairs[:, 1]] - np.angle(r), 2.0 * np.pi)
+    j = np.round(d / HALF_PI)
     jumps = np.zeros(mesh.n_edges, dtype=np.int64)
     res = np.zeros(mesh.n_edges)
-    jumps[interior] = ((p.astype(np.int64) + 1) % 4) - 1  # in {−1, 0, 1, 2}
-    res[interior] = rho
+    jumps[interior] = j.astype(np.int64)
+    res[interior] = d - j * HALF_PI
     return jumps, res
+
+
+def residuals_for(mesh: TriMesh, phi: np.ndarray, jumps: np.ndarray) -> np.ndarray:
+    """ρ_e = φ_s − (φ_t + arg r_st) − j_e π/2 wrapped to (−π, π], for given raw jumps."""
+    pairs, r, _ = connection_pairs(mesh, "knoppel")
+    interior = np.flatnonzero((mesh.edge_faces >= 0).all(axis=1))
+    res = np.zeros(mesh.n_edges)
+    d = phi[pairs[:, 0]] - phi[pairs[:, 1]] - np.angle(r) - jumps[interior] * HALF_PI
+    res[interior] = _wrap(d, 2.0 * np.pi)
+    return res
+
+
+def _comb(mesh: TriMesh, raw: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """Quarter turns K_t per face making the combed jumps j_e + K_s − K_t vanish on the tree."""
+    ef = mesh.edge_faces
+    child = order[1:]
+    adj = mesh.face_adjacency[child]
+    e = mesh.face_edges[child, np.argmax(adj == parent[child][:, None], axis=1)]
+    # child is t (column 1): K_t = K_s + j ; child is s: K_s = K_t − j
+    step = np.where(ef[e, 1] == child, raw[e], -raw[e])
+    inc = np.zeros(mesh.n_faces, dtype=np.int64)
+    inc[child] = step
+    K = np.zeros(mesh.n_faces, dtype=np.int64)
+    for level in _tree_levels(parent, order)[1:]:
+        K[level] = K[parent[level]] + inc[level]
+    return K
 
 
 def _index4(mesh: TriMesh, residual: np.ndarray) -> np.ndarray:
@@ -170,9 +178,7 @@ def _corner_angles(mesh: TriMesh) -> np.ndarray:
     return np.arctan2(sin, cos)
 
 
-def _cut_graph(
-    mesh: TriMesh, tree_edge: np.ndarray, singular: np.ndarray
-) -> np.ndarray:
+def _cut_graph(mesh: TriMesh, tree_edge: np.ndarray, singular: np.ndarray) -> np.ndarray:
     """Cut edges: the 2g cotree loops plus the subtree joining them and the singularities."""
     n, E = mesh.n_vertices, mesh.edges
     rest = np.flatnonzero(~tree_edge)
@@ -231,7 +237,9 @@ def _wedges(mesh: TriMesh, cut: np.ndarray) -> tuple[np.ndarray, int]:
     return labels.reshape(-1, 3).astype(np.int64), int(k)
 
 
-def comb_and_cut(mesh: TriMesh, phi: np.ndarray, root: int | None = None) -> CutMesh:
+def comb_and_cut(
+    mesh: TriMesh, phi: np.ndarray, root: int | None = None, raw: np.ndarray | None = None
+) -> CutMesh:
     """Comb a cross field (angles φ per face) and cut the mesh to a disk through its cones.
 
     Parameters
@@ -242,6 +250,9 @@ def comb_and_cut(mesh: TriMesh, phi: np.ndarray, root: int | None = None) -> Cut
         Representative angle per face (:func:`fvf.param.frames.cross_field_angles`).
     root : int, optional
         Root face of the combing tree (default: the face nearest the centroid).
+    raw : int64 (E,), optional
+        Prescribed jumps between the uncombed representatives (a field topology fixed by
+        :mod:`fvf.param.cones`); default: rounded from the angles (:func:`raw_jumps`).
 
     Returns
     -------
@@ -251,8 +262,15 @@ def comb_and_cut(mesh: TriMesh, phi: np.ndarray, root: int | None = None) -> Cut
         c = mesh.face_centroids
         root = int(np.argmin(np.linalg.norm(c - c.mean(axis=0), axis=1)))
     order, parent = _dual_tree(mesh, root)
-    psi = _comb(mesh, phi, order, parent)
-    jumps, residual = _jumps(mesh, psi)
+    if raw is None:
+        raw, residual = raw_jumps(mesh, phi)
+    else:
+        residual = residuals_for(mesh, phi, raw)
+    K = _comb(mesh, raw, order, parent)
+    psi = phi + K * HALF_PI
+    ef = mesh.edge_faces
+    jumps = np.where((ef >= 0).all(axis=1), raw + K[ef[:, 0]] - K[ef[:, 1]], 0)
+    jumps = ((jumps + 1) % 4) - 1  # in {−1, 0, 1, 2}
     index4 = _index4(mesh, residual)
     singular = np.flatnonzero(index4 != 0)
     tree_edge = np.zeros(mesh.n_edges, dtype=bool)
@@ -263,4 +281,4 @@ def comb_and_cut(mesh: TriMesh, phi: np.ndarray, root: int | None = None) -> Cut
     tree_edge[mesh.boundary_edges] = True  # never cut along the boundary itself
     cut = _cut_graph(mesh, tree_edge, singular)
     wedges, n_wedges = _wedges(mesh, cut)
-    return CutMesh(psi, jumps, index4, singular, cut, wedges, n_wedges, parent)
+    return CutMesh(psi, jumps, index4, singular, cut, wedges, n_wedges, parent, raw, residual)

@@ -99,8 +99,10 @@ def edge_transitions(mesh: TriMesh, uv: np.ndarray) -> tuple[np.ndarray, np.ndar
     A0, B0 = uv[f, (j + 1) % 3], uv[f, (j + 2) % 3]
     A1, B1 = uv[g, ja], uv[g, jb]
     err = np.stack(
-        [np.linalg.norm(np.einsum("ij,ej->ei", ROTATIONS[k], B0 - A0) - (B1 - A1), axis=1)
-         for k in range(4)],
+        [
+            np.linalg.norm(np.einsum("ij,ej->ei", ROTATIONS[k], B0 - A0) - (B1 - A1), axis=1)
+            for k in range(4)
+        ],
         axis=1,
     )
     k = np.argmin(err, axis=1)
@@ -455,7 +457,6 @@ def _opposites(mesh, uv, rays: _Rays, hface, hT, hdir, dT, dst, q, c) -> np.ndar
         bk = np.einsum("eij,ej->ei", ROTATIONS[k].astype(float), back[fix])
         di[fix] = np.argmax(np.einsum("kd,jd->kj", bk, DIRS), axis=1)
         face[fix] = mesh.face_adjacency[fa, j]
-    m = mesh.n_faces
     table = np.column_stack([rays.point, rays.face, rays.dir])
     order = np.lexsort(table.T[::-1])
     want = np.column_stack([dst, face, di])
@@ -507,7 +508,9 @@ def _faces(rays: _Rays, opp: np.ndarray, npts: int):
 
 def _check_result(mesh: TriMesh, qm: QuadMesh) -> None:
     V, Q = qm.vertices.shape[0], qm.quads.shape[0]
-    edges = np.sort(np.stack([qm.quads, np.roll(qm.quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges = np.sort(
+        np.stack([qm.quads, np.roll(qm.quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1
+    )
     ue, cnt = np.unique(edges, axis=0, return_counts=True)
     chi = V - ue.shape[0] + Q
     degenerate = np.flatnonzero(

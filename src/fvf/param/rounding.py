@@ -137,7 +137,9 @@ class MixedIntegerSolver:
         Hr = H[self.real_idx]
         self.Hri = Hr[:, self.integer].toarray()
         self.fac = factor_spd(Hr[:, self.real_idx])
-        self.Z = self.fac.solve(self.Hri) if self.integer.size else np.zeros((self.real_idx.size, 0))
+        self.Z = (
+            self.fac.solve(self.Hri) if self.integer.size else np.zeros((self.real_idx.size, 0))
+        )
         S = H[self.integer][:, self.integer].toarray() - self.Hri.T @ self.Z
         self.S = 0.5 * (S + S.T)
 
@@ -155,6 +157,50 @@ class MixedIntegerSolver:
         """The real minimizer (no rounding), float64 (p,)."""
         yr0, r = self._reduced(g)
         w = np.linalg.solve(self.S, r) if self.integer.size else np.zeros(0)
+        return self._assemble(yr0, w)
+
+    def local_search(
+        self,
+        g: np.ndarray,
+        y: np.ndarray,
+        K: sp.csr_array,
+        sweeps: int = 30,
+    ) -> np.ndarray:
+        """Move single integer unknowns by ±1 while that lowers the number of flipped faces.
+
+        K (4m, p) maps y to √A_t (∇u, ∇v) per face (rows u_x, u_y, v_x, v_y); a face is
+        flipped when that Jacobian has det ≤ 0. A move of w_i re-solves the real unknowns
+        exactly (y_real = yr0 − Z w), so its effect on K y is the fixed column KZ_i: each
+        candidate costs one vector update. Per sweep the best move is taken (fewest flips,
+        then lowest energy ½ wᵀS w − rᵀw); stops at zero flips or when no move helps.
+        """
+        yr0, r = self._reduced(g)
+        w = y[self.integer].copy()
+        KZ = (K[:, self.integer] - K[:, self.real_idx] @ self.Z).reshape(-1, 4, self.integer.size)
+        fit = (K @ self._assemble(yr0, w)).reshape(-1, 4)
+
+        def flips(f):
+            return np.count_nonzero(~(f[:, 0] * f[:, 3] - f[:, 1] * f[:, 2] > 0), axis=0)
+
+        best = int(flips(fit))
+        for _ in range(sweeps):  # a few sweeps over the (few) integer unknowns
+            if best == 0:
+                break
+            bad = np.flatnonzero(~(fit[:, 0] * fit[:, 3] - fit[:, 1] * fit[:, 2] > 0))
+            near = np.abs(KZ[bad]).max(axis=(0, 1)) > 1e-3 * np.abs(fit[bad]).max()
+            choice = None
+            for i in np.flatnonzero(near):
+                for step in (-1.0, 1.0):
+                    f = fit + step * KZ[:, :, i]
+                    score = int(flips(f))
+                    de = step * (self.S[i] @ w - r[i]) + 0.5 * self.S[i, i]
+                    if choice is None or (score, de) < (choice[0], choice[3]):
+                        choice = (score, i, step, de)
+            if choice is None or choice[0] >= best:
+                break
+            best, i, step, _ = choice
+            w[i] += step
+            fit = fit + step * KZ[:, :, i]
         return self._assemble(yr0, w)
 
     def rounded(self, g: np.ndarray, batch: float = 0.05) -> np.ndarray:

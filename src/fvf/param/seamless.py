@@ -35,6 +35,7 @@ from ..errors import (
     format_indices,
 )
 from ..mesh.trimesh import TriMesh
+from .cones import cancel_close_cones
 from .cutgraph import CutMesh, comb_and_cut
 from .frames import Alignment, cross_field_angles, default_cross_field
 from .rounding import MixedIntegerSolver, integer_lattice
@@ -119,7 +120,9 @@ def edge_length_for(mesh: TriMesh, target_faces: int | None, edge_length: float 
     try:
         q = int(target_faces)
     except (TypeError, ValueError) as exc:
-        raise ParameterError(f"target_faces must be a positive integer; got {target_faces!r}") from exc
+        raise ParameterError(
+            f"target_faces must be a positive integer; got {target_faces!r}"
+        ) from exc
     if q < 1 or q != target_faces:
         raise ParameterError(f"target_faces must be a positive integer; got {target_faces!r}")
     return float(np.sqrt(mesh.total_area / q))
@@ -144,7 +147,9 @@ def _check_mesh(mesh: TriMesh) -> None:
         )
 
 
-def _energy_matrix(mesh: TriMesh, cm: CutMesh, frame: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
+def _energy_matrix(
+    mesh: TriMesh, cm: CutMesh, frame: np.ndarray
+) -> tuple[sp.csr_array, np.ndarray]:
     """A (4m, 2W) and b (4m,): √A_t (∇u, ∇v) on face t against √A_t (X_t, Y_t) (local)."""
     m = mesh.n_faces
     B = mesh.face_bases
@@ -211,6 +216,12 @@ def _distortion(mesh: TriMesh, fit: np.ndarray, frame: np.ndarray):
     return np.abs(sv - 1.0).sum(axis=1), ~(det > 0)
 
 
+def _flip_count(fit: np.ndarray) -> int:
+    """Number of faces whose fitted Jacobian (∇u, ∇v) has det ≤ 0 (fit: (4m,))."""
+    J = fit.reshape(-1, 4)
+    return int(np.count_nonzero(~(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2] > 0)))
+
+
 def _stiffen(mesh: TriMesh, w: np.ndarray, distortion: np.ndarray, flips: np.ndarray):
     """Bommes et al.'s update w ← w + min(distortion, 5), ×4 on flipped faces and their
     edge neighbours."""
@@ -250,14 +261,17 @@ def _variables(ss: SeamSystem, cm: CutMesh):
     real_cols = np.setdiff1d(np.setdiff1d(np.arange(ncol), int_cols), pinned)
     Cz = ss.closing[:, int_cols].toarray() if ss.closing.shape[0] else np.zeros((0, int_cols.size))
     N = integer_lattice(Cz, prefer=int_cols >= 2 * R)
-    nr, nw = real_cols.size, N.shape[1]
+    nr = real_cols.size
     Q = sp.bmat(
         [
-            [sp.csr_array((np.ones(nr), (real_cols, np.arange(nr))), shape=(ncol, nr)),
-             sp.csr_array(
-                 (np.ones(int_cols.size), (int_cols, np.arange(int_cols.size))),
-                 shape=(ncol, int_cols.size),
-             ) @ sp.csr_array(N)],
+            [
+                sp.csr_array((np.ones(nr), (real_cols, np.arange(nr))), shape=(ncol, nr)),
+                sp.csr_array(
+                    (np.ones(int_cols.size), (int_cols, np.arange(int_cols.size))),
+                    shape=(ncol, int_cols.size),
+                )
+                @ sp.csr_array(N),
+            ],
         ]
     ).tocsr()
     integer = nr + np.arange(N.shape[1])
@@ -289,6 +303,7 @@ def seamless_parameterization(
     rounding_batch: float = 0.05,
     scale_iterations: int = 3,
     stiffening_iterations: int = 8,
+    cone_cancel_radius: float = 1.0,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -315,6 +330,9 @@ def seamless_parameterization(
         When ``scale`` is None: rounds of "fit, then rescale the frame by the fitted
         gradient lengths" (a, b per face, smoothed over uncut neighbours), which lowers
         the curl of the frame before rounding; 0 keeps the unit frame.
+    cone_cancel_radius : float
+        Opposite cone pairs closer than this many edge lengths h are cancelled
+        (:mod:`fvf.param.cones`); 0 keeps the field's topology.
     stiffening_iterations : int
         While uv triangles are flipped after rounding: rounds of local stiffening (Bommes
         et al. 2009, §6): the weight of each face grows with its distortion (flipped faces
@@ -339,6 +357,13 @@ def seamless_parameterization(
                 f"scale must be a finite positive float array of shape ({mesh.n_faces}, 2)"
             )
     cm = comb_and_cut(mesh, phi)
+    if cone_cancel_radius > 0:
+        for _ in range(3):  # a cancelled pair can expose the next one
+            edited = cancel_close_cones(mesh, phi, cm, cone_cancel_radius * h, h)
+            if edited is None:
+                break
+            phi, raw = edited
+            cm = comb_and_cut(mesh, phi, raw=raw)
     _check_cones(mesh, cm)
     ss = seam_system(mesh, cm)
     A, _ = _energy_matrix(mesh, cm, _local_frame(cm, h, None))
@@ -356,13 +381,14 @@ def seamless_parameterization(
     y_real = solver.real(K.T @ b)
     weights = np.ones(mesh.n_faces)
     for it in range(stiffening_iterations + 1):
+        sw = np.repeat(np.sqrt(weights), 4)
         if it:
-            sw = np.repeat(np.sqrt(weights), 4)
             Kw = sp.diags_array(sw) @ K
             solver = MixedIntegerSolver((Kw.T @ Kw).tocsr(), integer)
-            y = solver.rounded(Kw.T @ (sw * b), batch=rounding_batch)
-        else:
-            y = solver.rounded(K.T @ b, batch=rounding_batch)
+        gw = K.T @ (sw**2 * b)
+        y = solver.rounded(gw, batch=rounding_batch)
+        if _flip_count(K @ y):
+            y = solver.local_search(gw, y, K)
         x = (ss.P @ (Q @ y)).reshape(-1, 2)
         uv = x[cm.wedges]
         distortion, flips = _distortion(mesh, K @ y, frame)

@@ -250,7 +250,10 @@ def _closing_rows(P, src, dst, q, chain, tree_arc, is_root, R, ncol) -> sp.csr_a
     rs = np.stack([2 * src[a], 2 * src[a] + 1], axis=1).ravel()
     L = a.size
     Ech = sp.csr_array(
-        (np.ones(2 * L), (np.arange(2 * L), 2 * R + 2 * np.repeat(chain[a], 2) + np.tile([0, 1], L))),
+        (
+            np.ones(2 * L),
+            (np.arange(2 * L), 2 * R + 2 * np.repeat(chain[a], 2) + np.tile([0, 1], L)),
+        ),
         shape=(2 * L, ncol),
     )
     C = (P[rd] - rotation_blocks(q[a]) @ P[rs] - Ech).tocsr()
