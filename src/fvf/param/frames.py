@@ -107,7 +107,8 @@ def face_shape_operators(mesh: TriMesh) -> np.ndarray:
     rhs = np.concatenate([nx, ny], axis=1)
     MtM = np.einsum("mki,mkj->mij", M, M)
     Mtb = np.einsum("mki,mk->mi", M, rhs)
-    abc = np.linalg.solve(MtM + 1e-12 * np.eye(3), Mtb[..., None])[..., 0]
+    ridge = 1e-12 * np.trace(MtM, axis1=1, axis2=2)[:, None, None] * np.eye(3)
+    abc = np.linalg.solve(MtM + ridge, Mtb[..., None])[..., 0]
     S = np.empty((mesh.n_faces, 2, 2))
     S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1] = abc[:, 0], abc[:, 1], abc[:, 1], abc[:, 2]
     return S
