@@ -39,6 +39,8 @@ __all__ = ["QuadMesh", "extract_quads", "edge_transitions"]
 
 #: Distance (in uv units) below which a point counts as lying on a triangle edge.
 ON_EDGE_TOL = 1e-7
+#: uv coordinates closer than this to an integer are snapped to it before extraction.
+SNAP_TOL = 1e-6
 #: Walks longer than this many triangle crossings are treated as lost.
 MAX_STEPS = 10_000
 
@@ -359,7 +361,13 @@ def extract_quads(mesh: TriMesh, uv: npt.ArrayLike) -> QuadMesh:
         Flipped or degenerate uv triangles, non-integer transitions, or a grid that does
         not close into quads (the message names the triangles).
     """
-    uv = np.ascontiguousarray(uv, dtype=np.float64)
+    uv = np.array(uv, dtype=np.float64)
+    _check_uv(mesh, uv)
+    # coordinates within round-off of a grid line are put on it: transitions map integers
+    # to integers, so both sides of every edge snap alike, and iso-lines that run along
+    # mesh edges become exactly collinear with them
+    near = np.abs(uv - np.round(uv)) < SNAP_TOL
+    uv[near] = np.round(uv[near])
     _check_uv(mesh, uv)
     q, c, defect = edge_transitions(mesh, uv)
     bad = np.flatnonzero((defect > 1e-6).any(axis=1))
@@ -438,29 +446,44 @@ def _barycentric(P: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.clip(bary, 0.0, 1.0) / np.clip(bary, 0.0, 1.0).sum(axis=1, keepdims=True)
 
 
+def _directions_3d(mesh: TriMesh, uv: np.ndarray, faces: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Unit 3D tangent directions of uv directions d (k, 2) in faces (k,)."""
+    X = mesh.vertices[mesh.faces[faces]]
+    P = uv[faces]
+    E3 = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)  # (k, 3, 2)
+    E2 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)  # (k, 2, 2)
+    coef = np.linalg.solve(E2, d[..., None])[..., 0]  # d = E2 coef
+    v = np.einsum("kij,kj->ki", E3, coef)
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
 def _opposites(mesh, uv, rays: _Rays, hface, hT, hdir, dT, dst, q, c) -> np.ndarray:
-    """For each traced ray, the ray leaving its end point back along it (−1 if none)."""
+    """For each traced ray, the ray leaving its end point back along it (−1 if none).
+
+    Usually the reverse ray lies in the face where the trace arrived; when the half-open
+    rule gives it to another face around the end point (a ray along or through a mesh
+    edge or vertex), it is the ray at that point whose 3D direction is closest to the
+    reverse direction.
+    """
     back = -hdir
     di = np.argmax(np.einsum("kd,jd->kj", back, DIRS), axis=1)
-    face = hface.copy()
-    n, _ = _edge_geometry(uv[face])
+    n, _ = _edge_geometry(uv[hface])
     own = _owned(n, dT, back)
-    # not owned: the reverse ray runs along an edge whose other face owns it
-    fix = np.flatnonzero(~own)
-    if fix.size:
-        on = np.abs(dT[fix]) <= ON_EDGE_TOL
-        dn = np.abs(np.einsum("kjd,kd->kj", n[fix], back[fix]))
-        along = on & (dn <= 1e-9)
-        j = np.argmax(along, axis=1)
-        fa = face[fix]
-        k = q[fa, j]
-        bk = np.einsum("eij,ej->ei", ROTATIONS[k].astype(float), back[fix])
-        di[fix] = np.argmax(np.einsum("kd,jd->kj", bk, DIRS), axis=1)
-        face[fix] = mesh.face_adjacency[fa, j]
     table = np.column_stack([rays.point, rays.face, rays.dir])
     order = np.lexsort(table.T[::-1])
-    want = np.column_stack([dst, face, di])
-    return _lookup(table[order], order, want)
+    out = _lookup(table[order], order, np.column_stack([dst, hface, di]))
+    fix = np.flatnonzero(~own | (out < 0))
+    if fix.size:
+        want = _directions_3d(mesh, uv, hface[fix], back[fix])
+        ray_dirs = _directions_3d(mesh, uv, rays.face, DIRS[rays.dir])
+        by_point = np.argsort(rays.point, kind="stable")
+        start = np.searchsorted(rays.point[by_point], dst[fix], side="left")
+        stop = np.searchsorted(rays.point[by_point], dst[fix], side="right")
+        for i, (lo, hi) in enumerate(zip(start, stop, strict=True)):  # the few ambiguous rays
+            cand = by_point[lo:hi]
+            if cand.size:
+                out[fix[i]] = cand[np.argmax(ray_dirs[cand] @ want[i])]
+    return out
 
 
 def _faces(rays: _Rays, opp: np.ndarray, npts: int):
