@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import load_shared
 
 import fvf
+from conftest import load_shared
 from fvf.param.extraction import extract_quads
 from fvf.param.quality import quad_topology
 from fvf.param.seams import ROTATIONS

@@ -14,6 +14,8 @@ missing. ``docs/viz.md`` documents the conventions.
 - :func:`lic_texture`: line integral convolution the operator way,
   ``(1/2L) ∫_{−L}^{L} Φ_{v̂,s} N ds`` (chapter §3.5, Fig. 3).
 - :func:`write_gif`: an animated GIF of frames.
+- :func:`render_quads`, :func:`render_checkerboard`: quad meshes (wireframe, irregular
+  vertices by valence) and the checkerboard of a parameterization.
 """
 
 from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
@@ -22,6 +24,7 @@ from .backends import BACKENDS, RenderInfo, available_backends, polyscope_status
 from .camera import View
 from .gif import write_gif
 from .lic import DEFAULT_LIC_LENGTH, lic_noise, lic_texture, unit_field
+from .quads import render_checkerboard, render_quads
 from .refine import subdivide
 from .tracing import streamlines
 
@@ -38,6 +41,8 @@ __all__ = [
     "lic_texture",
     "polyscope_status",
     "render",
+    "render_checkerboard",
+    "render_quads",
     "spread_faces",
     "streamlines",
     "subdivide",
