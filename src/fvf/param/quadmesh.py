@@ -72,6 +72,8 @@ def quad_mesh(
         align=align,
         **options,
     )
+    if options.get("progress"):
+        options["progress"]("quad extraction")
     qm = extract_quads(mesh, param.uv)
     V = np.ascontiguousarray(qm.vertices, dtype=np.float64)
     Q = np.ascontiguousarray(qm.quads, dtype=np.int64)

@@ -21,6 +21,7 @@ Pipeline (``docs/quads.md`` has the derivation):
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -304,6 +305,7 @@ def seamless_parameterization(
     scale_iterations: int = 3,
     stiffening_iterations: int = 8,
     cone_cancel_radius: float = 1.0,
+    progress: Callable[[str], None] | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -333,6 +335,8 @@ def seamless_parameterization(
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
         (:mod:`fvf.param.cones`); 0 keeps the field's topology.
+    progress : callable, optional
+        Called with a short message as each stage starts (the command prints them).
     stiffening_iterations : int
         While uv triangles are flipped after rounding: rounds of local stiffening (Bommes
         et al. 2009, §6): the weight of each face grows with its distortion (flipped faces
@@ -346,7 +350,9 @@ def seamless_parameterization(
         :class:`fvf.FlippedParameterizationWarning` is issued when it is not empty).
     """
     _check_mesh(mesh)
+    say = progress or (lambda message: None)
     h = edge_length_for(mesh, target_faces, edge_length)
+    say("cross field" if field is None else "reading the cross field")
     u = default_cross_field(mesh, align, length_scale=h) if field is None else field
     phi = cross_field_angles(mesh, u)
     sc = None
@@ -356,6 +362,7 @@ def seamless_parameterization(
             raise ParameterError(
                 f"scale must be a finite positive float array of shape ({mesh.n_faces}, 2)"
             )
+    say("combing, cones and cut graph")
     cm = comb_and_cut(mesh, phi)
     if cone_cancel_radius > 0:
         for _ in range(3):  # a cancelled pair can expose the next one
@@ -365,11 +372,13 @@ def seamless_parameterization(
             phi, raw = edited
             cm = comb_and_cut(mesh, phi, raw=raw)
     _check_cones(mesh, cm)
+    say(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
     ss = seam_system(mesh, cm)
     A, _ = _energy_matrix(mesh, cm, _local_frame(cm, h, None))
     Q, integer, _, _ = _variables(ss, cm)
     K = (A @ ss.P @ Q).tocsr()
     solver = MixedIntegerSolver((K.T @ K).tocsr(), integer)
+    say(f"Poisson fit ({K.shape[1]} unknowns, {integer.size} integers)")
     if sc is None:
         sc = np.ones((mesh.n_faces, 2))
         for _ in range(scale_iterations):
@@ -380,6 +389,7 @@ def seamless_parameterization(
     b = _energy_matrix_rhs(mesh, frame)
     y_real = solver.real(K.T @ b)
     weights = np.ones(mesh.n_faces)
+    say("integer rounding")
     for it in range(stiffening_iterations + 1):
         sw = np.repeat(np.sqrt(weights), 4)
         if it:
@@ -394,6 +404,7 @@ def seamless_parameterization(
         distortion, flips = _distortion(mesh, K @ y, frame)
         if not flips.any():
             break
+        say(f"stiffening ({int(flips.sum())} flipped triangles)")
         weights = _stiffen(mesh, weights, distortion, flips)
     bnorm = float(np.linalg.norm(b))
     res_real = float(np.linalg.norm(K @ y_real - b)) / bnorm
