@@ -170,7 +170,7 @@ def default_cross_field(
     return mesh.from_complex(np.exp(1j * phi))
 
 
-def _smallest_eigenvector(L: sp.csr_array, A: np.ndarray, iterations: int = 30) -> np.ndarray:
+def _smallest_eigenvector(L: sp.csr_array, A: np.ndarray, iterations: int = 8) -> np.ndarray:
     """Inverse iteration for the smallest eigenvector of L z = λ [A] z (seeded start)."""
     m = L.shape[0]
     shift = 1e-8 * float(abs(L.diagonal()).max()) / float(A.mean())
