@@ -137,16 +137,28 @@ def compare(names: list[str], ratio: float, tmp: Path) -> None:
         goals = []
         if qf is not None and qi is not None:
             goals.append(("irregular<=IM/2", qf.irregular_fraction <= 0.5 * qi.irregular_fraction))
-            goals.append(("angles<=IM", qf.angle_deviation_median <= qi.angle_deviation_median
-                          and qf.angle_deviation_p95 <= qi.angle_deviation_p95))
-        ok = (qf is not None and qf.closed and qf.manifold
-              and qf.euler_characteristic == mesh.euler_characteristic
-              and ef.get("flips", 1) == 0)
+            goals.append(
+                (
+                    "angles<=IM",
+                    qf.angle_deviation_median <= qi.angle_deviation_median
+                    and qf.angle_deviation_p95 <= qi.angle_deviation_p95,
+                )
+            )
+        ok = (
+            qf is not None
+            and qf.closed
+            and qf.manifold
+            and qf.euler_characteristic == mesh.euler_characteristic
+            and ef.get("flips", 1) == 0
+        )
         goals.append(("valid&0flips", ok))
         goals.append(("time<=5xIM", tf <= 5.0 * ti))
-        print(f"{'':15s} {'goals':8s} " + "  ".join(
-            f"{g}:{'PASS' if v else 'MISS'}" for g, v in goals
-        ) + f"   (fvf cones {ef.get('cones', '-')}, time ratio {tf / ti:.1f}x)", flush=True)
+        print(
+            f"{'':15s} {'goals':8s} "
+            + "  ".join(f"{g}:{'PASS' if v else 'MISS'}" for g, v in goals)
+            + f"   (fvf cones {ef.get('cones', '-')}, time ratio {tf / ti:.1f}x)",
+            flush=True,
+        )
 
 
 def scaling(ratio: float, tmp: Path) -> None:
@@ -158,8 +170,11 @@ def scaling(ratio: float, tmp: Path) -> None:
         V, F = fvf.read_mesh(path)
         target = max(int(ratio * F.shape[0]), 100)
         Vf, Qf, tf, rf, ef = run_child("fvf", path, target, tmp)
-        print(f"{name:22s} {F.shape[0]:8d} {Qf.shape[0]:7d} {tf:7.1f} "
-              f"{1000 * tf / F.shape[0]:8.3f} {rf:7.0f} {ef.get('error', '')}", flush=True)
+        print(
+            f"{name:22s} {F.shape[0]:8d} {Qf.shape[0]:7d} {tf:7.1f} "
+            f"{1000 * tf / F.shape[0]:8.3f} {rf:7.0f} {ef.get('error', '')}",
+            flush=True,
+        )
 
 
 def main() -> None:

@@ -19,7 +19,9 @@ import fvf
 import fvf.viz
 
 OUT = Path(__file__).resolve().parent / "quads"
-SHARED = Path(os.environ.get("FVF_SHARED_MESHES", Path(__file__).resolve().parents[2] / "shared" / "meshes"))
+SHARED = Path(
+    os.environ.get("FVF_SHARED_MESHES", Path(__file__).resolve().parents[2] / "shared" / "meshes")
+)
 
 
 def rounded_cube(subdivisions: int = 4, p: float = 8.0) -> fvf.TriMesh:
@@ -33,12 +35,19 @@ def picture(name: str, mesh: fvf.TriMesh, target: int, view=None) -> None:
     q = fvf.quad_quality(mesh, V, Q, parameterization=p)
     kw = {"size": (640, 480)} | ({"view": view} if view else {})
     fvf.viz.render_quads(
-        V, Q, OUT / f"{name}_quads.png",
-        title=f"{name}: {len(Q)} quads, {q.n_irregular} irregular vertices", **kw,
+        V,
+        Q,
+        OUT / f"{name}_quads.png",
+        title=f"{name}: {len(Q)} quads, {q.n_irregular} irregular vertices",
+        **kw,
     )
     fvf.viz.render_checkerboard(
-        mesh, p.uv, OUT / f"{name}_checker.png", subdivisions=3,
-        title=f"{name}: seamless parameterization ({p.singular.size} cones)", **kw,
+        mesh,
+        p.uv,
+        OUT / f"{name}_checker.png",
+        subdivisions=3,
+        title=f"{name}: seamless parameterization ({p.singular.size} cones)",
+        **kw,
     )
     print(name, len(Q), "quads", q.n_irregular, "irregular", p.singular.size, "cones")
 

@@ -266,6 +266,13 @@ def _check_seamless(r, mesh):
     assert np.abs(t - np.round(t)).max(initial=0.0) < 1e-9
 
 
+def _check_same_cross(r, mesh, u):
+    """The identity map leaves a cross field's directions (mod 90°) unchanged."""
+    z, w = mesh.to_complex(r) ** 4, mesh.to_complex(mesh.project_tangent(u)) ** 4
+    ok = np.abs(w) > 1e-6 * np.abs(w).max()
+    assert np.allclose(z[ok] / np.abs(z[ok]), w[ok] / np.abs(w[ok]), atol=1e-8)
+
+
 def _check_quads(r, mesh):
     V, Q = r
     assert V.dtype == np.float64 and Q.dtype == np.int64 and Q.shape[1] == 4
@@ -1025,6 +1032,18 @@ SPECS: dict[str, Spec] = {
         lambda fn, mesh, c: fn(mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))),
         lambda r, mesh, c: (r.closed and r.manifold) or pytest.fail(repr(r)),
         error=_quad_input_error,
+    ),
+    "symmetrize_cross_field": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, np.arange(mesh.n_vertices)),
+        lambda r, mesh, c: _check_same_cross(r, mesh, c.u),
+    ),
+    "quad_symmetry_error": Spec(
+        lambda fn, mesh, c: fn(
+            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2, 3]],
+            lambda P: P * [-1, 1, 1] + [1, 0, 0],
+        ),
+        lambda r, m, c: (r == (0.0, 0.0)) or pytest.fail(repr(r)),
+        meshless=True,
     ),
     "QuadQuality": Spec(
         lambda fn, mesh, c: fvf.quad_quality(

@@ -269,3 +269,32 @@ def test_shared_meshes_no_flips_and_closed_quads(name, target):
     check_closed_quads(mesh, V, Q)
     check_orientation(mesh, V, Q)
     assert abs(Q.shape[0] - target) <= 0.3 * target
+
+
+# ---------------------------------------------------------------------------- symmetry
+def test_symmetric_field_gives_nearly_symmetric_quads():
+    """A mirror-symmetric peanut: the symmetrized field's quads map onto themselves."""
+    from scipy.spatial import cKDTree
+
+    s = fvf.icosphere(4)
+    X = s.vertices
+    w = 0.6 + 0.5 * X[:, 0] ** 2
+    Y = np.stack([1.6 * X[:, 0], X[:, 1] * w, X[:, 2] * w + 0.2 * X[:, 1]], axis=1)
+    mesh = fvf.TriMesh(Y, s.faces)
+
+    def mirror(P):
+        return P * np.array([-1.0, 1.0, 1.0])
+
+    d, pi = cKDTree(Y).query(mirror(Y))
+    assert d.max() < 1e-12  # the triangulation is exactly symmetric
+    h = fvf.param.seamless.edge_length_for(mesh, 800, None)
+    u = fvf.param.default_cross_field(mesh, length_scale=h)
+    sym = fvf.symmetrize_cross_field(mesh, u, pi)
+    V, Q = fvf.quad_mesh(mesh, target_faces=800, field=sym)
+    check_closed_quads(mesh, V, Q)
+    median, worst = fvf.quad_symmetry_error(V, Q, mirror)
+    assert median < 0.02 and worst < 0.1
+    V0, Q0 = fvf.quad_mesh(mesh, target_faces=800, field=u)
+    assert fvf.quad_symmetry_error(V0, Q0, mirror)[0] > 5 * median  # the plain field is not
+    with pytest.raises(fvf.ParameterError, match="permutation"):
+        fvf.symmetrize_cross_field(mesh, u, pi[:-1])

@@ -132,7 +132,9 @@ from .param import (
     SeamlessParameterization,
     quad_mesh,
     quad_quality,
+    quad_symmetry_error,
     seamless_parameterization,
+    symmetrize_cross_field,
 )
 from .spectral import (
     SpectralBasis,
@@ -296,5 +298,7 @@ __all__ = [
     "quad_mesh",
     "quad_quality",
     "QuadQuality",
+    "symmetrize_cross_field",
+    "quad_symmetry_error",
     *_errors_all,
 ]

@@ -16,6 +16,7 @@ from .frames import default_cross_field
 from .quadmesh import quad_mesh
 from .quality import QuadQuality, quad_quality
 from .seamless import SeamlessParameterization, seamless_parameterization
+from .symmetry import quad_symmetry_error, symmetrize_cross_field
 
 __all__ = [
     "QuadMesh",
@@ -27,4 +28,6 @@ __all__ = [
     "quad_mesh",
     "quad_quality",
     "seamless_parameterization",
+    "quad_symmetry_error",
+    "symmetrize_cross_field",
 ]
