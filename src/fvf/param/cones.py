@@ -67,16 +67,24 @@ def close_cone_pairs(mesh: TriMesh, cm: CutMesh, radius: float) -> list[tuple[in
     return pairs
 
 
-def _edge_paths(mesh: TriMesh, pairs: list[tuple[int, int]]) -> list[np.ndarray]:
-    """Shortest vertex paths (by edge length) between the cones of each pair."""
+def _edge_paths(
+    mesh: TriMesh, pairs: list[tuple[int, int]], limit: float = np.inf
+) -> list[np.ndarray]:
+    """Shortest vertex paths (by edge length) between the cones of each pair.
+
+    The searches stop at ``limit``; a pair not joined within it is searched again without.
+    """
     E, X = mesh.edges, mesh.vertices
     n = mesh.n_vertices
     w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
     G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
     src = np.array([a for a, _ in pairs])
-    _, pred = dijkstra(G, directed=False, indices=src, return_predecessors=True)
+    _, pred = dijkstra(G, directed=False, indices=src, return_predecessors=True, limit=limit)
     paths = []
     for row, (a, b) in enumerate(pairs):  # loop over a few cone pairs
+        if pred[row, b] < 0:
+            _, full = dijkstra(G, directed=False, indices=[a], return_predecessors=True)
+            pred[row] = full[0]
         path = [b]
         while path[-1] != a and path[-1] >= 0:
             path.append(int(pred[row, path[-1]]))
@@ -115,7 +123,7 @@ def cancel_close_cones(
     E = mesh.edges
     n = mesh.n_vertices
     ekey = E[:, 0] * n + E[:, 1]
-    for (a, _), path in zip(pairs, _edge_paths(mesh, pairs), strict=True):
+    for (a, _), path in zip(pairs, _edge_paths(mesh, pairs, 4.0 * radius), strict=True):
         s = int(np.sign(cm.index4[a]))
         x0, x1 = path[:-1], path[1:]
         e = np.searchsorted(ekey, np.minimum(x0, x1) * n + np.maximum(x0, x1))

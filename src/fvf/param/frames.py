@@ -157,24 +157,35 @@ def default_cross_field(
     A = mesh.face_areas
     ell = mesh.mean_edge_length if length_scale is None else float(length_scale)
     lam = CURVATURE_WEIGHT / ell**2
-    z = _smallest_eigenvector(L, A)
-    if align == "curvature":
+    if align == "smooth":
+        z = _smallest_eigenvector(L, A)
+    else:
+        # one factorization of L + λ[A] serves the smoothest field (shifted inverse
+        # iteration) and the curvature-aligned solve
+        fac = factor_spd(complex_to_real(L + sp.diags_array(lam * A)))
+        z = _smallest_eigenvector(L, A, fac=fac)
         q, w = _curvature_target(mesh)
         target = w * q + (1.0 - w) * z / np.maximum(np.abs(z), 1e-300)
-        K = complex_to_real(L + sp.diags_array(lam * A))
         rhs = lam * A * target
-        zc = real_to_complex(factor_spd(K).solve(np.stack([rhs.real, rhs.imag], axis=1).ravel()))
+        zc = real_to_complex(fac.solve(np.stack([rhs.real, rhs.imag], axis=1).ravel()))
         if np.all(np.isfinite(zc)) and np.abs(zc).max() > 0:
             z = zc
     phi = np.angle(z) / 4.0
     return mesh.from_complex(np.exp(1j * phi))
 
 
-def _smallest_eigenvector(L: sp.csr_array, A: np.ndarray, iterations: int = 8) -> np.ndarray:
-    """Inverse iteration for the smallest eigenvector of L z = λ [A] z (seeded start)."""
+def _smallest_eigenvector(
+    L: sp.csr_array, A: np.ndarray, iterations: int = 8, fac=None
+) -> np.ndarray:
+    """Inverse iteration for the smallest eigenvector of L z = λ [A] z (seeded start).
+
+    ``fac``: a factorization of the real form of L + σ[A] (σ ≥ 0) to iterate with;
+    default σ = 10⁻⁸ max|diag L| / mean A.
+    """
     m = L.shape[0]
-    shift = 1e-8 * float(abs(L.diagonal()).max()) / float(A.mean())
-    fac = factor_spd(complex_to_real(L + shift * sp.diags_array(A)))
+    if fac is None:
+        shift = 1e-8 * float(abs(L.diagonal()).max()) / float(A.mean())
+        fac = factor_spd(complex_to_real(L + shift * sp.diags_array(A)))
     rng = np.random.default_rng(0)
     z = rng.standard_normal(m) + 1j * rng.standard_normal(m)
     for _ in range(iterations):

@@ -113,12 +113,23 @@ def _integer_kernel(C: np.ndarray) -> np.ndarray:
     return M[k:, col:].astype(np.float64)
 
 
+#: Integer columns solved for at once when building the Schur complement (memory bound).
+SCHUR_CHUNK = 64
+#: Entries of a column of K Z below this fraction of its largest are dropped (local search).
+RESPONSE_RTOL = 1e-2
+#: Integer unknowns tried per local-search sweep: those responding most at flipped faces.
+SEARCH_CANDIDATES = 24
+
+
 class MixedIntegerSolver:
     """Minimize ½ yᵀH y − gᵀy with y[integer] ∈ ℤ, for several right-hand sides g.
 
-    The real unknowns are eliminated once (one sparse factorization of their block and one
-    solve per integer unknown), leaving the dense Schur complement S of the k integer
-    unknowns; :meth:`real` and :meth:`rounded` then cost one sparse solve each.
+    The real unknowns are eliminated once: one sparse factorization of their block H_rr
+    and, in chunks of :data:`SCHUR_CHUNK` columns, the solves Z = H_rr⁻¹ H_ri that give the
+    dense Schur complement S = H_ii − H_riᵀ Z of the k integer unknowns. Z itself is not
+    kept (memory O(nnz(factor) + k²)); the real unknowns of a given w cost one more solve.
+    With K given (the fit matrix, H = KᵀK), the responses K_i − K_r Z of the per-face
+    Jacobians to each integer unknown are kept sparse for :meth:`local_search`.
 
     Parameters
     ----------
@@ -126,22 +137,36 @@ class MixedIntegerSolver:
         Symmetric positive definite.
     integer : int64 (k,)
         Unknowns to round.
+    K : sparse (4m, p), optional
+        Fit matrix (rows u_x, u_y, v_x, v_y per face); enables :meth:`local_search`.
     """
 
-    def __init__(self, H: sp.csr_array, integer: np.ndarray) -> None:
+    def __init__(self, H: sp.csr_array, integer: np.ndarray, K: sp.csr_array | None = None):
         H = sp.csr_array(H)
         p = H.shape[0]
         self.p = p
         self.integer = np.asarray(integer, dtype=np.int64)
         self.real_idx = np.setdiff1d(np.arange(p), self.integer)
         Hr = H[self.real_idx]
-        self.Hri = Hr[:, self.integer].toarray()
+        self.Hri = sp.csc_array(Hr[:, self.integer])
         self.fac = factor_spd(Hr[:, self.real_idx])
-        self.Z = (
-            self.fac.solve(self.Hri) if self.integer.size else np.zeros((self.real_idx.size, 0))
-        )
-        S = H[self.integer][:, self.integer].toarray() - self.Hri.T @ self.Z
+        k = self.integer.size
+        S = H[self.integer][:, self.integer].toarray()
+        response = []
+        Ki = Kr = None
+        if K is not None:
+            K = sp.csc_array(K)
+            Ki, Kr = K[:, self.integer], K[:, self.real_idx]
+        for lo in range(0, k, SCHUR_CHUNK):  # a few chunks of integer columns
+            cols = np.arange(lo, min(lo + SCHUR_CHUNK, k))
+            Zc = self.fac.solve(self.Hri[:, cols].toarray())
+            S[:, cols] -= self.Hri.T @ Zc
+            if K is not None:
+                R = Ki[:, cols].toarray() - Kr @ Zc
+                R[np.abs(R) < RESPONSE_RTOL * np.abs(R).max(axis=0, keepdims=True)] = 0.0
+                response.append(sp.csc_array(R))
         self.S = 0.5 * (S + S.T)
+        self.response = sp.hstack(response).tocsc() if response else None
 
     def _reduced(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         yr0 = self.fac.solve(g[self.real_idx])
@@ -150,7 +175,7 @@ class MixedIntegerSolver:
     def _assemble(self, yr0: np.ndarray, w: np.ndarray) -> np.ndarray:
         y = np.empty(self.p)
         y[self.integer] = w
-        y[self.real_idx] = yr0 - self.Z @ w
+        y[self.real_idx] = yr0 - (self.fac.solve(self.Hri @ w) if w.size else 0.0)
         return y
 
     def real(self, g: np.ndarray) -> np.ndarray:
@@ -170,29 +195,44 @@ class MixedIntegerSolver:
 
         K (4m, p) maps y to √A_t (∇u, ∇v) per face (rows u_x, u_y, v_x, v_y); a face is
         flipped when that Jacobian has det ≤ 0. A move of w_i re-solves the real unknowns
-        exactly (y_real = yr0 − Z w), so its effect on K y is the fixed column KZ_i: each
-        candidate costs one vector update. Per sweep the best move is taken (fewest flips,
-        then lowest energy ½ wᵀS w − rᵀw); stops at zero flips or when no move helps.
+        exactly, so its effect on K y is the fixed sparse column ``response[:, i]``: each
+        candidate costs an update of the faces it touches. Per sweep the best move is
+        taken (fewest flips, then lowest energy ½ wᵀS w − rᵀw); stops at zero flips or
+        when no move helps. Needs the solver built with K.
         """
+        if self.response is None:
+            raise ValueError("local_search needs a MixedIntegerSolver built with K")
         yr0, r = self._reduced(g)
         w = y[self.integer].copy()
-        KZ = (K[:, self.integer] - K[:, self.real_idx] @ self.Z).reshape(-1, 4, self.integer.size)
-        fit = (K @ self._assemble(yr0, w)).reshape(-1, 4)
+        fit = (K @ y).reshape(-1, 4)
+        R = self.response
 
-        def flips(f):
-            return np.count_nonzero(~(f[:, 0] * f[:, 3] - f[:, 1] * f[:, 2] > 0), axis=0)
+        def det(f):
+            return f[:, 0] * f[:, 3] - f[:, 1] * f[:, 2]
 
-        best = int(flips(fit))
-        for _ in range(sweeps):  # a few sweeps over the (few) integer unknowns
+        flipped = ~(det(fit) > 0)
+        best = int(flipped.sum())
+        cols = [
+            (R.indices[R.indptr[i] : R.indptr[i + 1]], R.data[R.indptr[i] : R.indptr[i + 1]])
+            for i in range(R.shape[1])
+        ]
+        for _ in range(sweeps):  # a few sweeps over a few candidate unknowns
             if best == 0:
                 break
-            bad = np.flatnonzero(~(fit[:, 0] * fit[:, 3] - fit[:, 1] * fit[:, 2] > 0))
-            near = np.abs(KZ[bad]).max(axis=(0, 1)) > 1e-3 * np.abs(fit[bad]).max()
+            bad_rows = np.flatnonzero(np.repeat(flipped, 4))
+            strength = np.abs(R[bad_rows]).max(axis=0).toarray().ravel()
+            cand = np.argsort(-strength, kind="stable")[:SEARCH_CANDIDATES]
             choice = None
-            for i in np.flatnonzero(near):
+            for i in cand[strength[cand] > 0]:
+                rows, vals = cols[i]
+                faces = np.unique(rows // 4)
+                before = int(flipped[faces].sum())
+                slots = np.searchsorted((faces[:, None] * 4 + np.arange(4)).ravel(), rows)
                 for step in (-1.0, 1.0):
-                    f = fit + step * KZ[:, :, i]
-                    score = int(flips(f))
+                    local = fit[faces].copy().ravel()
+                    local[slots] += step * vals
+                    after = int(np.count_nonzero(~(det(local.reshape(-1, 4)) > 0)))
+                    score = best - before + after
                     de = step * (self.S[i] @ w - r[i]) + 0.5 * self.S[i, i]
                     if choice is None or (score, de) < (choice[0], choice[3]):
                         choice = (score, i, step, de)
@@ -200,7 +240,9 @@ class MixedIntegerSolver:
                 break
             best, i, step, _ = choice
             w[i] += step
-            fit = fit + step * KZ[:, :, i]
+            rows, vals = cols[i]
+            fit.ravel()[rows] += step * vals
+            flipped = ~(det(fit) > 0)
         return self._assemble(yr0, w)
 
     def rounded(self, g: np.ndarray, batch: float = 0.05) -> np.ndarray:

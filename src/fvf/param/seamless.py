@@ -377,7 +377,7 @@ def seamless_parameterization(
     A, _ = _energy_matrix(mesh, cm, _local_frame(cm, h, None))
     Q, integer, _, _ = _variables(ss, cm)
     K = (A @ ss.P @ Q).tocsr()
-    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer)
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer, K)
     say(f"Poisson fit ({K.shape[1]} unknowns, {integer.size} integers)")
     if sc is None:
         sc = np.ones((mesh.n_faces, 2))
@@ -394,7 +394,7 @@ def seamless_parameterization(
         sw = np.repeat(np.sqrt(weights), 4)
         if it:
             Kw = sp.diags_array(sw) @ K
-            solver = MixedIntegerSolver((Kw.T @ Kw).tocsr(), integer)
+            solver = MixedIntegerSolver((Kw.T @ Kw).tocsr(), integer, K)
         gw = K.T @ (sw**2 * b)
         y = solver.rounded(gw, batch=rounding_batch)
         if _flip_count(K @ y):
