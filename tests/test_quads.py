@@ -298,3 +298,64 @@ def test_symmetric_field_gives_nearly_symmetric_quads():
     assert fvf.quad_symmetry_error(V0, Q0, mirror)[0] > 5 * median  # the plain field is not
     with pytest.raises(fvf.ParameterError, match="permutation"):
         fvf.symmetrize_cross_field(mesh, u, pi[:-1])
+
+
+# ---------------------------------------------------------------------------- files and command
+def test_quad_and_uv_files_round_trip(tmp_path):
+    from fvf.io.meshfile import read_quad_mesh, write_quad_mesh, write_uv_mesh
+
+    mesh = fvf.torus(24, 12)
+    qm = extract_quads(mesh, torus_uv(mesh, 6, 3, (0.25, 0.5)))
+    for suffix in (".obj", ".off"):
+        path = tmp_path / f"q{suffix}"
+        write_quad_mesh(path, qm.vertices, qm.quads)
+        V, Q = read_quad_mesh(path)
+        assert np.array_equal(V, qm.vertices) and np.array_equal(Q, qm.quads)
+    uv_path = tmp_path / "uv.obj"
+    uv = torus_uv(mesh, 6, 3)
+    write_uv_mesh(uv_path, mesh.vertices, mesh.faces, uv)
+    text = uv_path.read_text().splitlines()
+    vt = np.array([[float(x) for x in t.split()[1:]] for t in text if t.startswith("vt ")])
+    faces = [t.split()[1:] for t in text if t.startswith("f ")]
+    assert len(faces) == mesh.n_faces
+    corner = np.array([[int(c.split("/")[1]) - 1 for c in f] for f in faces])
+    assert np.array_equal(vt[corner], uv)  # every corner's (u, v), exactly
+    tri = tmp_path / "t.obj"
+    fvf.write_mesh(tri, mesh.vertices, mesh.faces)
+    with pytest.raises(fvf.MeshReadError, match="non-quads"):
+        read_quad_mesh(tri)
+    with pytest.raises(fvf.FvfError, match=".obj or .off"):
+        write_quad_mesh(tmp_path / "q.ply", qm.vertices, qm.quads)
+
+
+def test_command_quad(tmp_path, capsys):
+    from fvf.cli.main import main
+
+    src = tmp_path / "torus.obj"
+    fvf.write_mesh(src, fvf.torus(24, 12).vertices, fvf.torus(24, 12).faces)
+    out, uv = tmp_path / "q.obj", tmp_path / "uv.obj"
+    assert main(["quad", str(src), "--faces", "60", "-o", str(out), "--uv", str(uv)]) == 0
+    captured = capsys.readouterr()
+    assert "quad extraction" in captured.err and "wrote" in captured.out
+    V, Q = fvf.io.read_quad_mesh(out)
+    check_closed_quads(fvf.torus(24, 12), V, Q)
+    assert uv.read_text().count("\nvt ") > 0
+    disk = tmp_path / "disk.obj"
+    fvf.write_mesh(disk, fvf.disk(4, 6).vertices, fvf.disk(4, 6).faces)
+    assert main(["quad", str(disk), "--faces", "20", "-o", str(tmp_path / "d.obj")]) == 2
+    assert "ParameterizationInputError" in capsys.readouterr().err
+    assert not (tmp_path / "d.obj").exists()
+
+
+def test_command_renders_quad_meshes(tmp_path):
+    pytest.importorskip("matplotlib")
+    from fvf.cli.main import main
+
+    mesh = fvf.torus(24, 12)
+    qm = extract_quads(mesh, torus_uv(mesh, 8, 4))
+    path = tmp_path / "q.obj"
+    fvf.io.write_quad_mesh(path, qm.vertices, qm.quads)
+    png = tmp_path / "q.png"
+    args = ["render", str(path), "-o", str(png), "--backend", "matplotlib", "--size", "160", "120"]
+    assert main(args) == 0
+    assert png.stat().st_size > 0
