@@ -7,7 +7,7 @@ For every mesh and every method of :func:`fvf.flows.dispatch.flow` ("chapter", "
   polynomial f_0 = x + yz/2 + 0.3x²y; the exact flow is f_0 ∘ R_z(−t). It reports the
   A_V-L2 error at t = 1.
 * **compressible**: the mesh is centred at its vertex mean and scaled to unit radius, then
-  v = grad x (unit L2 norm) and f_0 = sin 3y + z, the lion case of CHAPTER.md, up to
+  v = grad x (unit L2 norm) and f_0 = sin 3y + z, the lion case of docs/chapter.md, up to
   t = 0.1. It reports the range of f(0.1) against [min f_0, max f_0] and ‖f(0.1)‖/‖f_0‖.
   "BLOW-UP" marks a range more than 10x the initial one.
 * **divergence-free**: v = J grad g, with g a smooth function scaled to unit RMS speed, and
@@ -32,6 +32,7 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 import warnings
@@ -44,7 +45,9 @@ from threadpoolctl import threadpool_limits
 import fvf
 from fvf.flows.dispatch import METHODS, TransportFlow
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "meshes"
+SHARED = Path(
+    os.environ.get("FVF_SHARED_MESHES", Path(__file__).resolve().parents[2] / "shared" / "meshes")
+)
 
 
 # ---------------------------------------------------------------------------- counting

@@ -45,7 +45,7 @@ import numpy as np
 MESH_DIR = Path(
     os.environ.get("FVF_SHARED_MESHES", Path(__file__).resolve().parents[2] / "shared" / "meshes")
 )
-# (label, file): ~10k, the issue's ~41k reference point (two meshes), ~170k, ~375k vertices.
+# (label, file): ~10k, ~41k (two meshes), ~170k, ~375k vertices.
 MESHES = [
     ("10k", "rocker-arm.obj"),
     ("43k", "armadillo.obj"),

@@ -10,6 +10,7 @@ number, and says that it skipped the picture.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -28,10 +29,38 @@ def parse_args(description: str, default: str = "the built-in Spot") -> argparse
 
 
 def load_mesh(path: str | None) -> fvf.TriMesh:
-    """The mesh at ``path``, or the built-in Spot when ``path`` is None."""
-    mesh = fvf.TriMesh(*fvf.read_mesh(path)) if path else fvf.mesh.builtin.spot()
+    """The mesh at ``path``, or the built-in Spot when ``path`` is None.
+
+    A file that cannot be read ends the script with one line and status 2, as ``fvf``
+    does; a mesh that needs repair (unreferenced vertices, an unwelded soup, ...) is
+    repaired with :func:`fvf.repair_mesh`, saying what changed.
+    """
+    if not path:
+        mesh = fvf.mesh.builtin.spot()
+    else:
+        try:
+            V, F = fvf.read_mesh(path)
+        except (fvf.FvfError, OSError) as exc:
+            _fail(f"error: {' '.join(str(exc).split())}")
+        try:
+            mesh = fvf.TriMesh(V, F)
+        except fvf.MeshError as exc:
+            print(f"note: {path} needs repair ({type(exc).__name__}); running fvf.repair_mesh")
+            try:
+                fixed = fvf.repair_mesh(V, F)
+                mesh = fixed.mesh
+            except fvf.FvfError as again:
+                _fail(f"error: {path} cannot be repaired: {' '.join(str(again).split())}")
+            for line in fixed.log:
+                print(f"  {line}")
     print(f"mesh: {path or 'built-in spot.obj'} ({mesh.n_vertices} vertices, {mesh.n_faces} faces)")
     return mesh
+
+
+def _fail(message: str) -> None:
+    """One line on stderr and exit status 2 (bad input), as the fvf command does."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
 
 
 def unit_radius(mesh: fvf.TriMesh) -> fvf.TriMesh:

@@ -1,7 +1,7 @@
 """Fig. 3: a function carried along the flow of a field, Φ_{v,t} f = exp(−t D^V_v) f (eq. 42).
 
 v = J grad h is divergence-free, so [A_V] D^V_v is skew and the flow keeps the A_V-norm of
-the function (CHAPTER.md, "Facts we measured"). For contrast, the compressible field
+the function (docs/chapter.md, "Facts we measured"). For contrast, the compressible field
 grad x: the chapter's flow may grow (its growth rate μ is printed) while the upwind flow
 stays within the initial range on every mesh (docs/flows.md).
 

@@ -1,4 +1,4 @@
-"""The hostile-input corpus of issue 7: meshes and fields that real data will throw at fvf.
+"""The hostile-input corpus: meshes and fields that real data will throw at fvf.
 
 Three kinds of entries, each a function returning named entries (so nothing is built at
 import time and a test can ask for one entry by name):
@@ -12,6 +12,16 @@ import time and a test can ask for one entry by name):
   reject with the documented error type (or, where documented, accept).
 - :func:`hostile_face_fields` / :func:`hostile_vertex_functions` -- name -> (array,
   expected outcome) for a given mesh.
+- :func:`extreme_fields` -- fields of magnitude 1e-200 and 1e200, for the functions whose
+  results do not depend on the size (angles, indices) or scale linearly (norms).
+- :func:`hostile_files` -- name -> :class:`FileEntry`: mesh files with byte order marks,
+  CR-only line endings, 4OFF, Python-only number spellings, binary junk, and paths that
+  are not files (a FIFO, /dev/zero, a folder, a sparse 1 GiB file); each with the
+  vertices it must give or the error it must raise.
+- :func:`hostile_data_files` -- name -> (writer, expected): ``.npz`` archives whose keys
+  declare huge arrays, are truncated, hold objects, or are not files.
+- :func:`hostile_options` -- name -> (call, expected error): option values that must be
+  refused with a typed error (no hang, no bad_alloc, no silent fallback).
 
 Generated meshes stay small (at most a few hundred faces) so the public-API sweep is fast;
 the big shared meshes are listed in :data:`SLOW` and marked ``slow`` by the tests.
@@ -251,6 +261,8 @@ def hostile_face_fields(mesh: fvf.TriMesh, rng: np.random.Generator) -> dict[str
     return {
         "zero": (np.zeros((m, 3)), "ok"),
         "huge": (1e150 * u / np.abs(u).max(), "ok"),
+        # a tangent field rounded to float32: its rounding is not a normal component
+        "float32": (u.astype(np.float32), "ok"),
         "non_tangent": (u + mesh.face_normals, errors.NonTangentFieldWarning),
         "nan": (nan, errors.FieldValueError),
         "inf": (inf, errors.FieldValueError),
@@ -274,4 +286,234 @@ def hostile_vertex_functions(mesh: fvf.TriMesh, rng: np.random.Generator) -> dic
         "too_long": (np.zeros(n + 1), errors.FieldShapeError),
         "per_face": (np.zeros(mesh.n_faces), errors.FieldShapeError),
         "string": (f.astype(str), errors.FieldShapeError),
+    }
+
+
+def extreme_fields(mesh: fvf.TriMesh, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Name -> tangent field (m, 3) of magnitude 1e-200 / 1 / 1e200 (same directions)."""
+    u = mesh.project_tangent(rng.standard_normal((mesh.n_faces, 3)))
+    u = u / np.abs(u).max()
+    return {"tiny": 1e-200 * u, "unit": u, "huge": 1e200 * u}
+
+
+# ---------------------------------------------------------------------------- files
+@dataclass(frozen=True)
+class FileEntry:
+    """A mesh file and what :func:`fvf.read_mesh` must do with it.
+
+    ``data`` is the file's bytes, or a kind of special path the test builds
+    (``"fifo"``, ``"devzero"``, ``"folder"``, ``"sparse"``). ``vertices`` are the
+    vertices it must read (faces are ``[[0, 1, 2]]`` unless ``faces`` says otherwise),
+    or ``error`` the type it must raise with ``words`` in the message.
+    """
+
+    suffix: str
+    data: bytes | str
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    error: type[Exception] | None = None
+    words: tuple[str, ...] = ()
+
+
+_TRI = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+_OBJ = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+_OFF = b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+_PLY_HEAD = (
+    b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+    b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+)
+_PLY = _PLY_HEAD + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+
+
+def _binary_ply(eol: bytes) -> bytes:
+    head = _PLY_HEAD.replace(b"ascii", b"binary_little_endian").replace(b"\n", eol)
+    body = _TRI.astype("<f4").tobytes() + bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
+    return head + body
+
+
+def hostile_files() -> dict[str, FileEntry]:
+    """Name -> mesh file that real data throws at :func:`fvf.read_mesh`."""
+    bom = b"\xef\xbb\xbf"
+    err = errors.MeshReadError
+    return {
+        # encodings and line endings: read as the text says
+        "obj_utf8_bom": FileEntry(".obj", bom + _OBJ, _TRI),
+        "off_utf8_bom": FileEntry(".off", bom + _OFF, _TRI),
+        "ply_utf8_bom": FileEntry(".ply", bom + _PLY, _TRI),
+        "obj_crlf": FileEntry(".obj", _OBJ.replace(b"\n", b"\r\n"), _TRI),
+        "obj_cr_only": FileEntry(".obj", _OBJ.replace(b"\n", b"\r"), _TRI),
+        "off_cr_only": FileEntry(".off", _OFF.replace(b"\n", b"\r"), _TRI),
+        "ply_ascii_cr_only": FileEntry(".ply", _PLY.replace(b"\n", b"\r"), _TRI),
+        "ply_binary_cr_header": FileEntry(".ply", _binary_ply(b"\r"), _TRI),
+        "ply_binary_crlf_header": FileEntry(".ply", _binary_ply(b"\r\n"), _TRI),
+        "obj_utf16": FileEntry(
+            ".obj", _OBJ.decode().encode("utf-16"), error=err, words=("UTF-16",)
+        ),
+        # 4OFF: homogeneous coordinates, divided by w
+        "off_4off": FileEntry(".off", b"4OFF\n3 1 0\n0 0 0 2\n2 0 0 2\n0 4 0 4\n3 0 1 2\n", _TRI),
+        "off_4off_w0": FileEntry(
+            ".off",
+            b"4OFF\n3 1 0\n0 0 0 1\n1 0 0 0\n0 1 0 1\n3 0 1 2\n",
+            error=err,
+            words=("line 4", "w = 0"),
+        ),  # fmt: skip
+        "off_4off_no_w": FileEntry(".off", _OFF.replace(b"OFF", b"4OFF"), error=err, words=("w",)),
+        # Python's float()/int() quirks are not the file format
+        "obj_underscore": FileEntry(
+            ".obj", _OBJ.replace(b"v 1 0 0", b"v 1_0 0 0"), error=err, words=("line 2", "1_0")
+        ),
+        "obj_face_underscore": FileEntry(
+            ".obj", _OBJ.replace(b"f 1 2 3", b"f 1 2 0_3"), error=err, words=("line 4", "0_3")
+        ),
+        "off_underscore": FileEntry(
+            ".off", _OFF.replace(b"1 0 0", b"1_000 0 0"), error=err, words=("line 4",)
+        ),
+        "ply_underscore": FileEntry(
+            ".ply", _PLY.replace(b"1 0 0\n", b"1_0 0 0\n"), error=err, words=("1_0",)
+        ),
+        "obj_nan": FileEntry(
+            ".obj", _OBJ.replace(b"v 0 1 0", b"v nan 1 0"), error=err, words=("line 3", "finite")
+        ),
+        "obj_infinity": FileEntry(
+            ".obj", _OBJ.replace(b"v 0 1 0", b"v 0 Infinity 0"), error=err, words=("finite",)
+        ),
+        "off_inf": FileEntry(
+            ".off", _OFF.replace(b"0 1 0", b"0 -inf 0"), error=err, words=("inf",)
+        ),
+        "obj_hex": FileEntry(
+            ".obj", _OBJ.replace(b"v 0 1 0", b"v 0 1 0x10"), error=err, words=("0x10",)
+        ),
+        # not mesh files at all: refused from their first bytes
+        "obj_binary_junk": FileEntry(
+            ".obj", bytes(range(256)) * 64, error=err, words=("binary", "NUL")
+        ),
+        "ply_not_ply": FileEntry(".ply", b"hello\n" * 100, error=err, words=("'ply'",)),
+        # paths that are not regular files: refused before they are opened
+        "fifo": FileEntry(".obj", "fifo", error=err, words=("FIFO",)),
+        "devzero": FileEntry(".off", "devzero", error=err, words=("character device",)),
+        "folder": FileEntry(".ply", "folder", error=err, words=("directory",)),
+        "sparse_1gib": FileEntry(".obj", "sparse", error=err, words=("NUL",)),
+    }
+
+
+def make_file(path, entry: FileEntry):
+    """Create ``path`` for a :class:`FileEntry`; returns the path to read."""
+    import os
+    from pathlib import Path
+
+    path = Path(path).with_suffix(entry.suffix)
+    if entry.data == "fifo":
+        os.mkfifo(path)
+    elif entry.data == "devzero":
+        path.symlink_to("/dev/zero")
+    elif entry.data == "folder":
+        path.mkdir()
+    elif entry.data == "sparse":
+        with open(path, "wb") as fh:
+            fh.truncate(1 << 30)  # 1 GiB of zeros that occupy no disk
+    else:
+        path.write_bytes(entry.data)
+    return path
+
+
+def _npz_with_member(path, name: str, header: dict, payload: bytes, **arrays) -> None:
+    """An .npz holding ``arrays`` and one hand-made member ``name`` (header, payload)."""
+    import io
+    import zipfile
+
+    np.savez(path, **arrays)
+    raw = io.BytesIO()
+    np.lib.format.write_array_header_2_0(raw, header)
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr(name + ".npy", np.lib.format.magic(2, 0) + raw.getvalue()[8:] + payload)
+
+
+def _save_npy(path, a: np.ndarray) -> None:
+    """One array in .npy format at ``path`` (whatever its suffix)."""
+    with open(path, "wb") as fh:
+        np.save(fh, a)
+
+
+def hostile_data_files(mesh: fvf.TriMesh) -> dict[str, tuple[Callable, object]]:
+    """Name -> (write(path), expected): a data file and what ``fvf flow`` on its ``f`` and
+    ``v`` must do: ``"ok"`` (the unused keys are never read) or the error type."""
+    n, m = mesh.n_vertices, mesh.n_faces
+    f = mesh.vertices[:, 0]
+    v = mesh.project_tangent(np.cross([0, 0, 1.0], mesh.face_centroids))
+    huge = {"descr": "<f8", "fortran_order": False, "shape": (10**12,)}  # 8 TB declared
+    long = {"descr": "<f8", "fortran_order": False, "shape": (1,) * 3000}  # 20 kB header
+    return {
+        "unused_key_declares_8tb": (
+            lambda p: _npz_with_member(p, "junk", huge, b"\0" * 64, f=f, v=v),
+            "ok",
+        ),
+        "unused_key_with_20kb_header": (
+            lambda p: _npz_with_member(p, "junk", long, b"\0" * 8, f=f, v=v),
+            "ok",
+        ),
+        "used_key_declares_8tb": (
+            lambda p: _npz_with_member(p, "v", huge, b"\0" * 64, f=f),
+            errors.DataFileError,
+        ),
+        "used_key_truncated": (
+            lambda p: _npz_with_member(
+                p, "v", {"descr": "<f8", "fortran_order": False, "shape": (m, 3)}, b"\0" * 64, f=f
+            ),
+            errors.DataFileError,
+        ),
+        "object_array": (
+            lambda p: np.savez(p, f=f, v=np.array([object()] * 3), allow_pickle=True),
+            errors.DataFileError,
+        ),
+        "fifo": (lambda p: __import__("os").mkfifo(p), errors.DataFileError),
+        "devzero": (lambda p: p.symlink_to("/dev/zero"), errors.DataFileError),
+        "single_npy": (lambda p: _save_npy(p, f), errors.DataFileError),
+        "vertex_count_mismatch": (
+            lambda p: np.savez(p, f=np.zeros(n + 1), v=v),
+            errors.FieldShapeError,
+        ),
+    }
+
+
+def hostile_options(mesh: fvf.TriMesh) -> dict[str, tuple[Callable[[], object], type]]:
+    """Name -> (call, error): options that must be refused at the entrance, quickly."""
+    f = mesh.vertices[:, 0]
+    v = mesh.project_tangent(np.cross([0, 0, 1.0], mesh.face_centroids))
+    P = errors.ParameterError
+    fluid = fvf.ideal_fluid
+    tiny = {"tol": 1e-300}  # unreachable: only max_iterations stops the iteration
+    return {
+        "fluid_max_iterations_0": (lambda: fluid(mesh, f, 0.01, 2, max_iterations=0, **tiny), P),
+        "fluid_max_iterations_-1": (lambda: fluid(mesh, f, 0.01, 2, max_iterations=-1, **tiny), P),
+        "fluid_spectral_max_iterations_0": (
+            lambda: fluid(mesh, f, 0.01, 2, method="spectral", k=8, max_iterations=0, **tiny),
+            P,
+        ),
+        "fluid_steps_2.5": (lambda: fluid(mesh, f, 0.01, 2.5), P),
+        "fluid_steps_-1": (lambda: fluid(mesh, f, 0.01, -1), P),
+        "fluid_save_every_0": (lambda: fluid(mesh, f, 0.01, 2, save_every=0), P),
+        "fluid_tol_nan": (lambda: fluid(mesh, f, 0.01, 2, tol=np.nan), P),
+        "fluid_dt_inf": (lambda: fluid(mesh, f, np.inf, 2), P),
+        "fluid_k_1.5": (lambda: fluid(mesh, f, 0.01, 2, method="spectral", k=1.5), P),
+        "flow_growth_limit_nan": (lambda: fvf.flow(mesh, v, f, 1.0, growth_limit=np.nan), P),
+        "flow_growth_limit_-1": (lambda: fvf.flow(mesh, v, f, 1.0, growth_limit=-1.0), P),
+        "flow_growth_limit_0.5": (
+            lambda: fvf.flow(mesh, v, f, 1.0, method="skew", growth_limit=0.5),
+            P,
+        ),
+        "functional_flow_growth_limit_nan": (
+            lambda: fvf.FunctionalFlow(mesh, v, growth_limit=np.nan),
+            P,
+        ),
+        "transport_growth_limit_nan": (lambda: fvf.Ad(mesh, v, v, 0.1, growth_limit=np.nan), P),
+        "flow_tangent_whatever": (lambda: fvf.flow(mesh, v, f, 1.0, tangent="whatever"), P),
+        "as_face_field_tangent_whatever": (
+            lambda: fvf.as_face_field(mesh, v, tangent="whatever"),
+            P,
+        ),
+        "flow_k_0": (lambda: fvf.flow(mesh, v, f, 1.0, method="spectral", k=0), P),
+        "flow_dt_-1": (lambda: fvf.flow(mesh, v, f, 1.0, method="cayley", dt=-1.0), P),
+        "flow_dt_nan": (lambda: fvf.flow(mesh, v, f, 1.0, method="cayley", dt=np.nan), P),
+        "flow_courant_0": (lambda: fvf.flow(mesh, v, f, 1.0, method="cayley", courant=0.0), P),
+        "spectral_basis_k_2.5": (lambda: fvf.SpectralBasis(mesh, 2.5), P),
     }

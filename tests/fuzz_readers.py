@@ -1,7 +1,10 @@
 """Long fuzzing campaigns for the mesh readers (a script, not collected by pytest).
 
 Every input must either load (a valid (V, F) pair) or raise an ``fvf.errors.FvfError``;
-anything else is a *finding*. PLY inputs also go through ``read_ply_properties`` (arrays
+anything else is a *finding*. An OBJ that loads must also agree with a plain reading of its
+text (:func:`obj_oracle`): one vertex per ``v`` statement whatever the byte order mark
+and line endings, and no coordinate that is only a number to Python's ``float()``
+(``1_0``, ``nan``, ``infinity``). PLY inputs also go through ``read_ply_properties`` (arrays
 aligned with the mesh), and every mesh that loads goes on through ``mesh_report`` (must not
 raise) and ``repair_mesh`` (``FvfError`` only), the path a user's file takes. Findings are
 recorded (input bytes + traceback) in ``--findings`` and the campaign continues, so one run
@@ -21,7 +24,9 @@ Two engines:
 
       python tests/fuzz_readers.py --hypothesis 20000
 
-Seeds are the fuzz bases of ``tests/test_io.py`` plus a few extra shapes of each format.
+Seeds are the fuzz bases of ``tests/test_io.py``, a few extra shapes of each format, and
+the byte-level entries of ``tests/corpus.py``'s :func:`hostile_files` (byte order marks,
+CR-only lines, 4OFF, Python-only number spellings, binary junk).
 """
 
 from __future__ import annotations
@@ -66,7 +71,33 @@ def seeds() -> list[bytes]:
         b"\x01COFF\r\n3 1 0\r\n0 0 0 1 0 0 1\r\n1 0 0 1 0 0 1\r\n0 1 0 0 0 1 1\r\n3 0 1 2\r\n"
     )
     out.append(b"\x00v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1/1 2//1 3 4\nf -1 -2 -3\n")
+    from corpus import hostile_files
+
+    for entry in hostile_files().values():
+        if isinstance(entry.data, bytes) and len(entry.data) < 4096:
+            out.append(bytes([SUFFIXES.index(entry.suffix)]) + entry.data)
     return out
+
+
+_QUIRKS = ("nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity")
+
+
+def obj_oracle(data: bytes, n_vertices: int) -> str | None:
+    """What is wrong with an OBJ that loaded with ``n_vertices`` vertices, or None.
+
+    A plain reading of the text: BOM dropped, LF / CRLF / CR line ends, one vertex per
+    line whose first word is ``v``; its first three words must be C-syntax numbers.
+    """
+    text = data.removeprefix(b"\xef\xbb\xbf").decode("latin-1")
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    v_lines = [line.split("#", 1)[0].split() for line in lines if line.split()[:1] == ["v"]]
+    if len(v_lines) != n_vertices:
+        return f"{len(v_lines)} 'v' statements but {n_vertices} vertices read"
+    for words in v_lines:
+        for tok in words[1:4]:
+            if "_" in tok or tok.lower() in _QUIRKS:
+                return f"accepted the coordinate {tok!r}"
+    return None
 
 
 class Checker:
@@ -120,6 +151,10 @@ class Checker:
             )
             if not ok:
                 raise AssertionError(f"read_mesh contract: {V.shape} {F.shape} {F.dtype}")
+            if path.suffix == ".obj":
+                wrong = obj_oracle(body, len(V))
+                if wrong is not None:
+                    raise AssertionError(f"read_mesh against the text: {wrong}")
         except FvfError:
             COUNTS["fvf_errors"] += 1
             return

@@ -1,4 +1,5 @@
-"""fvf.chapter: exactly the names the issue lists, each an alias of the real function."""
+"""fvf.chapter: one name per chapter symbol (docs/chapter.md), each an alias of the real
+function."""
 
 import inspect
 

@@ -62,7 +62,7 @@ def work(tmp_path_factory):
     u = mesh.project_tangent(np.cross([1.0, 0, 0], C))  # rotation about x
     f = X[:, 0] + X[:, 1] * X[:, 2]
     np.savez(d / "fields.npz", f=f, v=v, u=u, vertices=X, faces=mesh.faces)
-    np.savez(d / "two.npz", f=np.stack([f, X[:, 2]]), v=v, u=u, u1=-u, t=[0.0, 0.4])
+    np.savez(d / "two.npz", f=np.stack([f, X[:, 2]], axis=1), v=v, u=u, u1=-u, t=[0.0, 0.4])
     return d, mesh, {"f": f, "v": v, "u": u}
 
 
@@ -93,10 +93,10 @@ def test_flow_methods_and_function_rows_in_process(work, capsys):
     assert main(["flow", str(d / "ico.obj"), str(d / "two.npz"), "--method", "upwind",
                  "-o", str(out)]) == 0  # fmt: skip
     res = np.load(out)
-    F = np.stack([a["f"], mesh.vertices[:, 2]])
-    assert res["f_t"].shape == (2, 2, 162)  # (T, k, n): times from the file's key t
-    expected = fvf.flow(mesh, a["v"], F.T, [0.0, 0.4], method="upwind")  # (T, n, k)
-    np.testing.assert_allclose(res["f_t"], expected.transpose(0, 2, 1), atol=1e-12)
+    F = np.stack([a["f"], mesh.vertices[:, 2]], axis=1)
+    assert res["f_t"].shape == (2, 162, 2)  # (T, n, k): times from the file's key t
+    expected = fvf.flow(mesh, a["v"], F, [0.0, 0.4], method="upwind")  # (T, n, k)
+    np.testing.assert_allclose(res["f_t"], expected, atol=1e-12)
     assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "0.3",
                  "--method", "spectral", "--k", "20", "-o", str(out)]) == 0  # fmt: skip
     expected = fvf.flow(mesh, a["v"], a["f"], [0.3], method="spectral", k=20)
@@ -116,9 +116,9 @@ def test_bracket_subprocess_equals_library(work):
     np.testing.assert_allclose(out["commutator_face"], on_faces, atol=1e-12)
     normal = np.einsum("ij,ij->i", out["commutator_face"], mesh.face_normals)
     assert np.abs(normal).max() < 1e-12  # drawable as arrows without a warning
-    F = np.stack([a["f"], mesh.vertices[:, 2]])
-    np.testing.assert_allclose(out["bracket_F_f"], (fvf.bracket_F(mesh, v, u) @ F.T).T)
-    np.testing.assert_allclose(out["bracket_V_f"], (fvf.bracket_V(mesh, v, u) @ F.T).T)
+    F = np.stack([a["f"], mesh.vertices[:, 2]], axis=1)
+    np.testing.assert_allclose(out["bracket_F_f"], fvf.bracket_F(mesh, v, u) @ F)
+    np.testing.assert_allclose(out["bracket_V_f"], fvf.bracket_V(mesh, v, u) @ F)
     # [R_z, R_x] is the rotation about -y (up to sign convention): a non-zero field
     assert np.abs(out["commutator"]).max() > 0.1
 
@@ -268,7 +268,7 @@ def bad_inputs(d, mesh, a):
     np.savez(d / "nov.npz", f=a["f"], w=a["v"])
     np.savez(d / "shortv.npz", f=a["f"], v=a["v"][:10])
     np.savez(d / "vertexv.npz", f=a["f"], v=mesh.vertices)
-    np.savez(d / "fnk.npz", f=np.stack([a["f"]] * 2, axis=1), v=a["v"])
+    np.savez(d / "fnk.npz", f=np.ones((3, 7)), v=a["v"])
     np.savez(d / "nan.npz", f=np.where(np.arange(162) == 7, np.nan, a["f"]), v=a["v"])
     np.savez(d / "strv.npz", f=a["f"], v=np.array("hello"))
     np.savez(d / "other.npz", f=a["f"], v=a["v"], faces=mesh.faces[:, ::-1])
@@ -282,7 +282,7 @@ def bad_inputs(d, mesh, a):
         (flow + [str(d / "nov.npz"), "--t", "1", "-o", "o"], ["DataKeyError", "'v'", "f, w"]),
         (flow + [str(d / "shortv.npz"), "--t", "1", "-o", "o"], ["'v'", "(10, 3)", "(320, 3)"]),
         (flow + [str(d / "vertexv.npz"), "--t", "1", "-o", "o"], ["(162, 3)", "per vertex"]),
-        (flow + [str(d / "fnk.npz"), "--t", "1", "-o", "o"], ["(162, 2)", "transpose"]),
+        (flow + [str(d / "fnk.npz"), "--t", "1", "-o", "o"], ["(3, 7)", "(162, k)"]),
         (flow + [str(d / "nan.npz"), "--t", "1", "-o", "o"], ["NaN", "[7]"]),
         (flow + [str(d / "strv.npz"), "--t", "1", "-o", "o"], ["'v'", "real numbers"]),
         (flow + [str(d / "other.npz"), "--t", "1", "-o", "o"], ["MeshMismatchError", "faces"]),
@@ -541,3 +541,22 @@ def test_several_data_files_are_merged(work, capsys):
                  "--t", "1", "-o", str(out)]) == 2  # fmt: skip
     err = capsys.readouterr().err  # the message names the file the bad key came from
     assert one_line_error(err) and "bad_f.npz: key 'f' has shape (5,)" in err
+
+
+def test_flow_that_grew_exits_6_and_names_the_cli_options(tmp_path, capsys):
+    """A compressible chapter flow that blows up is written but never reported as
+    success: exit status 6, and the advice names the command's options."""
+    from conftest import shared_mesh_path
+
+    mesh, v, f0 = fvf.mesh.builtin.compressible_case(
+        fvf.TriMesh(*fvf.read_mesh(shared_mesh_path("lion-00.off")))
+    )
+    fvf.write_mesh(tmp_path / "lion.off", mesh.vertices, mesh.faces)
+    np.savez(tmp_path / "data.npz", f=f0, v=v)
+    args = ["flow", str(tmp_path / "lion.off"), str(tmp_path / "data.npz"), "--t", "0.05"]
+    status = main([*args, "-o", str(tmp_path / "grew.npz")])
+    err = capsys.readouterr().err
+    assert status == 6 and (tmp_path / "grew.npz").exists()
+    assert "--growth-limit inf" in err and "--method upwind" in err and "np.inf" not in err
+    assert main([*args, "--growth-limit", "inf", "-o", str(tmp_path / "ok.npz")]) == 0
+    assert main([*args, "--method", "upwind", "-o", str(tmp_path / "up.npz")]) == 0

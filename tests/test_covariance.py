@@ -1,4 +1,4 @@
-"""Scale and rigid-motion covariance of the operators and applications (issue 7).
+"""Scale and rigid-motion covariance of the operators and applications.
 
 A mesh moved by X' = s X Rᵀ + c must give the same geometry in new units:
 

@@ -109,7 +109,8 @@ def test_unconstrained_design_is_the_smoothest_unit_field():
     assert abs(l2(mesh, u) - 1) < 1e-12
     # λ from the dense generalized eigensolver is accurate to ~ε·λ_max (LAPACK's backward
     # error), and z*Lz to the same: here λ_max ≈ 3.7e5 ≈ 7e5·λ_0, so 1e-10·λ_0 was below
-    # round-off (it failed on another CPU by 1.7e-10·λ_0; docs/notes.md, session 12)
+    # round-off (it failed on another CPU by 1.7e-10·λ_0; docs/notes.md, "Eigenvalues are
+    # accurate to ε·λ_max")
     L = connection_laplacian(mesh)
     top = np.abs(L).sum(axis=1).max() / mesh.face_areas.min()  # Gershgorin: ≥ λ_max
     assert abs(connection_energy(mesh, u) - lam[0]) < 8 * np.finfo(float).eps * top

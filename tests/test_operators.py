@@ -102,7 +102,8 @@ def test_dtilde_equals_D_for_divergence_free(closed):
         np.abs(ch.div(closed) @ v.ravel()).max()
         < 1e-12 * abs(ch.div(closed)).max() * np.abs(v).max()
     )
-    # The A_V-adjoint of D^V_v is −(D̃^V_v + [div v]) (CHAPTER.md); for div v = 0 it is −D̃^V_v.
+    # The A_V-adjoint of D^V_v is −(D̃^V_v + [div v]) (docs/chapter.md); for div v = 0 it is
+    # −D̃^V_v.
     AD = sp.diags_array(closed.vertex_areas) @ ch.D_V(closed, v)
     ADt = sp.diags_array(closed.vertex_areas) @ ch.Dtilde_V(closed, v)
     assert rel(AD.T, -ADt) < 1e-11
@@ -110,7 +111,7 @@ def test_dtilde_equals_D_for_divergence_free(closed):
 
 
 def test_adjoint_of_D_V(closed, rng):
-    """CHAPTER.md 'Facts': the A_V-adjoint of D^V_v is −(D̃^V_v + [div v])."""
+    """docs/chapter.md, 'Facts we measured': the A_V-adjoint of D^V_v is −(D̃^V_v + [div v])."""
     v = random_tangent_field(closed, rng)
     A = sp.diags_array(closed.vertex_areas)
     lhs = (A @ ch.D_V(closed, v)).T

@@ -485,7 +485,7 @@ def test_singularity_positions():
 
 @pytest.mark.parametrize("name, chi", CLOSED_SHARED)
 def test_designed_fields_satisfy_poincare_hopf(name, chi):
-    """Issue: the indices of designed fields sum to χ on every closed shared mesh."""
+    """Poincaré–Hopf: the indices of designed fields sum to χ on every closed shared mesh."""
     mesh = load_shared(name)
     faces = np.array([0, mesh.n_faces // 2])
     directions = mesh.face_bases[faces, 0]

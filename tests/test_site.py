@@ -173,3 +173,69 @@ def test_rst_markup_in_docstrings_becomes_markdown(site):
     assert 'class="arithmatex"' in connection and "w_{st}" in connection
     for page in (out / "api").glob("*/index.html"):
         assert ".. math::" not in page.read_text(), page
+
+
+_EXTERNAL = re.compile(r"""^(?:[a-z][a-z0-9+.-]*:)?//""", re.I)  # http://, https://, //host
+
+
+def _external_assets(html: str) -> list[str]:
+    """URLs of scripts, stylesheets and preloads that a page would fetch from other hosts."""
+    found = []
+    for tag in re.findall(r"<(?:script|link)\b[^>]*>", html, flags=re.I):
+        if tag.lower().startswith("<link") and not re.search(
+            r"""rel=["']?(?:stylesheet|preload|modulepreload|prefetch|preconnect|dns-prefetch)""",
+            tag,
+            flags=re.I,
+        ):
+            continue  # canonical, icons of this site, alternates: nothing is executed
+        for url in re.findall(r"""(?:src|href)=["']([^"']+)["']""", tag, flags=re.I):
+            if _EXTERNAL.match(url):
+                found.append(url)
+    return found
+
+
+def test_site_loads_no_script_or_stylesheet_from_other_hosts(site):
+    """The site works offline: every script and stylesheet is served from the site itself
+    (MathJax is bundled under docs/javascripts/mathjax; the theme's web fonts are off)."""
+    out, _ = site
+    pages = sorted(out.rglob("*.html"))
+    assert len(pages) > 20
+    external = {str(p.relative_to(out)): _external_assets(p.read_text()) for p in pages}
+    assert not {page: urls for page, urls in external.items() if urls}
+
+
+def test_bundled_mathjax_is_served_with_its_fonts_and_licence(site):
+    out, _ = site
+    mathjax = out / "javascripts" / "mathjax"
+    assert (mathjax / "tex-mml-chtml.js").stat().st_size > 500_000
+    assert "Apache License" in (mathjax / "LICENSE").read_text()
+    fonts = list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
+    assert len(fonts) >= 20  # CHTML resolves its fonts relative to the script
+    html = (out / "chapter" / "index.html").read_text()
+    assert re.search(r"""<script[^>]+src=["'][./]*javascripts/mathjax/tex-mml-chtml\.js""", html)
+
+
+def test_chapter_page_has_every_equation_of_the_chapter(site):
+    """docs/chapter.md restates eqs. (1)-(68): (1)-(25) in the table of the smooth setting,
+    (26)-(68) as display math with their tags, rendered as math (arithmatex)."""
+    out, _ = site
+    html = (out / "chapter" / "index.html").read_text()
+    assert 'class="arithmatex"' in html
+    text = (DOCS / "chapter.md").read_text()
+    tagged = {int(n) for n in re.findall(r"\\tag\{(\d+)\}", text)}
+    in_table = {int(n) for n in re.findall(r"^\| \((\d+)\)", text, flags=re.M)}
+    in_table |= {
+        k
+        for a, b in re.findall(r"^\| \((\d+)\)[–-]\((\d+)\)", text, flags=re.M)
+        for k in range(int(a), int(b) + 1)
+    }
+    missing = sorted(set(range(1, 69)) - tagged - in_table)
+    assert not missing, f"equations not on docs/chapter.md: {missing}"
+    for n in sorted(tagged):
+        assert f"\\tag{{{n}}}" in html, n
+
+
+def test_changelog_page_includes_the_repository_changelog(site):
+    out, _ = site
+    html = (out / "changelog" / "index.html").read_text()
+    assert "Unreleased" in html and "0.1.0" in html and "FieldValueError" in html

@@ -1,5 +1,5 @@
 """Spectral bases, reduced operators and flows, the inverse problem, Killing fields,
-functional maps (issue: reduced spectral operators)."""
+functional maps."""
 
 import numpy as np
 import pytest

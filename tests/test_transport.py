@@ -251,7 +251,7 @@ def test_fig9_commutator_field_robust_to_tessellation():
 
 @pytest.mark.parametrize("name", ["spot.obj", "bunny-lowres.off", "faust_r_tr_reg_001.off"])
 def test_fig7_measured_on_real_meshes(name):
-    """Fig. 7's claim measured on real meshes, as the issue asks: with smooth fields
+    """Fig. 7's claim measured on real meshes: with smooth fields
     (ambient rotations about the centroid, projected) and LB eigenfunctions φ_1..φ_11, the
     Dirichlet-ratio roughness of D^V_{[v,u]} φ is *below* that of D^F_{[v,u]} φ on these
     fairly regular meshes (measured ratio vertex/mixed 0.29-0.87). The chapter's claim holds

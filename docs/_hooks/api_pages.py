@@ -43,6 +43,8 @@ OPTIONAL = [
     ("Command line", "cli.md"),
     ("Mesh repair", "repair.md"),
     ("Meshes with boundary", "boundary.md"),
+    ("Files: what fvf guarantees", "files.md"),
+    ("Meshes from other libraries", "interop.md"),
 ]
 
 

@@ -90,6 +90,7 @@ from .mesh import (
     TriMesh,
     as_face_field,
     as_face_function,
+    as_mesh,
     as_vertex_function,
     disk,
     icosphere,
@@ -163,7 +164,7 @@ _MOVED = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     home = _MOVED.get(name)
     if home is None:
         raise AttributeError(f"module 'fvf' has no attribute {name!r}")
@@ -200,6 +201,7 @@ __all__ = [
     "as_face_field",
     "as_face_function",
     "as_vertex_function",
+    "as_mesh",
     # calculus (§3.1)
     "face_areas",
     "vertex_areas",

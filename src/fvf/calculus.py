@@ -14,6 +14,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from .errors import FieldShapeError, ParameterError
+from .mesh.convert import takes_mesh
 from .mesh.inputs import (
     _check_finite,
     _real_array,
@@ -106,16 +107,19 @@ def block_diagonal(blocks: np.ndarray) -> sp.csr_array:
 
 
 # ---------------------------------------------------------------------------- per-face
+@takes_mesh
 def face_areas(mesh: TriMesh) -> np.ndarray:
     """A_F: the area of each face, float64 (m,) (§3.1)."""
     return mesh.face_areas
 
 
+@takes_mesh
 def vertex_areas(mesh: TriMesh) -> np.ndarray:
     """A_V: barycentric vertex areas, a third of the adjacent face areas, float64 (n,) (§3.1)."""
     return mesh.vertex_areas
 
 
+@takes_mesh
 def hat_gradients(mesh: TriMesh) -> np.ndarray:
     """Gradient of each hat function on each face (eq. 27), float64 (m, 3, 3).
 
@@ -133,11 +137,13 @@ def hat_gradients(mesh: TriMesh) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- mass, J, [.]
+@takes_mesh
 def vertex_mass(mesh: TriMesh) -> sp.csr_array:
     """[A_V]: the diagonal n x n matrix of barycentric vertex areas (inner product 26)."""
     return mesh.cached("vertex_mass", lambda: _freeze(sp.diags_array(mesh.vertex_areas)))
 
 
+@takes_mesh
 def face_mass(mesh: TriMesh, components: int = 3) -> sp.csr_array:
     """[A_F]: diagonal face-area matrix, m x m (``components=1``) or 3m x 3m (default).
 
@@ -152,6 +158,7 @@ def face_mass(mesh: TriMesh, components: int = 3) -> sp.csr_array:
     )
 
 
+@takes_mesh
 def rotation(mesh: TriMesh) -> sp.csr_array:
     """J: rotation by +π/2 in each face plane, J_t u = N_t × u, sparse (3m, 3m).
 
@@ -174,6 +181,7 @@ def rotation(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("rotation", build)
 
 
+@takes_mesh
 def rotate(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
     """Apply J to a per-face field: ``N × u`` per face, (m, 3) -> (m, 3)."""
     return _cross(mesh.face_normals, as_face_field(mesh, u, tangent="ignore"))
@@ -197,6 +205,7 @@ def diag(values: npt.ArrayLike, repeat: int = 1) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(np.repeat(a, repeat)))
 
 
+@takes_mesh
 def field_product(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
     """[u]•: sparse (3m, m), mapping a PC function 𝐟 to the field 𝐟(t) u(t) (§3.1).
 
@@ -210,6 +219,7 @@ def field_product(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
     return face_rows_csr(u.reshape(-1, 1), np.repeat(np.arange(m), 3)[:, None], m)
 
 
+@takes_mesh
 def field_inner(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
     """[u]•ᵀ: sparse (m, 3m), mapping a field w to the PC function ⟨u(t), w(t)⟩ (§3.1)."""
     u = as_face_field(mesh, u, tangent="ignore")
@@ -218,6 +228,7 @@ def field_inner(mesh: TriMesh, u: npt.ArrayLike) -> sp.csr_array:
 
 
 # ---------------------------------------------------------------------------- interpolation
+@takes_mesh
 def face_to_vertex(mesh: TriMesh) -> sp.csr_array:
     """I_V^F: sparse (n, m), I_V^F(i, t) = A_F(t) / (3 A_V(i)) for i ∈ t (§3.1).
 
@@ -233,6 +244,7 @@ def face_to_vertex(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("face_to_vertex", build)
 
 
+@takes_mesh
 def vertex_to_face(mesh: TriMesh) -> sp.csr_array:
     """I_F^V = [A_F]⁻¹ (I_V^F)ᵀ [A_V]: sparse (m, n), the mean of a face's three vertex values.
 
@@ -248,6 +260,7 @@ def vertex_to_face(mesh: TriMesh) -> sp.csr_array:
 
 
 # ---------------------------------------------------------------------------- grad, div, L
+@takes_mesh
 def grad(mesh: TriMesh) -> sp.csr_array:
     """grad: sparse (3m, n), the PC gradient of a PL function (eqs. 27–28).
 
@@ -265,6 +278,7 @@ def grad(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("grad", build)
 
 
+@takes_mesh
 def div(mesh: TriMesh) -> sp.csr_array:
     """div = −[A_V]⁻¹ gradᵀ [A_F]: sparse (n, 3m), the weak divergence (eq. 29).
 
@@ -302,6 +316,7 @@ def _stiffness_local(mesh: TriMesh) -> np.ndarray:
     return mesh.cached("stiffness_local", build)
 
 
+@takes_mesh
 def stiffness(mesh: TriMesh) -> sp.csr_array:
     """W = gradᵀ [A_F] grad: the symmetric positive semidefinite cotangent matrix (n, n).
 
@@ -313,6 +328,7 @@ def stiffness(mesh: TriMesh) -> sp.csr_array:
     )
 
 
+@takes_mesh
 def laplacian(mesh: TriMesh) -> sp.csr_array:
     """L = −div grad = [A_V]⁻¹ gradᵀ [A_F] grad: sparse (n, n), pointwise (§3.1).
 
@@ -331,16 +347,19 @@ def laplacian(mesh: TriMesh) -> sp.csr_array:
 
 
 # ---------------------------------------------------------------------------- applied forms
+@takes_mesh
 def gradient(mesh: TriMesh, f: npt.ArrayLike) -> np.ndarray:
     """grad f as a per-face field: PL function (n,) -> tangent field (m, 3) (eq. 28)."""
     return (grad(mesh) @ as_vertex_function(mesh, f)).reshape(-1, 3)
 
 
+@takes_mesh
 def divergence(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
     """div u as a PL function: per-face field (m, 3) -> (n,) (eq. 29)."""
     return div(mesh) @ as_face_field(mesh, u, tangent="ignore").ravel()
 
 
+@takes_mesh
 def poisson_bracket(mesh: TriMesh, f: npt.ArrayLike, g: npt.ArrayLike) -> np.ndarray:
     """{f, g} = [J grad f]•ᵀ grad g: PC function (m,) (Theorem 1, eq. 60).
 
@@ -350,11 +369,13 @@ def poisson_bracket(mesh: TriMesh, f: npt.ArrayLike, g: npt.ArrayLike) -> np.nda
     return np.einsum("ij,ij->i", _cross(mesh.face_normals, gf), gg)
 
 
+@takes_mesh
 def vertex_to_face_values(mesh: TriMesh, f: npt.ArrayLike) -> np.ndarray:
     """I_F^V f: the mean of each face's vertex values, (n,) -> (m,)."""
     return vertex_to_face(mesh) @ as_vertex_function(mesh, f)
 
 
+@takes_mesh
 def face_to_vertex_values(mesh: TriMesh, f_faces: npt.ArrayLike) -> np.ndarray:
     """I_V^F 𝐟: area-weighted average of the faces around each vertex, (m,) -> (n,)."""
     return face_to_vertex(mesh) @ as_face_function(mesh, f_faces)

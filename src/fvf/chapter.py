@@ -2,7 +2,8 @@
 
 Every name here is a thin alias of the function that implements it (mesh first; fields
 as (m, 3) arrays; PL functions (n,); PC functions (m,)). Equation numbers refer to the
-chapter, restated in ``CHAPTER.md``; ``docs/operators.md`` has the full table.
+chapter, restated in ``docs/chapter.md`` (e.g. docs/chapter.md, eq. (36) for D_V);
+``docs/operators.md`` has the full table.
 
 =================  ==============================  =================================
 symbol             fvf function                    shape
@@ -16,24 +17,24 @@ I_FV = I_F^V       calculus.vertex_to_face         (m, n)
 L                  calculus.laplacian              (n, n)
 D_F, D_V (35–36)   operators.D_F, D_V              (m, n), (n, n)
 Dbar_F, Dbar_V     operators.Dbar_F, Dbar_V        (m, 3m), (n, 3m)
-Dtilde_F, _V (52)  divergence.Dtilde_F, _V         (n, m), (n, n)
-Dtilde_dual_F/_V   divergence.Dtilde_dual_F, _V    (n, 3m)
-bracket_V (46)     bracket.bracket_V               (n, n), 2-ring
-bracket_F (54)     bracket.bracket_F               (n, n), 1-ring
-B (55)             bracket.B                       (3m, 3m)
-ad (62–63)         bracket.ad                      (3n, 3m), fvf layout
+Dtilde_F, _V (52)  operators.Dtilde_F, _V          (n, m), (n, n)
+Dtilde_dual_F/_V   operators.Dtilde_dual_F, _V     (n, 3m)
+bracket_V (46)     operators.bracket_V             (n, n), 2-ring
+bracket_F (54)     operators.bracket_F             (n, n), 1-ring
+B (55)             operators.B                     (3m, 3m)
+ad (62–63)         operators.ad                    (3n, 3m), fvf layout
 poisson_bracket    calculus.poisson_bracket        (m,)
 flow (42)          flows.flow (method="chapter";   (n,) or (T, n)
                    upwind, skew, cayley, spectral)
 extract_field (40) operators.extract_field         (rows of D, 3)
 laplace_basis      spectral.laplace_basis          (k,), (n, k)
-killing_fields     killing.killing_fields          (count,), (count, m, 3)
-singularities      singularities.singularities     (s,), (s,)
-functional_map     fmaps.functional_map            (k, k)
-Ad (67)            transport.Ad                    (m, 3) or (T, m, 3)
-interpolate (68)   transport.interpolate           (m, 3) or (T, m, 3)
-rescale (65–66)    commuting.rescale               (n,)
-acap_fields        commuting.acap_fields           (k, m, 3)
+killing_fields     design.killing_fields           (count,), (count, m, 3)
+singularities      design.singularities            (s,), (s,)
+functional_map     spectral.functional_map         (k, k)
+Ad (67)            flows.Ad                        (m, 3) or (T, m, 3)
+interpolate (68)   flows.interpolate               (m, 3) or (T, m, 3)
+rescale (65–66)    design.rescale                  (n,)
+acap_fields        design.acap_fields              (k, m, 3)
 =================  ==============================  =================================
 """
 

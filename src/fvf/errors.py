@@ -23,6 +23,8 @@ __all__ = [
     "OrientationError",
     "MeshReadError",
     "PolygonTriangulatedWarning",
+    "MeshScaleError",
+    "DuplicateVertexWarning",
     "FieldError",
     "FieldShapeError",
     "FieldValueError",
@@ -47,9 +49,13 @@ __all__ = [
     "DataFileError",
     "DataKeyError",
     "MeshMismatchError",
+    "LegacyLayoutWarning",
     "MissingExtraError",
     "NoDisplayError",
     "RenderBackendWarning",
+    "OutputError",
+    "InputOverwriteError",
+    "OutputWriteError",
     "ParameterizationInputError",
     "FlippedParameterizationWarning",
     "QuadExtractionError",
@@ -105,6 +111,17 @@ class MeshReadError(FvfError):
 
 class PolygonTriangulatedWarning(FvfWarning):
     """The file had polygons with more than 3 vertices; they were fan-triangulated."""
+
+
+class MeshScaleError(MeshError):
+    """The coordinates are so large (or so small) that face areas overflow (or underflow)
+    float64; rescale the vertices."""
+
+
+class DuplicateVertexWarning(FvfWarning):
+    """Many vertices sit at the position of another vertex and the mesh falls apart into
+    pieces along them (a triangle soup, or a mesh split at UV seams); weld them with
+    :func:`fvf.remove_duplicate_vertices`."""
 
 
 # ---------------------------------------------------------------------------- functions and fields
@@ -217,6 +234,11 @@ class MeshMismatchError(DataFileError):
     """The mesh copy stored in a data file (``vertices``, ``faces``) differs from the mesh."""
 
 
+class LegacyLayoutWarning(FvfWarning):
+    """A data file stores several functions as rows, (k, n), the layout of files from
+    older fvf versions; it was read transposed, as (n, k), one column per function."""
+
+
 # ---------------------------------------------------------------------------- pictures
 class MissingExtraError(FvfError, ImportError):
     """A package of an optional extra (e.g. ``[viz]``: matplotlib, pillow, polyscope) is
@@ -231,14 +253,32 @@ class RenderBackendWarning(FvfWarning):
     """A rendering backend failed to start; fvf fell back to the next one."""
 
 
+# ---------------------------------------------------------------------------- output files
+class OutputError(FvfError):
+    """An output file cannot be written where asked (base class)."""
+
+
+class InputOverwriteError(OutputError):
+    """An output path is an input file of the same command (the same path, a hard link
+    or a symbolic link to it); fvf never replaces its inputs unless told to (``--force``,
+    ``overwrite_inputs=True``)."""
+
+
+class OutputWriteError(OutputError):
+    """Writing an output failed (disk full, file size limit, read-only file system, no
+    permission). Nothing was written: a file already at the path is unchanged."""
+
+
 def user_stacklevel() -> int:
     """The ``stacklevel`` for :func:`warnings.warn` that points at the first frame outside
     the fvf package (the user's call), however deep inside fvf the warning is raised."""
     import sys
     from pathlib import Path
+    from types import FrameType
 
     package = str(Path(__file__).resolve().parent)
-    frame, level = sys._getframe(1), 1  # the caller of user_stacklevel() is level 1
+    frame: FrameType | None = sys._getframe(1)  # the caller of user_stacklevel() is level 1
+    level = 1
     while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(package):
         frame, level = frame.f_back, level + 1
     return level
@@ -259,7 +299,7 @@ class QuadExtractionError(FvfError, RuntimeError):
     (flipped or degenerate uv triangles, a target too coarse for the topology)."""
 
 
-def format_indices(idx, limit: int = 8) -> str:
+def format_indices(idx: object, limit: int = 8) -> str:
     """Format an index list for an error message: the first few and a count.
 
     Parameters

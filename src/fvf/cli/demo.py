@@ -6,6 +6,11 @@ the stage function's source (the exact calls that made them, read with :mod:`ins
 Pictures need the optional extra (``pip install 'fvf[viz]'``); without it every stage
 still runs and reports its numbers, and its pictures are listed as skipped with the
 reason.
+
+Every file of the output folder is written atomically (:func:`fvf.io.atomic.atomic_path`),
+one after the other: a demo interrupted mid-way leaves the files it had completed (each
+whole) and no half-written one; ``summary.json`` and ``index.html`` come last, so their
+presence means the run finished.
 """
 
 from __future__ import annotations
@@ -18,15 +23,20 @@ import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..mesh.trimesh import TriMesh
+from ..io.atomic import atomic_path, atomic_write_text
 
 __all__ = ["demo"]
 
 _INSTALL = "pip install 'fvf[viz]'"
 
 
-def _stage(name: str):
+def _stage(name: str) -> float:
     print(f"[fvf demo] {name} ...", flush=True)
     return time.perf_counter()
 
@@ -57,12 +67,14 @@ class _Story:
         self.stages: list[dict] = []
         self.backend: str | None = None
 
-    def begin(self, title: str, fn) -> dict:
+    def begin(self, title: str, fn: object) -> dict:
         st = {"title": title, "numbers": {}, "pictures": [], "skipped": [], "code": fn}
         self.stages.append(st)
         return st
 
-    def picture(self, st: dict, name: str, mesh, caption: str, **kwargs) -> Path | None:
+    def picture(
+        self, st: dict, name: str, mesh: TriMesh, caption: str, **kwargs: Any
+    ) -> Path | None:
         """Render ``name`` into the output folder, or record why it was skipped."""
         if self.skip_reason is not None:
             st["skipped"].append(f"{name}: {self.skip_reason}")
@@ -76,7 +88,7 @@ class _Story:
         return info.path
 
 
-def _robust(f, signed: bool = True) -> tuple[float, float]:
+def _robust(f: np.ndarray, signed: bool = True) -> tuple[float, float]:
     """Colour limits at the 99th percentile of |f|: a few spikes (e.g. at the ears'
     tips) must not wash out the rest of the picture."""
     lim = float(np.percentile(np.abs(f), 99)) or 1.0
@@ -165,6 +177,7 @@ def _flow(s, story):
         import fvf.viz
 
         fine, v_fine, _ = fvf.viz.subdivide(mesh, s.v, levels=2)  # finer canvas for streaks
+        assert v_fine is not None  # a field was given
         lic = fvf.viz.lic_texture(fine, v_fine, method="upwind")
         story.picture(
             st, "fig03_lic.png", fine, "LIC of v: noise averaged along its flow", texture=lic
@@ -382,7 +395,8 @@ def _fig12(s, story):
     for f in frames:
         strip.paste(f, (x, 0))
         x += f.width
-    strip.save(story.out / "fig12_strip.png")
+    with atomic_path(story.out / "fig12_strip.png") as tmp:
+        strip.save(tmp, format="PNG")
     st["pictures"].append({"file": "fig12_strip.png", "caption": "the frames side by side"})
     fvf.viz.write_gif(files + files[-2:0:-1], story.out / "fig12_interpolation.gif", fps=4)
     st["pictures"].append({"file": "fig12_interpolation.gif", "caption": "animated (GIF)"})
@@ -487,7 +501,7 @@ def demo(
         print(f"[fvf demo] pictures skipped: {story.skip_reason}", flush=True)
     s = SimpleNamespace(mesh=mesh)
     for fn in STAGES:
-        t = _stage(fn.__doc__.splitlines()[0].rstrip("."))
+        t = _stage((fn.__doc__ or fn.__name__).splitlines()[0].rstrip("."))
         fn(s, story)
         story.stages[-1]["seconds"] = time.perf_counter() - t
     for st in story.stages:
@@ -499,12 +513,12 @@ def demo(
     report["pictures"] = [p["file"] for st in story.stages for p in st["pictures"]]
     report["backend"] = story.backend
     report["seconds"] = time.perf_counter() - t0
-    (out / "summary.json").write_text(json.dumps(report, indent=2))
-    np.savez(out / "fluid.npz", vorticity=s.fluid.vorticity, times=s.fluid.times)
-    np.savez(
-        out / "flow.npz", vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v
-    )
-    (out / "index.html").write_text(_html(report, story))
+    with atomic_path(out / "fluid.npz") as tmp:
+        np.savez(tmp, vorticity=s.fluid.vorticity, times=s.fluid.times)
+    with atomic_path(out / "flow.npz") as tmp:
+        np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v)
+    atomic_write_text(out / "summary.json", json.dumps(report, indent=2))
+    atomic_write_text(out / "index.html", _html(report, story))
     print(
         f"[fvf demo] done in {report['seconds']:.1f}s; wrote {out}/index.html, "
         f"{out}/summary.json and {len(report['pictures'])} pictures"

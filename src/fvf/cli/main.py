@@ -6,24 +6,48 @@ are documented in :mod:`fvf.fieldio` and ``docs/cli.md`` (``f`` vertex functions
 and ``u`` per-face fields, ``t`` times, ...).
 
 Exit status: 0 success; 1 ``fvf info`` found problems in the mesh; 2 bad input (a missing
-or unreadable file, an invalid mesh, wrong data keys or shapes, bad options); 3 a feature
-unavailable here (``fvf.viz`` or its ``[viz]`` extra missing, no display for ``view``);
-4 the computation failed (e.g. a flow overflowed). Errors are one line on stderr,
-``fvf: error: <cause>``; ``--debug`` shows the traceback instead. Warnings (fvf's
-:class:`~fvf.errors.FvfWarning`) are one line each, ``fvf: warning: <cause>``.
+or unreadable file, an invalid mesh, wrong data keys or shapes, bad options, an output
+that is an input); 3 a feature unavailable here (``fvf.viz`` or its ``[viz]`` extra
+missing, no display for ``view``); 4 the computation failed (e.g. a flow overflowed, out
+of memory); 5 an output could not be written (disk full, file size limit); 130 / 143
+interrupted (SIGINT / SIGTERM). Errors are one line on stderr, ``fvf: error: <cause>``;
+``--debug`` shows the traceback instead. Warnings (fvf's :class:`~fvf.errors.FvfWarning`)
+are one line each, ``fvf: warning: <cause>``.
+
+Files (``docs/files.md``): every output is written whole or not at all (a temporary file
+beside it, renamed when complete), and no command writes onto one of its inputs (also
+through a link) unless given ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import shlex
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
-__all__ = ["main", "EXIT_OK", "EXIT_PROBLEMS", "EXIT_BAD_INPUT", "EXIT_UNAVAILABLE", "EXIT_FAILED"]
+if TYPE_CHECKING:
+    from ..io.datafile import DataFile
+    from ..mesh.trimesh import TriMesh
+
+__all__ = [
+    "main",
+    "EXIT_OK",
+    "EXIT_PROBLEMS",
+    "EXIT_BAD_INPUT",
+    "EXIT_UNAVAILABLE",
+    "EXIT_FAILED",
+    "EXIT_GREW",
+    "EXIT_WRITE_FAILED",
+    "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
+]
 
 EXIT_OK = 0
 #: ``fvf info`` found problems in the mesh.
@@ -32,16 +56,33 @@ EXIT_PROBLEMS = 1
 EXIT_BAD_INPUT = 2
 #: The feature is not available here (fvf.viz or its extra missing, no display).
 EXIT_UNAVAILABLE = 3
-#: The computation failed (e.g. a flow overflowed to inf).
+#: The computation failed (e.g. a flow overflowed to inf, or memory ran out).
 EXIT_FAILED = 4
+#: An output could not be written (disk full, file size limit, read-only file system);
+#: a file already at the output path is unchanged.
+EXIT_WRITE_FAILED = 5
+#: A flow or transport grew a function or field beyond ``--growth-limit``: the output was
+#: written, but it is not a trustworthy result (``--growth-limit inf`` accepts it).
+EXIT_GREW = 6
+#: Interrupted by SIGINT (Ctrl-C) / terminated by SIGTERM; no output is half-written.
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 _EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input,
-3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed.
-Data files: .npz with keys f (n,)|(k,n), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md."""
+3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
+5 output not written (disk full...), 6 the result grew beyond --growth-limit (written;
+--growth-limit inf accepts it), 130/143 interrupted.
+Outputs are written whole or not at all, never onto an input (unless --force).
+Data files: .npz with keys f (n,)|(n,k), v (m,3), u (m,3), u1 (m,3), t (T,); see docs/cli.md.
+A key option can name another file: --field designed.npz:v. -o *.ply/.vtp/.vtu writes the
+results as mesh properties (ParaView, MeshLab); a .ply output is a valid fvf input."""
 
 
 _DEBUG = "show the traceback of an error instead of one line"
-_MERGE = "(or PLY properties); several files: a later one's keys replace an earlier one's"
+_MERGE = (
+    "(or PLY properties); several files: a later one's keys replace an earlier one's; a key "
+    "option may name its own file: --field other.npz:v"
+)
 
 
 def _version() -> str:
@@ -54,6 +95,34 @@ class Unavailable(RuntimeError):
     """A feature the command needs is not available on this machine."""
 
 
+#: A number on the command line: decimal, as in C (Python's float() would also take
+#: "1_0" as 10, and "nan", "inf", "infinity").
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _real(text: str) -> float:
+    """argparse type: a finite decimal number."""
+    if _DECIMAL.fullmatch(text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite decimal number (e.g. 0.5)")
+    return float(text)
+
+
+def _real_or_inf(text: str) -> float:
+    """argparse type: a finite decimal number or ``inf``."""
+    return float("inf") if text.strip().lower() in ("inf", "+inf") else _real(text)
+
+
+def _integer(text: str) -> int:
+    """argparse type: a decimal integer (no underscores)."""
+    if re.fullmatch(r"[+-]?[0-9]+", text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer (e.g. 50)")
+    return int(text)
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that outputs being written are cleaned up."""
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (exit status 2)."""
 
@@ -62,7 +131,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 # ---------------------------------------------------------------------------- helpers
-def _load_mesh(path: str):
+def _load_mesh(path: str) -> TriMesh:
     """The TriMesh of a mesh file; an invalid mesh's error points to ``fvf info``."""
     import fvf
 
@@ -73,7 +142,7 @@ def _load_mesh(path: str):
         raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
 
 
-def _load_data(paths: str | list[str], mesh):
+def _load_data(paths: str | list[str], mesh: TriMesh) -> DataFile:
     """One data file, or several merged (a later file's key replaces an earlier's)."""
     from fvf.io.datafile import DataFile, read_data
 
@@ -83,14 +152,68 @@ def _load_data(paths: str | list[str], mesh):
     return files[0] if len(files) == 1 else DataFile.merged(files)
 
 
+def _split_source(spec: str) -> tuple[str | None, str]:
+    """``FILE.npz:KEY`` -> (FILE.npz, KEY); a plain ``KEY`` -> (None, KEY)."""
+    from fvf.io.datafile import MESH_DATA_SUFFIXES
+
+    head, sep, key = spec.rpartition(":")
+    if sep and Path(head).suffix.lower() in (".npz", *MESH_DATA_SUFFIXES) and key:
+        return head, key
+    return None, spec
+
+
+class _Sources:
+    """The data files of a command, and keys named ``FILE.npz:KEY`` from other files
+    (read on first use, checked against the mesh, listed as inputs)."""
+
+    def __init__(self, args, mesh):
+        self.mesh, self.extra = mesh, {}
+        self.data = _load_data(args.data, mesh) if args.data else None
+        self.paths = list(args.data or [])
+
+    def _file(self, spec: str):
+        from fvf.io.datafile import read_data
+
+        path, key = _split_source(spec)
+        if path is None:
+            if self.data is None:
+                raise ValueError(
+                    f"no data file to read key {key!r} from: give a DATA file, or name the "
+                    f"file in the option, e.g. fields.npz:{key}"
+                )
+            return self.data, key
+        if path not in self.extra:
+            self.extra[path] = read_data(path, self.mesh)
+            self.paths.append(path)
+        return self.extra[path], key
+
+    def has(self, spec: str) -> bool:
+        path, key = _split_source(spec)
+        if path is not None:
+            return True
+        return self.data is not None and key in self.data
+
+    def field(self, spec: str):
+        data, key = self._file(spec)
+        return data.field(key, self.mesh)
+
+    def functions(self, spec: str):
+        data, key = self._file(spec)
+        return data.functions(key, self.mesh)
+
+    def select(self, spec: str):
+        data, key = self._file(spec)
+        return data, data.select(key, self.mesh.n_vertices)
+
+
 def _times(args, data):
     """The times of ``--t``, else the data file's ``t``: float64 (T,)."""
     import numpy as np
 
     if args.t:
         try:
-            values = [float(x) for item in args.t for x in item.split(",") if x.strip()]
-        except ValueError:
+            values = [_real(x) for item in args.t for x in item.split(",") if x.strip()]
+        except argparse.ArgumentTypeError:
             values = []
         if not values or not np.isfinite(values).all():
             raise ValueError(
@@ -115,6 +238,33 @@ def _viz():
     return viz
 
 
+_KEY_OPTIONS = ("field", "function", "first", "second", "transported", "to")
+
+
+def _inputs(args) -> list:
+    """Every file a command reads: the mesh, the data files, the constraints, and the
+    files named in ``FILE.npz:KEY`` options."""
+    data = getattr(args, "data", None) or []
+    data = [data] if isinstance(data, str) else list(data)
+    named = [_split_source(getattr(args, o, None) or "")[0] for o in _KEY_OPTIONS]
+    return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None), *named]
+
+
+def _check_outputs(args, *outputs) -> None:
+    """Refuse, before any work, outputs that are inputs (unless --force)."""
+    from fvf.io.atomic import check_not_input
+
+    for option, path in outputs:
+        if path is not None:
+            check_not_input(path, _inputs(args), force=args.force, option=option)
+
+
+def _data_output(args) -> tuple[str, str]:
+    from fvf.io.datafile import data_path
+
+    return "-o", str(data_path(args.output))
+
+
 def _write(args, out, arrays, mesh, inputs=()):
     import numpy as np
 
@@ -129,7 +279,13 @@ def _write(args, out, arrays, mesh, inputs=()):
             )
 
     path = write_data(
-        out, arrays, mesh=mesh, mesh_path=args.mesh, command=args.command_line, inputs=inputs
+        out,
+        arrays,
+        mesh=mesh,
+        mesh_path=args.mesh,
+        command=args.command_line,
+        inputs=inputs,
+        overwrite_inputs=args.force,
     )
     shapes = ", ".join(f"{k} {tuple(v.shape)}" for k, v in arrays.items() if v.ndim)
     print(f"wrote {path}: {shapes}")
@@ -168,18 +324,73 @@ def info(path: str, as_json: bool = False) -> dict:
     for hint in report.get("hints", []):
         print(f"  hint: {hint}")
     for problem in report["problems"]:
-        print(f"  problem: {problem}")
+        print(f"  problem: {_shell_fix(problem)}")
     if not report["problems"]:
         print("  no problems found")
+    elif _repairable(report):
+        fixed = Path(path).stem + "_fixed" + Path(path).suffix
+        print(f"  fix: fvf repair {shlex.quote(str(path))} -o {shlex.quote(fixed)}")
     return report
 
 
-def _cmd_info(args) -> int:
+def _shell_fix(problem: str) -> str:
+    """A problem line whose Python fix names repair steps, told for the shell instead."""
+    from fvf.mesh.repair import REPAIR_STEPS
+
+    text, sep, fix = problem.partition(" Fix: ")
+    steps = re.findall(r"fvf\.(\w+)\(", fix)
+    if not sep or not steps or not all(step in REPAIR_STEPS for step in steps):
+        return problem
+    return f"{text} Fixed by `fvf repair` (step {', '.join(dict.fromkeys(steps))})."
+
+
+def _repairable(report: dict) -> bool:
+    """Whether ``fvf repair`` addresses the problems (all but non-finite coordinates,
+    bad shapes and non-orientable surfaces)."""
+    fixable = ("Unreferenced", "Duplicate", "Degenerate", "NonManifold", "Orientation")
+    return any(p.split(":")[0].startswith(fixable) for p in report["problems"])
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
     report = info(args.mesh, args.json)
     return EXIT_OK if not report["problems"] else EXIT_PROBLEMS
 
 
-def _cmd_demo(args) -> int:
+def _cmd_repair(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    import fvf
+    from fvf.io.atomic import atomic_path
+
+    out = Path(args.output)
+    maps = out.with_name(out.stem + ".maps.npz")
+    _check_outputs(args, ("-o", str(out)), ("the index maps", str(maps)))
+    V, F = fvf.read_mesh(args.mesh)
+    result = fvf.repair_mesh(V, F, tol=args.tol)
+    mesh = result.mesh  # the repaired mesh must be valid (else: what is left, status 2)
+    fvf.write_mesh(out, mesh.vertices, mesh.faces)
+    with atomic_path(maps) as tmp:
+        np.savez(
+            tmp,
+            vertex_origin=result.vertex_origin,
+            vertex_map=result.vertex_map,
+            face_origin=result.face_origin,
+            face_map=result.face_map,
+            flipped=result.flipped,
+            log=np.array(list(result.log) or ["nothing to repair"]),
+            mesh_path=np.array(str(Path(args.mesh).resolve())),
+            command=np.array(args.command_line),
+        )
+    for line in result.log or ("nothing to repair",):
+        print(f"  {line}")
+    print(
+        f"wrote {out} ({mesh.n_vertices} vertices, {mesh.n_faces} faces) and {maps} "
+        "(vertex_origin, vertex_map, face_origin, face_map, flipped: old <-> new indices)"
+    )
+    return EXIT_OK
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
     from fvf.cli.demo import demo
 
     demo(args.mesh, Path(args.out))
@@ -194,14 +405,15 @@ _FLOW_OPTIONS = {
 }
 
 
-def _cmd_flow(args) -> int:
+def _cmd_flow(args: argparse.Namespace) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args), ("--png", args.png))
     viz = _viz() if args.png else None
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, f = data.field(args.field, mesh), data.functions(args.function, mesh)
-    t = _times(args, data)
+    src = _Sources(args, mesh)
+    v, f = src.field(args.field), src.functions(args.function)
+    t = _times(args, src.data)
     options = {}
     for name, methods in _FLOW_OPTIONS.items():
         if getattr(args, name) is None:
@@ -212,23 +424,23 @@ def _cmd_flow(args) -> int:
                 f"{flag} applies to --method {' or '.join(methods)}, not {args.method!r}"
             )
         options[name] = getattr(args, name)
-    f_t = fvf.flow(mesh, v, f.T, t, method=args.method, **options)  # (T, n) or (T, n, k)
-    f_t = f_t if f.ndim == 1 else f_t.transpose(0, 2, 1)  # (T, k, n): rows are functions
+    f_t = fvf.flow(mesh, v, f, t, method=args.method, **options)  # (T, n) or (T, n, k)
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
-    _write(args, args.output, arrays, mesh, args.data)
+    _write(args, args.output, arrays, mesh, src.paths)
     if viz is not None:
-        last = f_t[-1] if f.ndim == 1 else f_t[-1, 0]
+        last = f_t[-1] if f.ndim == 1 else f_t[-1, :, 0]
         title = f"flow ({args.method}) at t = {t[-1]:g}"
         _render(viz, mesh, args.png, function=last, field=v, title=title)
     return EXIT_OK
 
 
-def _cmd_bracket(args) -> int:
+def _cmd_bracket(args: argparse.Namespace) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, w = data.field(args.first, mesh), data.field(args.second, mesh)
+    src = _Sources(args, mesh)
+    v, w = src.field(args.first), src.field(args.second)
     commutator = fvf.commutator_field(mesh, v, w)  # (n, 3), eq. 54 applied to X
     arrays = {
         "v": v,
@@ -239,36 +451,40 @@ def _cmd_bracket(args) -> int:
         "bracket_norm": fvf.bracket_norm(mesh, v, w, where="vertex"),
         "bracket_norm_face": fvf.bracket_norm(mesh, v, w, where="face"),
     }
-    if args.function is not None or "f" in data:
-        f = data.functions(args.function or "f", mesh)
+    if args.function is not None or src.has("f"):
+        f = src.functions(args.function or "f")
         arrays["f"] = f
-        arrays["bracket_F_f"] = (fvf.bracket_F(mesh, v, w) @ f.T).T  # eq. 54
-        arrays["bracket_V_f"] = (fvf.bracket_V(mesh, v, w) @ f.T).T  # eq. 46
-    _write(args, args.output, arrays, mesh, args.data)
+        arrays["bracket_F_f"] = fvf.bracket_F(mesh, v, w) @ f  # eq. 54, shape of f
+        arrays["bracket_V_f"] = fvf.bracket_V(mesh, v, w) @ f  # eq. 46
+    _write(args, args.output, arrays, mesh, src.paths)
     return EXIT_OK
 
 
-def _cmd_transport(args) -> int:
+def _cmd_transport(args: argparse.Namespace) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
-    data = _load_data(args.data, mesh)
-    v, u = data.field(args.field, mesh), data.field(args.transported, mesh)
-    t = _times(args, data)
+    src = _Sources(args, mesh)
+    v, u = src.field(args.field), src.field(args.transported)
+    t = _times(args, src.data)
+    growth = {} if args.growth_limit is None else {"growth_limit": args.growth_limit}
     arrays = {"v": v, "u": u, "t": t}
-    if args.to is not None or "u1" in data:
-        u1 = data.field(args.to or "u1", mesh)
-        arrays.update(u1=u1, u_t=fvf.interpolate(mesh, v, u, u1, t), mode=_str("interpolate"))
+    if args.to is not None or src.has("u1"):
+        u1 = src.field(args.to or "u1")
+        u_t = fvf.interpolate(mesh, v, u, u1, t, **growth)
+        arrays.update(u1=u1, u_t=u_t, mode=_str("interpolate"))
     else:
-        result = fvf.FieldTransport(mesh, v)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
+        result = fvf.FieldTransport(mesh, v, **growth)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
-    _write(args, args.output, arrays, mesh, args.data)
+    _write(args, args.output, arrays, mesh, src.paths)
     return EXIT_OK
 
 
-def _cmd_design(args) -> int:
+def _cmd_design(args: argparse.Namespace) -> int:
     import fvf
 
+    _check_outputs(args, _data_output(args))
     mesh = _load_mesh(args.mesh)
     arrays, inputs, kwargs = {}, [], {"hard": args.hard, "kind": args.kind}
     kwargs["normalize"] = not args.keep_length
@@ -312,11 +528,9 @@ def _cmd_quad(args) -> int:
     import fvf
     from fvf.io.meshfile import write_quad_mesh, write_uv_mesh
 
+    _check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
     mesh = _load_mesh(args.mesh)
-    field = None
-    if args.field:
-        data = _load_data(args.field, mesh)
-        field = _numbers_of(data, args.field_key, [(mesh.n_faces, 3)])
+    field = _Sources(args, mesh).field(args.field) if args.field else None
     t0 = time.perf_counter()
 
     def progress(message: str) -> None:
@@ -368,15 +582,16 @@ def _display_arrays(args, mesh):
     import fvf
 
     kwargs = {}
-    data = _load_data(args.data, mesh) if args.data else None
-    if data is None and (args.function or args.field or args.singularities):
-        raise ValueError("--function, --field and --singularities need a DATA file")
+    src = _Sources(args, mesh)
+    data = src.data
+    if args.singularities and data is None and not args.field:
+        raise ValueError("--singularities needs a DATA file or a --field")
     if args.function:
-        kwargs["function"] = _numbers_of(data, args.function, [(mesh.n_vertices,), (mesh.n_faces,)])
+        kwargs["function"] = _numbers_of(src, args.function, [(mesh.n_vertices,), (mesh.n_faces,)])
     if args.field:
-        kwargs["field"] = _numbers_of(data, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
+        kwargs["field"] = _numbers_of(src, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
     if args.singularities:
-        if "singularity_positions" in data and "singularity_indices" in data:
+        if data is not None and "singularity_positions" in data and "singularity_indices" in data:
             pos = data.numbers("singularity_positions", (None, 3))
             idx = data.integers("singularity_indices", (pos.shape[0],))
         elif "field" in kwargs and kwargs["field"].shape[0] == mesh.n_faces:
@@ -394,20 +609,22 @@ def _display_arrays(args, mesh):
     return kwargs, args.data
 
 
-def _numbers_of(data, spec, shapes):
+def _numbers_of(src, spec, shapes):
     from fvf.errors import FieldShapeError
 
-    a = data.select(spec)
+    data, a = src.select(spec)
     if a.dtype.kind not in "fiu" or a.shape not in shapes:
         want = " or ".join(str(s) for s in shapes)
         raise FieldShapeError(
             f"{data.path}: {spec!r} has dtype {a.dtype} and shape {a.shape}, expected real "
-            f"numbers of shape {want} (select one row with KEY[i])"
+            f"numbers of shape {want} (select a time with KEY[i], a function with "
+            "KEY[:, j] or KEY[i, :, j])"
         )
     return a.astype(float)
 
 
-def _cmd_render(args) -> int:
+def _cmd_render(args: argparse.Namespace) -> int:
+    _check_outputs(args, ("-o", args.output))
     viz = _viz()
     quads = None if args.data else _quad_file(args.mesh)
     if quads is not None:  # a quad mesh: shading, wireframe, irregular vertices by valence
@@ -431,7 +648,7 @@ def _cmd_render(args) -> int:
     return EXIT_OK
 
 
-def _cmd_view(args) -> int:
+def _cmd_view(args: argparse.Namespace) -> int:
     viz = _viz()
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
@@ -442,7 +659,7 @@ def _cmd_view(args) -> int:
     return EXIT_OK
 
 
-def _str(s: str):
+def _str(s: str) -> Any:
     import numpy as np
 
     return np.array(s)
@@ -455,7 +672,7 @@ def _array(x):
 
 
 # ---------------------------------------------------------------------------- parser
-def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
+def _add(sub: Any, name: str, help: str, example: str) -> argparse.ArgumentParser:
     p = sub.add_parser(
         name,
         help=help,
@@ -466,6 +683,17 @@ def _add(sub, name: str, help: str, example: str) -> argparse.ArgumentParser:
     # --debug after the command too (SUPPRESS keeps the top-level value when absent)
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG)
     return p
+
+
+def _add_output(p: argparse.ArgumentParser, help: str) -> None:
+    """``-o/--output`` and ``--force`` (allow the output to be an input)."""
+    p.add_argument("-o", "--output", required=True, help=help)
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="allow an output to replace an input file (refused by default); a link there "
+        "is replaced, never written through",
+    )
 
 
 def _add_display_options(p: argparse.ArgumentParser) -> None:
@@ -517,20 +745,38 @@ def parser() -> argparse.ArgumentParser:
 
     p = _add(
         sub,
+        "repair",
+        "repair a mesh (fvf.repair_mesh): weld, drop unreferenced vertices, degenerate and "
+        "duplicate faces, split non-manifold edges and vertices, orient; writes the index maps",
+        "fvf repair scan.obj -o scan_fixed.obj   (maps: scan_fixed.maps.npz)",
+    )
+    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument(
+        "--tol", type=_real, default=0.0, help="weld vertices closer than this (default 0)"
+    )
+    _add_output(p, "repaired mesh (.obj, .off, .ply); the maps go to <stem>.maps.npz beside it")
+    p.set_defaults(run=_cmd_repair)
+
+    p = _add(
+        sub,
         "flow",
         "flow vertex functions along a per-face field: f(t) = Phi_{v,t} f (eq. 42, fvf.flow)",
         "fvf flow mesh.obj field.npz --t 0 0.5 1 --method upwind -o flowed.npz --png f.png",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys f (n,)|(k,n), v (m,3) " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys f (n,)|(n,k), v (m,3) " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times, e.g. --t 0 0.5 1 (or key t)")
     p.add_argument("--method", choices=METHODS, default="chapter", help="default: chapter")
     p.add_argument("--function", default="f", metavar="KEY", help="function key (default f)")
     p.add_argument("--field", default="v", metavar="KEY", help="field key (default v)")
-    p.add_argument("--k", type=int, help="eigenfunctions of --method spectral (default 50)")
-    p.add_argument("--dt", type=float, help="step length of --method cayley")
-    p.add_argument("--growth-limit", type=float, help="warn above this norm growth")
-    p.add_argument("-o", "--output", required=True, help="output .npz (keys f_t (T,n)|(T,k,n))")
+    p.add_argument("--k", type=_integer, help="eigenfunctions of --method spectral (default 50)")
+    p.add_argument("--dt", type=_real, help="step length of --method cayley")
+    p.add_argument(
+        "--growth-limit",
+        type=_real_or_inf,
+        help="exit 6 above this norm growth (>= 1; default 100; inf: never)",
+    )
+    _add_output(p, "output .npz (keys f_t (T,n)|(T,n,k)), or .ply/.vtp/.vtu")
     p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
     p.set_defaults(run=_cmd_flow)
 
@@ -541,11 +787,11 @@ def parser() -> argparse.ArgumentParser:
         "fvf bracket mesh.obj fields.npz -o bracket.npz   (fields.npz: v, u; optional f)",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, f] " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, f] " + _MERGE)
     p.add_argument("--first", default="v", metavar="KEY", help="first field key (default v)")
     p.add_argument("--second", default="u", metavar="KEY", help="second field key (default u)")
     p.add_argument("--function", metavar="KEY", help="functions to apply both brackets to")
-    p.add_argument("-o", "--output", required=True, help="output .npz")
+    _add_output(p, "output .npz")
     p.set_defaults(run=_cmd_bracket)
 
     p = _add(
@@ -555,12 +801,17 @@ def parser() -> argparse.ArgumentParser:
         "fvf transport mesh.obj fields.npz --t 0 0.25 0.5 -o moved.npz   (keys v, u [, u1])",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
-    p.add_argument("data", nargs="+", help=".npz with keys v, u (m,3) [, u1] " + _MERGE)
+    p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, u1] " + _MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times (interpolation: in [0, 1])")
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
     p.add_argument("--transported", default="u", metavar="KEY", help="moved field (default u)")
     p.add_argument("--to", metavar="KEY", help="end field: interpolate (default u1 if present)")
-    p.add_argument("-o", "--output", required=True, help="output .npz (key u_t (T,m,3))")
+    p.add_argument(
+        "--growth-limit",
+        type=_real_or_inf,
+        help="exit 6 above this L2 growth (>= 1; default 100; inf: never)",
+    )
+    _add_output(p, "output .npz (key u_t (T,m,3))")
     p.set_defaults(run=_cmd_transport)
 
     p = _add(
@@ -574,11 +825,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--soft", type=float, metavar="W", help="soft weight of every constraint")
+    mode.add_argument("--soft", type=_real, metavar="W", help="soft weight of every constraint")
     mode.add_argument("--hard", action="store_true", help="meet the constraints exactly")
     p.add_argument("--kind", choices=("knoppel", "singer_wu"), default="knoppel")
     p.add_argument("--keep-length", action="store_true", help="don't normalize directions")
-    p.add_argument("-o", "--output", required=True, help="output .npz (keys v, singularity_*)")
+    _add_output(p, "output .npz (keys v, singularity_*)")
     p.set_defaults(run=_cmd_design)
 
     p = _add(
@@ -589,14 +840,14 @@ def parser() -> argparse.ArgumentParser:
         "fvf render mesh.obj designed.npz --field v --singularities -o field.png",
     )
     _add_display_options(p)
-    p.add_argument("-o", "--output", required=True, help="output PNG")
+    _add_output(p, "output PNG")
     p.add_argument("--cmap", help="matplotlib colormap name (default viridis)")
-    p.add_argument("--clim", nargs=2, type=float, metavar=("LO", "HI"), help="color range")
-    p.add_argument("--arrow-scale", type=float, help="arrow length per unit field (absolute)")
-    p.add_argument("--size", nargs=2, type=int, metavar=("W", "H"), help="pixels (800 600)")
+    p.add_argument("--clim", nargs=2, type=_real, metavar=("LO", "HI"), help="color range")
+    p.add_argument("--arrow-scale", type=_real, help="arrow length per unit field (absolute)")
+    p.add_argument("--size", nargs=2, type=_integer, metavar=("W", "H"), help="pixels (800 600)")
     p.add_argument("--title", help="picture title")
-    p.add_argument("--view", nargs=2, type=float, metavar=("AZ", "EL"), help="camera, degrees")
-    p.add_argument("--max-arrows", type=int, help="arrows at about this many faces (1500)")
+    p.add_argument("--view", nargs=2, type=_real, metavar=("AZ", "EL"), help="camera, degrees")
+    p.add_argument("--max-arrows", type=_integer, help="arrows at about this many faces (1500)")
     p.add_argument("--backend", help="auto (default), polyscope-egl or matplotlib")
     p.set_defaults(run=_cmd_render)
 
@@ -605,19 +856,24 @@ def parser() -> argparse.ArgumentParser:
         "quad",
         "quad mesh along a cross field: seamless parameterization and integer-grid "
         "extraction (fvf.quad_mesh)",
-        "fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj",
+        "fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
+        "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
     )
     p.add_argument("mesh", help="closed OBJ, OFF or PLY triangle mesh")
-    p.add_argument("--faces", type=int, required=True, metavar="N", help="target quad count")
+    p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
+    p.add_argument("--faces", type=_integer, required=True, metavar="N", help="target quads")
     p.add_argument(
         "--align",
         choices=("curvature", "smooth"),
         default="curvature",
         help="default cross field: curvature aligned (default) or smoothest",
     )
-    p.add_argument("--field", metavar="NPZ", help=".npz with a cross field (m,3) per face")
-    p.add_argument("--field-key", default="v", metavar="KEY", help="its key (default v)")
-    p.add_argument("-o", "--output", required=True, help="output quad mesh (.obj or .off)")
+    p.add_argument(
+        "--field",
+        metavar="KEY",
+        help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
+    )
+    _add_output(p, "output quad mesh (.obj or .off)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
     p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
     p.set_defaults(run=_cmd_quad)
@@ -643,21 +899,46 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split()) or type(exc).__name__
 
 
+#: Python spellings in the library's messages and the command's options that say the same.
+_CLI_SPELLINGS = (
+    ("pass growth_limit=np.inf to accept it", "pass --growth-limit inf to accept it"),
+    ("pass growth_limit=np.inf to silence this", "pass --growth-limit inf to accept it"),
+    ("growth_limit=np.inf", "--growth-limit inf"),
+    ("method='upwind'", "--method upwind"),
+    ("raise max_products", "shorten --t"),
+)
+
+
+def _cli_words(text: str) -> str:
+    """A library message in the command's words (its options, not Python keywords)."""
+    for python, cli in _CLI_SPELLINGS:
+        text = text.replace(python, cli)
+    return text
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    text = f"fvf: warning: {category.__name__}: {' '.join(str(message).split())}"
+    from fvf.errors import FlowGrowthWarning
+
+    if issubclass(category, FlowGrowthWarning):
+        _GREW.append(str(message))
+    text = f"fvf: warning: {category.__name__}: {_cli_words(' '.join(str(message).split()))}"
     if text not in _SHOWN:  # once per distinct message, wherever it was raised
         _SHOWN.add(text)
         print(text, file=sys.stderr)
 
 
 _SHOWN: set[str] = set()
+_GREW: list[str] = []
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the ``fvf`` command with ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
     Exit status: :data:`EXIT_OK` (0), :data:`EXIT_PROBLEMS` (1, ``info`` found problems),
-    :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3), :data:`EXIT_FAILED` (4).
+    :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3), :data:`EXIT_FAILED` (4),
+    :data:`EXIT_WRITE_FAILED` (5), :data:`EXIT_GREW` (6, a flow grew beyond
+    ``--growth-limit``; the output was written), :data:`EXIT_INTERRUPTED` (130),
+    :data:`EXIT_TERMINATED` (143).
     """
     import numpy as np
 
@@ -667,28 +948,74 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a usage error (2), already printed
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
+    args.force = getattr(args, "force", False)
     _SHOWN.clear()
-    with warnings.catch_warnings():
+    _GREW.clear()
+    from fvf.errors import OutputWriteError
+
+    with warnings.catch_warnings(), _terminate_cleanly():
         warnings.simplefilter("default")
         warnings.showwarning = _show_warning
         try:
-            return args.run(args)
+            status = args.run(args)
+            if status == EXIT_OK and _GREW:
+                print(
+                    "fvf: error: the result grew beyond --growth-limit (see the warning); it "
+                    "was written, but do not trust it: use --method upwind (bounded on every "
+                    "mesh, with or without boundary), shorter times, or pass --growth-limit "
+                    "inf to accept it",
+                    file=sys.stderr,
+                )
+                return EXIT_GREW
+            return status
         except Exception as exc:
             if args.debug:
                 raise
-            if isinstance(exc, (Unavailable, ImportError)):
+            if isinstance(exc, OutputWriteError):
+                status = EXIT_WRITE_FAILED
+            elif isinstance(exc, (Unavailable, ImportError)):
                 status = EXIT_UNAVAILABLE
             elif isinstance(exc, (FloatingPointError, np.linalg.LinAlgError, RuntimeError)):
+                status = EXIT_FAILED
+            elif isinstance(exc, MemoryError):
+                exc = MemoryError(
+                    f"out of memory ({exc or 'allocation failed'}); use a smaller "
+                    "mesh, fewer times or fewer functions"
+                )
                 status = EXIT_FAILED
             elif isinstance(exc, (ValueError, OSError, KeyError)):
                 status = EXIT_BAD_INPUT
             else:
                 raise
-            print(f"fvf: error: {_one_line(exc)}", file=sys.stderr)
+            print(f"fvf: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
             return status
         except KeyboardInterrupt:
-            print("fvf: interrupted", file=sys.stderr)
-            return 130
+            print("fvf: interrupted; no output was half-written", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except _Terminated:
+            print("fvf: terminated; no output was half-written", file=sys.stderr)
+            return EXIT_TERMINATED
+
+
+class _terminate_cleanly:
+    """While a command runs in the main thread, SIGTERM raises :class:`_Terminated` (so
+    the temporary file of an output being written is removed) instead of killing the
+    process outright; the previous handler is restored afterwards."""
+
+    def __enter__(self):
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGTERM, self._raise)
+        return self
+
+    @staticmethod
+    def _raise(signum, frame):
+        raise _Terminated()
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+        return False
 
 
 if __name__ == "__main__":  # pragma: no cover

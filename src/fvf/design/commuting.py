@@ -8,7 +8,7 @@ output is a vertex field measured in the A_V inner product:
 from __future__ import annotations
 
 import warnings
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -16,6 +16,7 @@ import scipy.sparse as sp
 
 from ..calculus import field_product, stiffness, vertex_to_face
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
@@ -37,17 +38,18 @@ def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(np.repeat(mesh.vertex_areas, 3)))
 
 
-def _weight(x, name: str) -> float:
+def _weight(x: object, name: str) -> float:
     """A finite weight >= 0, else :class:`~fvf.errors.ParameterError`."""
     try:
-        x = float(x)
+        value = float(x)  # type: ignore[arg-type]  # any failure is reported below
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}") from exc
-    if not (np.isfinite(x) and x >= 0):
-        raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}")
-    return x
+    if not (np.isfinite(value) and value >= 0):
+        raise ParameterError(f"{name} must be a finite number >= 0; got {value!r}")
+    return value
 
 
+@takes_mesh
 def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.csr_array:
     """F(v, u) = ad_v [u]• I_F^V: sparse (3n, n), f ↦ [v, f u] as a vertex field (eq. 65)."""
     v = as_face_field(mesh, v, "v")
@@ -55,6 +57,25 @@ def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.
     return (ad(mesh, v, tangent="ignore") @ (field_product(mesh, u) @ vertex_to_face(mesh))).tocsr()
 
 
+@overload
+def rescale(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    alpha: float,
+    *,
+    return_energy: Literal[False] = ...,
+) -> np.ndarray: ...
+@overload
+def rescale(
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    u: npt.ArrayLike,
+    alpha: float,
+    *,
+    return_energy: Literal[True],
+) -> tuple[np.ndarray, float]: ...
+@takes_mesh
 def rescale(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -62,7 +83,7 @@ def rescale(
     alpha: float,
     *,
     return_energy: bool = False,
-):
+) -> np.ndarray | tuple[np.ndarray, float]:
     """Commutation-guided rescaling: the f minimizing ½‖[v, f u]‖² + (α/2)‖∇f‖², ∫f² = 1.
 
     Solves the generalized eigenproblem (eqs. 65–66) for the smallest eigenpair of
@@ -96,6 +117,7 @@ def rescale(
     return (f, 0.5 * float(lam[0])) if return_energy else f
 
 
+@takes_mesh
 def acap_energy_matrix(
     mesh: TriMesh, v: npt.ArrayLike, lam: float, kind: ConnectionKind = "knoppel"
 ) -> sp.csr_array:
@@ -116,6 +138,7 @@ def acap_energy_matrix(
     return (0.5 * (E + E.T)).tocsr()
 
 
+@takes_mesh
 def acap_fields(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -95,7 +95,7 @@ restricts to tangent fields as E_B = Bᵀ E B (the chapter's §4.4.2 notation).
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -105,6 +105,7 @@ import scipy.sparse.linalg as spla
 
 from ..calculus import _freeze, face_rows_csr
 from ..errors import FieldShapeError, FvfError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh, _cross, _readonly
 from ..operators.directional import centered_vertices
@@ -141,10 +142,10 @@ _FOLDED_ALIGNMENT = 1e-3
 _DENSE_FACES = 600
 
 
-def _check_kind(kind: str) -> str:
+def _check_kind(kind: str) -> ConnectionKind:
     if kind not in KINDS:
         raise FvfError(f"kind must be one of {KINDS}; got {kind!r}.")
-    return kind
+    return cast(ConnectionKind, kind)
 
 
 def _frame_coords(mesh: TriMesh, faces: np.ndarray, vec: np.ndarray) -> np.ndarray:
@@ -189,7 +190,7 @@ def _knoppel_pairs(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.stack([s, t], axis=1), r, w
 
 
-def _singer_wu_geometry(mesh: TriMesh):
+def _singer_wu_geometry(mesh: TriMesh) -> tuple[np.ndarray, ...]:
     """1-ring face pairs, transports, Gaussian kernels and displacements."""
     m, n = mesh.n_faces, mesh.n_vertices
     inc = sp.csr_array(
@@ -275,7 +276,7 @@ def _moment_shares(mesh: TriMesh, faces: np.ndarray, kern: np.ndarray, d: np.nda
     return (1.0 - tau) * moment_share + tau * trace_share
 
 
-def _build_pairs(mesh: TriMesh, kind: str):
+def _build_pairs(mesh: TriMesh, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if kind == "knoppel":
         pairs, r, w = _knoppel_pairs(mesh)
     else:
@@ -287,6 +288,7 @@ def _build_pairs(mesh: TriMesh, kind: str):
     return _readonly(pairs), _readonly(r), _readonly(w)
 
 
+@takes_mesh
 def connection_pairs(
     mesh: TriMesh, kind: ConnectionKind = "knoppel"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -318,6 +320,7 @@ def connection_pairs(
     return mesh.cached(f"connection_pairs:{kind}", lambda: _build_pairs(mesh, kind))
 
 
+@takes_mesh
 def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.csr_array:
     """The face connection Laplacian L: complex Hermitian PSD, sparse (m, m).
 
@@ -371,6 +374,7 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
     return mesh.cached(f"connection_laplacian:{kind}", build)
 
 
+@takes_mesh
 def sample_points(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> np.ndarray:
     """Where the coefficient z_t of each face is read as a sample of a smooth field, (m, 3).
 
@@ -419,6 +423,7 @@ def real_to_complex(a: npt.ArrayLike) -> np.ndarray:
     return a[:, 0] + 1j * a[:, 1]
 
 
+@takes_mesh
 def real_connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.csr_array:
     """The real symmetric PSD form of :func:`connection_laplacian`, sparse float64 (2m, 2m).
 
@@ -432,6 +437,7 @@ def real_connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -
     )
 
 
+@takes_mesh
 def connection_mass(mesh: TriMesh, real: bool = False) -> sp.csr_array:
     """[A_F]: the face-area mass of the connection Laplacian, diagonal sparse float64.
 
@@ -452,6 +458,7 @@ def connection_mass(mesh: TriMesh, real: bool = False) -> sp.csr_array:
     )
 
 
+@takes_mesh
 def connection_energy(mesh: TriMesh, u: npt.ArrayLike, kind: ConnectionKind = "knoppel") -> float:
     """E(u) = z^* L z for a per-face field u (m, 3) (normal components projected away).
 
@@ -466,6 +473,7 @@ def connection_energy(mesh: TriMesh, u: npt.ArrayLike, kind: ConnectionKind = "k
 
 
 # ---------------------------------------------------------------------------- tangent basis
+@takes_mesh
 def tangent_basis_matrix(mesh: TriMesh) -> sp.csr_array:
     """B: the orthonormal per-face tangent basis as a sparse float64 (3m, 2m) matrix.
 
@@ -483,7 +491,8 @@ def tangent_basis_matrix(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("tangent_basis_matrix", build)
 
 
-def restrict_to_tangent(mesh: TriMesh, E):
+@takes_mesh
+def restrict_to_tangent(mesh: TriMesh, E: Any) -> Any:
     """E_B = Bᵀ E B: an energy on flattened fields (3m, 3m) restricted to tangent fields.
 
     Parameters
@@ -538,6 +547,7 @@ def _complex_ritz(
     return lam[:count], Q @ Y[:, :count]
 
 
+@takes_mesh
 def smoothest_fields(
     mesh: TriMesh, count: int, kind: ConnectionKind = "knoppel"
 ) -> tuple[np.ndarray, np.ndarray]:

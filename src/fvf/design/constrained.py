@@ -52,6 +52,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     ZeroDirectionError,
     format_indices,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .connection import ConnectionKind, _check_kind, connection_laplacian, smoothest_fields
 
@@ -117,6 +118,7 @@ def _as_vectors(a: npt.ArrayLike, k: int, name: str) -> np.ndarray:
     return v
 
 
+@takes_mesh
 def constraint_targets(
     mesh: TriMesh, faces: npt.ArrayLike, directions: npt.ArrayLike, normalize: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -201,6 +203,7 @@ def _merge_duplicates(
 
 
 # ---------------------------------------------------------------------------- points
+@takes_mesh
 def locate_points(
     mesh: TriMesh, faces: npt.ArrayLike, barycentric: npt.ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -264,6 +267,7 @@ def locate_points(
     return f, positions
 
 
+@takes_mesh
 def closest_faces(
     mesh: TriMesh, points: npt.ArrayLike, chunk: int = 1 << 18
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -348,6 +352,7 @@ def _solve(A: sp.sparray, b: np.ndarray) -> np.ndarray:
     return spla.splu(sp.csc_array(A)).solve(b.astype(complex))
 
 
+@takes_mesh
 def design_field(
     mesh: TriMesh,
     faces: npt.ArrayLike | None = None,

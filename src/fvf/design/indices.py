@@ -37,7 +37,8 @@ from ..errors import (
     ZeroFieldWarning,  # noqa: F401 (re-exported)
     format_indices,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
 from ..mesh.trimesh import _cross
 
 if TYPE_CHECKING:
@@ -106,6 +107,7 @@ def _angle_defects(mesh: TriMesh) -> np.ndarray:
     return TWO_PI - total
 
 
+@takes_mesh
 def vertex_indices(
     mesh: TriMesh,
     u: npt.ArrayLike,
@@ -189,8 +191,10 @@ def vertex_indices(
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
     n = mesh.n_vertices
 
-    # Zero vectors: judged on the tangential part.
+    # Zero vectors: judged on the tangential part. Angles do not depend on the field's
+    # size: scale it to unit size (exactly, by a power of two) so that no product overflows.
     ut = u - np.einsum("ij,ij->i", u, N)[:, None] * N
+    ut = ut / unit_scale(ut)
     length = np.sqrt(np.einsum("ij,ij->i", ut, ut))
     is_zero = _zero_mask(length, float(length.max()), zero_rtol)
 
@@ -234,6 +238,7 @@ def vertex_indices(
     return index
 
 
+@takes_mesh
 def singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
@@ -291,6 +296,7 @@ def _as_vertex_field(mesh: TriMesh, U: npt.ArrayLike, name: str) -> np.ndarray:
     return as_vertex_function(mesh, U, name, columns=True)
 
 
+@takes_mesh
 def face_indices(
     mesh: TriMesh,
     U: npt.ArrayLike,
@@ -356,6 +362,7 @@ def face_indices(
     """
     _check_zero_policy(zero)
     U = _as_vertex_field(mesh, U, "U")
+    U = U / unit_scale(U)  # angles do not depend on the size: no overflow for 1e200
     B = mesh.face_bases  # (m, 2, 3)
     corner = U[mesh.faces]  # (m, 3, 3): [t, corner, xyz]
     z = np.einsum("tck,tk->tc", corner, B[:, 0]) + 1j * np.einsum("tck,tk->tc", corner, B[:, 1])
@@ -383,6 +390,7 @@ def face_indices(
     return index
 
 
+@takes_mesh
 def face_singularities(
     mesh: TriMesh,
     U: npt.ArrayLike,
@@ -412,6 +420,7 @@ def face_singularities(
     return ids, index[ids]
 
 
+@takes_mesh
 def singularity_positions(
     mesh: TriMesh, ids: npt.ArrayLike, kind: Literal["vertex", "face"] = "vertex"
 ) -> np.ndarray:

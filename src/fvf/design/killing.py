@@ -15,6 +15,7 @@ import scipy.linalg as sla
 
 from ..calculus import rotate
 from ..errors import FieldShapeError, ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 from ..spectral.basis import SpectralBasis, gradient_field_basis
@@ -23,6 +24,7 @@ from .connection import smoothest_fields
 __all__ = ["killing_fields", "commutator_energy", "orthonormal_fields", "smooth_field_space"]
 
 
+@takes_mesh
 def orthonormal_fields(mesh: TriMesh, fields: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
     """An L2-orthonormal basis (⟨u, v⟩ = Σ A_F u·v, eq. 26) of the span of some fields.
 
@@ -101,6 +103,7 @@ def commutator_energy(basis: SpectralBasis, v: np.ndarray) -> float:
     return float(basis.mesh.total_area**2 * (C**2).sum() / (lam[-1] ** 2 * norm2))
 
 
+@takes_mesh
 def killing_fields(
     mesh: TriMesh,
     count: int,

@@ -55,7 +55,9 @@ def map_consistent_field(
     Returns
     -------
     v : float64 (m, 3)
-        Unit L2 norm (eq. 26); sign: largest-magnitude component positive.
+        Unit L2 norm (eq. 26); sign: largest-magnitude component positive. For a map that
+        every field commutes with (``C = I``) the consistency term vanishes and ``v`` is
+        the smoothest field of the space.
     residual : float
         :func:`consistency_residual` of v.
     """
@@ -70,7 +72,10 @@ def map_consistent_field(
     D = basis.reduced_D_many(psi)  # (r, k, k)
     K = (D @ C - C @ D).reshape(len(psi), -1)
     Q = K @ K.T
-    E = S / np.mean(np.diag(S)) + weight * Q / np.mean(np.diag(Q))
+    q = float(np.mean(np.diag(Q)))
+    # a map that commutes with every field (the identity, C = I) constrains nothing:
+    # then the consistency term is zero and the result is the smoothest unit field
+    E = S / np.mean(np.diag(S)) + (weight * Q / q if q > 0 else 0.0)
     _, a = sla.eigh(E, subset_by_index=[0, 0])
     v = np.einsum("r,rtc->tc", a[:, 0], psi)
     flat = v.ravel()

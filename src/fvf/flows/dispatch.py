@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -41,6 +42,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..calculus import div
 from ..errors import (
     FlowGrowthWarning,
     FlowOverflowError,
@@ -48,11 +50,25 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import (
+    TangentPolicy,
+    as_count,
+    as_face_field,
+    as_growth_limit,
+    as_positive,
+    as_vertex_function,
+    max_row_norm,
+)
 from ..mesh.trimesh import TriMesh
-from ..numerics.expm import as_times, expm_action
+from ..numerics.expm import MAX_PRODUCTS, as_times, expm_action
 from ..operators.directional import directional_derivatives
-from .functional import GROWTH_LIMIT, FunctionalFlow, hotspots
+from .functional import (
+    GROWTH_LIMIT,
+    FunctionalFlow,
+    hotspots,
+    observed_growth,
+)
 
 __all__ = [
     "METHODS",
@@ -73,21 +89,17 @@ DEFAULT_COURANT = 0.5
 #: Largest Poisson mean q·t per uniformization chunk (e^{−q t} stays far from underflow).
 _UNIFORMIZATION_CHUNK = 300.0
 
-#: Most time steps a Cayley flow takes in one call.
-MAX_STEPS = 1e8
-#: Largest q·t of an upwind flow (about that many products with the stochastic matrix).
-MAX_UNIFORMIZATION = 1e9
-
 _OPTIONS = {
-    "chapter": {"growth_limit", "expm", "tol"},
-    "upwind": set(),
-    "skew": {"growth_limit", "expm", "tol"},
-    "cayley": {"growth_limit", "dt", "courant", "operator"},
+    "chapter": {"growth_limit", "expm", "tol", "max_products", "progress"},
+    "upwind": {"max_products"},
+    "skew": {"growth_limit", "expm", "tol", "max_products", "progress"},
+    "cayley": {"growth_limit", "dt", "courant", "operator", "max_products"},
     "spectral": {"k", "basis"},
 }
 
 
 # ---------------------------------------------------------------------------- operators
+@takes_mesh
 def dual_edge_fluxes(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -129,6 +141,7 @@ def _rows_and_diagonal(A: sp.csr_array) -> tuple[np.ndarray, np.ndarray]:
     return rows, rows == A.indices
 
 
+@takes_mesh
 def upwind_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -164,6 +177,7 @@ def upwind_operator(
     return sp.csr_array((data, F.indices, F.indptr), shape=F.shape)
 
 
+@takes_mesh
 def skew_operator(
     mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -171,7 +185,8 @@ def skew_operator(
 
     Continuously ⟨v, ∇f⟩ = (⟨v, ∇f⟩ + ½ f div v) − ½ f div v, the first term skew in
     L², so the transport ∂f/∂t = −⟨v, ∇f⟩ obeys d/dt ∫f² = ∫ (div v) f². Discretely,
-    with the A_V-adjoint of D^V_v equal to −(D̃^V_v + [div v]) (CHAPTER.md)::
+    with the A_V-adjoint of D^V_v equal to −(D̃^V_v + [div v]) (docs/chapter.md, "Facts we
+    measured")::
 
         S = ½(D^V_v − [A_V]⁻¹ (D^V_v)ᵀ [A_V]) − ½[div v] = ½(D^V_v + D̃^V_v),
 
@@ -225,11 +240,6 @@ class _Uniformization:
         if self.P is None or t == 0.0:
             return f.copy()
         lam = self.q * t
-        if not lam <= MAX_UNIFORMIZATION:
-            raise FlowOverflowError(
-                f"the upwind flow to t={t:g} needs about {lam:.3g} products (rate "
-                f"q={self.q:.3g} x t; more than {MAX_UNIFORMIZATION:.0e}); shorten t"
-            )
         chunks = max(1, math.ceil(lam / _UNIFORMIZATION_CHUNK))
         w = _poisson_weights(lam / chunks)
         w = w / w.sum()
@@ -243,7 +253,9 @@ class _Uniformization:
         return f
 
 
-def _chain(f0: np.ndarray, times: np.ndarray, advance) -> np.ndarray:
+def _chain(
+    f0: np.ndarray, times: np.ndarray, advance: Callable[[np.ndarray, float, float], np.ndarray]
+) -> np.ndarray:
     """Evaluate a semigroup at sorted times of each sign: advance(f, now, dt) → f(now+dt)."""
     out = np.empty((times.size,) + f0.shape)
     for sign in (1.0, -1.0):
@@ -304,6 +316,7 @@ class TransportFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -327,7 +340,10 @@ class TransportFlow:
         self.mesh = mesh
         self.method = method
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.growth_limit = float(options.get("growth_limit", GROWTH_LIMIT))
+        self.growth_limit = as_growth_limit(options.get("growth_limit", GROWTH_LIMIT))
+        self.max_products = float(options.get("max_products", MAX_PRODUCTS))
+        if not self.max_products > 0:
+            raise ParameterError(f"max_products must be > 0; got {self.max_products!r}")
         self.stats: dict[str, Any] = {"matvecs": 0, "steps": 0, "factorizations": 0}
         self._chapter: FunctionalFlow | None = None
         self._lu: dict[float, Any] = {}
@@ -340,6 +356,7 @@ class TransportFlow:
                 tangent="ignore",
                 method=options.get("expm", "auto"),
                 tol=options.get("tol", 1e-10),
+                **{k: options[k] for k in ("max_products", "progress") if k in options},
             )
             self.operator = self._chapter.operator
         elif method == "upwind":
@@ -348,11 +365,7 @@ class TransportFlow:
         elif method == "skew":
             self.operator = skew_operator(mesh, self.field, tangent="ignore")
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
-            # [A_V] S + Sᵀ [A_V] = −[A_V][div v] and S_ii = −½ (div v)_i: S is A_V-skew
-            # exactly when its diagonal vanishes; then "auto" uses Lanczos (norm to round-off)
-            scale = float(abs(self.operator).max()) if self.operator.nnz else 0.0
-            diag = float(np.abs(self.operator.diagonal()).max()) if mesh.n_vertices else 0.0
-            self._expm["skew"] = True if diag <= 1e-12 * scale else None
+            self._expm.update({k: options[k] for k in ("max_products", "progress") if k in options})
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
@@ -365,23 +378,26 @@ class TransportFlow:
                 self.operator = self._chapter.operator
             else:
                 self.operator = skew_operator(mesh, self.field, tangent="ignore")
-            speed = float(np.sqrt((self.field**2).sum(1)).max())
+            speed = max_row_norm(self.field)  # no overflow for |v| ~ 1e200
             dt = options.get("dt")
             if dt is None:
-                courant = float(options.get("courant", DEFAULT_COURANT))
+                courant = as_positive(options.get("courant", DEFAULT_COURANT), "courant")
                 dt = courant * mesh.mean_edge_length / speed if speed > 0 else np.inf
                 mu = max(self.growth_rate)
                 if mu > 0:  # h μ / 2 ≤ ½: no pole of the Cayley map near growing modes
                     dt = min(dt, 1.0 / mu)
-            if not dt > 0:
-                raise ParameterError(f"dt must be positive; got {dt!r}")
-            self.dt = float(dt)
+                if not dt > 0:  # the field is so large that the step underflows
+                    raise FlowOverflowError(
+                        f"the Cayley step for this field (max |v| = {speed:.3g}) underflows "
+                        "to 0; scale the field down (and the times up by as much)"
+                    )
+            self.dt = as_positive(dt, "dt", allow_inf=True)
         else:  # spectral
             from ..spectral.basis import SpectralBasis
 
             basis = options.get("basis")
             if basis is None:
-                basis = SpectralBasis(mesh, int(options.get("k", 50)))
+                basis = SpectralBasis(mesh, as_count(options.get("k", 50), "k", minimum=1))
             elif basis.mesh is not mesh:
                 raise ParameterError(
                     "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
@@ -417,6 +433,7 @@ class TransportFlow:
     @property
     def _divergence(self) -> np.ndarray:
         """(div v)_i = Σ_j F_ij / A_V(i) = −2 S_ii (the diagonal of S)."""
+        assert self.operator is not None  # every method but "spectral" has one
         return -2.0 * self.operator.diagonal()
 
     def growth_bound(self, t: float) -> float:
@@ -435,24 +452,24 @@ class TransportFlow:
         with np.errstate(over="ignore"):
             return float(np.exp(mu * abs(t)))
 
-    def _warn_growth(self, t_extreme: float) -> None:
-        bound = self.growth_bound(t_extreme)
-        if bound <= self.growth_limit:
+    def _warn_growth(self, growth: tuple[float, float], t_extreme: float) -> None:
+        """Warn once if the call grew a function's A_V-norm or max norm beyond
+        ``growth_limit``."""
+        if not max(growth) > self.growth_limit:
             return
-        dv = self._divergence if self._chapter is None else None
-        where = ""
-        if dv is not None:
-            worst, faces = hotspots(self.mesh, dv if t_extreme >= 0 else -dv)
-            where = (
-                f" The law d/dt ‖f‖² = ⟨f, [div v] f⟩ allows it: div v reaches "
-                f"{(dv if t_extreme >= 0 else -dv).max():.3g} at vertices "
-                f"{format_indices(worst)}, in faces {format_indices(faces)}."
-            )
+        dv = div(self.mesh) @ self.field.ravel()
+        score = dv if t_extreme >= 0 else -dv
+        worst, faces = hotspots(self.mesh, score)
+        where = (
+            f" div v reaches {score.max():.3g} at vertices {format_indices(worst)}, in faces "
+            f"{format_indices(faces)}."
+        )
         warnings.warn(
-            f"the {self.method} flow to t={t_extreme:g} may grow a function's A_V-norm by "
-            f"up to {bound:.3g}x (limit {self.growth_limit:g}).{where} For compressible "
-            "fields use method='upwind' (bounded by [min f_0, max f_0] on every mesh); "
-            "pass growth_limit=np.inf to silence this.",
+            f"the {self.method} flow to t={t_extreme:g} grew a function's A_V-norm by "
+            f"{growth[0]:.3g}x and its largest value by {growth[1]:.3g}x (limit "
+            f"{self.growth_limit:g}).{where} For compressible fields "
+            "use method='upwind' (bounded by [min f_0, max f_0] on every mesh); pass "
+            "growth_limit=np.inf to accept it.",
             FlowGrowthWarning,
             stacklevel=user_stacklevel(),
         )
@@ -465,18 +482,14 @@ class TransportFlow:
     def _steps(self, dt_total: float) -> tuple[int, float]:
         with np.errstate(over="ignore", divide="ignore"):
             ratio = abs(dt_total) / self.dt
-        if not ratio <= MAX_STEPS:
-            raise FlowOverflowError(
-                f"the Cayley flow to t={dt_total:g} needs {ratio:.3g} steps of dt={self.dt:.3g} "
-                f"(more than {MAX_STEPS:.0e}); shorten t or pass a larger dt"
-            )
         steps = max(1, math.ceil(ratio * (1 - 1e-12)))
         return steps, dt_total / steps
 
-    def _cayley_lu(self, h: float):
+    def _cayley_lu(self, h: float) -> Any:
         lu = self._lu.get(h)
         if lu is None:
             n = self.mesh.n_vertices
+            assert self.operator is not None
             M = (sp.eye_array(n, format="csc") + (0.5 * h) * self.operator).tocsc()
             lu = self._lu[h] = sla.splu(M)
             self.stats["factorizations"] += 1
@@ -519,18 +532,19 @@ class TransportFlow:
         """
         self.stats = {"matvecs": 0, "steps": 0, "factorizations": 0}
         if self.method == "chapter":
+            assert self._chapter is not None
             out = self._chapter(f, t)
             self.stats = self._chapter.stats
             return out
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
-        if self.method in ("skew", "cayley"):
-            for extreme in (times.max(), times.min()):
-                if extreme != 0:
-                    self._warn_growth(float(extreme))
+        if times.size == 0:  # no times, no frames: every method returns (0,) + f.shape
+            return np.empty((0,) + f0.shape)
+        self._check_work(times, f0)
         if self.method == "upwind":
             out = _chain(f0, times, self._advance_upwind)
         elif self.method == "skew":
+            assert self.operator is not None
             out, self.stats = expm_action(
                 -self.operator,
                 f0,
@@ -545,10 +559,35 @@ class TransportFlow:
             out = self._spectral(f0, times)
         if not np.isfinite(out).all():
             raise FlowOverflowError(
-                f"the {self.method} flow overflowed (growth bound "
-                f"{self.growth_bound(float(times.max())):.3g}); use method='upwind'."
+                f"the {self.method} flow overflowed to inf/NaN; use method='upwind' (bounded "
+                "by [min f_0, max f_0] on every mesh) or shorter times."
             )
+        if self.method in ("skew", "cayley") and times.size:
+            extreme = float(times[np.argmax(np.abs(times))])
+            self._warn_growth(observed_growth(self.mesh.vertex_areas, f0, out), extreme)
         return out[0] if scalar else out
+
+    def _check_work(self, times: np.ndarray, f0: np.ndarray) -> None:
+        """Refuse an upwind or Cayley flow estimated to take more than ``max_products``
+        products (the other methods bound their own work)."""
+        if self.method not in ("upwind", "cayley") or times.size == 0:
+            return
+        plus = float(max(times.max(), 0.0))
+        minus = float(max(-times.min(), 0.0))
+        columns = f0.reshape(f0.shape[0], -1).shape[1]
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            if self.method == "upwind":
+                rate = self._upwind[1.0].q
+                work, what = rate * (plus + minus) * columns, f"rate {rate:.3g} x |t|"
+            else:
+                work, what = (plus + minus) / self.dt * columns, f"steps of dt={self.dt:.3g}"
+        if not work <= self.max_products:
+            raise FlowOverflowError(
+                f"the {self.method} flow to t={max(plus, minus):g} needs about {work:.3g} "
+                f"products ({what}, {columns} column(s)), more than "
+                f"max_products={self.max_products:.3g}. Shorten t, flow fewer times or "
+                "columns, or raise max_products."
+            )
 
     def _spectral(self, f0: np.ndarray, times: np.ndarray) -> np.ndarray:
         cols = f0.reshape(f0.shape[0], -1)
@@ -559,6 +598,7 @@ class TransportFlow:
         return out.reshape((times.size,) + f0.shape)
 
 
+@takes_mesh
 def flow(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -578,7 +618,8 @@ def flow(
     f : array_like (n,) or (n, k)
         Function(s) at time 0.
     t : float or array_like (T,)
-        Time(s), any sign and order.
+        Time(s), any sign and order. An empty array gives an empty result,
+        shape ``(0,) + f.shape``, for every method.
     method : {"chapter", "upwind", "skew", "cayley", "spectral"}
         - ``"chapter"`` (default): exp(−t D^V_v) (eq. 42), :class:`fvf.FunctionalFlow`.
           Warns (:class:`~fvf.errors.FlowGrowthWarning`) when it may blow up. Options
@@ -604,7 +645,12 @@ def flow(
           Laplace–Beltrami eigenfunctions, or in a given ``basis``
           (:class:`fvf.SpectralBasis`); f is projected onto the basis first.
     **options
-        Method options as listed; others raise :class:`TypeError`.
+        Method options as listed; others raise :class:`TypeError`. Every method but
+        ``"spectral"`` also takes ``max_products`` (default
+        :data:`fvf.numerics.expm.MAX_PRODUCTS`): a call estimated to take more products
+        with the n x n operator is refused before it starts
+        (:class:`~fvf.errors.FlowOverflowError`, naming the estimate); ``"chapter"`` and
+        ``"skew"`` take ``progress`` (a callable receiving the fraction done).
 
     Returns
     -------
@@ -614,7 +660,18 @@ def flow(
     Raises
     ------
     ParameterError
-        Unknown method (the message lists the methods), bad times.
+        Unknown method (the message lists the methods), bad times, bad options
+        (``growth_limit`` below 1 or NaN, ``dt`` or ``courant`` not positive, ``k`` not
+        a positive integer, an unknown ``tangent`` policy, ``max_products`` not positive).
+    FlowOverflowError
+        The result overflowed (also for ``"spectral"``), the field is too large for the
+        method's steps, or the estimated work exceeds ``max_products``.
+
+    Warns
+    -----
+    FlowGrowthWarning
+        When the call grew a function's A_V-norm or its largest value by more than
+        ``growth_limit`` ("chapter", "skew", "cayley").
 
     Examples
     --------

@@ -35,7 +35,8 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
 from ..operators.brackets import ad
@@ -206,6 +207,7 @@ class FieldTransport:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -219,7 +221,7 @@ class FieldTransport:
         method, tol = check_options(method, tol)
         self.method = method
         self.tol = float(tol)
-        self.growth_limit = float(growth_limit)
+        self.growth_limit = as_growth_limit(growth_limit)
         self.stats: dict = {}
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
@@ -301,6 +303,8 @@ class FieldTransport:
         """
         u = as_face_field(self.mesh, u, "u")
         times, scalar = as_times(t)
+        if times.size == 0:  # no times, no frames (as fvf.flow)
+            return TransportResult(np.empty((0,) + u.shape), np.empty(0))
         raw, self.stats = expm_action(
             self.operator,
             u.ravel(),
@@ -308,7 +312,7 @@ class FieldTransport:
             tol=self.tol,
             inner=np.repeat(self.mesh.face_areas, 3),
             skew=False,
-            method=self.method,
+            method=self.method,  # expm_action checks the name
             return_info=True,
         )
         raw = raw.reshape(times.size, -1)  # (T, 3m)
@@ -323,6 +327,7 @@ class FieldTransport:
         return TransportResult(np.stack(out), np.array(normal))
 
 
+@takes_mesh
 def Ad(
     mesh: TriMesh,
     v: npt.ArrayLike,
@@ -339,6 +344,7 @@ def Ad(
     return FieldTransport(mesh, v, growth_limit=growth_limit)(u, t).fields
 
 
+@takes_mesh
 def interpolate(
     mesh: TriMesh,
     v: npt.ArrayLike,

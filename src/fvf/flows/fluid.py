@@ -37,7 +37,9 @@ exactly for the truncated system, since each D̂ is skew.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -50,8 +52,12 @@ from ..errors import (
     FluidSolveError,  # noqa: F401 (re-exported)
     ParameterError,
 )
-from ..mesh.inputs import as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
+
+if TYPE_CHECKING:
+    from ..spectral.basis import SpectralBasis
 from ..operators.directional import D_V
 
 __all__ = [
@@ -98,6 +104,7 @@ class StreamFunctionSolver:
     True
     """
 
+    @takes_mesh
     def __init__(self, mesh: TriMesh) -> None:
         self.mesh = mesh
         labels = mesh.vertex_components
@@ -130,6 +137,7 @@ class StreamFunctionSolver:
         return self._remove_means(psi)
 
 
+@takes_mesh
 def stream_velocity(mesh: TriMesh, psi: npt.ArrayLike) -> np.ndarray:
     """u = J grad ψ: the divergence-free velocity of a stream function, (m, 3)."""
     return rotate(mesh, gradient(mesh, psi))
@@ -219,6 +227,7 @@ class FluidResult:
         }
 
 
+@takes_mesh
 def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) -> float:
     """A step length for a Courant number: c · mean edge length / max |u(ω_0)|.
 
@@ -242,6 +251,7 @@ def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) 
     return courant * mesh.mean_edge_length / speed
 
 
+@takes_mesh
 def ideal_fluid(
     mesh: TriMesh,
     omega0: npt.ArrayLike,
@@ -250,7 +260,7 @@ def ideal_fluid(
     *,
     method: str = "midpoint",
     k: int = 64,
-    basis=None,
+    basis: SpectralBasis | None = None,
     tol: float = 1e-13,
     max_iterations: int = 50,
     save_every: int = 1,
@@ -269,6 +279,7 @@ def ideal_fluid(
         Step length; :func:`fluid_time_step` picks one from a Courant number (0.5 is a good
         default: about 7 iterations per step).
     steps : int
+        Number of steps, >= 0 (an integer: 2.5 is refused).
     method : {"midpoint", "spectral"}
         ``"midpoint"``: the implicit midpoint rule on the full mesh (see the module
         docstring). ``"spectral"``: the same rule for the Galerkin system in ``k``
@@ -278,16 +289,24 @@ def ideal_fluid(
         Relative residual (A_V-norm) at which the midpoint equation counts as solved. E and
         Z drift by about this much per step.
     max_iterations : int
-        Iterations per step before giving up (:class:`FluidSolveError`, a
+        Iterations per step before giving up, >= 1 (:class:`FluidSolveError`, a
         :class:`RuntimeError` and :class:`~fvf.errors.FvfError`; also raised at once when
         the iterate overflows because dt is far above the Courant limit).
     save_every : int
-        Keep every ``save_every``-th frame.
+        Keep every ``save_every``-th frame (>= 1).
 
     Returns
     -------
     FluidResult
         Frames, and the energy, enstrophy and iteration count after every step.
+
+    Raises
+    ------
+    ParameterError
+        A non-integer or negative ``steps``, ``save_every`` or ``max_iterations`` < 1,
+        ``tol`` not a positive number, ``dt`` zero or not finite, an unknown method.
+    FluidSolveError
+        A step did not converge in ``max_iterations`` iterations.
         Measured drift over 200 steps is below 1e-11 relative for both (``docs/flows.md``).
 
     Examples
@@ -305,9 +324,13 @@ def ideal_fluid(
     if method not in ("midpoint", "spectral"):
         raise ParameterError(f"unknown fluid method {method!r}; choose 'midpoint' or 'spectral'")
     omega = as_vertex_function(mesh, omega0, "omega0")
-    dt, steps, save_every = float(dt), int(steps), max(1, int(save_every))
-    if not (np.isfinite(dt) and dt != 0.0) or steps < 0:
-        raise ParameterError(f"need a finite nonzero dt and steps >= 0; got dt={dt}, steps={steps}")
+    steps, save_every = as_count(steps, "steps"), as_count(save_every, "save_every", 1)
+    max_iterations, tol = as_count(max_iterations, "max_iterations", 1), as_positive(tol, "tol")
+    k = as_count(k, "k", 2) if basis is None else k
+    step = float(dt) if isinstance(dt, numbers.Real) and not isinstance(dt, bool) else np.nan
+    if not (np.isfinite(step) and step != 0.0):
+        raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
+    dt = step
     if method == "spectral":
         return _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every)
 
@@ -328,7 +351,8 @@ def ideal_fluid(
     psi = solve_psi(omega)
     energy, enstrophy = [0.5 * psi @ (W @ psi)], [a @ omega**2]
     frames, streams, times, iters = [omega], [psi], [0.0], []
-    lu, mids = None, []
+    lu = None
+    mids: list[np.ndarray] = []
     for step in range(1, steps + 1):
         x = _extrapolate(mids, omega)  # predicted ω_{k+½}
         scale = max(norm(omega), 1e-300)
@@ -405,7 +429,8 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
 
     c = basis.project(omega)
     energy, enstrophy = [0.5 * np.sum(c * c * inv_lam)], [c @ c]
-    coeffs, times, iters, mids = [c], [0.0], [], []
+    coeffs, times, iters = [c], [0.0], []
+    mids: list[np.ndarray] = []
     for step in range(1, steps + 1):
         x = _extrapolate(mids, c)
         scale = max(float(np.linalg.norm(c)), 1e-300)
@@ -428,12 +453,12 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
         if step % save_every == 0 or step == steps:
             coeffs.append(c)
             times.append(step * dt)
-    coeffs = np.array(coeffs)
+    C = np.array(coeffs)
     return FluidResult(
         mesh,
         np.array(times),
-        coeffs @ Phi.T,
-        (-coeffs * inv_lam) @ Phi.T,
+        C @ Phi.T,
+        (-C * inv_lam) @ Phi.T,
         np.array(energy),
         np.array(enstrophy),
         np.array(iters, dtype=np.int64),

@@ -1,27 +1,27 @@
-"""Functional flows Φ_{v,t} = exp(−t D^V_v) applied to functions (chapter §3.4–3.5).
+r"""Functional flows :math:`\Phi_{v,t} = e^{-tD^V_v}` applied to functions (chapter §3.4–3.5).
 
-f(t) = Φ_{v,t} f_0 solves df/dt = −D^V_v f (eq. 43): the function is carried along the
-flow of v. The exponential is never formed; its action on vectors is computed by
-:func:`fvf.numerics.expm.expm_action` (a Chebyshev series in D^V_v/R, R a bound of the spectrum's
-extent along the imaginary axis, or adaptive Krylov time stepping in the A_V inner
-product; all requested times and all columns in one pass; ``method="expm_multiply"``
-selects :func:`scipy.sparse.linalg.expm_multiply`, Al-Mohy & Higham 2011, chained over
-the times).
+:math:`f(t) = \Phi_{v,t} f_0` solves :math:`\dot f = -D^V_v f` (docs/chapter.md, eq. (43)):
+the function is carried along the flow of v. The exponential is never formed; its action
+is computed by :func:`fvf.numerics.expm_action` in the :math:`A_V` inner product, all
+requested times and columns in one pass.
 
-Growth. For rotated gradients v = J grad g, [A_V] D^V_v is skew-symmetric and the flow
-keeps the A_V-norm. For other fields the discrete flow can grow a function's norm by
-many orders of magnitude on fine or irregular meshes (``docs/notes.md``,
-CHAPTER.md "Facts we measured"). Before flowing, :class:`FunctionalFlow` estimates the
-A_V-logarithmic norm μ of −D^V_v (the largest eigenvalue of its A_V-symmetric part, by
-a few Lanczos steps); ‖f(t)‖_{A_V} ≤ e^{μ t} ‖f_0‖_{A_V} for every f_0 and t ≥ 0.
-When this bound exceeds ``growth_limit`` (default :data:`GROWTH_LIMIT`) a
-:class:`~fvf.errors.FlowGrowthWarning` says by how much and where.
+Growth. For rotated gradients :math:`v = J\nabla g` on a closed mesh,
+:math:`[A_V] D^V_v` is skew-symmetric and the flow keeps the :math:`A_V`-norm exactly. For
+other fields the discrete flow can grow a function's norm by many orders of magnitude on
+fine or irregular meshes (docs/chapter.md, "Facts we measured"). Every call measures the
+growth it produced, :math:`\max_j \|f(t_j)\|_{A_V} / \|f_0\|_{A_V}` (free: the outputs
+are there), and warns (:class:`~fvf.errors.FlowGrowthWarning`, once per call) when it
+exceeds ``growth_limit``, naming where the discrete divergence of v is largest. A bound
+valid for every :math:`f_0`, :math:`e^{\mu t}` with :math:`\mu` the logarithmic norm, is
+:attr:`FunctionalFlow.growth_rate` — an eigensolve, computed only when asked for.
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -35,24 +35,19 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
 from ..mesh.trimesh import TriMesh
-from ..numerics.expm import (
-    _abs_of,
-    _estimated_radius,
-    as_times,
-    check_options,
-    expm_action,
-    skew_bound,
-)
+from ..numerics.expm import MAX_PRODUCTS, PreparedOperator, as_times, check_options, expm_action
 from ..operators.directional import D_V
 
-__all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots"]
+__all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots", "observed_growth"]
 
-#: Default bound on the estimated norm growth e^{μ|t|} above which a flow warns.
+#: Default limit on a flow's growth of the A_V-norm above which it warns.
 GROWTH_LIMIT = 100.0
 
 
+@takes_mesh
 def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` vertices of largest ``score`` (n,) and the faces around them.
 
@@ -64,11 +59,45 @@ def hotspots(mesh: TriMesh, score: np.ndarray, count: int = 5) -> tuple[np.ndarr
     return worst.astype(np.int64), faces.astype(np.int64)
 
 
-class FunctionalFlow:
-    """The functional flow of a tangent field: Φ_{v,t} = exp(−t D^V_v) (eq. 42).
+def observed_growth(weights: np.ndarray, f0: np.ndarray, out: np.ndarray) -> tuple[float, float]:
+    """How much a flow grew its functions: (A_V-norm ratio, max-norm ratio), each the
+    largest over times and columns of ‖f(t_j)‖ / ‖f_0‖ (0 when f_0 = 0).
 
-    Keeps D^V_v and its growth-rate estimates, so flowing many functions or times of one
-    field pays for them once.
+    The continuous transport keeps the max norm (a maximum principle) and, for
+    divergence-free fields, the L2 norm; either ratio far above 1 is the discrete flow's
+    own growth.
+
+    Parameters
+    ----------
+    weights : (n,) float64
+        The inner product's weights (A_V).
+    f0 : (n,) or (n, k) float64
+    out : (T, n) or (T, n, k) float64
+        The flowed values.
+    """
+    f0 = f0.reshape(f0.shape[0], -1)
+    out = out.reshape(out.shape[0], out.shape[1], -1)
+    scale = np.abs(f0).max() if f0.size else 0.0
+    if scale == 0 or out.size == 0:
+        return 0.0, 0.0
+    g0, gt = f0 / scale, out / scale
+    n0 = np.sqrt(weights @ g0**2)  # (k,)
+    nt = np.sqrt(np.einsum("i,tij->tj", weights, gt**2))  # (T, k)
+    m0 = np.abs(g0).max(axis=0)  # (k,)
+    mt = np.abs(gt).max(axis=1)  # (T, k)
+    live = n0 > 0
+    if not live.any():
+        return 0.0, 0.0
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        return float((nt[:, live] / n0[live]).max()), float((mt[:, live] / m0[live]).max())
+
+
+class FunctionalFlow:
+    r"""The functional flow of a tangent field: :math:`\Phi_{v,t} = e^{-tD^V_v}` (eq. 42).
+
+    Keeps :math:`D^V_v` and what the exponential learns about it (whether it is
+    :math:`A_V`-skew, the bound R of its spectrum), so flowing many functions or times of
+    one field pays for them once.
 
     Parameters
     ----------
@@ -76,30 +105,38 @@ class FunctionalFlow:
     v : array_like, (m, 3)
         Tangent field per face (a normal component is projected away with a warning).
     growth_limit : float
-        Warn (:class:`~fvf.errors.FlowGrowthWarning`) when the estimated bound on
-        ‖f(t)‖/‖f_0‖ exceeds this.
+        Warn (:class:`~fvf.errors.FlowGrowthWarning`) when a call grows a function's
+        :math:`A_V`-norm or its largest absolute value by more than this factor (the
+        continuous flow grows neither: a maximum principle); ``np.inf`` silences it.
     tangent : {"project", "raise", "ignore"}
-        What to do with a normal component of v (see :func:`fvf.mesh.inputs.as_face_field`).
+        What to do with a normal component of v (see :func:`fvf.as_face_field`).
     method : {"auto", "krylov", "chebyshev", "expm_multiply"}
-        Exponential action (:func:`fvf.numerics.expm.expm_action`); "auto" uses the Chebyshev
-        series for t beyond a few edge lengths, the Krylov method for shorter times and
-        expm_multiply on tiny meshes (:func:`fvf.numerics.expm.choose_method`).
+        The exponential action (:func:`fvf.numerics.expm_action`); "auto" runs the
+        Chebyshev series for divergence-free fields over a few edge lengths and the
+        Krylov method otherwise.
     tol : float
         Target relative error of the exponential action (default 1e-10).
+    max_products : float
+        Refuse a call estimated to take more products than this
+        (:data:`fvf.numerics.expm.MAX_PRODUCTS` by default): a typed error says what the
+        work is and how to reduce it.
+    progress : callable, optional
+        Called with the fraction done (0..1) during long calls.
 
     Attributes
     ----------
     operator : scipy.sparse.csr_array, (n, n)
-        D^V_v (eq. 36).
+        :math:`D^V_v` (eq. 36).
     stats : dict
-        Statistics of the last call: ``method``, ``matvecs`` (column products with
-        D^V_v), ``error_estimate`` … (see :func:`fvf.numerics.expm.expm_action`).
+        Statistics of the last call (``method``, ``matvecs``, ``error_estimate``, … of
+        :func:`fvf.numerics.expm_action`) and ``growth``, the observed
+        :math:`\max_j \|f(t_j)\|_{A_V}/\|f_0\|_{A_V}`.
 
     Notes
     -----
     No boundary condition is imposed: on a mesh with boundary the flow is that of the
-    assembled D^V_v, and even a field J grad g (divergence-free inside) can grow the norm
-    through boundary vertices; the growth estimate accounts for it.
+    assembled :math:`D^V_v`, and even a field :math:`J\nabla g` (divergence-free inside)
+    can change the norm through boundary vertices.
 
     Examples
     --------
@@ -113,6 +150,7 @@ class FunctionalFlow:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -122,68 +160,44 @@ class FunctionalFlow:
         tangent: TangentPolicy = "project",
         method: str = "auto",
         tol: float = 1e-10,
+        max_products: float = MAX_PRODUCTS,
+        progress: Callable[[float], Any] | None = None,
     ) -> None:
         method, tol = check_options(method, tol)
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
-        self.growth_limit = float(growth_limit)
+        self.growth_limit = as_growth_limit(growth_limit)
         self.method = method
         self.tol = float(tol)
+        self.max_products = max_products
+        self.progress = progress
         self.stats: dict = {}
 
     @cached_property
-    def skew_norm(self) -> float:
-        """Upper bound R of the norm of D^V_v's A_V-skew part (:func:`~.expm.skew_bound`):
-        the spectrum lies in |Im z| ≤ R. Computed once, for the Chebyshev series."""
-        return skew_bound(self.operator, self.mesh.vertex_areas)
-
-    @cached_property
-    def _series_radius(self) -> float:
-        """The radius R of the Chebyshev series for a field that is not skew: 1.02× the
-        Lanczos estimate θ ≤ ‖K‖ of the skew part's norm, capped by :attr:`skew_norm`
-        (the bound itself if θ did not converge). That series' stop is a posteriori, so
-        R need not be a bound (``fvf.numerics.expm._bound``, docs/flows.md); on spot it is 1.02×
-        ‖K‖ against the bound's 1.15–1.18×, ~10 % fewer terms a call for 30–40 products
-        once."""
-        A = self.operator
-        estimate, _ = _estimated_radius(A, self.mesh.vertex_areas, _abs_of(A))  # (±D^V_v)
-        return self.skew_norm if estimate is None else min(self.skew_norm, estimate)
-
-    @cached_property
-    def is_skew(self) -> bool:
-        """Whether [A_V] D^V_v is skew-symmetric to round-off (v = J grad g, closed mesh):
-        the flow is then A_V-unitary and the three-term Lanczos recurrence applies."""
-        return self._asymmetry <= 1e-12
-
-    @cached_property
-    def _asymmetry(self) -> float:
-        """max|[A_V]D + ([A_V]D)ᵀ| / max|[A_V]D| (0 for a skew one, and for D = 0)."""
-        AD = self._weighted
-        scale = float(abs(AD).max()) if AD.nnz else 0.0
-        asym = AD + AD.T
-        return float(abs(asym).max() if asym.nnz else 0.0) / scale if scale else 0.0
+    def generator(self) -> PreparedOperator:
+        r""":math:`-D^V_v` in the :math:`A_V` inner product, with what the exponential learns
+        about it (skewness, the bound R) kept between calls."""
+        return PreparedOperator(-self.operator, self.mesh.vertex_areas)
 
     @property
-    def _skew_argument(self) -> bool | None:
-        """``skew`` for :func:`fvf.numerics.expm.expm_action`: True for a skew operator, False for
-        one far from it (Lanczos' own check would refuse it after a product and ~0.2 ms of
-        set-up: 1.1–1.2× the time of a short compressible flow at 6k–10k faces), None
-        (let Lanczos check) in between."""
-        if self.is_skew:
-            return True
-        return False if self._asymmetry > 1e-9 else None
+    def is_skew(self) -> bool:
+        r"""Whether :math:`[A_V] D^V_v` is skew-symmetric to round-off
+        (:math:`v = J\nabla g` on a closed mesh): the flow is then :math:`A_V`-unitary."""
+        return self.generator.is_skew
 
-    @cached_property
-    def _weighted(self) -> sp.csr_array:
-        """[A_V] D^V_v (n, n): its symmetric part decides skewness and bounds growth."""
-        return (sp.diags_array(self.mesh.vertex_areas) @ self.operator).tocsr()
+    @property
+    def skew_norm(self) -> float:
+        r"""Upper bound R of the :math:`A_V`-norm of :math:`D^V_v`'s skew part
+        (:func:`fvf.numerics.expm.skew_bound`): the spectrum of the skew part lies in
+        :math:`|\mathrm{Im}\,z| \le R`."""
+        return self.generator.bound()[0] * self.generator.scale
 
     @cached_property
     def _symmetric_part(self) -> sp.csr_array:
         """−½ A^{-1/2} (A D + Dᵀ A) A^{-1/2}: its spectrum bounds the A_V-norm growth."""
         s = sp.diags_array(1.0 / np.sqrt(self.mesh.vertex_areas))
-        AD = self._weighted
+        AD = (sp.diags_array(self.mesh.vertex_areas) @ self.operator).tocsr()
         return (-0.5 * (s @ (AD + AD.T) @ s)).tocsr()
 
     def _extreme_eigenvalue(self, sign: float) -> float:
@@ -212,15 +226,20 @@ class FunctionalFlow:
 
     @cached_property
     def growth_rate(self) -> tuple[float, float]:
-        """(μ₊, μ₋): A_V-logarithmic norms of −D^V_v and +D^V_v.
+        r"""(μ₊, μ₋): :math:`A_V`-logarithmic norms of :math:`-D^V_v` and :math:`+D^V_v`.
 
-        ‖Φ_{v,t} f‖ ≤ e^{μ₊ t}‖f‖ for t ≥ 0 and ≤ e^{μ₋ |t|}‖f‖ for t < 0 (A_V-norm). Both
-        are 0 (to round-off) for divergence-free fields v = J grad g.
+        :math:`\|\Phi_{v,t} f\| \le e^{\mu_+ t}\|f\|` for t ≥ 0 and
+        :math:`\le e^{\mu_- |t|}\|f\|` for t < 0, for every f. Both are 0 for skew
+        operators (no eigensolve then); otherwise one ARPACK solve each, computed on first
+        access only.
         """
+        if self.is_skew:
+            return 0.0, 0.0
         return max(self._extreme_eigenvalue(1.0), 0.0), max(self._extreme_eigenvalue(-1.0), 0.0)
 
     def growth_bound(self, t: float) -> float:
-        """Upper bound on ‖Φ_{v,t} f‖_{A_V} / ‖f‖_{A_V} over all f (an estimate: Lanczos)."""
+        r"""Upper bound on :math:`\|\Phi_{v,t} f\|_{A_V} / \|f\|_{A_V}` over all f,
+        :math:`e^{\mu|t|}` (an eigensolve on first use, see :attr:`growth_rate`)."""
         mu = self.growth_rate[0] if t >= 0 else self.growth_rate[1]
         with np.errstate(over="ignore"):
             return float(np.exp(mu * abs(t)))
@@ -230,38 +249,39 @@ class FunctionalFlow:
         f = np.asarray(f, dtype=float)
         return float(np.sqrt(np.einsum("i,i...->...", self.mesh.vertex_areas, f * f).sum()))
 
-    def _warn_growth(self, t_extreme: float) -> bool:
-        """Warn if the growth bound to ``t_extreme`` exceeds growth_limit; return whether."""
-        bound = self.growth_bound(t_extreme)
-        if bound <= self.growth_limit:
-            return False
+    def _where(self, forward: bool) -> str:
+        """Where the discrete divergence of v is largest (the growth's source)."""
         divv = div(self.mesh) @ self.field.ravel()
-        worst, faces = hotspots(self.mesh, divv if t_extreme >= 0 else -divv)
+        worst, faces = hotspots(self.mesh, divv if forward else -divv)
+        return (
+            f"The discrete divergence of v is largest at vertices {format_indices(worst)}, "
+            f"in faces {format_indices(faces)}"
+        )
+
+    def _warn_growth(self, growth: tuple[float, float], times: np.ndarray) -> None:
+        if not max(growth) > self.growth_limit:
+            return
         warnings.warn(
-            f"the flow to t={t_extreme:g} may grow a function's A_V-norm by up to "
-            f"{bound:.3g}x (growth rate {self.growth_rate[0 if t_extreme >= 0 else 1]:.3g} "
-            f"per unit time; limit {self.growth_limit:g}). The discrete divergence of v is "
-            f"largest at vertices {format_indices(worst)}, in faces "
-            f"{format_indices(faces)}; the chapter's flow is not "
-            "monotone for compressible fields on irregular meshes. Use a shorter time, a "
-            "divergence-free field (J grad g), or a smoother/remeshed surface; pass "
-            "growth_limit=np.inf to silence this.",
+            f"the flow to t={float(np.abs(times).max()):g} grew a function's A_V-norm by "
+            f"{growth[0]:.3g}x and its largest value by {growth[1]:.3g}x (limit "
+            f"{self.growth_limit:g}). {self._where(times.max() > 0)}; "
+            "the chapter's flow is not monotone for compressible fields on irregular "
+            "meshes. Use a shorter time, a divergence-free field (J grad g), method='upwind' "
+            "(bounded by [min f_0, max f_0]), or pass growth_limit=np.inf to accept it.",
             FlowGrowthWarning,
             stacklevel=user_stacklevel(),
         )
-        return True
 
     def __call__(self, f: npt.ArrayLike, t: float | npt.ArrayLike) -> np.ndarray:
-        """Φ_{v,t} f for one time or an array of times.
+        r""":math:`\Phi_{v,t} f` for one time or an array of times.
 
         Parameters
         ----------
         f : array_like, (n,) or (n, k)
             PL function(s) at time 0.
         t : float or array_like (T,)
-            Time(s), any sign and order; all are computed in one Krylov pass per sign
-            (dense output inside each step; the semigroup Φ_{t+s} = Φ_t Φ_s, Lemma 11,
-            across steps).
+            Time(s), any sign and order, all in one pass. An empty array gives an empty
+            result of shape ``(0,) + f.shape``.
 
         Returns
         -------
@@ -271,43 +291,37 @@ class FunctionalFlow:
         Raises
         ------
         FlowOverflowError
-            (also a FloatingPointError) If the flow overflowed to inf/NaN (after the
-            growth warning), or |t| · ‖D^V_v‖ is out of floating-point reach.
+            (also a FloatingPointError) The flow overflowed to inf/NaN, |t| · ‖D^V_v‖ is
+            out of floating-point reach, or the work exceeds ``max_products``.
 
         Warns
         -----
         FlowGrowthWarning
-            When the estimated growth bound exceeds ``growth_limit``.
+            When the call grew a function's norm beyond ``growth_limit``.
         """
         f0 = as_vertex_function(self.mesh, f, "f", columns=True)
         times, scalar = as_times(t)
-        grows = False
-        for extreme in (times.max(), times.min()):
-            if extreme != 0:
-                grows |= self._warn_growth(float(extreme))
-        # a flow that may grow past growth_limit makes the Chebyshev terms grow as well:
-        # "auto" goes straight to the Krylov method, which has no such terms
-        method = "krylov" if grows and self.method == "auto" else self.method
-        # the cached radius R, for operators whose "auto" always needs it: a skew operator
-        # gets Lanczos for several times or large meshes, and otherwise bounds itself at
-        # one product per power step
-        bound = None
-        if method in ("auto", "chebyshev") and not self.is_skew:
-            bound = self._series_radius or None
-        out, self.stats = expm_action(
-            -self.operator,
-            f0,
-            times,
-            tol=self.tol,
-            inner=self.mesh.vertex_areas,
-            skew=self._skew_argument,
-            method=method,
-            skew_norm=bound,
-            return_info=True,
-        )
-        if not np.isfinite(out).all():
-            raise FlowOverflowError(
-                f"the flow overflowed (growth bound {self.growth_bound(times.max()):.3g}); "
-                "use shorter times or a divergence-free field."
+        if times.size == 0:  # no times, no frames (as every method of fvf.flow)
+            return np.empty((0,) + f0.shape)
+        try:
+            out, self.stats = expm_action(
+                self.generator,
+                f0,
+                times,
+                tol=self.tol,
+                method=self.method,
+                max_products=self.max_products,
+                progress=self.progress,
+                return_info=True,
             )
+        except FlowOverflowError as exc:
+            if "overflowed" not in str(exc):
+                raise
+            raise FlowOverflowError(
+                f"the flow overflowed to inf/NaN. {self._where(times.max() > 0)}. Use "
+                "shorter times, a divergence-free field, or method='upwind'."
+            ) from exc
+        growth = observed_growth(self.mesh.vertex_areas, f0, out)
+        self.stats["growth"] = growth
+        self._warn_growth(growth, times)
         return out[0] if scalar else out

@@ -1,22 +1,47 @@
-"""Atomic output files: written whole or not at all.
+"""Safe output files: written whole or not at all, never onto an input.
 
 Every file fvf writes goes through :func:`atomic_path`: the content is written to a
 temporary file in the target's directory, flushed and fsynced, then renamed over the
 target (``os.replace``, atomic on POSIX and Windows within one file system). An
 interrupt, a full disk or an exception while writing leaves the previous file untouched
 and removes the temporary one; two concurrent writers each produce a complete file and
-the last rename wins.
+the last rename wins. The rename replaces the directory entry, so a symbolic link or a
+hard link at the target is replaced, never written through.
+
+:func:`check_not_input` refuses an output path that is one of a command's inputs (the
+same path, a hard link to it, or a symbolic link to it), so no command replaces its own
+input by accident. ``docs/files.md`` states these guarantees.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
-import tempfile
-from collections.abc import Iterator
+import secrets
+import stat
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "fsync_directory"]
+from ..errors import InputOverwriteError, OutputWriteError
+
+__all__ = [
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "check_not_input",
+    "fsync_directory",
+    "same_file",
+]
+
+#: errno values that mean "the output could not be written" (not "bad content").
+_WRITE_ERRNOS = {
+    errno.ENOSPC,
+    errno.EFBIG,
+    errno.EROFS,
+    errno.EIO,
+    getattr(errno, "EDQUOT", errno.ENOSPC),
+}
 
 
 def fsync_directory(directory: str | os.PathLike) -> None:
@@ -34,6 +59,56 @@ def fsync_directory(directory: str | os.PathLike) -> None:
         os.close(fd)
 
 
+def _write_failed(target: Path, exc: OSError) -> OutputWriteError:
+    reason = exc.strerror or type(exc).__name__
+    return OutputWriteError(
+        f"{target}: cannot write the output ({reason}); nothing was written and a file "
+        "already there is unchanged. Fix: free disk space, raise the file size limit "
+        "(ulimit -f), or write somewhere else."
+    )
+
+
+def _interrupt_behind(exc: BaseException) -> BaseException | None:
+    """The interrupt (KeyboardInterrupt, SystemExit, any non-Exception) that ``exc`` was
+    raised while handling, if ``exc`` is not one itself: a writer's cleanup can replace
+    an interrupt by its own error (zipfile raises ValueError "Can't close the ZIP file
+    while there is an open writing handle"), which would misreport Ctrl-C."""
+    seen, cause = set(), exc.__context__
+    if not isinstance(exc, Exception):
+        return None
+    while cause is not None and id(cause) not in seen:
+        if not isinstance(cause, Exception):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__context__
+    return None
+
+
+def _mode(target: Path) -> int:
+    """The mode of the file being replaced, else 0o666 (the kernel applies the umask)."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
+    except OSError:
+        return 0o666
+
+
+def _create(tmp: Path, mode: int, target: Path) -> bool:
+    """Create the empty file ``tmp`` (exclusively); False if the name is taken."""
+    try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode))
+    except FileExistsError:
+        return False
+    except FileNotFoundError as exc:
+        raise OutputWriteError(
+            f"{target}: the folder {tmp.parent} does not exist; create it first"
+        ) from exc
+    except OSError as exc:
+        raise OutputWriteError(
+            f"{target}: cannot create a file in {tmp.parent} ({exc.strerror}); write elsewhere"
+        ) from exc
+    return True
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """A temporary path beside ``path``; on success it is fsynced and renamed to ``path``.
@@ -41,8 +116,8 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     Parameters
     ----------
     path : str or PathLike
-        The final file. Its directory must exist. A symlink at ``path`` is replaced by
-        the new file (the link's target is never written through).
+        The final file. Its directory must exist. A symbolic link at ``path`` is replaced
+        by the new file (the link's target is never written through); so is a hard link.
     suffix : str, optional
         Suffix of the temporary file (default: ``path``'s own, so that writers that
         choose a format by suffix, such as ``numpy.savez`` or PIL, see the right one).
@@ -50,7 +125,22 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     Yields
     ------
     pathlib.Path
-        Where to write. The file exists (empty) when the block starts.
+        Where to write: ``.<name>.<16 hex digits><suffix>`` beside ``path``. The file
+        exists (empty) when the block starts; it has the mode of the file it will
+        replace, or the default mode of new files (umask).
+
+    Raises
+    ------
+    OutputWriteError
+        The temporary file could not be created, written (disk full, file size limit,
+        read-only file system) or renamed; it is removed and ``path`` is unchanged.
+
+    Notes
+    -----
+    The temporary name is chosen before the file is created, so an interrupt at any
+    point (even between the creation and the return of ``os.open``) removes it. Only a
+    process killed outright (SIGKILL, power loss) can leave one behind; the target is
+    then still the old file or the complete new one.
 
     Examples
     --------
@@ -63,20 +153,114 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     """
     target = Path(path)
     directory = target.parent if str(target.parent) else Path(".")
-    fd, name = tempfile.mkstemp(
-        prefix=f".{target.name}.",
-        suffix=target.suffix if suffix is None else suffix,
-        dir=directory,
-    )
-    os.close(fd)
-    tmp = Path(name)
+    suffix = target.suffix if suffix is None else suffix
+    mode = _mode(target)
+    tmp: Path | None = None  # named before it is created: the cleanup below always knows it
     try:
-        yield tmp
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+        for _ in range(100):
+            tmp = directory / f".{target.name}.{secrets.token_hex(8)}{suffix}"
+            if _create(tmp, mode, target):
+                break
+            tmp = None  # another writer's file: never removed here
+        else:
+            raise OutputWriteError(f"{target}: no free temporary name in {directory}")
+        try:
+            yield tmp
+        except BaseException as exc:
+            interrupt = _interrupt_behind(exc)
+            if interrupt is not None:  # e.g. zipfile turns Ctrl-C into a ValueError
+                raise interrupt from None
+            if isinstance(exc, OSError) and exc.errno in _WRITE_ERRNOS:
+                raise _write_failed(target, exc) from exc
+            raise
+        try:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.replace(tmp, target)
+        except OSError as exc:
+            raise _write_failed(target, exc) from exc
+        tmp = None
+    finally:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
     fsync_directory(directory)
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through :func:`atomic_path`; returns ``Path(path)``."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` through :func:`atomic_path`; returns ``Path(path)``."""
+    return atomic_write_bytes(path, text.encode(encoding))
+
+
+def same_file(output: str | os.PathLike, other: str | os.PathLike) -> str | None:
+    """How ``output`` is ``other``: None if it is not, else a phrase for messages.
+
+    ``output`` is ``other`` when both name the same file (:func:`os.path.samefile`: the
+    same path, a hard link, a path through linked folders), or when ``output`` is a
+    symbolic link whose target resolves to ``other`` (even a dangling one).
+    """
+    out, inp = Path(output), Path(other)
+    try:
+        if out.is_symlink() and os.path.realpath(out) == os.path.realpath(inp):
+            return f"a symbolic link to the input {inp}"
+    except OSError:
+        pass
+    try:
+        if os.path.samefile(out, inp):
+            link = ""
+            if os.path.realpath(out) != os.path.realpath(inp):
+                link = " (a hard link)"
+            return f"the input {inp}{link}"
+    except OSError:  # one of them does not exist: then they are not the same file
+        pass
+    if os.path.realpath(out) == os.path.realpath(inp):
+        return f"the input {inp}"
+    return None
+
+
+def check_not_input(
+    output: str | os.PathLike,
+    inputs: Iterable[str | os.PathLike | None],
+    *,
+    force: bool = False,
+    option: str = "the output",
+) -> None:
+    """Refuse to write ``output`` when it is one of ``inputs`` (see :func:`same_file`).
+
+    Parameters
+    ----------
+    output : path
+        Where a command will write.
+    inputs : iterable of path (None entries are skipped)
+        The files it reads.
+    force : bool
+        Allow it. Even then the input is replaced by a rename, never written through: a
+        symbolic or hard link at ``output`` is replaced and the file it pointed to keeps
+        its content.
+    option : str
+        How the output was given, for the message (e.g. ``"-o"``).
+
+    Raises
+    ------
+    InputOverwriteError
+        ``output`` is an input and ``force`` is false.
+    """
+    if force:
+        return
+    for inp in inputs:
+        if inp is None:
+            continue
+        how = same_file(output, inp)
+        if how is not None:
+            raise InputOverwriteError(
+                f"{option} {output} is {how}: writing it would replace an input. Fix: "
+                "write to another path, or pass --force (overwrite_inputs=True) to "
+                "replace it (a link is then replaced, never written through)."
+            )

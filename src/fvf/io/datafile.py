@@ -7,7 +7,7 @@ uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
 
 | key        | dtype, shape          | meaning                                        |
 |------------|-----------------------|------------------------------------------------|
-| `f`        | float, (n,) or (k, n) | vertex (PL) function(s), one row per function  |
+| `f`        | float, (n,) or (n, k) | vertex (PL) function(s), one column per function|
 | `v`        | float, (m, 3)         | per-face tangent field (ambient xyz per face)  |
 | `u`        | float, (m, 3)         | a second field: bracket partner, or transported|
 | `u1`       | float, (m, 3)         | end field of an interpolation (eq. 68)         |
@@ -15,11 +15,18 @@ uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
 | `vertices` | float, (n, 3)         | optional copy of the mesh's vertices           |
 | `faces`    | int, (m, 3)           | optional copy of the mesh's faces (0-based)    |
 
-Rows follow the mesh file's vertex and face order. ``v`` is the field that flows or
-transports (or the first of a bracket); ``u`` is the bracket's partner w, the transported
-field u (eq. 67) or u_0 (eq. 68). When ``vertices`` / ``faces`` are present they must
-match the mesh (faces exactly, vertices to :data:`MESH_MATCH_RTOL` of its size), so data
-are never applied to the wrong mesh.
+Rows follow the mesh file's vertex and face order: one layout everywhere, the library's,
+with the mesh's elements along the first axis and one column per function (results over
+times add a leading time axis: ``f_t`` is (T, n) or (T, n, k)). Files written by fvf
+before this layout (and files made by hand that way) stored several functions as rows,
+(k, n) and (T, k, n); they are still read, transposed, with a
+:class:`~fvf.errors.LegacyLayoutWarning` (only when the shape says so unambiguously: k != n).
+Files that fvf writes now say ``layout = "columns"`` and are never transposed.
+
+``v`` is the field that flows or transports (or the first of a bracket); ``u`` is the
+bracket's partner w, the transported field u (eq. 67) or u_0 (eq. 68). When ``vertices``
+/ ``faces`` are present they must match the mesh (faces exactly, vertices to
+:data:`MESH_MATCH_RTOL` of its size), so data are never applied to the wrong mesh.
 
 Design constraints (``fvf design --constraints C.npz``, :func:`fvf.design_field`):
 
@@ -61,6 +68,7 @@ expected shape), :class:`MeshMismatchError` (the stored mesh copy differs from t
 from __future__ import annotations
 
 import datetime
+import math
 import os
 import re
 import warnings
@@ -76,23 +84,31 @@ from ..errors import (  # noqa: F401 (re-exported)
     DataKeyError,
     FieldShapeError,
     FvfError,
+    InputOverwriteError,
+    LegacyLayoutWarning,
     MeshMismatchError,
     MeshReadError,
+    user_stacklevel,
 )
 from ..mesh.inputs import as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
+from .atomic import atomic_path, check_not_input
+from .inputfile import read_bytes, regular_file
 
 __all__ = [
     "DataFile",
     "read_data",
     "write_data",
+    "data_path",
+    "mesh_properties",
     "MESH_MATCH_RTOL",
+    "MESH_DATA_SUFFIXES",
 ]
 
 #: Stored ``vertices`` must match the mesh's to this fraction of the bounding-box diagonal.
 MESH_MATCH_RTOL = 1e-9
 
-_SELECT = re.compile(r"^(?P<key>[^\[\]]+)(\[(?P<index>\s*-?\d+\s*(,\s*-?\d+\s*)*)\])?$")
+_SELECT = re.compile(r"^(?P<key>[^\[\]]+)(\[(?P<index>\s*(-?\d+|:)\s*(,\s*(-?\d+|:)\s*)*)\])?$")
 
 
 class DataFile(Mapping):
@@ -116,10 +132,12 @@ class DataFile(Mapping):
         arrays: Mapping[str, npt.ArrayLike],
         path: str | os.PathLike,
         sources: Mapping[str, str | os.PathLike] | None = None,
+        columns: Iterable[Path] = (),
     ):
         self.path = Path(path)
-        self._arrays = {k: np.asarray(a) for k, a in arrays.items()}
+        self._arrays = {k: a if isinstance(a, _Lazy) else np.asarray(a) for k, a in arrays.items()}
         self._sources = {k: Path(v) for k, v in (sources or {}).items()}
+        self._columns: set[Path] = set(columns)
 
     @classmethod
     def merged(cls, files: Sequence[DataFile]) -> DataFile:
@@ -128,12 +146,14 @@ class DataFile(Mapping):
         Lets a command take, say, a designed field from one file and functions from another.
         Each file's mesh copy has been checked on reading; messages name each key's file.
         """
-        arrays: dict[str, np.ndarray] = {}
+        arrays: dict[str, np.ndarray | _Lazy] = {}
         sources: dict[str, Path] = {}
+        columns: set[Path] = set()
         for data in files:
-            for key in data:
-                arrays[key], sources[key] = data[key], data.source(key)
-        return cls(arrays, " + ".join(str(d.path) for d in files), sources)
+            columns |= data._columns
+            for key in data:  # unread keys stay unread (a key is loaded when used)
+                arrays[key], sources[key] = data._arrays[key], data.source(key)
+        return cls(arrays, " + ".join(str(d.path) for d in files), sources, columns)
 
     def source(self, key: str) -> Path:
         """The file that ``key`` came from."""
@@ -149,7 +169,10 @@ class DataFile(Mapping):
                 f"{self.path}: no key {key!r} (keys present: {have}); add it, e.g. "
                 f"np.savez(path, {key}=...), or pick another key"
             )
-        return self._arrays[key]
+        a = self._arrays[key]
+        if isinstance(a, _Lazy):
+            a = self._arrays[key] = a.load()
+        return a
 
     def __contains__(self, key: object) -> bool:
         return key in self._arrays
@@ -161,7 +184,10 @@ class DataFile(Mapping):
         return len(self._arrays)
 
     def __repr__(self) -> str:
-        shapes = ", ".join(f"{k}: {a.dtype}{a.shape}" for k, a in self._arrays.items())
+        shapes = ", ".join(
+            f"{k}: {'(not read yet)' if isinstance(a, _Lazy) else f'{a.dtype}{a.shape}'}"
+            for k, a in self._arrays.items()
+        )
         return f"DataFile({str(self.path)!r}, {{{shapes}}})"
 
     def _numeric(self, key: str, a: np.ndarray, what: str) -> np.ndarray:
@@ -174,13 +200,17 @@ class DataFile(Mapping):
             )
         return a.astype(np.float64)
 
-    def select(self, spec: str) -> np.ndarray:
+    def select(self, spec: str, n: int | None = None) -> np.ndarray:
         """The array named by ``spec``: a key, optionally indexed, e.g. ``"f_t[2]"``.
 
         Parameters
         ----------
         spec : str
-            ``KEY`` or ``KEY[i]`` or ``KEY[i, j]`` (integer indices, negative allowed).
+            ``KEY`` or ``KEY[i]`` or ``KEY[i, j]`` (integer indices, negative allowed; ``:``
+            keeps an axis, e.g. ``f_t[2, :, 0]``: time 2, function 0).
+        n : int, optional
+            The mesh's vertex count: arrays in the legacy row layout are then read in
+            the columns layout first (:meth:`migrated`).
 
         Returns
         -------
@@ -200,12 +230,15 @@ class DataFile(Mapping):
                 f"{self.path}: cannot read {spec!r} as KEY or KEY[i] or KEY[i,j] (e.g. f_t[2])"
             )
         key = match["key"].strip()
-        a = self[key]
+        a = self[key] if n is None else self.migrated(key, n)
         if match["index"] is None:
             return a
-        index = tuple(int(i) for i in match["index"].split(","))
+        index = tuple(
+            slice(None) if i.strip() == ":" else int(i) for i in match["index"].split(",")
+        )
         if len(index) > a.ndim or any(
-            not -s <= i < s for i, s in zip(index, a.shape, strict=False)
+            not isinstance(i, slice) and not -s <= i < s
+            for i, s in zip(index, a.shape, strict=False)
         ):
             raise FieldShapeError(
                 f"{self.source(key)}: index {list(index)} is outside key {key!r} of shape "
@@ -256,27 +289,49 @@ class DataFile(Mapping):
                 )
 
     def functions(self, key: str, mesh: TriMesh) -> np.ndarray:
-        """Vertex function(s) under ``key``: float64 (n,) or (k, n), one row per function.
+        """Vertex function(s) under ``key``: float64 (n,) or (n, k), one column per function.
 
         Raises
         ------
         DataKeyError, FieldShapeError
             Missing key; wrong dtype, shape or non-finite values.
+
+        Warns
+        -----
+        LegacyLayoutWarning
+            The key holds (k, n) with k != n, the layout of older files: it is transposed.
         """
         a = self._numeric(key, self[key], "vertex functions")
         n = mesh.n_vertices
-        if not ((a.ndim == 1 and a.shape[0] == n) or (a.ndim == 2 and a.shape[1] == n)):
+        if a.ndim == 2 and a.shape[1] == n and a.shape[0] != n and not self.columns(key):
+            a = _legacy(self._at(key), a, a.T, f"({n}, {a.shape[0]})")
+        if not ((a.ndim == 1 and a.shape[0] == n) or (a.ndim == 2 and a.shape[0] == n)):
             hint = ""
-            if a.ndim == 2 and a.shape[0] == n:
-                hint = "; it looks like (n, k): store the transpose, one row per function"
-            elif a.shape[-1:] == (mesh.n_faces,):
+            if a.shape[-1:] == (mesh.n_faces,) or a.shape[:1] == (mesh.n_faces,):
                 hint = "; it has one value per face: fvf needs one per vertex"
+            elif a.ndim == 2 and a.shape[1] == n:
+                hint = "; it looks like (k, n): store the transpose, one column per function"
             raise FieldShapeError(
-                f"{self._at(key)} has shape {a.shape}, expected ({n},) or (k, {n}): "
+                f"{self._at(key)} has shape {a.shape}, expected ({n},) or ({n}, k): "
                 f"vertex functions, one value per mesh vertex{hint}"
             )
-        as_vertex_function(mesh, a.T, f"{self._at(key)}", columns=True)
+        as_vertex_function(mesh, a, f"{self._at(key)}", columns=True)
         return a
+
+    def columns(self, key: str) -> bool:
+        """Whether ``key``'s file says its arrays have the columns layout (written by fvf
+        with ``layout = "columns"``): then it is never transposed."""
+        source = self.source(key)
+        return source in self._columns
+
+    def migrated(self, key: str, n: int) -> np.ndarray:
+        """``self[key]``, with the legacy row layout (k, n) / (T, k, n) of a file without
+        ``layout = "columns"`` transposed to (n, k) / (T, n, k) (warning once)."""
+        a = self[key]
+        if self.columns(key) or a.ndim < 2 or a.shape[-1] != n or a.shape[-2] == n:
+            return a
+        want = a.shape[:-2] + (n, a.shape[-2])
+        return _legacy(self._at(key), a, np.swapaxes(a, -1, -2), str(want))
 
     def field(self, key: str, mesh: TriMesh) -> np.ndarray:
         """A per-face tangent field under ``key``: float64 (m, 3), projected onto the faces.
@@ -352,11 +407,16 @@ def _shape_text(want: tuple[int | None, ...]) -> str:
 def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     """Read a data file (``.npz``, or ``.ply`` properties) and check it against a mesh.
 
+    An ``.npz`` key is read when it is first used (``data[key]``), so keys a command does
+    not use cost nothing, whatever they hold; each key's stored header (dtype, shape) is
+    checked against its size in the archive before any memory is allocated for it.
+
     Parameters
     ----------
     path : str or os.PathLike
         An ``.npz`` archive with the keys of this module's schema, or a ``.ply`` file whose
-        vertex/face properties become functions and fields (see the module docstring).
+        vertex/face properties become functions and fields (see the module docstring). It
+        must be a regular file (not a FIFO or a device).
     mesh : TriMesh, optional
         When given, the stored mesh copies (``vertices``, ``faces``) must match it.
 
@@ -370,36 +430,110 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     FileNotFoundError
         The file does not exist.
     DataFileError
-        The file is not a readable ``.npz`` (or ``.ply``) file, or holds object arrays.
+        The file is not a regular file or not a readable ``.npz`` (or ``.ply``) file; a
+        key holds object arrays, declares more data than it holds, or does not fit in
+        memory (raised when the key is read).
     MeshMismatchError
         The stored mesh copy differs from ``mesh``.
     """
     path = Path(path)
     if path.suffix.lower() == ".ply":
-        arrays = _ply_arrays(path)
+        arrays, columns = _ply_arrays(path), [path]  # PLY properties are columns
     else:
-        if not path.exists():
-            raise FileNotFoundError(2, "No such file or directory", str(path))
-        try:
-            archive = np.load(path, allow_pickle=False)
-            if not isinstance(archive, Mapping):
-                raise DataFileError(
-                    f"{path}: holds a single array, not an .npz archive of named arrays; "
-                    "save it with np.savez(path, f=..., v=...)"
-                )
-            with archive:
-                arrays = {k: archive[k] for k in archive.files}
-        except DataFileError:
-            raise
-        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-            raise DataFileError(
-                f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
-                f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
-            ) from exc
-    data = DataFile(arrays, path)
+        arrays = _npz_members(path)
+        columns = [path] if "layout" in arrays and str(arrays["layout"].load()) == "columns" else []
+    data = DataFile(arrays, path, columns=columns)
     if mesh is not None:
         data.check_mesh(mesh)
     return data
+
+
+def _legacy(where: str, a: np.ndarray, moved: np.ndarray, shape: str) -> np.ndarray:
+    warnings.warn(
+        f"{where} has shape {a.shape}, the layout of files from older fvf versions (one row "
+        f"per function); it was read as {shape}, one column per function. Fix: save it "
+        "again with the functions as columns (fvf now writes layout='columns').",
+        LegacyLayoutWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return moved
+
+
+class _Lazy:
+    """An array read on demand (:meth:`load`)."""
+
+    def load(self) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+class _NpzMember(_Lazy):
+    """One array of an ``.npz`` archive, read on demand (:meth:`load`)."""
+
+    def __init__(self, path: Path, member: str, key: str) -> None:
+        self.path, self.member, self.key = path, member, key
+
+    def _fail(self, why: str) -> DataFileError:
+        return DataFileError(f"{self.path}: key {self.key!r} {why}")
+
+    def load(self) -> np.ndarray:
+        """The array, after checking that its header matches the stored bytes."""
+        try:
+            with zipfile.ZipFile(self.path) as archive:
+                info = archive.getinfo(self.member)
+                with archive.open(info) as fh:
+                    version = np.lib.format.read_magic(fh)
+                    if version == (1, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+                    else:
+                        shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+                    start = fh.tell()
+                if dtype.hasobject:
+                    raise self._fail(
+                        "holds Python objects, which fvf does not read (allow_pickle=False); "
+                        "store numbers or strings"
+                    )
+                declared = math.prod(shape) * dtype.itemsize
+                stored = info.file_size - start
+                if declared != stored:
+                    raise self._fail(
+                        f"declares dtype {dtype} and shape {shape} ({declared} bytes) but "
+                        f"holds {stored} bytes: the archive is damaged or truncated; "
+                        "write it again"
+                    )
+                with archive.open(info) as fh:
+                    return np.lib.format.read_array(fh, allow_pickle=False)
+        except DataFileError:
+            raise
+        except MemoryError:
+            raise self._fail("does not fit in memory") from None
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            raise self._fail(
+                f"cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())}); "
+                "write the file again with np.savez"
+            ) from exc
+
+
+def _npz_members(path: Path) -> dict[str, _NpzMember]:
+    """The keys of an ``.npz`` archive, unread."""
+    regular_file(path, DataFileError)
+    if read_bytes(path, DataFileError, head=6) == b"\x93NUMPY":
+        raise DataFileError(
+            f"{path}: holds a single array, not an .npz archive of named arrays; "
+            "save it with np.savez(path, f=..., v=...)"
+        )
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise DataFileError(
+            f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
+            f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
+        ) from exc
+    members = {}
+    for name in names:
+        key = name[:-4] if name.endswith(".npy") else name
+        members[key] = _NpzMember(path, name, key)
+    return members
 
 
 def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
@@ -438,8 +572,12 @@ def write_data(
     mesh_path: str | os.PathLike,
     command: str,
     inputs: Iterable[str | os.PathLike] = (),
+    overwrite_inputs: bool = False,
 ) -> Path:
     """Write results as an ``.npz`` data file, with a mesh copy and their provenance.
+
+    The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`), and never
+    onto the mesh file or a data file it was computed from.
 
     Parameters
     ----------
@@ -456,19 +594,37 @@ def write_data(
         The command line, stored as ``command``.
     inputs : iterable of path
         Data files read, stored (absolute) as the string array ``inputs`` (j,).
+    overwrite_inputs : bool
+        Allow ``path`` to be ``mesh_path`` or one of ``inputs`` (default: refuse).
 
     Returns
     -------
     pathlib.Path
         The file written.
+
+    Raises
+    ------
+    InputOverwriteError
+        ``path`` is the mesh file or an input (also through a link), and
+        ``overwrite_inputs`` is false.
+    OutputWriteError
+        The file could not be written (disk full, ...); a file already there is unchanged.
     """
     from .. import __version__
 
-    path = Path(path)
-    if path.suffix.lower() != ".npz":
-        path = path.with_name(path.name + ".npz")
+    path = data_path(path)
+    inputs = list(inputs)
+    check_not_input(path, [mesh_path, *inputs], force=overwrite_inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
     out = {k: np.asarray(a) for k, a in arrays.items()}
+    provenance = dict(
+        fvf_version=__version__,
+        command=command,
+        mesh_path=str(Path(mesh_path).resolve()),
+        created_utc=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    )
+    if path.suffix.lower() != ".npz":
+        return _write_mesh_data(path, out, mesh, provenance)
     out.update(
         vertices=np.asarray(mesh.vertices, dtype=np.float64),
         faces=np.asarray(mesh.faces, dtype=np.int64),
@@ -476,9 +632,83 @@ def write_data(
         command=np.array(command),
         mesh_path=np.array(str(Path(mesh_path).resolve())),
         inputs=_strings(str(Path(p).resolve()) for p in inputs),
-        created_utc=np.array(
-            datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        ),
+        created_utc=np.array(provenance["created_utc"]),
+        layout=np.array("columns"),
     )
-    np.savez(path, **out)
+    with atomic_path(path) as tmp:
+        np.savez(tmp, **out)
+    return path
+
+
+#: Suffixes of the mesh formats :func:`write_data` writes results into, as properties.
+MESH_DATA_SUFFIXES = (".ply", ".vtp", ".vtu")
+
+
+def data_path(path: str | os.PathLike) -> Path:
+    """The file :func:`write_data` writes for ``path``: ``.npz`` appended unless the
+    suffix is ``.npz`` or one of :data:`MESH_DATA_SUFFIXES`."""
+    path = Path(path)
+    if path.suffix.lower() in (".npz", *MESH_DATA_SUFFIXES):
+        return path
+    return path.with_name(path.name + ".npz")
+
+
+def mesh_properties(
+    arrays: Mapping[str, np.ndarray], mesh: TriMesh
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list[str]]:
+    """Per-vertex and per-face arrays among a command's results, as mesh properties.
+
+    (n,) and (n, 3) arrays become vertex properties, (m,) and (m, 3) face properties (a
+    3-vector ``p`` is ``px py pz``); arrays with a leading time (and function) axis are
+    split into ``key_<i>`` (``key_<i>_<j>``); ``singularity_vertices`` with
+    ``singularity_indices`` become the vertex property ``singularity_index`` (0 elsewhere).
+    Returns (vertex properties, face properties, keys left out).
+    """
+    n, m = mesh.n_vertices, mesh.n_faces
+    vertex, face, left = {}, {}, []
+
+    def put(name: str, a: np.ndarray) -> bool:
+        if a.dtype.kind not in "biuf":
+            return False
+        if a.shape in ((n,), (n, 3)):
+            vertex[name] = a
+        elif a.shape in ((m,), (m, 3)):
+            face[name] = a
+        elif a.ndim == 2 and a.shape[0] == n:  # (n, k): one column per function
+            for j in range(a.shape[1]):
+                vertex[f"{name}_{j}"] = a[:, j]
+        elif a.ndim >= 2 and a.shape[0] <= 4096:  # a leading axis: times (or functions)
+            return all(put(f"{name}_{i}", a[i]) for i in range(a.shape[0]))
+        else:
+            return False
+        return True
+
+    for key, a in arrays.items():
+        if key in ("vertices", "faces", "singularity_vertices", "singularity_positions"):
+            continue
+        if key == "singularity_indices" and "singularity_vertices" in arrays:
+            mark = np.zeros(n)
+            mark[np.asarray(arrays["singularity_vertices"], dtype=np.int64)] = a
+            vertex["singularity_index"] = mark
+        elif not put(key, np.asarray(a)):
+            left.append(key)
+    return vertex, face, left
+
+
+def _write_mesh_data(path: Path, arrays: dict, mesh: TriMesh, provenance: dict) -> Path:
+    """The results as properties of the mesh (PLY, VTK), provenance as PLY comments."""
+    from .meshfile import write_mesh
+
+    vertex, face, left = mesh_properties(arrays, mesh)
+    comments = [f"fvf {k}: {v}" for k, v in provenance.items()]
+    if left:
+        comments.append(f"fvf keys not stored (no value per vertex or face): {', '.join(left)}")
+    write_mesh(
+        path,
+        mesh.vertices,
+        mesh.faces,
+        vertex_data=vertex,
+        face_data=face,
+        comments=tuple(comments),
+    )
     return path

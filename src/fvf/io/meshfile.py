@@ -17,7 +17,7 @@ import struct
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,8 @@ from ..errors import (
     MeshShapeError,
     PolygonTriangulatedWarning,  # noqa: F401 (re-exported)
 )
+from .atomic import atomic_path
+from .inputfile import read_bytes
 
 __all__ = [
     "read_mesh",
@@ -37,6 +39,8 @@ __all__ = [
     "write_quad_mesh",
     "write_uv_mesh",
 ]
+
+_T = TypeVar("_T")
 
 SUFFIXES = (".obj", ".off", ".ply")
 _PLY_TYPES = {
@@ -148,7 +152,7 @@ def read_ply_properties(
             f"{path.suffix!r} (store functions and fields in an .npz file instead)"
         )
 
-    def parse(p: Path, data: bytes):
+    def parse(p: Path, data: bytes) -> tuple[dict, np.ndarray]:
         values, where, face_list = _parse_ply(p, data)
         counts, flat = values["face"][face_list]
         vertices = np.column_stack([values["vertex"][c] for c in "xyz"])
@@ -170,9 +174,45 @@ def read_ply_properties(
     return vertex, face
 
 
-def _parsed(path: Path, parse: Callable[[Path, bytes], object]):
-    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError."""
-    data = path.read_bytes()
+#: Bytes of a file's start that are checked before the whole file is read.
+SNIFF_BYTES = 1 << 16
+_BOM = b"\xef\xbb\xbf"
+
+
+def _sniff(path: Path, head: bytes) -> None:
+    """Refuse, from its first bytes, a file that cannot be a mesh of its suffix, before a
+    possibly huge file is read whole."""
+    suffix = path.suffix.lower()
+    head = head.removeprefix(_BOM)
+    if suffix == ".ply":
+        if head[:3] != b"ply" and head.strip():
+            first = head[:40].split(b"\n")[0].decode("latin-1").strip()
+            raise MeshReadError(
+                f"{path}: line 1: a PLY file starts with 'ply', not {first!r}; is it a PLY file?"
+            )
+        return
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise MeshReadError(
+            f"{path}: the file is UTF-16 text; save it as ASCII or UTF-8 (fvf reads "
+            f"{suffix[1:].upper()} as 8-bit text)"
+        )
+    if b"\x00" in head:
+        k = head.index(b"\x00")
+        raise MeshReadError(
+            f"{path}: byte {k} is NUL: this is a binary file, not a text "
+            f"{suffix[1:].upper()} file; check the file (or its suffix)"
+        )
+
+
+def _parsed(path: Path, parse: Callable[[Path, bytes], _T]) -> _T:
+    """``parse(path, bytes)`` with every parse failure turned into a MeshReadError.
+
+    The path must be a regular file (not a FIFO or a device); its start is checked
+    (:func:`_sniff`) before it is read whole, with a size check; a UTF-8 byte order mark
+    is dropped.
+    """
+    _sniff(path, read_bytes(path, MeshReadError, head=SNIFF_BYTES))
+    data = read_bytes(path, MeshReadError).removeprefix(_BOM)
     if not data.strip():
         raise MeshReadError(f"{path}: the file is empty; write a mesh into it or pick another")
     suffix = path.suffix.lower()
@@ -192,33 +232,68 @@ def _checked(path: Path, poly: _Polygons) -> tuple[_Polygons, tuple[np.ndarray, 
     return poly, _triangulate(path, poly)
 
 
-def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
-    """Write a triangle mesh as OBJ, OFF (ascii) or PLY (binary little endian).
+#: Formats :func:`write_mesh` writes besides :data:`SUFFIXES` (through meshio or PyVista).
+VTK_SUFFIXES = (".vtu", ".vtp")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
+
+
+def write_mesh(
+    path: str | os.PathLike,
+    vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    *,
+    vertex_data: dict[str, npt.ArrayLike] | None = None,
+    face_data: dict[str, npt.ArrayLike] | None = None,
+    comments: tuple[str, ...] = (),
+) -> None:
+    """Write a triangle mesh as OBJ, OFF (ascii), PLY (binary little endian) or VTK.
+
+    The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`).
 
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; its suffix (``.obj``, ``.off`` or ``.ply``, case-insensitive) selects
-        the format. Text formats print coordinates with ``%.17g``, so reading the file back
-        with :func:`read_mesh` gives exactly the same arrays.
+        Output file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off``,
+        ``.ply``, or VTK XML for ParaView: ``.vtu`` (through meshio, else PyVista) or
+        ``.vtp`` (through PyVista); both are optional (``pip install 'fvf[vtk]'``). Text
+        formats print coordinates with ``%.17g``, so reading the file back with
+        :func:`read_mesh` gives exactly the same arrays.
     vertices : array_like of float, shape (n, 3)
         Vertex positions.
     faces : array_like of int, shape (m, 3)
         0-based vertex indices of the triangles, in ``[0, n)``.
+    vertex_data, face_data : dict of str to array_like, optional
+        Per-vertex (n,) / (n, 3) and per-face (m,) / (m, 3) arrays (functions, fields,
+        marks), PLY and VTK only. In a PLY a scalar array ``p`` is the property ``p`` and a
+        3-vector array the three properties ``px py pz``, exactly what
+        :func:`read_ply_properties` and :func:`fvf.io.read_data` read back (a face triple
+        ``vx vy vz`` is the field ``v``). In VTK they are point and cell data of those
+        names (3-vectors as vectors). Names: letters, digits, ``_ . -``.
+    comments : tuple of str
+        PLY ``comment`` lines (provenance).
 
     Raises
     ------
     fvf.errors.FvfError
-        The suffix is unsupported.
+        The suffix is unsupported, or data were given for OBJ/OFF (which cannot hold
+        them), or a name is not usable.
+    fvf.errors.FieldShapeError
+        A data array has neither n nor m rows, or is not (k,) / (k, 3).
     fvf.errors.MeshShapeError
         ``vertices`` or ``faces`` have the wrong shape or dtype.
     fvf.errors.MeshIndexError
         A face index is outside ``[0, n)``.
+    fvf.errors.MissingExtraError
+        ``.vtu`` without meshio or PyVista, ``.vtp`` without PyVista.
+    fvf.errors.OutputWriteError
+        The file could not be written; a file already at ``path`` is unchanged.
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in SUFFIXES:
-        raise FvfError(f"{path}: cannot write {path.suffix!r} files; use one of {SUFFIXES}")
+    if suffix not in SUFFIXES + VTK_SUFFIXES:
+        raise FvfError(
+            f"{path}: cannot write {path.suffix!r} files; use one of {SUFFIXES + VTK_SUFFIXES}"
+        )
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces)
     if V.ndim != 2 or V.shape[1] != 3:
@@ -228,17 +303,22 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
     F = F.astype(np.int64)
     if F.size and (F.min() < 0 or F.max() >= len(V)):
         raise MeshIndexError(f"faces refer to vertices outside [0, {len(V)}); fix the faces")
-    n, m = len(V), len(F)
-    if suffix == ".ply":
-        header = (
-            f"ply\nformat binary_little_endian 1.0\ncomment written by fvf\nelement vertex {n}\n"
-            "property double x\nproperty double y\nproperty double z\n"
-            f"element face {m}\nproperty list uchar int vertex_indices\nend_header\n"
+    vdata = _checked_data(vertex_data, len(V), "vertex_data", ("x", "y", "z"))
+    fdata = _checked_data(face_data, len(F), "face_data", ("vertex_indices",))
+    if (vdata or fdata) and suffix in (".obj", ".off"):
+        raise FvfError(
+            f"{path}: {suffix[1:].upper()} files cannot hold vertex or face data; write "
+            ".ply (read back by fvf.io.read_data) or .vtp/.vtu (ParaView)"
         )
-        tri = np.empty(m, dtype=[("k", "u1"), ("i", "<i4", (3,))])
-        tri["k"], tri["i"] = 3, F
-        path.write_bytes(header.encode() + V.astype("<f8").tobytes() + tri.tobytes())
+    if suffix == ".ply":
+        data = _ply_bytes(V, F, vdata, fdata, comments)
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
         return
+    if suffix in VTK_SUFFIXES:
+        _write_vtk(path, V, F, vdata, fdata)
+        return
+    n, m = len(V), len(F)
     if suffix == ".obj":
         v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
         f_text = ("f %d %d %d\n" * m) % tuple((F + 1).ravel().tolist())
@@ -247,7 +327,103 @@ def write_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.Arra
         v_text = ("%.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
         f_text = ("3 %d %d %d\n" * m) % tuple(F.ravel().tolist())
         text = f"OFF\n{n} {m} 0\n{v_text}{f_text}"
-    path.write_text(text, encoding="ascii")
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="ascii")
+
+
+def _checked_data(
+    data: dict[str, npt.ArrayLike] | None, rows: int, what: str, reserved: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """Each array as float64 (rows,) or (rows, 3), names checked."""
+    from ..errors import FieldShapeError
+
+    out = {}
+    for name, a in (data or {}).items():
+        a = np.asarray(a)
+        if a.dtype.kind not in "biuf":
+            raise FieldShapeError(f"{what}[{name!r}] must hold real numbers; got {a.dtype}")
+        if not (a.shape == (rows,) or a.shape == (rows, 3)):
+            raise FieldShapeError(
+                f"{what}[{name!r}] has shape {a.shape}; expected ({rows},) or ({rows}, 3)"
+            )
+        names = [name] if a.ndim == 1 else [name + c for c in "xyz"]
+        if _NAME.fullmatch(name) is None or set(names) & set(reserved):
+            raise FvfError(
+                f"{what}: {name!r} cannot be a property name (letters, digits, _ . - and not "
+                f"{', '.join(reserved)})"
+            )
+        out[name] = a.astype(np.float64)
+    return out
+
+
+def _ply_bytes(V, F, vdata: dict, fdata: dict, comments: tuple[str, ...]) -> bytes:
+    """Binary little-endian PLY with double properties after x y z / the index list."""
+
+    def columns(data: dict) -> list[tuple[str, np.ndarray]]:
+        out = []
+        for name, a in data.items():
+            out += (
+                [(name, a)] if a.ndim == 1 else [(name + c, a[:, i]) for i, c in enumerate("xyz")]
+            )
+        return out
+
+    vcols = [("x", V[:, 0]), ("y", V[:, 1]), ("z", V[:, 2]), *columns(vdata)]
+    fcols = columns(fdata)
+    lines = ["ply", "format binary_little_endian 1.0", "comment written by fvf"]
+    lines += [f"comment {' '.join(c.split())}" for c in comments]
+    lines += [f"element vertex {len(V)}", *[f"property double {n}" for n, _ in vcols]]
+    lines += [f"element face {len(F)}", "property list uchar int vertex_indices"]
+    lines += [f"property double {n}" for n, _ in fcols]
+    header = "\n".join([*lines, "end_header"]) + "\n"
+    vrec = np.empty(len(V), dtype=[(n, "<f8") for n, _ in vcols])
+    for n, a in vcols:
+        vrec[n] = a
+    frec = np.empty(
+        len(F), dtype=[("k", "u1"), ("i", "<i4", (3,))] + [(n, "<f8") for n, _ in fcols]
+    )
+    frec["k"], frec["i"] = 3, F
+    for n, a in fcols:
+        frec[n] = a
+    return header.encode("ascii") + vrec.tobytes() + frec.tobytes()
+
+
+def _write_vtk(path: Path, V, F, vdata: dict, fdata: dict) -> None:
+    """.vtu through meshio (else PyVista), .vtp through PyVista."""
+    import importlib.util
+
+    from ..errors import MissingExtraError
+
+    suffix = path.suffix.lower()
+    have_meshio = importlib.util.find_spec("meshio") is not None
+    have_pyvista = importlib.util.find_spec("pyvista") is not None
+    if suffix == ".vtu" and have_meshio:
+        import meshio
+
+        mesh = meshio.Mesh(
+            V,
+            [("triangle", F)],
+            point_data=dict(vdata),
+            cell_data={k: [a] for k, a in fdata.items()},
+        )
+        with atomic_path(path) as tmp:
+            meshio.write(tmp, mesh, file_format="vtu")
+        return
+    if not have_pyvista:
+        need = "meshio or PyVista" if suffix == ".vtu" else "PyVista"
+        raise MissingExtraError(
+            f"{path}: writing {suffix} files needs {need}: pip install 'fvf[vtk]'"
+        )
+    import pyvista
+
+    cells = np.column_stack([np.full(len(F), 3), F]).ravel()
+    poly = pyvista.PolyData(V, cells)
+    for k, a in vdata.items():
+        poly.point_data[k] = a
+    for k, a in fdata.items():
+        poly.cell_data[k] = a
+    grid = poly if suffix == ".vtp" else poly.cast_to_unstructured_grid()
+    with atomic_path(path) as tmp:
+        grid.save(str(tmp), binary=True)
 
 
 def read_quad_mesh(
@@ -419,11 +595,44 @@ def _flatten(rows: list[list[str]]) -> tuple[list[str], np.ndarray]:
     return [t for row in rows for t in row], np.fromiter(map(len, rows), np.int64, len(rows))
 
 
-def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str):
+#: Numbers in text mesh files: C/printf decimal syntax. Python's float() and int() also
+#: take underscores ("1_0" is 10), "nan", "inf" and "infinity": not part of these formats.
+_REAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_REAL_CHARS = frozenset("0123456789+-.eE")
+_INTEGER_CHARS = frozenset("0123456789+-")
+
+
+def _strict(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str) -> None:
+    """Refuse tokens that Python would convert but the file format does not allow."""
+    allowed = _INTEGER_CHARS if kind is np.int64 else _REAL_CHARS
+    if set("".join(tokens)) <= allowed:  # only digits, signs, '.', 'e': float()/int() decide
+        return
+    grammar = _INTEGER if kind is np.int64 else _REAL
+    for k, tok in enumerate(tokens):
+        if grammar.fullmatch(tok) is None:
+            line = lineno[int(np.searchsorted(np.cumsum(counts), k, side="right"))]
+            if kind is not np.int64 and tok.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+                why = "is not a finite number; vertex positions and values must be finite"
+            elif "_" in tok:
+                why = "has an underscore, which is not part of numbers in mesh files"
+            else:
+                need = "an integer" if kind is np.int64 else "a decimal number"
+                why = f"is not {need}"
+            raise MeshReadError(
+                f"{path}: line {line}: {tok!r} in {what} {why}; fix or delete that line"
+            )
+
+
+def _numbers(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], kind: type, what: str
+) -> np.ndarray:
     """``np.array(tokens, kind)``; on failure a MeshReadError naming the line and the token.
 
-    ``counts[i]`` tokens come from the line ``lineno[i]``.
+    ``counts[i]`` tokens come from the line ``lineno[i]``. Tokens must be numbers in C
+    syntax (:func:`_strict`), not merely something ``float()`` accepts.
     """
+    _strict(path, tokens, counts, lineno, kind, what)
     try:
         return np.array(tokens, dtype=kind).reshape(len(tokens))
     except (ValueError, OverflowError):
@@ -441,7 +650,9 @@ def _numbers(path: Path, tokens: list[str], counts, lineno: list[int], kind, wha
     raise MeshReadError(f"{path}: cannot convert the values of {what}; check the file")
 
 
-def _first3(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], what: str):
+def _first3(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], what: str
+) -> np.ndarray:
     """Vertex positions, shape (k, 3), from the first three numbers of each vertex line."""
     short = np.flatnonzero(counts < 3)
     if short.size:
@@ -457,9 +668,17 @@ def _first3(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]
     return _numbers(path, tokens, counts, lineno, np.float64, what).reshape(-1, 3)
 
 
+def _text_lines(data: bytes) -> list[str]:
+    """The lines of a text file, whatever its line endings (LF, CRLF or CR alone)."""
+    text = data.decode("latin-1")
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    return text.split("\n")
+
+
 # ---------------------------------------------------------------- OBJ
 def _read_obj(path: Path, data: bytes) -> _Polygons:
-    lines = data.decode("latin-1").split("\n")
+    lines = _text_lines(data)
     heads = [line.lstrip() for line in lines]
 
     def statements(key: str) -> list[int]:
@@ -482,7 +701,7 @@ def _read_obj(path: Path, data: bytes) -> _Polygons:
 
 # ---------------------------------------------------------------- OFF
 def _read_off(path: Path, data: bytes) -> _Polygons:
-    lines = data.decode("latin-1").split("\n")
+    lines = _text_lines(data)
     words = [_words(line) for line in lines]
     content = [i for i, w in enumerate(words) if w]
     if not content:
@@ -513,7 +732,10 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
     v_at, f_at = rest[:nv], rest[nv : nv + nf]
     v_line, f_line = [i + 1 for i in v_at], [i + 1 for i in f_at]
     tokens, counts = _flatten([words[i] for i in v_at])
-    vertices = _first3(path, tokens, counts, v_line, "an OFF vertex line")
+    if "4" in first[0]:  # 4OFF: homogeneous x y z w, the point (x, y, z) / w
+        vertices = _homogeneous(path, tokens, counts, v_line)
+    else:
+        vertices = _first3(path, tokens, counts, v_line, "an OFF vertex line")
     rows = [words[i] for i in f_at]
     counts = np.fromiter(map(len, rows), np.int64, len(rows))
     what = "an OFF face line (vertex count)"
@@ -531,11 +753,34 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
     return _Polygons(vertices, k, flat, flat, lambda i: f"line {f_line[i]}", valid)
 
 
+def _homogeneous(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]):
+    """Vertex positions (k, 3) of a 4OFF file: (x, y, z) / w from each line's x y z w."""
+    short = np.flatnonzero(counts < 4)
+    if short.size:
+        i = short[0]
+        raise MeshReadError(
+            f"{path}: line {lineno[i]}: a 4OFF vertex needs x y z w (homogeneous "
+            f"coordinates) but has {counts[i]} values; fix that line or the header"
+        )
+    starts = (np.cumsum(counts) - counts).tolist()
+    xyzw = [t for s in starts for t in tokens[s : s + 4]]
+    four = np.full(len(counts), 4, dtype=np.int64)
+    what = "a 4OFF vertex line"
+    X = _numbers(path, xyzw, four, lineno, np.float64, what).reshape(-1, 4)
+    zero = np.flatnonzero(X[:, 3] == 0)
+    if zero.size:
+        raise MeshReadError(
+            f"{path}: line {lineno[zero[0]]}: w = 0 puts the 4OFF vertex at infinity "
+            f"({zero.size} such vertices); fix the coordinates"
+        )
+    return X[:, :3] / X[:, 3:]
+
+
 # ---------------------------------------------------------------- PLY
 class _Prop(NamedTuple):
     name: str
     code: str  # numpy type code without byte order, e.g. "f4"
-    count: str | None  # type code of a list's length, None for scalars
+    count: str | None  # type: ignore[assignment]  # type code of a list's length, None for scalars
 
 
 class _Element(NamedTuple):
@@ -545,10 +790,15 @@ class _Element(NamedTuple):
 
 
 def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]:
-    """Parse the header: ``(format, elements, byte offset of the body, its line number)``."""
-    lines, pos = [], 0
+    """Parse the header: ``(format, elements, byte offset of the body, its line number)``.
+
+    Header lines end with LF, CRLF or (old Mac files) CR alone, as the first line does.
+    """
+    lines: list[str] = []
+    pos = 0
+    eol = b"\r" if data[3:4] == b"\r" and data[4:5] != b"\n" else b"\n"
     while not lines or lines[-1] != "end_header":
-        nl = data.find(b"\n", pos)
+        nl = data.find(eol, pos)
         if nl < 0:
             raise MeshReadError(
                 f"{path}: the PLY header has no 'end_header' line; the file is truncated or "
@@ -598,7 +848,7 @@ def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str
     Scalar properties are 1-D arrays; the face index list is ``(counts, flat)``.
     """
     fmt, elements, pos, line0 = _ply_header(path, data)
-    byname = {}
+    byname: dict[str, _Element] = {}
     for el in elements:
         byname.setdefault(el.name, el)
     if "vertex" not in byname:
@@ -623,11 +873,14 @@ def _parse_ply(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str
     return values, where, lists[0]
 
 
-def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
+def _ply_ascii(
+    path: Path, body: bytes, elements: list[_Element], line0: int
+) -> tuple[dict, Callable[[int], str]]:
     """Parse an ascii PLY body: one element record per non-blank line."""
-    lines = body.decode("latin-1").split("\n")
+    lines = _text_lines(body)
     at = [i for i, line in enumerate(lines) if line.strip()]
-    values, cursor, face_line = {}, 0, []
+    values: dict[str, dict] = {}
+    cursor, face_line = 0, []
     for el in elements:
         chunk = at[cursor : cursor + el.size]
         if len(chunk) < el.size:
@@ -639,7 +892,7 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
         if el.name not in ("vertex", "face") or el.name in values:
             continue
         # every scalar property (read_ply_properties wants them) and the face index list
-        keep = {
+        keep: dict[str, list[list[str]]] = {
             p.name: []
             for p in el.props
             if p.count is None or (el.name == "face" and p.name in _FACE_LISTS)
@@ -665,36 +918,41 @@ def _ply_ascii(path: Path, body: bytes, elements: list[_Element], line0: int):
                     f"{path}: line {ln}: the '{el.name}' line has {len(t)} values but its "
                     f"header properties describe {c}; fix the line or the header"
                 )
-        out = {}
+        out: dict[str, object] = {}
         for name, rows in keep.items():
-            n = np.fromiter(map(len, rows), np.int64, len(rows))
+            lens = np.fromiter(map(len, rows), np.int64, len(rows))
             is_list = name in _FACE_LISTS and el.name == "face"
             kind = np.int64 if is_list else np.float64
             what = f"the '{el.name}' property '{name}'"
-            flat = _numbers(path, [x for v in rows for x in v], n, lineno, kind, what)
-            out[name] = (n, flat) if is_list else flat
+            flat = _numbers(path, [x for v in rows for x in v], lens, lineno, kind, what)
+            out[name] = (lens, flat) if is_list else flat
         values[el.name] = out
         if el.name == "face":
             face_line = lineno
     return values, lambda i: f"line {face_line[i]} (face {i})"
 
 
-def _ply_binary(path: Path, data: bytes, pos: int, elements: list[_Element], order: str):
+def _ply_binary(
+    path: Path, data: bytes, pos: int, elements: list[_Element], order: str
+) -> tuple[dict, Callable[[int], str]]:
     """Parse a binary PLY body with structured dtypes (Python loop only for mixed lists)."""
-    values = {}
+    values: dict[str, dict] = {}
     for el in elements:
         out, pos = _binary_element(path, data, pos, el, order)
         values.setdefault(el.name, out)
     return values, lambda i: f"face {i} (0-based) of the binary PLY"
 
 
-def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str):
+def _binary_element(
+    path: Path, data: bytes, pos: int, el: _Element, order: str
+) -> tuple[dict, int]:
     """Read the records of one element at byte ``pos``: ``({name: values}, end)``."""
     if el.size == 0 or not el.props:
         empty = np.zeros(0, dtype=np.int64)
         return {p.name: (empty, empty) if p.count else empty for p in el.props}, pos
     # Guess that every record has the list lengths of the first one; check afterwards.
-    fields, at = [], pos
+    fields: list[tuple] = []
+    at = pos
     for i, p in enumerate(el.props):
         if p.count is None:
             fields.append((f"s{i}", order + p.code))
@@ -715,7 +973,7 @@ def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str)
                 np.all(rec[f"c{i}"] == rec[f"c{i}"][0]) for i, p in enumerate(el.props) if p.count
             ]
             if all(same):
-                out = {}
+                out: dict[str, object] = {}
                 for i, p in enumerate(el.props):
                     if p.count is None:
                         out[p.name] = rec[f"s{i}"]
@@ -727,12 +985,16 @@ def _binary_element(path: Path, data: bytes, pos: int, el: _Element, order: str)
     return _binary_element_slow(path, data, pos, el, order)
 
 
-def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order: str):
+def _binary_element_slow(
+    path: Path, data: bytes, pos: int, el: _Element, order: str
+) -> tuple[dict, int]:
     """Find each record's property offsets in a loop, then gather the values with numpy.
 
     For lists whose lengths vary (mixed polygons), and to report truncated files.
     """
-    end, starts, lengths = len(data), [[] for _ in el.props], [[] for _ in el.props]
+    end = len(data)
+    starts: list[list[int]] = [[] for _ in el.props]
+    lengths: list[list[int]] = [[] for _ in el.props]
     steps = [
         (starts[j], lengths[j], int(p.code[1]), p.count and struct.Struct(order + _STRUCT[p.count]))
         for j, p in enumerate(el.props)
@@ -758,13 +1020,13 @@ def _binary_element_slow(path: Path, data: bytes, pos: int, el: _Element, order:
                 "header's counts are wrong: re-export the mesh"
             )
     raw, out = np.frombuffer(data, np.uint8), {}
-    for p, at, k in zip(el.props, starts, lengths, strict=True):
-        at = np.asarray(at, dtype=np.int64)
+    for p, at_list, k_list in zip(el.props, starts, lengths, strict=True):
+        idx = np.asarray(at_list, dtype=np.int64)
+        k = np.asarray(k_list, dtype=np.int64)
         if p.count:
-            k = np.asarray(k, dtype=np.int64)
             nth = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
-            at = np.repeat(at + int(p.count[1]), k) + nth * int(p.code[1])
-        values = raw[at[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
+            idx = np.repeat(idx + int(p.count[1]), k) + nth * int(p.code[1])
+        values = raw[idx[:, None] + np.arange(int(p.code[1]))].view(order + p.code).ravel()
         out[p.name] = (k, values.astype(np.int64)) if p.count else values
     return out, pos
 

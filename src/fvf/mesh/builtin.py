@@ -1,5 +1,5 @@
 """Built-in meshes shipped with the package, the fields of the chapter's Fig. 12 scene, and
-the compressible (lion) case of CHAPTER.md's measured facts."""
+the compressible (lion) case of docs/chapter.md, "Facts we measured"."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from importlib import resources
 
 import numpy as np
 
+from .convert import takes_mesh
 from .trimesh import TriMesh
 
 __all__ = ["spot", "spot_path", "fig12_fields", "compressible_case"]
@@ -24,6 +25,7 @@ def spot() -> TriMesh:
     return TriMesh(*read_mesh(spot_path()))
 
 
+@takes_mesh
 def fig12_fields(
     mesh: TriMesh, theta: float = 2.4, width: float = 0.9
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,8 +61,9 @@ def fig12_fields(
     return u0, u1, v
 
 
+@takes_mesh
 def compressible_case(mesh: TriMesh) -> tuple[TriMesh, np.ndarray, np.ndarray]:
-    """CHAPTER.md's lion case ("Facts we measured") on any mesh.
+    """The lion case of docs/chapter.md ("Facts we measured") on any mesh.
 
     The mesh is centred and scaled to unit radius; v = grad x with unit L2 norm
     (Σ_f |v_f|² area_f = 1); f0 = sin 3y + z. On lion-00 the chapter's flow of f0 along v

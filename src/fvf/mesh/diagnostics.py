@@ -7,10 +7,12 @@ at once, each with its indices and the :mod:`fvf.repair` function that fixes it.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError, format_indices
+from ..errors import DuplicateVertexWarning, FvfError, format_indices
 from . import repair as _repair
 from .trimesh import DEGENERATE_AREA_RTOL, TriMesh, _validate_arrays
 
@@ -202,7 +204,9 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
         return report
     X, F, _ = _repair.remove_unreferenced_vertices(X, F)
     try:
-        mesh = TriMesh(X, F)
+        with warnings.catch_warnings():  # a soup is reported as a hint, not a warning
+            warnings.simplefilter("ignore", DuplicateVertexWarning)
+            mesh = TriMesh(X, F)
     except FvfError as exc:  # pragma: no cover - every TriMesh check is mirrored above
         problems.append(f"{type(exc).__name__}: {exc}")
         return report

@@ -77,6 +77,8 @@ class RepairResult:
         (corners 1 and 2 swapped), so its normal and the rotation J changed sign.
     log : tuple of str
         One line per step that changed something, naming the indices involved.
+    mesh : TriMesh
+        The repaired mesh (property, built on first use).
 
     Notes
     -----
@@ -109,6 +111,24 @@ class RepairResult:
             f"{self.face_map.size} -> {self.faces.shape[0]} faces, "
             f"{int(self.flipped.sum())} flipped, log={list(self.log)})"
         )
+
+    @property
+    def mesh(self):
+        """The repaired mesh as a :class:`fvf.TriMesh` (built on first use, then kept).
+
+        Raises
+        ------
+        fvf.errors.MeshError
+            The repair steps that ran did not fix everything (the message names what is
+            left; :func:`repair_mesh` with its default steps fixes what it can).
+        """
+        cached = self.__dict__.get("_mesh")
+        if cached is None:
+            from .trimesh import TriMesh
+
+            cached = TriMesh(self.vertices, self.faces)
+            object.__setattr__(self, "_mesh", cached)
+        return cached
 
     @property
     def changed(self) -> bool:
@@ -292,7 +312,9 @@ def _edge_pairs(
     return ha, hb, np.flatnonzero(counts > 2), (edges, counts, edge_of)
 
 
-def _nonmanifold_message(F: np.ndarray, edges, counts, edge_of, bad) -> str:
+def _nonmanifold_message(
+    F: np.ndarray, edges: np.ndarray, counts: np.ndarray, edge_of: np.ndarray, bad: np.ndarray
+) -> str:
     faces = np.unique(np.flatnonzero(np.isin(edge_of, bad)) // 3)
     dup = np.flatnonzero(_duplicate_faces(F)[0])
     hint = (

@@ -8,9 +8,10 @@ on first use and cached on the instance.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from functools import cached_property
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -19,19 +20,42 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import (
     DegenerateFaceError,
+    DuplicateVertexWarning,
     MeshIndexError,
+    MeshScaleError,
     MeshShapeError,
     NonFiniteError,
     NonManifoldError,
     OrientationError,
     UnreferencedVertexError,
     format_indices,
+    user_stacklevel,
 )
 
 __all__ = ["TriMesh"]
 
+_T = TypeVar("_T")
+
 #: A face whose area is below this times its longest edge squared counts as degenerate.
 DEGENERATE_AREA_RTOL = 1e-14
+
+#: Warn (:class:`DuplicateVertexWarning`) when more than this fraction of the edges are
+#: boundary edges and of the vertices sit on another vertex: a triangle soup. Meshes of
+#: fewer than ``SOUP_MIN_FACES`` faces are not judged (a few triangles cut apart on
+#: purpose, e.g. by :func:`fvf.split_nonmanifold_edges`, look the same).
+SOUP_FRACTION = 0.25
+SOUP_MIN_FACES = 32
+
+_WELD = (
+    "weld them first: `V, F, _ = fvf.remove_duplicate_vertices(V, F)` (`fvf repair` in the "
+    "shell; with trimesh, load with `trimesh.load(path, merge_tex=True, merge_norm=True)` "
+    "or call `mesh.merge_vertices()`)"
+)
+
+#: The extent of a mesh (largest side of its bounding box) must lie in this range: the
+#: fourth power of the extent (squared areas) and of its inverse (squared Laplacian
+#: entries) must stay normal float64 numbers.
+EXTENT_RANGE = (1e-75, 1e75)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -54,10 +78,11 @@ class TriMesh:
     Parameters
     ----------
     vertices : array_like, shape (n, 3)
-        Vertex positions X; converted to a read-only C-contiguous float64 array.
+        Vertex positions X; copied into a read-only C-contiguous float64 array (the
+        caller's array is never changed, and changing it later does not change the mesh).
     faces : array_like of int, shape (m, 3)
         Vertex indices of each face, counter-clockwise about the outward normal
-        (right-hand rule); converted to read-only int64.
+        (right-hand rule); copied into read-only int64.
 
     Raises
     ------
@@ -65,6 +90,9 @@ class TriMesh:
         Wrong shapes, dtypes, or an empty mesh.
     NonFiniteError
         NaN or inf coordinates.
+    MeshScaleError
+        The mesh's extent is outside :data:`EXTENT_RANGE` (areas would overflow or
+        underflow float64).
     MeshIndexError
         A face index outside ``[0, n)`` or a face that repeats a vertex.
     UnreferencedVertexError
@@ -102,6 +130,7 @@ class TriMesh:
 
     vertices: np.ndarray
     faces: np.ndarray
+    _cache: dict[str, Any]
 
     def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
         X, F = _validate_arrays(vertices, faces)
@@ -109,7 +138,19 @@ class TriMesh:
         object.__setattr__(self, "faces", _readonly(F))
         object.__setattr__(self, "_cache", {})
         self._validate_geometry()
-        self._validate_topology()
+        try:
+            self._validate_topology()
+        except (NonManifoldError, OrientationError) as exc:
+            shared = _coincident_vertices(self.vertices)
+            if not shared:
+                raise
+            raise type(exc)(
+                f"{shared} of the {self.n_vertices} vertices sit at the position of another "
+                "vertex: the mesh was split (at UV seams, or into a triangle soup), which "
+                f"makes it fall apart. Fix: {_WELD}. The check found: "
+                f"{str(exc).split(' Fix:')[0]}"
+            ) from None
+        self._warn_if_soup()
 
     # ------------------------------------------------------------------ immutability
     def __setattr__(self, name: str, value: Any) -> None:
@@ -125,7 +166,7 @@ class TriMesh:
             f"euler_characteristic={self.euler_characteristic})"
         )
 
-    def cached(self, key: str, build: Callable[[], Any]) -> Any:
+    def cached(self, key: str, build: Callable[[], _T]) -> _T:
         """Return ``build()`` computed once per mesh and stored under ``key``.
 
         Used by :mod:`fvf.calculus` to cache operators that depend on the mesh only.
@@ -133,23 +174,24 @@ class TriMesh:
         cache = self._cache
         if key not in cache:
             cache[key] = build()
-        return cache[key]
+        value: _T = cache[key]
+        return value
 
     # ------------------------------------------------------------------ sizes
     @property
     def n_vertices(self) -> int:
         """Number of vertices n."""
-        return self.vertices.shape[0]
+        return int(self.vertices.shape[0])
 
     @property
     def n_faces(self) -> int:
         """Number of faces m."""
-        return self.faces.shape[0]
+        return int(self.faces.shape[0])
 
     @property
     def n_edges(self) -> int:
         """Number of undirected edges."""
-        return self.edges.shape[0]
+        return int(self.edges.shape[0])
 
     # ------------------------------------------------------------------ geometry
     @cached_property
@@ -233,15 +275,15 @@ class TriMesh:
         """
         u = np.asarray(u, dtype=float)
         N = self.face_normals
-        return u - np.einsum("ij,ij->i", u, N)[:, None] * N
+        return np.asarray(u - np.einsum("ij,ij->i", u, N)[:, None] * N)
 
     def to_local(self, u: npt.ArrayLike) -> np.ndarray:
         """Ambient (m, 3) tangent vectors to coordinates (m, 2) in :attr:`face_bases`."""
-        return np.einsum("tij,tj->ti", self.face_bases, np.asarray(u, dtype=float))
+        return np.asarray(np.einsum("tij,tj->ti", self.face_bases, np.asarray(u, dtype=float)))
 
     def from_local(self, a: npt.ArrayLike) -> np.ndarray:
         """Coordinates (m, 2) in :attr:`face_bases` to ambient tangent vectors (m, 3)."""
-        return np.einsum("tij,ti->tj", self.face_bases, np.asarray(a, dtype=float))
+        return np.asarray(np.einsum("tij,ti->tj", self.face_bases, np.asarray(a, dtype=float)))
 
     def to_complex(self, u: npt.ArrayLike) -> np.ndarray:
         """Ambient (m, 3) tangent vectors to complex numbers (m,) ``a0 + i a1`` in the frames.
@@ -464,6 +506,15 @@ class TriMesh:
 
     # ------------------------------------------------------------------ validation
     def _validate_geometry(self) -> None:
+        extent = float(np.ptp(self.vertices, axis=0).max())
+        lo, hi = EXTENT_RANGE
+        if extent > 0 and not lo <= extent <= hi:
+            raise MeshScaleError(
+                f"the vertices span {extent:.3g} (largest side of the bounding box), so face "
+                f"areas (~{extent:.3g}²) {'overflow' if extent > hi else 'underflow'} "
+                f"float64; fvf needs an extent in [{lo:g}, {hi:g}]. Fix: rescale the "
+                f"vertices, e.g. V / {extent:.3g}."
+            )
         n = self.n_vertices
         used = np.zeros(n, dtype=bool)
         used[self.faces.ravel()] = True
@@ -483,6 +534,24 @@ class TriMesh:
                 "vertices), so their normal and gradient are undefined. Fix: remove or "
                 "collapse them before building a TriMesh: `fvf.remove_duplicate_vertices(V, F)` "
                 "then `fvf.remove_degenerate_faces(V, F)` (or `fvf.repair_mesh(V, F)`)."
+            )
+
+    def _warn_if_soup(self) -> None:
+        """Warn when the mesh is a triangle soup: mostly boundary edges, and most vertices
+        sitting on another (checked only when the boundary is that large)."""
+        counts = self._edge_data[2]
+        boundary = int(np.count_nonzero(counts == 1))
+        if self.n_faces < SOUP_MIN_FACES or boundary <= SOUP_FRACTION * counts.size:
+            return
+        shared = _coincident_vertices(self.vertices)
+        if shared > SOUP_FRACTION * self.n_vertices:
+            warnings.warn(
+                f"{shared} of the {self.n_vertices} vertices sit at the position of another "
+                f"vertex and {boundary} of the {counts.size} edges are boundary edges: this "
+                "is a triangle soup (or a mesh split at its UV seams), so fvf sees "
+                f"separate pieces, not one surface. If it should be one surface, {_WELD}.",
+                DuplicateVertexWarning,
+                stacklevel=user_stacklevel(),
             )
 
     def _validate_topology(self) -> None:
@@ -544,6 +613,11 @@ class TriMesh:
             )
 
 
+def _coincident_vertices(X: np.ndarray) -> int:
+    """How many vertices sit exactly at the position of an earlier one."""
+    return int(X.shape[0] - np.unique(X, axis=0).shape[0])
+
+
 def _as_array(a: npt.ArrayLike, name: str) -> np.ndarray:
     """np.asarray, with ragged nested lists reported as a MeshShapeError."""
     try:
@@ -585,8 +659,9 @@ def _validate_arrays(
             f"faces must be an integer array; got dtype {F.dtype}. Fix: faces.astype(np.int64) "
             "if the values are whole numbers."
         )
-    X = np.ascontiguousarray(X, dtype=np.float64)
-    F = np.ascontiguousarray(F, dtype=np.int64)
+    # copies: the mesh's arrays are made read-only, the caller's must stay as they are
+    X = np.array(X, dtype=np.float64, order="C", copy=True)
+    F = np.array(F, dtype=np.int64, order="C", copy=True)
     finite = np.isfinite(X).all(axis=1)
     if not finite.all():
         bad = np.flatnonzero(~finite)

@@ -93,7 +93,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -225,7 +225,9 @@ def eigen_residuals(
 
 
 # --------------------------------------------------------------------------- validation
-def _validate(W, mass, k, tol, method, ordering="auto") -> tuple[sp.csr_array, np.ndarray, int]:
+def _validate(
+    W: Any, mass: Any, k: Any, tol: Any, method: Any, ordering: Any = "auto"
+) -> tuple[sp.csr_array, np.ndarray, int]:
     if method not in METHODS:
         raise SpectralInputError(f"method must be one of {METHODS}; got {method!r}")
     if ordering not in ORDERINGS:
@@ -375,7 +377,9 @@ def smallest_eigenpairs(
 
 
 # ------------------------------------------------------------------------------ finish
-def _finish(W: sp.csr_array, m: np.ndarray, X: np.ndarray):
+def _finish(
+    W: sp.csr_array, m: np.ndarray, X: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """M-normalize, Rayleigh-quotient eigenvalues, ascending order, sign convention.
 
     Returns (evals, evecs, relative residuals), sharing one product W @ X.
@@ -472,7 +476,7 @@ class SPDFactor:
 ND_MIN = 30_000
 
 
-def _splu_symmetric(K, ordering: Ordering = "auto") -> SPDFactor:
+def _splu_symmetric(K: Any, ordering: Ordering = "auto") -> SPDFactor:
     """SuperLU of a symmetric K with diagonal pivots, after the requested ordering."""
     if ordering not in ORDERINGS:
         raise SpectralInputError(f"ordering must be one of {ORDERINGS}; got {ordering!r}")
@@ -628,7 +632,9 @@ def _largest_cluster(lam: np.ndarray, rtol: float = 1e-6) -> int:
     return int(runs.max()) + 1 if runs.size else 1
 
 
-def _inertia_check(W, m, lam: np.ndarray, ordering: Ordering = "auto"):
+def _inertia_check(
+    W: Any, m: np.ndarray, lam: np.ndarray, ordering: Ordering = "auto"
+) -> tuple[float, int, int] | None:
     """Compare the computed eigenvalues below a gap τ with the inertia count there.
 
     τ is the midpoint of the widest relative gap (weighted up to 2x toward the top) among

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -164,7 +165,9 @@ def _pair_smoother(A: sp.csr_array, b: int, pairs: np.ndarray) -> sp.csr_array:
     )
 
 
-def _power_rho(A: sp.csr_array, Dinv: sp.csr_array, rng: np.random.Generator, iters: int = 12):
+def _power_rho(
+    A: sp.csr_array, Dinv: sp.csr_array, rng: np.random.Generator, iters: int = 12
+) -> float:
     """An estimate of the spectral radius of Dinv A (power iteration, seeded)."""
     x = rng.standard_normal(A.shape[0])
     x /= np.linalg.norm(x)
@@ -225,7 +228,9 @@ def _strong_edges(A: sp.csr_array, b: int, theta: float) -> sp.coo_array:
     return sp.coo_array((f[sel], (B2.row[sel], B2.col[sel])), shape=(N, N))
 
 
-def _aggregate(pos: np.ndarray, G: sp.csr_array, area: float, ratio: float):
+def _aggregate(
+    pos: np.ndarray, G: sp.csr_array, area: float, ratio: float
+) -> tuple[np.ndarray, int]:
     """Aggregates of about ``ratio`` nodes (voxel hashing + components, s tuned twice)."""
     N = pos.shape[0]
     h = np.sqrt(area / N)  # node spacing
@@ -239,7 +244,9 @@ def _aggregate(pos: np.ndarray, G: sp.csr_array, area: float, ratio: float):
     return _merge_singletons(agg, G)
 
 
-def _tentative(agg: np.ndarray, n_agg: int, Nn: np.ndarray, mass: np.ndarray, b: int):
+def _tentative(
+    agg: np.ndarray, n_agg: int, Nn: np.ndarray, mass: np.ndarray, b: int
+) -> tuple[Any, np.ndarray]:
     """Tentative prolongator (Nb, n_agg b) and the coarse near-kernel (n_agg, b, r)."""
     N, _, r = Nn.shape
     Wn = Nn * mass.reshape(N, b)[:, :, None]
@@ -447,7 +454,9 @@ def _extra(k: int) -> int:
     return int(max(2, min(k // 2, 16)))
 
 
-def _orthonormalize(Z: np.ndarray, AZ: np.ndarray | None = None, drop: float = 1e-10):
+def _orthonormalize(
+    Z: np.ndarray, AZ: np.ndarray | None = None, drop: float = 1e-10
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Orthonormal columns spanning Z (eigen-decomposed Gram; near-dependent ones dropped).
 
     Returns (Q, AQ) with AQ the same combination of AZ (None if AZ is None).
@@ -709,7 +718,7 @@ def multilevel_eigenpairs(
 
 
 def face_field_eigenpairs(
-    mesh,
+    mesh: Any,
     W: sp.sparray | sp.spmatrix,
     k: int,
     *,

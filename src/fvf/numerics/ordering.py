@@ -94,7 +94,7 @@ def _indistinguishable(G: sp.csr_array) -> tuple[np.ndarray, sp.csr_array | None
     or (arange, None) when no two nodes share one."""
     n = G.shape[0]
     ids = np.arange(1, n + 1, dtype=np.float64)
-    best = None
+    best: np.ndarray | None = None
     for H in (G + sp.eye_array(n, format="csr"), G):
         key = np.stack(
             [np.diff(H.indptr).astype(np.float64), H @ ids, H @ (ids * ids)], axis=1
@@ -103,6 +103,7 @@ def _indistinguishable(G: sp.csr_array) -> tuple[np.ndarray, sp.csr_array | None
         group = group.ravel()
         if best is None or group.max() < best.max():
             best = group
+    assert best is not None  # the loop ran
     k = int(best.max()) + 1 if n else 0
     if k == n:
         return np.arange(n), None
@@ -110,7 +111,9 @@ def _indistinguishable(G: sp.csr_array) -> tuple[np.ndarray, sp.csr_array | None
     return best, Q
 
 
-def _dissect(G: sp.csr_array, nodes: npt.NDArray[np.int64], out, start: int, leaf: int) -> int:
+def _dissect(
+    G: sp.csr_array, nodes: npt.NDArray[np.int64], out: np.ndarray, start: int, leaf: int
+) -> int:
     """Write an order of the subgraph G (global ids ``nodes``) into out[start:]; return
     the next free position."""
     if nodes.size <= leaf:

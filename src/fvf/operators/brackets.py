@@ -21,8 +21,9 @@ from ..calculus import (
     stiffness,
     vertex_to_face,
 )
-from ..errors import ParameterError
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..errors import FieldValueError, ParameterError
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
 from ..mesh.trimesh import TriMesh
 from .directional import D_V, centered_vertices, directional_derivatives
 from .divergence import dtilde_entries
@@ -39,6 +40,7 @@ __all__ = [
 ]
 
 
+@takes_mesh
 def bracket_V(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -51,6 +53,7 @@ def bracket_V(
     return (Dv @ Dw - Dw @ Dv).tocsr()
 
 
+@takes_mesh
 def bracket_F(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -81,6 +84,7 @@ def bracket_F(
     return mesh.assemble_vertex_operator(local)
 
 
+@takes_mesh
 def B(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> sp.csr_array:
@@ -95,6 +99,7 @@ def B(
     return block_diagonal(blocks)
 
 
+@takes_mesh
 def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """ad_v: sparse (3n, 3m), w ↦ D^F_{[v,w]} X (eqs. 62–63), in fvf's layout.
 
@@ -123,18 +128,56 @@ def ad(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> s
     return sp.bsr_array((blocks.reshape(-1, 3, 3)[order], faces_of, indptr), shape=(3 * n, 3 * m))
 
 
+@takes_mesh
 def commutator_field(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy = "project"
 ) -> np.ndarray:
     """u = D^F_{[v,w]} X: the commutator as a vertex field, float64 (n, 3) (§4.3.3, Fig. 9).
 
-    Approximately (not exactly) tangent to the surface.
+    Approximately (not exactly) tangent to the surface. Computed scale-free: the bracket
+    is bilinear, [a v, b w] = ab [v, w], so v and w are scaled to unit size first (by
+    powers of two, exactly) and the result scaled back; fields of magnitude 1e-200 or
+    1e200 give the right answer whenever it fits in float64.
+
+    Raises
+    ------
+    FieldValueError
+        The commutator's magnitude is beyond float64 (e.g. two fields of size 1e200).
     """
-    return bracket_F(mesh, v, w, tangent) @ centered_vertices(mesh)  # = D X, as D 1 = 0
+    unit, scale = _unit_commutator(mesh, v, w, tangent)
+    return _scaled_back(unit, scale, "commutator field")
 
 
+def _unit_commutator(
+    mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, tangent: TangentPolicy
+) -> tuple[np.ndarray, float]:
+    """(D^F_{[v̂,ŵ]} X, s) with v̂ = v/s_v, ŵ = w/s_w of unit size and s = s_v s_w."""
+    v = as_face_field(mesh, v, "v", tangent)
+    w = as_face_field(mesh, w, "w", tangent)
+    sv, sw = unit_scale(v), unit_scale(w)
+    unit = bracket_F(mesh, v / sv, w / sw, "ignore") @ centered_vertices(mesh)  # D X (D 1 = 0)
+    return unit, sv * sw
+
+
+def _scaled_back(unit: np.ndarray, scale: float, what: str) -> np.ndarray:
+    with np.errstate(over="ignore"):
+        out = unit * scale
+    if not np.isfinite(out).all():
+        big = float(np.abs(unit).max())
+        raise FieldValueError(
+            f"the {what} has magnitude ~{big:.3g} x {scale:.3g}, beyond float64. Fix: scale "
+            "v and w down (the bracket is bilinear: [a v, b w] = ab [v, w])."
+        )
+    return out
+
+
+@takes_mesh
 def bracket_norm(
-    mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, where: str = "vertex"
+    mesh: TriMesh,
+    v: npt.ArrayLike,
+    w: npt.ArrayLike,
+    where: str = "vertex",
+    tangent: TangentPolicy = "project",
 ) -> np.ndarray:
     """Pointwise norm of the commutator field |D^F_{[v,w]} X| (Figs. 9–10).
 
@@ -142,15 +185,28 @@ def bracket_norm(
     ----------
     where : {"vertex", "face"}
         Per vertex (n,), or averaged to faces with I_F^V (m,).
+    tangent : {"project", "raise", "ignore"}
+        Normal-component policy for v and w (:func:`fvf.as_face_field`).
+
+    Returns
+    -------
+    float64 (n,) or (m,)
+        Computed scale-free, as :func:`commutator_field`.
+
+    Raises
+    ------
+    FieldValueError
+        The norms are beyond float64.
     """
-    u = commutator_field(mesh, v, w)
-    if where == "vertex":
-        return np.linalg.norm(u, axis=1)
+    if where not in ("vertex", "face"):
+        raise ParameterError(f"where must be 'vertex' or 'face'; got {where!r}")
+    unit, scale = _unit_commutator(mesh, v, w, tangent)
     if where == "face":
-        return np.linalg.norm(vertex_to_face(mesh) @ u, axis=1)
-    raise ParameterError(f"where must be 'vertex' or 'face'; got {where!r}")
+        unit = vertex_to_face(mesh) @ unit
+    return _scaled_back(np.linalg.norm(unit, axis=1), scale, "commutator's norm")
 
 
+@takes_mesh
 def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
     """‖∇g‖² / ‖g‖² = gᵀWg / gᵀ[A_V]g per column: a scale-free roughness of PL functions.
 
@@ -178,6 +234,7 @@ def dirichlet_ratio(mesh: TriMesh, g: np.ndarray) -> np.ndarray:
     return num / np.where(den > 0, den, 1.0)
 
 
+@takes_mesh
 def bracket_smoothness(
     mesh: TriMesh, v: npt.ArrayLike, w: npt.ArrayLike, functions: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -7,6 +7,8 @@ area-weighted average on vertices D^V_v f (n,).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -21,12 +23,14 @@ from ..calculus import (
     hat_gradients,
 )
 from ..errors import FieldShapeError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh, _readonly
 
 __all__ = ["directional_derivatives", "D_F", "D_V", "Dbar_F", "Dbar_V", "extract_field"]
 
 
+@takes_mesh
 def directional_derivatives(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     """⟨v(t), ∇φ_i⟩ on each face for each corner, float64 (m, 3): the entries of D^F_v.
 
@@ -45,6 +49,7 @@ def directional_derivatives(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     return np.einsum("tij,tj->ti", hat_gradients(mesh), v)
 
 
+@takes_mesh
 def D_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """D^F_v = [v]•ᵀ grad: sparse (m, n), the directional derivative to faces (eq. 35).
 
@@ -65,6 +70,7 @@ def D_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> 
     return face_rows_csr(vals, Fs, mesh.n_vertices)
 
 
+@takes_mesh
 def D_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """D^V_v = I_V^F D^F_v: sparse (n, n), the directional derivative on vertices (eq. 36).
 
@@ -106,6 +112,7 @@ def _D_V_scatter(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("D_V_scatter", build)
 
 
+@takes_mesh
 def Dbar_F(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
     """D̄^F_f = [grad f]•ᵀ: sparse (m, 3m), the dual operator (eq. 37).
 
@@ -114,12 +121,14 @@ def Dbar_F(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
     return field_inner(mesh, gradient(mesh, f))
 
 
+@takes_mesh
 def Dbar_V(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
     """D̄^V_f = I_V^F D̄^F_f: sparse (n, 3m), the dual of D^V (eq. 38): D̄^V_f v = D^V_v f."""
     return (face_to_vertex(mesh) @ Dbar_F(mesh, f)).tocsr()
 
 
-def extract_field(mesh: TriMesh, D) -> np.ndarray:
+@takes_mesh
+def extract_field(mesh: TriMesh, D: Any) -> np.ndarray:
     """Recover a field from its operator by applying it to the coordinates (Lemma 9, eq. 40).
 
     Parameters

@@ -19,6 +19,7 @@ from ..calculus import (
     hat_gradients,
     vertex_to_face,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_face_function, as_vertex_function
 from ..mesh.trimesh import TriMesh
 
@@ -31,6 +32,7 @@ def _weighted_hat_products(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     return -d * mesh.face_areas[:, None] / mesh.vertex_areas[mesh.faces]
 
 
+@takes_mesh
 def dtilde_entries(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     """The entries D̃^F_v(F[t, a], t) per face and corner, float64 (m, 3) (eq. 52).
 
@@ -46,6 +48,7 @@ def dtilde_entries(mesh: TriMesh, v: np.ndarray) -> np.ndarray:
     )
 
 
+@takes_mesh
 def Dtilde_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """D̃^F_v = div [v]• − [div v] I_V^F: sparse (n, m) (eq. 52), PC functions to PL.
 
@@ -58,6 +61,7 @@ def Dtilde_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
     return T.T.tocsr()
 
 
+@takes_mesh
 def Dtilde_V(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> sp.csr_array:
     """D̃^V_v = div [v]• I_F^V − [div v]: sparse (n, n) (eq. 52), on the 1-ring pattern."""
     v = as_face_field(mesh, v, "v", tangent)
@@ -74,6 +78,7 @@ def _scaled_div(mesh: TriMesh, face_values: np.ndarray, vertex_values: np.ndarra
     return sp.csr_array((data, D.indices, D.indptr), shape=D.shape)
 
 
+@takes_mesh
 def Dtilde_dual_F(mesh: TriMesh, f_faces: npt.ArrayLike) -> sp.csr_array:
     """D̃^F_𝐟 = div [𝐟] − [I_V^F 𝐟] div: sparse (n, 3m), dual of D̃^F (eq. 53).
 
@@ -83,6 +88,7 @@ def Dtilde_dual_F(mesh: TriMesh, f_faces: npt.ArrayLike) -> sp.csr_array:
     return _scaled_div(mesh, f, face_to_vertex(mesh) @ f)
 
 
+@takes_mesh
 def Dtilde_dual_V(mesh: TriMesh, f: npt.ArrayLike) -> sp.csr_array:
     """D̃^V_f = div [I_F^V f] − [f] div: sparse (n, 3m), dual of D̃^V (eq. 53).
 

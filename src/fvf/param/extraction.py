@@ -32,6 +32,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import QuadExtractionError, format_indices
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .seams import ROTATIONS
 
@@ -340,6 +341,7 @@ def _lookup(sorted_keys: np.ndarray, order: np.ndarray, keys: np.ndarray) -> np.
     return np.where(hit, order[pos], -1)
 
 
+@takes_mesh
 def extract_quads(mesh: TriMesh, uv: npt.ArrayLike) -> QuadMesh:
     """Quad mesh of the integer grid of an integer-seamless parameterization.
 

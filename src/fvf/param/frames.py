@@ -29,6 +29,7 @@ import scipy.sparse as sp
 
 from ..design.connection import complex_to_real, connection_pairs, real_to_complex
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import factor_spd
@@ -45,6 +46,7 @@ CURVATURE_WEIGHT = 0.1
 ANISOTROPY_FULL = 0.25
 
 
+@takes_mesh
 def cross_field_angles(mesh: TriMesh, field: npt.ArrayLike) -> np.ndarray:
     """Angle φ_t of a per-face representative vector in the face frame, float64 (m,).
 
@@ -129,6 +131,7 @@ def _curvature_target(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
     return z2**2 / np.maximum(mag, floor) ** 2, np.clip(aniso / ANISOTROPY_FULL, 0.0, 1.0) ** 2
 
 
+@takes_mesh
 def default_cross_field(
     mesh: TriMesh, align: Alignment = "curvature", length_scale: float | None = None
 ) -> np.ndarray:

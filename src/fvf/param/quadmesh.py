@@ -6,6 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import QuadExtractionError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .extraction import extract_quads
 from .frames import Alignment
@@ -14,6 +15,7 @@ from .seamless import seamless_parameterization
 __all__ = ["quad_mesh"]
 
 
+@takes_mesh
 def quad_mesh(
     mesh: TriMesh,
     *,

@@ -24,6 +24,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 
 __all__ = ["QuadQuality", "quad_quality", "quad_topology"]
@@ -131,6 +132,7 @@ def _alignment(mesh: TriMesh, V, Q, field: np.ndarray) -> np.ndarray:
     return np.degrees(np.minimum(r, np.pi / 2 - r))
 
 
+@takes_mesh
 def quad_quality(
     mesh: TriMesh,
     vertices: npt.ArrayLike,

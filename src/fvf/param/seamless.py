@@ -35,6 +35,7 @@ from ..errors import (
     ParameterizationInputError,
     format_indices,
 )
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .cones import cancel_close_cones
 from .cutgraph import CutMesh, comb_and_cut
@@ -293,6 +294,7 @@ def _transitions(mesh: TriMesh, uv: np.ndarray, ss: SeamSystem) -> np.ndarray:
     return out
 
 
+@takes_mesh
 def seamless_parameterization(
     mesh: TriMesh,
     *,

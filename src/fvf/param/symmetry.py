@@ -22,12 +22,14 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 
 __all__ = ["face_map_from_vertex_map", "symmetrize_cross_field", "quad_symmetry_error"]
 
 
+@takes_mesh
 def face_map_from_vertex_map(mesh: TriMesh, vertex_map: npt.ArrayLike) -> np.ndarray:
     """σ (m,) int64: the face whose vertex set is the image of each face's under π.
 
@@ -67,6 +69,7 @@ def _pushforward(mesh: TriMesh, pi: np.ndarray, sigma: np.ndarray, u: np.ndarray
     return out
 
 
+@takes_mesh
 def symmetrize_cross_field(
     mesh: TriMesh, u: npt.ArrayLike, vertex_map: npt.ArrayLike, iterations: int = 2
 ) -> np.ndarray:

@@ -11,18 +11,22 @@ problem: the field whose reduced operator is closest to a given k x k matrix.
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from pathlib import Path
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg as sla
 
 from ..calculus import grad, rotate, stiffness, vertex_to_face
 from ..errors import FieldShapeError, ParameterError
 from ..flows.functional import FunctionalFlow
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function
+from ..io.atomic import atomic_path
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import TangentPolicy, as_count, as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
+from ..numerics.expm import as_times, dense_expm_action
 
 __all__ = [
     "SpectralBasis",
@@ -68,6 +72,7 @@ class SpectralBasis:
     True
     """
 
+    @takes_mesh
     def __init__(
         self,
         mesh: TriMesh,
@@ -78,22 +83,36 @@ class SpectralBasis:
         cache_dir: str | Path | None = None,
     ) -> None:
         self.mesh = mesh
-        self.k = int(k)
+        self.k = as_count(k, "k", 1)
         self.tol = float(tol)
         path = None
         if cache_dir is not None:
             path = Path(cache_dir) / f"lb-{self.cache_key()}.npz"
-            if path.exists():
-                with np.load(path) as data:
-                    self.eigenvalues = data["eigenvalues"]
-                    self.eigenvectors = data["eigenvectors"]
+            if self._load_cache(path):
                 return
         self.eigenvalues, self.eigenvectors = smallest_eigenpairs(
             stiffness(mesh), mesh.vertex_areas, self.k, tol=self.tol, seed=seed
         )
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(path, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+            with atomic_path(path) as tmp:  # whole or not at all: never a half-written cache
+                np.savez(tmp, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
+
+    def _load_cache(self, path: Path) -> bool:
+        """Take the eigenpairs from a cache file; False (recompute) when it is missing or
+        unreadable, or holds arrays of the wrong shape (never trusted blindly)."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                values, vectors = data["eigenvalues"], data["eigenvectors"]
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return False
+        n = self.mesh.n_vertices
+        if values.shape != (self.k,) or vectors.shape != (n, self.k):
+            return False
+        if not (np.isfinite(values).all() and np.isfinite(vectors).all()):
+            return False
+        self.eigenvalues, self.eigenvectors = values, vectors
+        return True
 
     def cache_key(self) -> str:
         """sha256 of the mesh arrays, k and tol: the on-disk cache's file name."""
@@ -117,7 +136,7 @@ class SpectralBasis:
         return self.eigenvectors @ c
 
     # ------------------------------------------------------------------ operators
-    def reduce(self, O) -> np.ndarray:
+    def reduce(self, O: Any) -> np.ndarray:
         """Ô = Φᵀ [A_V] O Φ: any n x n operator (sparse, dense or LinearOperator) -> (k, k)."""
         n = self.mesh.n_vertices
         if O.shape != (n, n):
@@ -172,6 +191,26 @@ class SpectralBasis:
         return float(np.linalg.norm(C) / (np.linalg.norm(D) * max(abs(lam[-1]), 1e-300)))
 
     # ------------------------------------------------------------------ flows
+    @overload
+    def reduced_flow(
+        self,
+        v: npt.ArrayLike,
+        f: npt.ArrayLike,
+        t: float | npt.ArrayLike,
+        *,
+        error_estimate: Literal[False] = ...,
+        n_quadrature: int = ...,
+    ) -> np.ndarray: ...
+    @overload
+    def reduced_flow(
+        self,
+        v: npt.ArrayLike,
+        f: npt.ArrayLike,
+        t: float | npt.ArrayLike,
+        *,
+        error_estimate: Literal[True],
+        n_quadrature: int = ...,
+    ) -> tuple[np.ndarray, Any]: ...
     def reduced_flow(
         self,
         v: npt.ArrayLike,
@@ -180,7 +219,7 @@ class SpectralBasis:
         *,
         error_estimate: bool = False,
         n_quadrature: int = 33,
-    ):
+    ) -> np.ndarray | tuple[np.ndarray, Any]:
         """Flow a function in the reduced basis: Φ exp(−t D̂_v) Φᵀ[A_V] f (eq. 42 reduced).
 
         Parameters
@@ -206,8 +245,10 @@ class SpectralBasis:
         f = as_vertex_function(self.mesh, f)
         Dhat = self.reduced_D(v, tangent="ignore")
         c0 = self.project(f)
-        times = np.atleast_1d(np.asarray(t, dtype=float))
-        coeffs = np.stack([sla.expm(-s * Dhat) @ c0 for s in times])  # (T, k)
+        times, _ = as_times(t)
+        # (T, k), one eigen-decomposition for all times; no times give (0, n), as every
+        # flow of fvf.flow
+        coeffs = dense_expm_action(-Dhat, c0, times).reshape(-1, self.k)
         out = coeffs @ self.eigenvectors.T  # (T, n)
         if not error_estimate:
             return out[0] if np.ndim(t) == 0 else out
@@ -216,18 +257,17 @@ class SpectralBasis:
         R = phi.operator @ self.eigenvectors - self.eigenvectors @ Dhat  # (n, k) leakage
         e0 = f - self.eigenvectors @ c0
         norm0 = float(np.sqrt(a @ (e0 * e0)))
-        errs = []
+        errs: list[float] = []
         for T in times:
             mu = phi.growth_rate[0] if T >= 0 else phi.growth_rate[1]
             s = np.linspace(0.0, abs(T), n_quadrature)
-            cs = np.stack([sla.expm(-np.sign(T) * si * Dhat) @ c0 for si in s])  # (q, k)
+            cs = dense_expm_action(-np.sign(T) * Dhat, c0, s)  # (q, k)
             leak = np.sqrt(np.einsum("i,qi->q", a, (cs @ R.T) ** 2))  # (q,)
             weights = np.exp(mu * (abs(T) - s)) * leak
             errs.append(np.exp(mu * abs(T)) * norm0 + np.trapezoid(weights, s))
-        errs = np.array(errs)
         if np.ndim(t) == 0:
             return out[0], float(errs[0])
-        return out, errs
+        return out, np.array(errs)
 
     # ------------------------------------------------------------------ inverse problem
     def field_from_operator(
@@ -290,7 +330,8 @@ def gradient_field_basis(basis: SpectralBasis, count: int | None = None) -> np.n
     return np.stack([G, JG], axis=1).reshape(-1, mesh.n_faces, 3)
 
 
-def laplace_basis(mesh: TriMesh, k: int, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+@takes_mesh
+def laplace_basis(mesh: TriMesh, k: int, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """The k smallest Laplace–Beltrami eigenpairs: (eigenvalues (k,), eigenvectors (n, k)).
 
     One-off form of :class:`SpectralBasis` (A_V-orthonormal eigenvectors, ascending

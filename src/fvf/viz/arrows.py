@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 
@@ -22,6 +23,7 @@ __all__ = ["DEFAULT_ARROW_LENGTH", "default_arrow_scale", "arrow_segments", "spr
 DEFAULT_ARROW_LENGTH = 1.0
 
 
+@takes_mesh
 def default_arrow_scale(mesh: TriMesh, field: npt.ArrayLike) -> float:
     """The default arrow scale: ``DEFAULT_ARROW_LENGTH · mean edge length / max_t |v_t|``.
 
@@ -41,6 +43,7 @@ def default_arrow_scale(mesh: TriMesh, field: npt.ArrayLike) -> float:
     return DEFAULT_ARROW_LENGTH * mesh.mean_edge_length / top if top > 0 else 1.0
 
 
+@takes_mesh
 def arrow_segments(mesh: TriMesh, field: npt.ArrayLike, scale: float | None = None) -> np.ndarray:
     """Start and end points of one arrow per face, built from the face's own basis.
 
@@ -68,6 +71,7 @@ def arrow_segments(mesh: TriMesh, field: npt.ArrayLike, scale: float | None = No
     return np.stack([start, tip], axis=1)
 
 
+@takes_mesh
 def spread_faces(mesh: TriMesh, count: int | None) -> np.ndarray:
     """About ``count`` faces spread evenly over the surface (one per grid cell).
 

@@ -17,19 +17,36 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError
+from ..errors import FvfError, ParameterError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
 from .camera import View
 
-__all__ = ["BACKENDS", "RenderInfo", "available_backends", "polyscope_status", "render", "view"]
+__all__ = [
+    "BACKENDS",
+    "MAX_SIZE",
+    "RenderInfo",
+    "available_backends",
+    "check_render_options",
+    "polyscope_status",
+    "render",
+    "view",
+]
 
 #: Every backend, best first.
 BACKENDS = ("polyscope-egl", "matplotlib")
+
+#: Largest picture side in pixels (a 8192 x 8192 RGBA image is 256 MiB; larger ones
+#: exhaust the memory or the OpenGL limits of the renderers).
+MAX_SIZE = 8192
 
 _PROBE = (
     "import polyscope as ps\n"
@@ -41,7 +58,7 @@ _PROBE = (
     "b = ps.screenshot_to_buffer(transparent_bg=False)\n"
     "assert b.shape[2] == 4\n"
 )
-_STATUS: dict = {}
+_STATUS: dict[str, Any] = {}
 
 
 @dataclass
@@ -92,6 +109,7 @@ def polyscope_status() -> str | None:
         return "disabled by FVF_VIZ_BACKEND=matplotlib"  # not cached: the setting may change
     if "polyscope" in _STATUS:
         return _STATUS["polyscope"]
+    reason: str | None
     if importlib.util.find_spec("polyscope") is None:
         reason = f"polyscope is not installed ({INSTALL_HINT})"
     else:
@@ -134,6 +152,7 @@ def _warn_once(reason: str) -> None:
         )
 
 
+@takes_mesh
 def render(
     mesh: TriMesh,
     path: str | Path,
@@ -185,13 +204,14 @@ def render(
     view : View or (azimuth, elevation[, up[, zoom]]) or dict, optional
         Camera (:class:`fvf.viz.View`; default a three-quarter view, y up).
     size : (int, int)
-        (width, height) of the PNG in pixels.
+        (width, height) of the PNG in pixels, each in [64, :data:`MAX_SIZE`] (height
+        from 48).
     title : str, optional
         Drawn above the picture.
     backend : {"auto", "polyscope-egl", "matplotlib"}
         ``"auto"``: the first of :func:`available_backends`.
     max_arrows : int or None
-        Draw arrows at about this many faces spread evenly over the surface
+        Draw arrows at about this many faces (>= 1) spread evenly over the surface
         (:func:`fvf.viz.arrows.spread_faces`); None draws one per face.
     colorbar_label : str, optional
         Label of the colorbar.
@@ -204,19 +224,24 @@ def render(
     ------
     MissingExtraError
         matplotlib (or polyscope for ``backend="polyscope-egl"``) is not installed.
+    ParameterError
+        A bad option: size out of range, non-finite or empty ``clim``, ``max_arrows`` < 1,
+        a non-positive or non-finite ``arrow_scale``, an unknown backend.
     FvfError
-        Bad inputs (shapes, unknown backend or colormap), or the requested polyscope
-        backend cannot start.
+        Bad inputs (shapes, unknown colormap), or the requested polyscope backend cannot
+        start.
+    OutputWriteError
+        The PNG could not be written (a file already at ``path`` is unchanged).
     """
     from .compose import compose, layout
     from .scene import build_scene
 
     t0 = time.perf_counter()
     if backend not in ("auto", *BACKENDS):
-        raise FvfError(f"backend must be 'auto' or one of {', '.join(BACKENDS)}; got {backend!r}")
-    width, height = (int(s) for s in size)
-    if width < 64 or height < 48:
-        raise FvfError(f"size must be at least (64, 48) pixels; got {size!r}")
+        raise ParameterError(
+            f"backend must be 'auto' or one of {', '.join(BACKENDS)}; got {backend!r}"
+        )
+    width, height = check_render_options(size, clim, max_arrows, arrow_scale)
     scene = build_scene(
         mesh,
         function=function,
@@ -252,7 +277,7 @@ def render(
         if image is None:
             if backend == "polyscope-egl":
                 raise FvfError(f"backend 'polyscope-egl' is not available: {reason}")
-            if importlib.util.find_spec("polyscope") is not None and "disabled" not in reason:
+            if reason and importlib.util.find_spec("polyscope") and "disabled" not in reason:
                 _warn_once(reason)
             fallback = reason
     if image is None:
@@ -276,7 +301,42 @@ def render(
     )
 
 
-def view(mesh: TriMesh, **kwargs) -> None:
+def check_render_options(size, clim, max_arrows, arrow_scale) -> tuple[int, int]:
+    """Check :func:`render`'s numeric options; returns (width, height).
+
+    Raises
+    ------
+    ParameterError
+        Naming the option, its value and the allowed range.
+    """
+    try:
+        width, height = size
+    except (TypeError, ValueError):
+        raise ParameterError(f"size must be (width, height) in pixels; got {size!r}") from None
+    for name, value, low in (("width", width, 64), ("height", height, 48)):
+        if not (isinstance(value, Integral) and low <= value <= MAX_SIZE):
+            raise ParameterError(
+                f"size: the {name} must be an integer in [{low}, {MAX_SIZE}] pixels; got {value!r}"
+            )
+    if clim is not None:
+        try:
+            lo, hi = (float(c) for c in clim)
+        except (TypeError, ValueError):
+            raise ParameterError(f"clim must be two numbers (low, high); got {clim!r}") from None
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ParameterError(f"clim must be two finite numbers with low < high; got {clim!r}")
+    if max_arrows is not None and not (isinstance(max_arrows, Integral) and max_arrows >= 1):
+        raise ParameterError(
+            f"max_arrows must be a positive integer (or None for one arrow per face); got "
+            f"{max_arrows!r}"
+        )
+    if arrow_scale is not None and not (isinstance(arrow_scale, Real) and 0 < arrow_scale < np.inf):
+        raise ParameterError(f"arrow_scale must be a positive finite number; got {arrow_scale!r}")
+    return int(width), int(height)
+
+
+@takes_mesh
+def view(mesh: TriMesh, **kwargs: Any) -> None:
     """Open polyscope's interactive window on a mesh (the same options as :func:`render`).
 
     Raises

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import FvfError
+from ..errors import FvfError, ParameterError
 
 __all__ = ["View", "as_view", "camera_frame"]
 
@@ -56,8 +56,14 @@ def as_view(view: View | tuple | dict | None) -> View:
         raise FvfError(f"view must be a fvf.viz.View, a tuple or a dict; got {type(view)!r}")
     if out.up not in _AXES:
         raise FvfError(f"view.up must be 'x', 'y' or 'z'; got {out.up!r}")
-    if not out.zoom > 0:
-        raise FvfError(f"view.zoom must be positive; got {out.zoom!r}")
+    if not (isinstance(out.zoom, int | float) and 0 < out.zoom < np.inf):
+        raise ParameterError(f"view.zoom must be a positive finite number; got {out.zoom!r}")
+    for name in ("azimuth", "elevation"):
+        angle = getattr(out, name)
+        if name == "azimuth" and angle is None:
+            continue
+        if not (isinstance(angle, int | float | np.floating) and np.isfinite(angle)):
+            raise ParameterError(f"view.{name} must be a finite number of degrees; got {angle!r}")
     return out
 
 

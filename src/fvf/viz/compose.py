@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.atomic import atomic_path
 from ._deps import require
 from .scene import Scene, index_color
 
@@ -59,6 +60,7 @@ def compose(
         if cb.get("label"):
             bar.set_label(cb["label"], fontsize=9)
     if scene.markers is not None and len(scene.markers):
+        assert scene.marker_indices is not None  # set together with the markers
         kinds, counts = np.unique(scene.marker_indices, return_counts=True)
         handles = [
             Line2D(
@@ -74,4 +76,7 @@ def compose(
             for k, c in zip(kinds, counts, strict=True)
         ]
         ax.legend(handles=handles, loc="lower left", fontsize=8, frameon=True)
-    fig.savefig(str(path), dpi=100, facecolor="white", pil_kwargs={"compress_level": 3})
+    with atomic_path(path) as tmp:  # whole or not at all
+        fig.savefig(
+            str(tmp), format="png", dpi=100, facecolor="white", pil_kwargs={"compress_level": 3}
+        )

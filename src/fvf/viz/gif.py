@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import FvfError
+from ..io.atomic import atomic_path
 from ._deps import require
 
 __all__ = ["write_gif"]
@@ -37,7 +39,7 @@ def write_gif(frames: list, path: str | Path, fps: float = 4.0, loop: int = 0) -
         raise FvfError("write_gif needs at least one frame")
     if not fps > 0:
         raise FvfError(f"fps must be positive; got {fps!r}")
-    images = []
+    images: list[Any] = []
     for fr in frames:
         if isinstance(fr, (str, Path)):
             im = Image.open(fr).convert("RGB")
@@ -50,12 +52,14 @@ def write_gif(frames: list, path: str | Path, fps: float = 4.0, loop: int = 0) -
             im = im.resize(images[0].size)
         images.append(im)
     path = Path(path)
-    images[0].save(
-        path,
-        save_all=True,
-        append_images=images[1:],
-        duration=int(1000 / fps),
-        loop=loop,
-        optimize=False,
-    )
+    with atomic_path(path) as tmp:  # whole or not at all
+        images[0].save(
+            tmp,
+            format="GIF",
+            save_all=True,
+            append_images=images[1:],
+            duration=int(1000 / fps),
+            loop=loop,
+            optimize=False,
+        )
     return path

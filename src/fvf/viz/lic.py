@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..flows.dispatch import flow
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 
@@ -36,6 +37,7 @@ __all__ = ["DEFAULT_LIC_LENGTH", "lic_noise", "lic_texture", "unit_field"]
 DEFAULT_LIC_LENGTH = 12.0
 
 
+@takes_mesh
 def unit_field(mesh: TriMesh, v: npt.ArrayLike, rtol: float = 1e-8) -> np.ndarray:
     """v / |v| per face, float64 (m, 3); zero where |v| ≤ rtol · max |v|."""
     v = as_face_field(mesh, v, "v")
@@ -44,6 +46,7 @@ def unit_field(mesh: TriMesh, v: npt.ArrayLike, rtol: float = 1e-8) -> np.ndarra
     return np.divide(v, speed[:, None], out=np.zeros_like(v), where=keep[:, None])
 
 
+@takes_mesh
 def lic_noise(mesh: TriMesh, seed: int = 0, smoothing: float = 1.0) -> np.ndarray:
     """Seeded vertex noise smoothed at ``smoothing`` mean edge lengths, float64 (n,).
 
@@ -63,6 +66,7 @@ def lic_noise(mesh: TriMesh, seed: int = 0, smoothing: float = 1.0) -> np.ndarra
     return sla.spsolve((M + tau**2 * stiffness(mesh)).tocsc(), M @ N0)
 
 
+@takes_mesh
 def lic_texture(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -9,6 +9,9 @@ ids as colours, without antialiasing) gives the surface depth seen at each pixel
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
 from ._deps import require
@@ -19,7 +22,9 @@ __all__ = ["draw_matplotlib", "projection"]
 _MARGIN = 1.06
 
 
-def projection(scene: Scene, width: int, height: int):
+def projection(
+    scene: Scene, width: int, height: int
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """Pixel coordinates (x right, y up) and depth (larger is nearer) of 3-D points.
 
     Returns a function ``P (k, 3) -> (xy (k, 2), depth (k,))`` fitting the whole mesh in
@@ -40,7 +45,7 @@ def projection(scene: Scene, width: int, height: int):
     return project
 
 
-def _figure(width: int, height: int, background):
+def _figure(width: int, height: int, background: Any) -> tuple[Any, Any, Any]:
     mpl = require("matplotlib")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -56,7 +61,7 @@ def _figure(width: int, height: int, background):
     return fig, canvas, ax
 
 
-def _rgb(canvas) -> np.ndarray:
+def _rgb(canvas: Any) -> np.ndarray:
     canvas.draw()
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
@@ -93,7 +98,7 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
         )
     lw = max(0.6, width / 900.0)
     if scene.lines:
-        segs = []
+        segs: list[np.ndarray] = []
         for line in scene.lines:
             p, _ = project(line)
             ok = visible(line)
@@ -125,6 +130,7 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
     if scene.markers is not None and len(scene.markers):
         ok = visible(scene.markers)
         p, _ = project(scene.markers[ok])
+        assert scene.marker_indices is not None  # set together with the markers
         cols = [index_color(i) for i in scene.marker_indices[ok]]
         ax.scatter(
             p[:, 0],

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -64,7 +65,7 @@ def init_headless():
     return ps
 
 
-def populate(ps, scene: Scene) -> None:
+def populate(ps: Any, scene: Scene) -> None:
     """Register the scene's mesh, colours, arrows, streamlines and markers in polyscope."""
     mesh = scene.mesh
     ps.remove_all_structures()
@@ -119,11 +120,12 @@ def populate(ps, scene: Scene) -> None:
         )
     if scene.markers is not None and len(scene.markers):
         pc = ps.register_point_cloud("singularities", scene.markers, radius=0.014, material="clay")
+        assert scene.marker_indices is not None  # set together with the markers
         cols = np.array([index_color(i) for i in scene.marker_indices])
         pc.add_color_quantity("index", cols, enabled=True)
 
 
-def place_camera(ps, scene: Scene, width: int, height: int) -> None:
+def place_camera(ps: Any, scene: Scene, width: int, height: int) -> None:
     """Look at the mesh along the scene's camera frame, fitting it in the picture."""
     back = scene.frame[2]
     X = scene.mesh.vertices

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.shapes import midpoint_subdivision
 from ..mesh.trimesh import TriMesh
@@ -16,6 +17,7 @@ from ..mesh.trimesh import TriMesh
 __all__ = ["subdivide"]
 
 
+@takes_mesh
 def subdivide(
     mesh: TriMesh, field: npt.ArrayLike | None = None, levels: int = 1
 ) -> tuple[TriMesh, np.ndarray | None, np.ndarray]:

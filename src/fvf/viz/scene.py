@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import FieldShapeError, FieldValueError, FvfError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .arrows import arrow_segments, default_arrow_scale, spread_faces
 from .camera import View, as_view, camera_frame
@@ -100,6 +101,7 @@ def _to_vertices(mesh: TriMesh, a: np.ndarray) -> np.ndarray:
     return num / np.bincount(idx, weights=w, minlength=mesh.n_vertices)[:, None]
 
 
+@takes_mesh
 def build_scene(
     mesh: TriMesh,
     *,

@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from ..calculus import hat_gradients
 from ..errors import FvfError
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 from .arrows import spread_faces
@@ -22,6 +23,7 @@ from .arrows import spread_faces
 __all__ = ["streamlines", "trace"]
 
 
+@takes_mesh
 def trace(
     mesh: TriMesh,
     field: npt.ArrayLike,
@@ -105,6 +107,7 @@ def trace(
     return np.stack(positions), np.array(step_faces).reshape(-1, k), steps
 
 
+@takes_mesh
 def streamlines(
     mesh: TriMesh,
     field: npt.ArrayLike,
@@ -154,7 +157,7 @@ def streamlines(
     if length is None:
         length = 12.0 * mesh.mean_edge_length
     start = mesh.face_centroids[seed_faces]
-    parts = []
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = []
     for sign in (1.0, -1.0):
         if (sign > 0 and direction == "backward") or (sign < 0 and direction == "forward"):
             parts.append(None)

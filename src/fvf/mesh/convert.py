@@ -1,0 +1,218 @@
+"""Meshes from other libraries: :func:`as_mesh`, and the :func:`takes_mesh` entrance.
+
+Every public function of fvf that takes a mesh accepts, besides a :class:`TriMesh`, a
+``(vertices, faces)`` pair and the mesh objects of trimesh, meshio, PyVista, pyFM and
+Open3D: its entrance converts them with :func:`as_mesh` (the :func:`takes_mesh`
+decorator, one line above each such function, ``docs/architecture.md``). No library is
+imported to recognise its objects: they are read by their attributes.
+
+A foreign mesh is converted once and the :class:`TriMesh` remembered (weakly, with a
+digest of its arrays), so calling several fvf functions on one trimesh object does not
+validate it again each time, and editing the object's arrays gives a new TriMesh.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import inspect
+import warnings
+import weakref
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import numpy as np
+
+from ..errors import MeshShapeError, PolygonTriangulatedWarning
+from .trimesh import TriMesh
+
+__all__ = ["as_mesh", "takes_mesh", "mesh_arrays"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_HOW = (
+    "pass a fvf.TriMesh, a (vertices (n, 3), faces (m, 3)) pair, or a mesh of trimesh "
+    "(.vertices/.faces), meshio (.points, triangle cells), PyVista (PolyData), pyFM "
+    "(.vertlist/.facelist) or Open3D (.vertices/.triangles); for anything else build "
+    "fvf.TriMesh(V, F) from its vertex and face arrays"
+)
+
+_MEMO: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _fan(counts: np.ndarray, flat: np.ndarray, what: str) -> np.ndarray:
+    """Faces (m, 3) from polygons given as counts (k,) and a flat index list: each
+    polygon (v0, ..., vj) becomes the fan (v0, vi, vi+1), with one warning."""
+    counts = np.asarray(counts, dtype=np.int64)
+    flat = np.asarray(flat, dtype=np.int64)
+    if counts.size == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    if (counts < 3).any():
+        raise MeshShapeError(
+            f"{what} has cells with fewer than 3 vertices (points or lines); keep only its "
+            "polygons (e.g. PyVista: mesh.extract_surface().triangulate())"
+        )
+    if (counts == 3).all():
+        return flat.reshape(-1, 3)
+    ntri = counts - 2
+    first = np.repeat(np.cumsum(counts) - counts, ntri)
+    j = first + np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    warnings.warn(
+        f"{what}: fan-triangulated {int((counts > 3).sum())} polygons with more than 3 "
+        f"vertices into {int(ntri.sum())} triangles in all",
+        PolygonTriangulatedWarning,
+        stacklevel=3,
+    )
+    return np.column_stack([flat[first], flat[j], flat[j + 1]])
+
+
+def _points(P: Any, what: str) -> np.ndarray:
+    P = np.asarray(P)
+    if P.ndim == 2 and P.shape[1] == 2:  # planar meshes: z = 0
+        P = np.column_stack([P, np.zeros(len(P), dtype=P.dtype)])
+    return P
+
+
+def _meshio(obj: Any) -> tuple[np.ndarray, np.ndarray]:
+    tris, polys, other = [], [], []
+    for block in obj.cells:
+        kind, data = getattr(block, "type", None), np.asarray(getattr(block, "data", []))
+        if kind == "triangle":
+            tris.append(data.reshape(-1, 3))
+        elif kind in ("quad", "polygon") or (kind or "").startswith("polygon"):
+            polys.append(data)
+        else:
+            other.append(kind)
+    if other and not (tris or polys):
+        raise MeshShapeError(
+            f"the meshio mesh has no surface cells (cells: {sorted(set(other))}); fvf needs "
+            "a triangle surface: extract the boundary surface first"
+        )
+    faces = list(tris)
+    for data in polys:
+        counts = np.full(len(data), data.shape[1])
+        faces.append(_fan(counts, data.ravel(), "the meshio mesh"))
+    F = np.concatenate(faces) if faces else np.zeros((0, 3), dtype=np.int64)
+    return _points(obj.points, "meshio"), F
+
+
+def _pyvista(obj: Any) -> tuple[np.ndarray, np.ndarray]:
+    if not hasattr(obj, "faces"):
+        raise TypeError(
+            f"as_mesh: a PyVista {type(obj).__name__} is not a surface; use "
+            "mesh.extract_surface().triangulate() and pass that PolyData"
+        )
+    faces = np.asarray(obj.faces, dtype=np.int64)
+    counts, flat, at = [], [], 0
+    if faces.size and getattr(obj, "is_all_triangles", False):
+        return np.asarray(obj.points), faces.reshape(-1, 4)[:, 1:]
+    while at < faces.size:  # mixed polygons: [k, i0, ..., ik-1, k', ...]
+        k = int(faces[at])
+        counts.append(k)
+        flat.append(faces[at + 1 : at + 1 + k])
+        at += 1 + k
+    flat_all = np.concatenate(flat) if flat else np.zeros(0, dtype=np.int64)
+    return np.asarray(obj.points), _fan(np.array(counts), flat_all, "the PyVista mesh")
+
+
+def mesh_arrays(obj: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """(vertices, faces) of a foreign mesh object, or None if ``obj`` is not one."""
+    module = type(obj).__module__ or ""
+    if isinstance(obj, tuple | list) and len(obj) == 2:
+        return obj[0], obj[1]
+    if module.startswith("meshio"):
+        return _meshio(obj)
+    if module.startswith("pyvista"):
+        return _pyvista(obj)
+    if module.startswith("open3d") and hasattr(obj, "triangles"):
+        return np.asarray(obj.vertices), np.asarray(obj.triangles)
+    if hasattr(obj, "vertices") and hasattr(obj, "faces"):  # trimesh, pyFM, RepairResult
+        return np.asarray(obj.vertices), np.asarray(obj.faces)
+    if hasattr(obj, "vertlist") and hasattr(obj, "facelist"):  # older pyFM
+        return np.asarray(obj.vertlist), np.asarray(obj.facelist)
+    if hasattr(obj, "points") and hasattr(obj, "cells"):  # meshio-like
+        return _meshio(obj)
+    return None
+
+
+def _digest(V: np.ndarray, F: np.ndarray) -> bytes:
+    h = hashlib.blake2b(digest_size=16)
+    for a in (np.ascontiguousarray(V), np.ascontiguousarray(F)):
+        h.update(str((a.dtype, a.shape)).encode())
+        h.update(a.data)
+    return h.digest()
+
+
+def as_mesh(obj: Any) -> TriMesh:
+    """A :class:`TriMesh` from any common mesh representation.
+
+    Parameters
+    ----------
+    obj : TriMesh, (V, F) pair, or a mesh object
+        - :class:`TriMesh`: returned as is.
+        - ``(vertices, faces)``: array_like (n, 3) float and (m, 3) int (a tuple or list).
+        - trimesh ``Trimesh`` (``.vertices``, ``.faces``); also anything else with those
+          two attributes, e.g. :class:`fvf.RepairResult`.
+        - meshio ``Mesh`` (``.points``, triangle cells; quads and polygons are
+          fan-triangulated with a :class:`~fvf.errors.PolygonTriangulatedWarning`;
+          2-D points get z = 0).
+        - PyVista ``PolyData`` (``.points``, the flat ``.faces`` array).
+        - pyFM ``TriMesh`` (``.vertlist``, ``.facelist``).
+        - Open3D ``TriangleMesh`` (``.vertices``, ``.triangles``).
+
+    Returns
+    -------
+    TriMesh
+        Validated (see :class:`TriMesh` for the errors). A foreign object is converted
+        once and remembered while its arrays are unchanged.
+
+    Raises
+    ------
+    TypeError
+        ``obj`` is none of these; the message names its type and how to convert it.
+    fvf.errors.MeshError
+        The arrays are not a valid mesh.
+
+    Examples
+    --------
+    >>> import fvf
+    >>> ico = fvf.icosphere(1)
+    >>> fvf.as_mesh((ico.vertices, ico.faces)).n_faces
+    80
+    """
+    if isinstance(obj, TriMesh):
+        return obj
+    arrays = mesh_arrays(obj)
+    if arrays is None:
+        raise TypeError(f"as_mesh: got {type(obj).__module__}.{type(obj).__qualname__}; {_HOW}")
+    V, F = (np.asarray(a) for a in arrays)
+    try:
+        memo = _MEMO.get(obj)
+    except TypeError:  # not weak-referenceable (tuples, lists)
+        return TriMesh(V, F)
+    digest = _digest(V, F)
+    if memo is not None and memo[0] == digest:
+        return memo[1]
+    mesh = TriMesh(V, F)
+    _MEMO[obj] = (digest, mesh)
+    return mesh
+
+
+def takes_mesh(fn: F) -> F:
+    """Decorator: the argument ``mesh`` of ``fn`` goes through :func:`as_mesh` first.
+
+    One line above each public function (or ``__init__``) that takes a mesh; a
+    :class:`TriMesh` passes at the cost of one type check.
+    """
+    position = list(inspect.signature(fn).parameters).index("mesh")
+
+    @functools.wraps(fn)
+    def entrance(*args, **kwargs):
+        if len(args) > position:
+            if type(args[position]) is not TriMesh:
+                args = (*args[:position], as_mesh(args[position]), *args[position + 1 :])
+        elif "mesh" in kwargs and type(kwargs["mesh"]) is not TriMesh:
+            kwargs["mesh"] = as_mesh(kwargs["mesh"])
+        return fn(*args, **kwargs)
+
+    return entrance  # type: ignore[return-value]
