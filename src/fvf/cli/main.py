@@ -522,7 +522,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _cmd_quad(args) -> int:
+def _cmd_quad(args: argparse.Namespace) -> int:
     import time
 
     import fvf
@@ -536,14 +536,14 @@ def _cmd_quad(args) -> int:
     def progress(message: str) -> None:
         print(f"fvf quad: {time.perf_counter() - t0:6.1f}s  {message}", file=sys.stderr)
 
-    V, Q, param = fvf.quad_mesh(
-        mesh,
-        target_faces=args.faces,
-        field=field,
-        align=args.align,
-        return_parameterization=True,
-        progress=progress,
+    from fvf.param.extraction import extract_quads
+
+    param = fvf.seamless_parameterization(
+        mesh, target_faces=args.faces, field=field, align=args.align, progress=progress
     )
+    progress("quad extraction")
+    qm = extract_quads(mesh, param.uv)
+    V, Q = qm.vertices, qm.quads
     write_quad_mesh(args.output, V, Q)
     q = fvf.quad_quality(mesh, V, Q, parameterization=param)
     print(
@@ -564,7 +564,7 @@ def _cmd_quad(args) -> int:
     return EXIT_OK
 
 
-def _quad_file(path: str):
+def _quad_file(path: str) -> tuple[Any, Any] | None:
     """(V, Q) when the mesh file holds only quads, else None."""
     from fvf.errors import MeshReadError
     from fvf.io.meshfile import read_quad_mesh

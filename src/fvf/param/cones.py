@@ -14,8 +14,8 @@ design, Ray et al. 2008; Bommes et al. 2009, §3):
    unchanged;
 3. find the angle corrections Δψ per face minimizing
 
-   .. math::  \sum_e w_e\,(\tilde\rho_e + \Delta\psi_s - \Delta\psi_t)^2
-              + \mu \sum_t \frac{A_t}{h^2}\,\Delta\psi_t^2,
+   $$\sum_e w_e\,(\tilde\rho_e + \Delta\psi_s - \Delta\psi_t)^2
+   + \mu \sum_t \frac{A_t}{h^2}\,\Delta\psi_t^2,$$
 
    ρ̃ the edited turnings: a weighted dual-graph Laplacian solve.
 

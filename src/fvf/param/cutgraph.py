@@ -10,7 +10,7 @@ Given one representative angle φ_t per face (:mod:`fvf.param.frames`), this mod
    u_s ≈ R^{p_e} (r_st u_t), R the rotation by π/2; p_e = 0 on T*;
 3. measures the cross-field index of every vertex,
 
-   .. math::  I_v = \frac{1}{2\pi}\Big(K_v + \sum_{e \ni v} \pm \rho_e\Big) \in \tfrac14\mathbb Z,
+   $$I_v = \frac{1}{2\pi}\Big(K_v + \sum_{e \ni v} \pm \rho_e\Big) \in \tfrac14\mathbb Z,$$
 
    K_v the angle defect and ρ_e ∈ (−π/4, π/4] the residual turning across e (Ray et al.
    2008, "N-symmetry direction field design"; Bommes et al. 2009, §3);
@@ -223,14 +223,15 @@ def _wedges(mesh: TriMesh, cut: np.ndarray) -> tuple[np.ndarray, int]:
     ef = mesh.edge_faces
     ok = (~cut) & (ef >= 0).all(axis=1)
     s, t = ef[ok, 0], ef[ok, 1]
-    rows, cols = [], []
+    rows_l: list[np.ndarray] = []
+    cols_l: list[np.ndarray] = []
     for end in (0, 1):
         v = E[ok, end]
         cs = 3 * s + np.argmax(F[s] == v[:, None], axis=1)
         ct = 3 * t + np.argmax(F[t] == v[:, None], axis=1)
-        rows.append(cs)
-        cols.append(ct)
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
+        rows_l.append(cs)
+        cols_l.append(ct)
+    rows, cols = np.concatenate(rows_l), np.concatenate(cols_l)
     c = 3 * mesh.n_faces
     G = sp.coo_array((np.ones(rows.size), (rows, cols)), shape=(c, c))
     k, labels = connected_components(G, directed=False)

@@ -117,7 +117,7 @@ def edge_transitions(mesh: TriMesh, uv: np.ndarray) -> tuple[np.ndarray, np.ndar
     return q.reshape(m, 3), c.reshape(m, 3, 2), defect.reshape(m, 3)
 
 
-def _edge_geometry(P: np.ndarray):
+def _edge_geometry(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inward unit normals n (.., 3, 2) and offsets: d_j(x) = n_j · (x − P_{j+1})."""
     e = P[..., [2, 0, 1], :] - P[..., [1, 2, 0], :]  # edge j runs P_{j+1} → P_{j+2}
     n = np.stack([-e[..., 1], e[..., 0]], axis=-1)  # left normal = inward for ccw
@@ -130,7 +130,7 @@ def _distances(n: np.ndarray, base: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.einsum("kjd,kjd->kj", n, x[:, None, :] - base)
 
 
-def _integer_points(uv: np.ndarray):
+def _integer_points(uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """All (face, integer point) pairs with the point in the closed uv triangle."""
     lo = np.ceil(uv.min(axis=1) - ON_EDGE_TOL).astype(np.int64)
     hi = np.floor(uv.max(axis=1) + ON_EDGE_TOL).astype(np.int64)
@@ -147,7 +147,9 @@ def _integer_points(uv: np.ndarray):
     return f[inside], x[inside], d[inside]
 
 
-def _point_keys(mesh: TriMesh, f: np.ndarray, x: np.ndarray, d: np.ndarray, q, c) -> np.ndarray:
+def _point_keys(
+    mesh: TriMesh, f: np.ndarray, x: np.ndarray, d: np.ndarray, q: np.ndarray, c: np.ndarray
+) -> np.ndarray:
     """Canonical key (kind, element, iu, iv) of integer points x in faces f, int64 (k, 4)."""
     on = np.abs(d) <= ON_EDGE_TOL
     z = on.sum(axis=1)
@@ -241,7 +243,15 @@ class _Rays:
     key: np.ndarray  # (r,) sort key within the point: fan position * 8 + angle
 
 
-def _rays(mesh: TriMesh, uv, f, x, d, pid, fanpos) -> _Rays:
+def _rays(
+    mesh: TriMesh,
+    uv: np.ndarray,
+    f: np.ndarray,
+    x: np.ndarray,
+    d: np.ndarray,
+    pid: np.ndarray,
+    fanpos: np.ndarray,
+) -> _Rays:
     """All owned outgoing rays of all point occurrences."""
     k = f.size
     ff = np.repeat(f, 4)
@@ -272,7 +282,9 @@ def _rays(mesh: TriMesh, uv, f, x, d, pid, fanpos) -> _Rays:
     return _Rays(pp, ff, xx, di, pos * 8.0 + ang)
 
 
-def _trace(mesh: TriMesh, uv, q, c, rays: _Rays):
+def _trace(
+    mesh: TriMesh, uv: np.ndarray, q: np.ndarray, c: np.ndarray, rays: _Rays
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Walk each ray one unit; returns arrival face, arrival point (uv) and direction."""
     adj = mesh.face_adjacency
     r = rays.point.size
@@ -459,7 +471,18 @@ def _directions_3d(mesh: TriMesh, uv: np.ndarray, faces: np.ndarray, d: np.ndarr
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def _opposites(mesh, uv, rays: _Rays, hface, hT, hdir, dT, dst, q, c) -> np.ndarray:
+def _opposites(
+    mesh: TriMesh,
+    uv: np.ndarray,
+    rays: _Rays,
+    hface: np.ndarray,
+    hT: np.ndarray,
+    hdir: np.ndarray,
+    dT: np.ndarray,
+    dst: np.ndarray,
+    q: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:
     """For each traced ray, the ray leaving its end point back along it (−1 if none).
 
     Usually the reverse ray lies in the face where the trace arrived; when the half-open
@@ -488,7 +511,7 @@ def _opposites(mesh, uv, rays: _Rays, hface, hT, hdir, dT, dst, q, c) -> np.ndar
     return out
 
 
-def _faces(rays: _Rays, opp: np.ndarray, npts: int):
+def _faces(rays: _Rays, opp: np.ndarray, npts: int) -> tuple[np.ndarray, np.ndarray]:
     """Quads as cycles of next(h) = the ray clockwise of opp(h) at its start point."""
     r = rays.point.size
     bad = np.flatnonzero(opp < 0)

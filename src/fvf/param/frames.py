@@ -32,7 +32,7 @@ from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
-from ..numerics.eigen import factor_spd
+from ..numerics.eigen import SPDFactor, factor_spd
 
 __all__ = ["cross_field_angles", "default_cross_field", "face_shape_operators"]
 
@@ -178,7 +178,7 @@ def default_cross_field(
 
 
 def _smallest_eigenvector(
-    L: sp.csr_array, A: np.ndarray, iterations: int = 8, fac=None
+    L: sp.csr_array, A: np.ndarray, iterations: int = 8, fac: SPDFactor | None = None
 ) -> np.ndarray:
     """Inverse iteration for the smallest eigenvector of L z = λ [A] z (seeded start).
 

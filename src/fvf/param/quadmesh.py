@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 
@@ -10,7 +12,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .extraction import extract_quads
 from .frames import Alignment
-from .seamless import seamless_parameterization
+from .seamless import SeamlessParameterization, seamless_parameterization
 
 __all__ = ["quad_mesh"]
 
@@ -24,8 +26,8 @@ def quad_mesh(
     edge_length: float | None = None,
     align: Alignment = "curvature",
     return_parameterization: bool = False,
-    **options,
-):
+    **options: Any,
+) -> tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, SeamlessParameterization]:
     """A pure-quad mesh whose edges follow a cross field (the chapter's Fig. 1 pipeline).
 
     Runs :func:`fvf.seamless_parameterization` and pulls back its integer grid

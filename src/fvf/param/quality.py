@@ -26,6 +26,7 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from .seamless import SeamlessParameterization
 
 __all__ = ["QuadQuality", "quad_quality", "quad_topology"]
 
@@ -117,7 +118,7 @@ def _surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _alignment(mesh: TriMesh, V, Q, field: np.ndarray) -> np.ndarray:
+def _alignment(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, field: np.ndarray) -> np.ndarray:
     """Angle (°) between each quad edge and the nearest direction of the cross field."""
     e0, e1 = V[Q], V[np.roll(Q, -1, axis=1)]
     mid = (0.5 * (e0 + e1)).reshape(-1, 3)
@@ -139,7 +140,7 @@ def quad_quality(
     quads: npt.ArrayLike,
     *,
     field: npt.ArrayLike | None = None,
-    parameterization=None,
+    parameterization: SeamlessParameterization | None = None,
 ) -> QuadQuality:
     """Quality report of a quad mesh made from ``mesh`` (module docstring).
 

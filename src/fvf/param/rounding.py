@@ -153,7 +153,8 @@ class MixedIntegerSolver:
         k = self.integer.size
         S = H[self.integer][:, self.integer].toarray()
         response = []
-        Ki = Kr = None
+        Ki: sp.csc_array | None = None
+        Kr: sp.csc_array | None = None
         if K is not None:
             K = sp.csc_array(K)
             Ki, Kr = K[:, self.integer], K[:, self.real_idx]
@@ -161,7 +162,7 @@ class MixedIntegerSolver:
             cols = np.arange(lo, min(lo + SCHUR_CHUNK, k))
             Zc = self.fac.solve(self.Hri[:, cols].toarray())
             S[:, cols] -= self.Hri.T @ Zc
-            if K is not None:
+            if Ki is not None and Kr is not None:
                 R = Ki[:, cols].toarray() - Kr @ Zc
                 R[np.abs(R) < RESPONSE_RTOL * np.abs(R).max(axis=0, keepdims=True)] = 0.0
                 response.append(sp.csc_array(R))

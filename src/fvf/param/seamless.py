@@ -9,7 +9,7 @@ Pipeline (``docs/quads.md`` has the derivation):
 3. transition functions across the cut, uv_s = R^q uv_t + c (:mod:`fvf.param.seams`);
 4. the Poisson fit
 
-   .. math::  \min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)
+   $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
 
    over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
    normal equations (:func:`fvf.numerics.eigen.factor_spd`);
@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 
 import numpy as np
 import numpy.typing as npt
@@ -92,7 +93,7 @@ class SeamlessParameterization:
     flipped: np.ndarray
     residual_real: float
     residual: float
-    info: dict = field(default_factory=dict)
+    info: dict = dataclass_field(default_factory=dict)
 
     @property
     def n_flipped(self) -> int:
@@ -206,7 +207,7 @@ def _fitted_scale(
     return new
 
 
-def _distortion(mesh: TriMesh, fit: np.ndarray, frame: np.ndarray):
+def _distortion(mesh: TriMesh, fit: np.ndarray, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per-face distortion |σ₁ − 1| + |σ₂ − 1| of J F⁻¹ and flip flags (J = (∇u, ∇v)).
 
     ``fit`` (4m,) is √A_t (∇u, ∇v); ``frame`` (m, 2, 2) the target rows (X, Y).
@@ -224,7 +225,7 @@ def _flip_count(fit: np.ndarray) -> int:
     return int(np.count_nonzero(~(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2] > 0)))
 
 
-def _stiffen(mesh: TriMesh, w: np.ndarray, distortion: np.ndarray, flips: np.ndarray):
+def _stiffen(mesh: TriMesh, w: np.ndarray, distortion: np.ndarray, flips: np.ndarray) -> np.ndarray:
     """Bommes et al.'s update w ← w + min(distortion, 5), ×4 on flipped faces and their
     edge neighbours."""
     w = w + np.minimum(distortion, 5.0)
@@ -246,7 +247,9 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
     return frame
 
 
-def _variables(ss: SeamSystem, cm: CutMesh):
+def _variables(
+    ss: SeamSystem, cm: CutMesh
+) -> tuple[sp.csr_array, np.ndarray, np.ndarray, np.ndarray]:
     """Split y into real and integer unknowns; return Q (y = Q [real; w]) and bookkeeping."""
     R, C = ss.n_roots, ss.n_chains
     ncol = 2 * R + 2 * C

@@ -4,7 +4,9 @@ On the cut mesh (:class:`fvf.param.cutgraph.CutMesh`) every corner belongs to a 
 (a cut-mesh vertex) carrying coordinates uv_w ∈ ℝ². A cut edge e with faces s, t and
 period jump p_e ties the wedges of its two sides by the transition
 
-.. math::  \mathrm{uv}_{w_s} = R^{q_e}\, \mathrm{uv}_{w_t} + c_e, \qquad q_e = -p_e \bmod 4,
+.. math::
+
+    \mathrm{uv}_{w_s} = R^{q_e}\, \mathrm{uv}_{w_t} + c_e, \qquad q_e = -p_e \bmod 4,
 
 R the rotation by π/2 and c_e ∈ ℝ² a translation shared by both end points (Kälberer et
 al. 2007, §4; Bommes et al. 2009, eq. 3). Along a *chain* of the cut graph (a path through
@@ -13,7 +15,9 @@ one translation c_j.
 
 This module expresses every wedge through free variables,
 
-.. math::  \mathrm{uv}_w = R^{k_w}\, \mathrm{uv}_{\mathrm{root}(w)} + \sum_j T_{wj}\, c_j ,
+.. math::
+
+    \mathrm{uv}_w = R^{k_w}\, \mathrm{uv}_{\mathrm{root}(w)} + \sum_j T_{wj}\, c_j ,
 
 with one root wedge per mesh vertex (a spanning forest of the transitions around each
 vertex, walked level by level), and returns the linear conditions left over by the arcs
@@ -92,7 +96,9 @@ def _corner_wedge(mesh: TriMesh, cm: CutMesh, faces: np.ndarray, v: np.ndarray) 
     return cm.wedges[faces, j]
 
 
-def _orient_chains(mesh: TriMesh, cm: CutMesh, cut: np.ndarray, s: np.ndarray, t: np.ndarray):
+def _orient_chains(
+    mesh: TriMesh, cm: CutMesh, cut: np.ndarray, s: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Orient the cut edges consistently along chains; return (s, t, chain id per cut edge)."""
     E = mesh.edges[cut]
     k = cut.size
@@ -121,7 +127,7 @@ def _orient_chains(mesh: TriMesh, cm: CutMesh, cut: np.ndarray, s: np.ndarray, t
     return s2, t2, flip, chain.astype(np.int64)
 
 
-def _arcs(mesh: TriMesh, cm: CutMesh):
+def _arcs(mesh: TriMesh, cm: CutMesh) -> tuple[np.ndarray, ...]:
     """One arc per (cut edge, end point): uv[dst] = R^q uv[src] + c_chain."""
     cut = np.flatnonzero(cm.cut)
     ef = mesh.edge_faces[cut]
@@ -135,7 +141,9 @@ def _arcs(mesh: TriMesh, cm: CutMesh):
     return cut, s, t, q, chain, src, dst, np.tile(q, 2), np.tile(chain, 2)
 
 
-def _forest(W: int, src: np.ndarray, dst: np.ndarray):
+def _forest(
+    W: int, src: np.ndarray, dst: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], np.ndarray]:
     """BFS spanning forest of the wedge graph; returns parent, tree arc, levels, root flag."""
     G = sp.coo_array((np.ones(src.size), (src, dst)), shape=(W, W))
     _, comp = connected_components(G, directed=False)
@@ -239,7 +247,17 @@ def seam_system(mesh: TriMesh, cm: CutMesh) -> SeamSystem:
     return SeamSystem(P, closing, root_of_vertex, R, n_chains, edge_q, sides, edge_chain)
 
 
-def _closing_rows(P, src, dst, q, chain, tree_arc, is_root, R, ncol) -> sp.csr_array:
+def _closing_rows(
+    P: sp.csr_array,
+    src: np.ndarray,
+    dst: np.ndarray,
+    q: np.ndarray,
+    chain: np.ndarray,
+    tree_arc: np.ndarray,
+    is_root: np.ndarray,
+    R: int,
+    ncol: int,
+) -> sp.csr_array:
     """Rows of uv[dst] − R^q uv[src] − c_chain = 0 for the arcs not in the forest."""
     used = np.zeros(src.size, dtype=bool)
     used[tree_arc[~is_root]] = True

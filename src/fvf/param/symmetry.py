@@ -6,8 +6,10 @@ orientation: a mirror reverses it). Its differential on t is the linear map dφ_
 t's edge vectors to σ(t)'s. A cross field u is made map-consistent by averaging, in the
 power representation, each face's cross with the pushed-forward cross of its preimage:
 
-.. math::  z_s \leftarrow \frac{\hat z_s + \widehat{(d\varphi\, u)}_{s}}{2}, \qquad
-           \hat z = z/|z|,\; z = (\text{angle of } u)^{\,4}\text{-th power},
+.. math::
+
+    z_s \leftarrow \frac{\hat z_s + \widehat{(d\varphi\, u)}_{s}}{2}, \qquad
+    \hat z = z/|z|, \quad z = e^{4i\arg u},
 
 repeated a few times (the average of a field and its image is invariant under an
 involution after one step). The quad mesh of a map-consistent field is nearly symmetric;
@@ -16,6 +18,8 @@ vertex to the nearest quad vertex, in units of the mean quad edge length.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -104,7 +108,9 @@ def symmetrize_cross_field(
 
 
 def quad_symmetry_error(
-    vertices: npt.ArrayLike, quads: npt.ArrayLike, transform
+    vertices: npt.ArrayLike,
+    quads: npt.ArrayLike,
+    transform: Callable[[np.ndarray], npt.ArrayLike],
 ) -> tuple[float, float]:
     """(median, max) distance from transform(vertex) to the nearest quad vertex.
 

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -31,7 +32,7 @@ def quad_wireframe(vertices: np.ndarray, quads: np.ndarray) -> list[np.ndarray]:
 
 
 def render_quads(
-    vertices: npt.ArrayLike, quads: npt.ArrayLike, path: str | Path, **kwargs
+    vertices: npt.ArrayLike, quads: npt.ArrayLike, path: str | Path, **kwargs: Any
 ) -> RenderInfo:
     """Render a quad mesh: shading, wireframe, irregular vertices by valence.
 
@@ -58,7 +59,11 @@ def render_quads(
 
 
 def render_checkerboard(
-    mesh: TriMesh, uv: npt.ArrayLike, path: str | Path, subdivisions: int = 3, **kwargs
+    mesh: TriMesh,
+    uv: npt.ArrayLike,
+    path: str | Path,
+    subdivisions: int = 3,
+    **kwargs: Any,
 ) -> RenderInfo:
     """Render the checkerboard of a parameterization uv (m, 3, 2) on the mesh.
 
@@ -82,13 +87,13 @@ def render_checkerboard(
     bary = np.stack([k - i[keep] - j[keep], i[keep], j[keep]], axis=1) / k  # (p, 3)
     index = -np.ones((k + 1, k + 1), dtype=np.int64)
     index[i[keep], j[keep]] = np.arange(keep.sum())
-    small = []
+    tris: list[list[int]] = []
     for a in range(k):  # the k² sub-triangles of the reference triangle
         for b in range(k - a):
-            small.append([index[a, b], index[a + 1, b], index[a, b + 1]])
+            tris.append([index[a, b], index[a + 1, b], index[a, b + 1]])
             if a + b + 1 < k:
-                small.append([index[a + 1, b], index[a + 1, b + 1], index[a, b + 1]])
-    small = np.array(small)
+                tris.append([index[a + 1, b], index[a + 1, b + 1], index[a, b + 1]])
+    small = np.array(tris)
     X = mesh.vertices[mesh.faces]  # (m, 3, 3)
     P = np.einsum("pc,mcd->mpd", bary, X)  # (m, p, 3)
     W = np.einsum("pc,mcd->mpd", bary, T)  # (m, p, 2)
