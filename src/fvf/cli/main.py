@@ -33,6 +33,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from ..io.datafile import DataFile
     from ..mesh.trimesh import TriMesh
 
@@ -171,7 +173,7 @@ class _Sources:
         self.data = _load_data(args.data, mesh) if args.data else None
         self.paths = list(args.data or [])
 
-    def _file(self, spec: str):
+    def _file(self, spec: str) -> tuple[DataFile, str]:
         from fvf.io.datafile import read_data
 
         path, key = _split_source(spec)
@@ -193,15 +195,15 @@ class _Sources:
             return True
         return self.data is not None and key in self.data
 
-    def field(self, spec: str):
+    def field(self, spec: str) -> np.ndarray:
         data, key = self._file(spec)
         return data.field(key, self.mesh)
 
-    def functions(self, spec: str):
+    def functions(self, spec: str) -> np.ndarray:
         data, key = self._file(spec)
         return data.functions(key, self.mesh)
 
-    def select(self, spec: str):
+    def select(self, spec: str) -> tuple[DataFile, Any]:
         data, key = self._file(spec)
         return data, data.select(key, self.mesh.n_vertices)
 
@@ -241,7 +243,7 @@ def _viz():
 _KEY_OPTIONS = ("field", "function", "first", "second", "transported", "to")
 
 
-def _inputs(args) -> list:
+def _inputs(args: argparse.Namespace) -> list:
     """Every file a command reads: the mesh, the data files, the constraints, and the
     files named in ``FILE.npz:KEY`` options."""
     data = getattr(args, "data", None) or []
@@ -250,7 +252,7 @@ def _inputs(args) -> list:
     return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None), *named]
 
 
-def _check_outputs(args, *outputs) -> None:
+def _check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
     """Refuse, before any work, outputs that are inputs (unless --force)."""
     from fvf.io.atomic import check_not_input
 
@@ -259,7 +261,7 @@ def _check_outputs(args, *outputs) -> None:
             check_not_input(path, _inputs(args), force=args.force, option=option)
 
 
-def _data_output(args) -> tuple[str, str]:
+def _data_output(args: argparse.Namespace) -> tuple[str, str]:
     from fvf.io.datafile import data_path
 
     return "-o", str(data_path(args.output))
@@ -603,7 +605,8 @@ def _display_arrays(args, mesh):
         else:
             raise ValueError(
                 f"--singularities needs keys singularity_positions and singularity_indices "
-                f"in {data.path} (fvf design writes them) or a --field KEY to find them in"
+                f"in {data.path if data is not None else 'the data files'} (fvf design "
+                "writes them) or a --field KEY to find them in"
             )
         kwargs["singularities"] = (pos, idx)
     return kwargs, args.data

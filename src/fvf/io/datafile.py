@@ -75,6 +75,7 @@ import warnings
 import zipfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -129,7 +130,7 @@ class DataFile(Mapping):
 
     def __init__(
         self,
-        arrays: Mapping[str, npt.ArrayLike],
+        arrays: Mapping[str, Any],
         path: str | os.PathLike,
         sources: Mapping[str, str | os.PathLike] | None = None,
         columns: Iterable[Path] = (),
@@ -438,10 +439,13 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     """
     path = Path(path)
     if path.suffix.lower() == ".ply":
-        arrays, columns = _ply_arrays(path), [path]  # PLY properties are columns
+        arrays: dict[str, Any] = _ply_arrays(path)
+        columns = [path]  # PLY properties are columns
     else:
-        arrays = _npz_members(path)
-        columns = [path] if "layout" in arrays and str(arrays["layout"].load()) == "columns" else []
+        members = _npz_members(path)
+        arrays = dict(members)
+        layout = members.get("layout")
+        columns = [path] if layout is not None and str(layout.load()) == "columns" else []
     data = DataFile(arrays, path, columns=columns)
     if mesh is not None:
         data.check_mesh(mesh)
@@ -636,7 +640,7 @@ def write_data(
         layout=np.array("columns"),
     )
     with atomic_path(path) as tmp:
-        np.savez(tmp, **out)
+        np.savez(tmp, **out)  # type: ignore[arg-type]  # numpy's stub types **kwds as bool
     return path
 
 

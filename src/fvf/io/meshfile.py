@@ -15,7 +15,7 @@ import os
 import re
 import struct
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import NamedTuple, TypeVar
 
@@ -242,8 +242,8 @@ def write_mesh(
     vertices: npt.ArrayLike,
     faces: npt.ArrayLike,
     *,
-    vertex_data: dict[str, npt.ArrayLike] | None = None,
-    face_data: dict[str, npt.ArrayLike] | None = None,
+    vertex_data: Mapping[str, npt.ArrayLike] | None = None,
+    face_data: Mapping[str, npt.ArrayLike] | None = None,
     comments: tuple[str, ...] = (),
 ) -> None:
     """Write a triangle mesh as OBJ, OFF (ascii), PLY (binary little endian) or VTK.
@@ -332,7 +332,7 @@ def write_mesh(
 
 
 def _checked_data(
-    data: dict[str, npt.ArrayLike] | None, rows: int, what: str, reserved: tuple[str, ...]
+    data: Mapping[str, npt.ArrayLike] | None, rows: int, what: str, reserved: tuple[str, ...]
 ) -> dict[str, np.ndarray]:
     """Each array as float64 (rows,) or (rows, 3), names checked."""
     from ..errors import FieldShapeError
@@ -356,7 +356,9 @@ def _checked_data(
     return out
 
 
-def _ply_bytes(V, F, vdata: dict, fdata: dict, comments: tuple[str, ...]) -> bytes:
+def _ply_bytes(
+    V: np.ndarray, F: np.ndarray, vdata: dict, fdata: dict, comments: tuple[str, ...]
+) -> bytes:
     """Binary little-endian PLY with double properties after x y z / the index list."""
 
     def columns(data: dict) -> list[tuple[str, np.ndarray]]:
@@ -387,7 +389,7 @@ def _ply_bytes(V, F, vdata: dict, fdata: dict, comments: tuple[str, ...]) -> byt
     return header.encode("ascii") + vrec.tobytes() + frec.tobytes()
 
 
-def _write_vtk(path: Path, V, F, vdata: dict, fdata: dict) -> None:
+def _write_vtk(path: Path, V: np.ndarray, F: np.ndarray, vdata: dict, fdata: dict) -> None:
     """.vtu through meshio (else PyVista), .vtp through PyVista."""
     import importlib.util
 
@@ -603,7 +605,9 @@ _REAL_CHARS = frozenset("0123456789+-.eE")
 _INTEGER_CHARS = frozenset("0123456789+-")
 
 
-def _strict(path: Path, tokens: list[str], counts, lineno: list[int], kind, what: str) -> None:
+def _strict(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int], kind: type, what: str
+) -> None:
     """Refuse tokens that Python would convert but the file format does not allow."""
     allowed = _INTEGER_CHARS if kind is np.int64 else _REAL_CHARS
     if set("".join(tokens)) <= allowed:  # only digits, signs, '.', 'e': float()/int() decide
@@ -753,7 +757,9 @@ def _read_off(path: Path, data: bytes) -> _Polygons:
     return _Polygons(vertices, k, flat, flat, lambda i: f"line {f_line[i]}", valid)
 
 
-def _homogeneous(path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]):
+def _homogeneous(
+    path: Path, tokens: list[str], counts: np.ndarray, lineno: list[int]
+) -> np.ndarray:
     """Vertex positions (k, 3) of a 4OFF file: (x, y, z) / w from each line's x y z w."""
     short = np.flatnonzero(counts < 4)
     if short.size:

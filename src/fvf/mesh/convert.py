@@ -85,8 +85,8 @@ def _meshio(obj: Any) -> tuple[np.ndarray, np.ndarray]:
             other.append(kind)
     if other and not (tris or polys):
         raise MeshShapeError(
-            f"the meshio mesh has no surface cells (cells: {sorted(set(other))}); fvf needs "
-            "a triangle surface: extract the boundary surface first"
+            f"the meshio mesh has no surface cells (cells: {sorted(map(str, set(other)))}); "
+            "fvf needs a triangle surface: extract the boundary surface first"
         )
     faces = list(tris)
     for data in polys:

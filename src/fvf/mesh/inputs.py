@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numbers
 import warnings
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -83,7 +83,7 @@ def _is_number(value: object) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
-def as_count(value: object, name: str, minimum: int = 0) -> int:
+def as_count(value: Any, name: str, minimum: int = 0) -> int:
     """An integer option (steps, k, iterations): a Python or NumPy integer, or a float
     with an integer value, at least ``minimum``; else :class:`ParameterError`."""
     number = _is_number(value) and bool(np.isfinite(float(value)))
@@ -94,7 +94,7 @@ def as_count(value: object, name: str, minimum: int = 0) -> int:
     return int(value)
 
 
-def as_positive(value: object, name: str, allow_inf: bool = False) -> float:
+def as_positive(value: Any, name: str, allow_inf: bool = False) -> float:
     """A positive number option (a step, a tolerance, a scale): finite unless
     ``allow_inf``; else :class:`ParameterError`."""
     x = float(value) if _is_number(value) else np.nan
@@ -104,7 +104,7 @@ def as_positive(value: object, name: str, allow_inf: bool = False) -> float:
     return x
 
 
-def as_growth_limit(value: object) -> float:
+def as_growth_limit(value: Any) -> float:
     """A flow's ``growth_limit``: a number >= 1 or inf (every norm growth bound is >= 1,
     so a smaller limit would always warn); else :class:`ParameterError`."""
     x = float(value) if _is_number(value) else np.nan

@@ -301,7 +301,9 @@ def render(
     )
 
 
-def check_render_options(size, clim, max_arrows, arrow_scale) -> tuple[int, int]:
+def check_render_options(
+    size: Any, clim: Any, max_arrows: Any, arrow_scale: Any
+) -> tuple[int, int]:
     """Check :func:`render`'s numeric options; returns (width, height).
 
     Raises
@@ -314,7 +316,7 @@ def check_render_options(size, clim, max_arrows, arrow_scale) -> tuple[int, int]
     except (TypeError, ValueError):
         raise ParameterError(f"size must be (width, height) in pixels; got {size!r}") from None
     for name, value, low in (("width", width, 64), ("height", height, 48)):
-        if not (isinstance(value, Integral) and low <= value <= MAX_SIZE):
+        if not (isinstance(value, Integral) and low <= int(value) <= MAX_SIZE):
             raise ParameterError(
                 f"size: the {name} must be an integer in [{low}, {MAX_SIZE}] pixels; got {value!r}"
             )
@@ -325,12 +327,14 @@ def check_render_options(size, clim, max_arrows, arrow_scale) -> tuple[int, int]
             raise ParameterError(f"clim must be two numbers (low, high); got {clim!r}") from None
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ParameterError(f"clim must be two finite numbers with low < high; got {clim!r}")
-    if max_arrows is not None and not (isinstance(max_arrows, Integral) and max_arrows >= 1):
+    if max_arrows is not None and not (isinstance(max_arrows, Integral) and int(max_arrows) >= 1):
         raise ParameterError(
             f"max_arrows must be a positive integer (or None for one arrow per face); got "
             f"{max_arrows!r}"
         )
-    if arrow_scale is not None and not (isinstance(arrow_scale, Real) and 0 < arrow_scale < np.inf):
+    if arrow_scale is not None and not (
+        isinstance(arrow_scale, Real) and 0 < float(arrow_scale) < np.inf
+    ):
         raise ParameterError(f"arrow_scale must be a positive finite number; got {arrow_scale!r}")
     return int(width), int(height)
 
