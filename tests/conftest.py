@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 try:  # small dense work (ARPACK, k x k algebra) is 10-25x slower with threaded OpenBLAS here
+    import scipy.linalg  # noqa: F401  (load scipy's own OpenBLAS first, so the limit covers it)
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)

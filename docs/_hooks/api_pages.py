@@ -34,6 +34,7 @@ GROUPS = {
     "Parameterization and quad meshes": ["param"],
     "Numerics": ["numerics"],
     "Chapter names and errors": ["chapter", "errors"],
+    "Batch processing": ["batch"],
     "Command line and pictures": ["cli", "viz"],
 }
 

@@ -165,6 +165,10 @@ _MOVED = {
 
 
 def __getattr__(name: str) -> object:
+    if name == "batch":  # the top layer (like cli and viz): imported on first use only
+        from importlib import import_module
+
+        return import_module("fvf.batch")
     home = _MOVED.get(name)
     if home is None:
         raise AttributeError(f"module 'fvf' has no attribute {name!r}")

@@ -56,6 +56,9 @@ __all__ = [
     "OutputError",
     "InputOverwriteError",
     "OutputWriteError",
+    "BatchInputError",
+    "BatchOutputError",
+    "BatchWarning",
     "ParameterizationInputError",
     "FlippedParameterizationWarning",
     "QuadExtractionError",
@@ -267,6 +270,23 @@ class InputOverwriteError(OutputError):
 class OutputWriteError(OutputError):
     """Writing an output failed (disk full, file size limit, read-only file system, no
     permission). Nothing was written: a file already at the path is unchanged."""
+
+
+# ---------------------------------------------------------------------------- batch processing
+class BatchInputError(FvfError):
+    """The inputs of :func:`fvf.batch.run` cannot be used: a path that does not exist, a
+    folder or pattern without a mesh file, a malformed pairs file, or a Dask scheduler that
+    cannot be reached."""
+
+
+class BatchOutputError(FvfError):
+    """The output folder of :func:`fvf.batch.run` cannot be used: it is not a folder, or
+    another batch is writing into it (its lock is held)."""
+
+
+class BatchWarning(FvfWarning):
+    """A batch runs, but not as documented: e.g. the cluster's workers have several threads
+    and declare no ``MESH`` resource, so a worker may hold several meshes at once."""
 
 
 def user_stacklevel() -> int:

@@ -5,11 +5,13 @@ files; functions and fields are read from and written to ``.npz`` data files who
 are documented in :mod:`fvf.fieldio` and ``docs/cli.md`` (``f`` vertex functions, ``v``
 and ``u`` per-face fields, ``t`` times, ...).
 
-Exit status: 0 success; 1 ``fvf info`` found problems in the mesh; 2 bad input (a missing
+Exit status: 0 success; 1 ``fvf info`` found problems in the mesh, or ``fvf batch``
+finished with failed meshes; 2 bad input (a missing
 or unreadable file, an invalid mesh, wrong data keys or shapes, bad options, an output
 that is an input); 3 a feature unavailable here (``fvf.viz`` or its ``[viz]`` extra
 missing, no display for ``view``); 4 the computation failed (e.g. a flow overflowed, out
-of memory); 5 an output could not be written (disk full, file size limit); 130 / 143
+of memory); 5 an output could not be written (disk full, file size limit); 6 a flow grew
+beyond ``--growth-limit`` (the output is written); 130 / 143
 interrupted (SIGINT / SIGTERM). Errors are one line on stderr, ``fvf: error: <cause>``;
 ``--debug`` shows the traceback instead. Warnings (fvf's :class:`~fvf.errors.FvfWarning`)
 are one line each, ``fvf: warning: <cause>``.
@@ -52,7 +54,7 @@ __all__ = [
 ]
 
 EXIT_OK = 0
-#: ``fvf info`` found problems in the mesh.
+#: ``fvf info`` found problems in the mesh; ``fvf batch`` finished with failed meshes.
 EXIT_PROBLEMS = 1
 #: Bad input: missing or unreadable file, invalid mesh, wrong data keys or shapes, options.
 EXIT_BAD_INPUT = 2
@@ -70,7 +72,8 @@ EXIT_GREW = 6
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 
-_EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, 2 bad input,
+_EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems or `fvf batch` had failed
+meshes, 2 bad input,
 3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
 5 output not written (disk full...), 6 the result grew beyond --growth-limit (written;
 --growth-limit inf accepts it), 130/143 interrupted.
@@ -662,6 +665,37 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_batch(args: argparse.Namespace) -> int:
+    import fvf.batch
+
+    rows = fvf.batch.run(
+        args.inputs,
+        args.output,
+        args.tasks,
+        k=args.k,
+        n=args.n,
+        pairs=args.pairs,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        memory_limit=args.memory_limit,
+        retries=args.retries,
+        progress=not args.quiet,
+        as_frame=False,
+        command=args.command_line,
+    )
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "skipped", "failed")}
+    print(
+        f"{len(rows)} jobs: {counts['ok']} ok, {counts['skipped']} skipped, "
+        f"{counts['failed']} failed; summary in {Path(args.output) / 'summary.csv'}"
+    )
+    failed = [r for r in rows if r["status"] == "failed"]
+    for r in failed[:20]:
+        print(f"fvf: failed: {r['mesh']}: {r['error']}", file=sys.stderr)
+    if len(failed) > 20:
+        print(f"fvf: ... and {len(failed) - 20} more failed (summary.csv)", file=sys.stderr)
+    return EXIT_PROBLEMS if failed else EXIT_OK
+
+
 def _str(s: str) -> Any:
     import numpy as np
 
@@ -889,7 +923,50 @@ def parser() -> argparse.ArgumentParser:
     )
     _add_display_options(p)
     p.set_defaults(run=_cmd_view)
+
+    _add_batch(sub)
     return top
+
+
+def _add_batch(sub) -> None:
+    from fvf.batch import DEFAULT_MESH_TASKS, registered_tasks
+
+    listing = "\n".join(
+        f"  {t.name:<14} ({t.kind}) {t.description}" for t in registered_tasks().values()
+    )
+    p = _add(
+        sub,
+        "batch",
+        "run tasks over many meshes in parallel on a Dask cluster (local by default); "
+        "reruns skip finished meshes",
+        "fvf batch scans/ 'more/*.ply' -o results/ --tasks info,basis --k 30 --workers 2\n"
+        "  fvf batch scans/ -o results/ --scheduler tcp://10.0.0.5:8786\n\n"
+        f"tasks:\n{listing}\n\n"
+        "Results: OUT/summary.csv (one row per mesh and pair), OUT/meshes/<name>.npz,\n"
+        "OUT/pairs/<a>--<b>.npz; see docs/batch.md. Exit status 1: some meshes failed.",
+    )
+    p.add_argument("inputs", nargs="*", help="mesh files, folders, quoted glob patterns")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    p.add_argument(
+        "--tasks",
+        help=f"comma-separated task names (default: {','.join(DEFAULT_MESH_TASKS)}, "
+        "and a pair task with --pairs)",
+    )
+    p.add_argument("--k", type=int, default=50, help="eigenpairs of basis / fmap (default 50)")
+    p.add_argument("--n", type=int, help="field symmetry N (N-fields, when supported)")
+    p.add_argument("--pairs", metavar="CSV", help="mesh pairs, source,target[,map] per line")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    p.add_argument(
+        "--memory-limit",
+        default="auto",
+        help="per local worker, e.g. 4GB (default auto: memory / workers)",
+    )
+    p.add_argument("--scheduler", metavar="ADDRESS", help="use a running Dask cluster")
+    p.add_argument(
+        "--retries", type=int, default=3, help="reruns of a job whose worker died (default 3)"
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(run=_cmd_batch)
 
 
 # ---------------------------------------------------------------------------- main

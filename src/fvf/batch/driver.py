@@ -1,0 +1,551 @@
+"""The driver of a batch: plan the jobs, run them on a Dask cluster, write ``summary.csv``.
+
+:func:`run` finds the meshes, checks the tasks and options, takes the output folder's
+lock, then submits one Dask task per mesh (and per pair) calling
+:func:`fvf.batch.runner.run_job` with the job's paths and options. Workers read the mesh
+files and write the results themselves; only paths go out and summary rows come back.
+The cluster is a :class:`distributed.LocalCluster` started here (one single-threaded
+worker process per core), the cluster of a scheduler address, or a client the caller
+already has.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import logging
+import os
+import time
+import uuid
+from collections import deque
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+from ..errors import BatchInputError, BatchWarning, MissingExtraError, ParameterError
+from .inputs import MeshInput, PairInput, plan_inputs
+from .progress import Progress
+from .registry import Task, registered_tasks, resolve_tasks
+from .runner import MeshJob, PairJob, run_jobs
+from .store import columns_of, options_text, output_lock, remove_temporaries, write_summary
+
+__all__ = [
+    "run",
+    "DEFAULT_MESH_TASKS",
+    "INSTALL_HINT",
+    "MESH_RESOURCE",
+    "SUMMARY_INTERVAL",
+    "local_cluster_config",
+    "chunks",
+]
+
+INSTALL_HINT = "pip install 'fvf[batch]'"
+
+#: Tasks of a batch when none are named.
+DEFAULT_MESH_TASKS = ("info", "basis", "fields", "singularities")
+
+#: A worker resource: when every worker declares it, each job asks for one unit, so a
+#: multi-threaded worker still holds one mesh at a time.
+MESH_RESOURCE = "MESH"
+
+#: Seconds between two rewrites of ``summary.csv`` while a batch runs.
+SUMMARY_INTERVAL = 10.0
+
+#: Input bytes that make one Dask task: smaller files are grouped up to this size.
+CHUNK_BYTES = 256 * 1024
+
+#: At most this many jobs in one Dask task.
+CHUNK_MAX = 16
+
+#: Groups are made small enough to give each thread of the cluster this many tasks.
+CHUNKS_PER_THREAD = 4
+
+#: Seconds between two looks at the cluster's size (an adaptive cluster grows and shrinks).
+CAPACITY_INTERVAL = 2.0
+
+#: Seconds to wait for a scheduler to answer, and for its first worker.
+CONNECT_TIMEOUT = 30.0
+
+
+def _require_dask():
+    """``distributed``, or :class:`fvf.MissingExtraError` naming the extra."""
+    try:
+        import dask  # noqa: F401
+        import distributed
+    except ImportError as exc:
+        raise MissingExtraError(
+            f"fvf.batch needs dask.distributed, which is not installed ({exc}). Fix: {INSTALL_HINT}"
+        ) from exc
+    return distributed
+
+
+def local_cluster_config(retries: int) -> dict[str, Any]:
+    """The Dask settings of the local cluster :func:`run` starts.
+
+    ``allowed-failures``: a job whose worker died ``retries + 1`` times fails
+    (``KilledWorker``) instead of killing more workers; ``worker-saturation`` 1.0: a worker
+    holds only the job it runs (no queue of prefetched jobs that a dying worker would
+    take down with it); no spilling or pausing (results are files, not worker memory),
+    and the nanny restarts a worker at 95 % of its memory limit.
+    """
+    return {
+        "distributed.scheduler.allowed-failures": retries,
+        "distributed.scheduler.worker-saturation": 1.0,
+        "distributed.worker.memory.target": False,
+        "distributed.worker.memory.spill": False,
+        "distributed.worker.memory.pause": False,
+        "distributed.worker.memory.terminate": 0.95,
+    }
+
+
+# ---------------------------------------------------------------------------- planning
+def _check_options(k, n, workers, memory_limit, retries, client, scheduler) -> None:
+    if client is not None and scheduler is not None:
+        raise ParameterError("give either client or scheduler, not both")
+    if (client is not None or scheduler is not None) and (
+        workers is not None or memory_limit != "auto"
+    ):
+        raise ParameterError(
+            "workers and memory_limit (--workers, --memory-limit) size the local cluster; "
+            "an existing cluster (--scheduler, client) has its own workers: drop them"
+        )
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, not {workers!r}")
+    if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
+        raise ParameterError(f"retries must be an integer >= 0, not {retries!r}")
+    if isinstance(memory_limit, str) and memory_limit != "auto":
+        from dask.utils import parse_bytes
+
+        try:
+            parse_bytes(memory_limit)
+        except (ValueError, TypeError) as exc:
+            raise ParameterError(
+                f"memory limit {memory_limit!r} is not a size such as '4GB', '500MiB' or 'auto'"
+            ) from exc
+
+
+def _split_tasks(
+    tasks: Iterable[str | Task] | str | None, has_meshes: bool, has_pairs: bool, options: dict
+) -> tuple[list[Task], list[Task]]:
+    """The mesh tasks and the pair tasks to run (defaults when ``tasks`` is None)."""
+    if isinstance(tasks, str):
+        tasks = [t for t in tasks.split(",") if t.strip()]
+    if tasks is None:
+        pair_default = "match" if "match" in registered_tasks("pair") else "fmap"
+        tasks = (DEFAULT_MESH_TASKS if has_meshes else ()) + ((pair_default,) if has_pairs else ())
+    ordered = resolve_tasks(list(tasks), options)
+    mesh = [t for t in ordered if t.kind == "mesh"]
+    pair = [t for t in ordered if t.kind == "pair"]
+    pair_names = ", ".join(registered_tasks("pair")) or "none registered"
+    if has_pairs and not pair:
+        raise ParameterError(f"--pairs needs a pair task in --tasks ({pair_names})")
+    if pair and not has_pairs:
+        raise ParameterError(
+            f"the pair tasks {[t.name for t in pair]} need a pairs file (--pairs pairs.csv)"
+        )
+    if has_meshes and not mesh:
+        raise ParameterError(
+            f"the input meshes need a mesh task in --tasks ({', '.join(registered_tasks('mesh'))})"
+        )
+    return mesh, pair
+
+
+def _shipped(task: Task) -> str | Task:
+    """A registered task travels by name (the worker's registry has it), others whole."""
+    return task.name if registered_tasks().get(task.name) is task else task
+
+
+def _options_of(tasks: Sequence[Task], options: dict) -> dict:
+    return {o: options[o] for t in tasks for o in t.options if o in options}
+
+
+def _jobs(
+    out: Path,
+    meshes: Sequence[MeshInput],
+    pairs: Sequence[PairInput],
+    mesh_tasks: Sequence[Task],
+    pair_tasks: Sequence[Task],
+    options: dict,
+    command: str,
+) -> list[MeshJob | PairJob]:
+    jobs: list[MeshJob | PairJob] = []
+    for tasks, items in ((mesh_tasks, meshes), (pair_tasks, pairs)):
+        if not items:
+            continue
+        opts = _options_of(tasks, options)
+        text = options_text([t.name for t in tasks], opts)
+        shipped = tuple(_shipped(t) for t in tasks)
+        for item in items:
+            if isinstance(item, MeshInput):
+                result = out / "meshes" / f"{item.name}.npz"
+                jobs.append(
+                    MeshJob(item.name, str(item.path), str(result), shipped, opts, text, command)
+                )
+            else:
+                result = out / "pairs" / f"{item.name}.npz"
+                vmap = None if item.map is None else str(item.map)
+                jobs.append(
+                    PairJob(
+                        item.name,
+                        str(item.source.path),
+                        str(item.target.path),
+                        vmap,
+                        str(result),
+                        shipped,
+                        opts,
+                        text,
+                        command,
+                    )
+                )
+    return jobs
+
+
+def _size(job: MeshJob | PairJob) -> int:
+    paths = [job.path] if isinstance(job, MeshJob) else [job.source, job.target]
+    total = 0
+    for p in paths:
+        with contextlib.suppress(OSError):
+            total += os.stat(p).st_size
+    return total
+
+
+# ---------------------------------------------------------------------------- cluster
+def _has_bokeh() -> bool:
+    return importlib.util.find_spec("bokeh") is not None
+
+
+@contextlib.contextmanager
+def _connected(client, scheduler, workers, memory_limit, retries) -> Iterator[tuple[Any, str]]:
+    """A client of the given, addressed or a new local cluster, and a description."""
+    distributed = _require_dask()
+    if client is not None:
+        yield client, "the given client's cluster"
+        return
+    if scheduler is not None:
+        try:
+            c = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise BatchInputError(
+                f"cannot reach the Dask scheduler at {scheduler!r} ({type(exc).__name__}: "
+                f"{exc}); start one (`dask scheduler`, then `dask worker ADDRESS`) or drop "
+                "--scheduler to use a local cluster"
+            ) from exc
+        try:
+            yield c, f"the cluster at {scheduler}"
+        finally:
+            c.close()
+        return
+    import dask
+
+    with dask.config.set(local_cluster_config(retries)):
+        n = workers or dask.system.CPU_COUNT
+        cluster = distributed.LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            memory_limit=memory_limit,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",  # a free port: never another cluster's 8787
+            silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
+        )
+        try:
+            with distributed.Client(cluster) as c:
+                yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
+        finally:
+            cluster.close()
+
+
+def _warm() -> bool:
+    """Import the worker side (numpy, scipy, fvf) before the first job is timed."""
+    import fvf.batch.runner  # noqa: F401
+
+    return True
+
+
+def _prepare(client, note, local: bool) -> dict | None:
+    """Wait for a worker, warm the workers up, print the dashboard; the jobs' resources."""
+    import warnings
+
+    try:
+        client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
+    except (TimeoutError, OSError) as exc:
+        raise BatchInputError(
+            f"the Dask cluster has no worker after {CONNECT_TIMEOUT:g} s; start some with "
+            "`dask worker SCHEDULER_ADDRESS --nthreads 1`"
+        ) from exc
+    client.run(_warm)
+    info = client.scheduler_info()
+    if "dashboard" in info.get("services", {}) and (_has_bokeh() or not local):
+        note(f"fvf batch: Dask dashboard at {client.dashboard_link}")
+    workers = list(info.get("workers", {}).values())
+    if workers and all(MESH_RESOURCE in (w.get("resources") or {}) for w in workers):
+        return {MESH_RESOURCE: 1}
+    many = sum(w.get("nthreads", 1) > 1 for w in workers)
+    if many:
+        warnings.warn(
+            f"{many} of the cluster's {len(workers)} workers run several threads and declare "
+            f"no {MESH_RESOURCE} resource, so such a worker may hold several meshes at once; "
+            f"start workers with --nthreads 1 or --resources {MESH_RESOURCE}=1",
+            BatchWarning,
+            stacklevel=4,
+        )
+    return None
+
+
+def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -> dict:
+    """The row of a job whose worker died too often (or whose future failed otherwise)."""
+    text = " ".join(str(exc).split())
+    if type(exc).__name__ == "KilledWorker":
+        limit = "" if retries is None else f" (--retries {retries})"
+        text = (
+            f"the worker process died each time it ran this job{limit}: out of memory "
+            "(raise --memory-limit) or a crash in native code"
+        )
+    return {
+        "mesh": job.name,
+        "status": "failed",
+        "error": f"{type(exc).__name__}: {text}",
+        "kind": "mesh" if isinstance(job, MeshJob) else "pair",
+        "path": job.path if isinstance(job, MeshJob) else f"{job.source} -> {job.target}",
+        "result": job.result,
+    }
+
+
+def _capacity(client, resources) -> int:
+    """Jobs the cluster runs at once: its threads, or its MESH resource units."""
+    if resources:
+        workers = client.scheduler_info()["workers"].values()
+        units = sum((w.get("resources") or {}).get(MESH_RESOURCE, 0) for w in workers)
+        return max(1, int(units))
+    return max(1, sum(client.nthreads().values()))
+
+
+def chunks(sizes: Sequence[int], capacity: int) -> deque[tuple[int, ...]]:
+    """Group jobs into Dask tasks: large files alone, small ones together, largest first.
+
+    A Dask task costs a few milliseconds of scheduling (tens on a loaded machine), as much
+    as a small mesh's computation. Files smaller than the target size travel in groups
+    whose files add up to it, at most :data:`CHUNK_MAX` jobs; the target is
+    :data:`CHUNK_BYTES`, smaller when that would leave fewer than :data:`CHUNKS_PER_THREAD`
+    tasks per thread of the cluster (so the work still spreads over every worker).
+
+    Parameters
+    ----------
+    sizes : sequence of int
+        Bytes of input of each job.
+    capacity : int
+        Jobs the cluster runs at once.
+
+    Returns
+    -------
+    collections.deque of tuple of int
+        Job indices per task, in the order to submit them (largest files first).
+    """
+    order = sorted(range(len(sizes)), key=lambda i: -sizes[i])
+    target = min(CHUNK_BYTES, sum(sizes) / (CHUNKS_PER_THREAD * max(capacity, 1)))
+    groups: deque[tuple[int, ...]] = deque()
+    current: list[int] = []
+    total = 0
+    for i in order:
+        if sizes[i] >= target:
+            groups.append((i,))
+            continue
+        current.append(i)
+        total += sizes[i]
+        if total >= target or len(current) >= CHUNK_MAX:
+            groups.append(tuple(current))
+            current, total = [], 0
+    if current:
+        groups.append(tuple(current))
+    return groups
+
+
+def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -> None:
+    """Run the jobs, largest files first, at most one task per worker thread at a time; put
+    each row into ``rows`` (by job index) as it finishes. On an interrupt the tasks in
+    flight are cancelled (the rows so far stay in ``rows``).
+
+    Tasks (one job, or a group of small ones: :func:`chunks`) are handed to the scheduler
+    only as threads free up (``as_completed.add``): a worker then never holds a task
+    waiting behind the one it runs, so a worker that dies takes down only its own task,
+    which alone counts towards ``retries``; and the scheduler holds a few tasks, not one
+    per mesh of a very large batch. A group whose workers died too often is split and its
+    jobs rerun one by one (those finished are then skipped), so only the job that kills
+    its workers ends as ``failed``.
+    """
+    from distributed import as_completed
+
+    token = uuid.uuid4().hex[:8]
+    state = {"capacity": _capacity(client, resources), "checked": time.monotonic()}
+    waiting = chunks([_size(job) for job in jobs], state["capacity"])
+    futures: dict[Any, tuple[int, ...]] = {}
+    done = as_completed()
+
+    def submit_more() -> None:
+        if time.monotonic() - state["checked"] > CAPACITY_INTERVAL:  # workers come and go
+            state.update(capacity=_capacity(client, resources), checked=time.monotonic())
+        while waiting and len(futures) < state["capacity"]:
+            group = waiting.popleft()
+            first = jobs[group[0]].name
+            key = f"fvf-batch-{first}{f'+{len(group) - 1}' if len(group) > 1 else ''}-{token}"
+            batch = [jobs[i] for i in group]
+            future = client.submit(run_jobs, batch, key=key, pure=False, resources=resources)
+            futures[future] = group
+            done.add(future)
+
+    submit_more()
+    try:
+        for future in done:
+            group = futures.pop(future)
+            try:
+                results = future.result()
+            except Exception as exc:  # KilledWorker, a lost scheduler, ...
+                if len(group) > 1 and type(exc).__name__ == "KilledWorker":
+                    waiting.extendleft((i,) for i in reversed(group))
+                    results = []
+                else:
+                    results = [_lost_row(jobs[i], exc, retries) for i in group]
+            future.release()
+            for i, row in zip(group, results, strict=False):
+                rows[i] = row
+                progress.update(row)
+            save(rows)
+            submit_more()
+    finally:
+        if futures:
+            client.cancel(list(futures))
+
+
+def _table(rows: list[dict], columns: list[str], as_frame: bool | None):
+    if as_frame is not False:
+        try:
+            import pandas as pd
+        except ImportError:
+            if as_frame:
+                raise MissingExtraError("as_frame=True needs pandas: pip install pandas") from None
+        else:
+            frame = pd.DataFrame(rows, columns=columns)
+            for c in columns:  # integer columns with gaps (failed rows): nullable integers
+                values = [r[c] for r in rows if r.get(c) is not None]
+                if values and all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+                    frame[c] = frame[c].astype("Int64")
+            return frame
+    return [{c: row.get(c) for c in columns} for row in rows]
+
+
+# ---------------------------------------------------------------------------- run
+def run(
+    inputs: Iterable[str | os.PathLike] = (),
+    out: str | os.PathLike = "fvf-batch",
+    tasks: Iterable[str | Task] | str | None = None,
+    *,
+    k: int = 50,
+    n: int | None = None,
+    pairs: str | os.PathLike | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    memory_limit: str | int | float | None = "auto",
+    retries: int = 3,
+    progress: bool = True,
+    as_frame: bool | None = None,
+    command: str | None = None,
+):
+    """Run tasks over many meshes (and mesh pairs) in parallel on a Dask cluster.
+
+    Each mesh is one Dask task: a worker process reads the file, runs the tasks
+    (:mod:`fvf.batch.tasks`), writes ``OUT/meshes/<name>.npz`` atomically and returns a
+    summary row. Results whose key (SHA-256 of the input file and of the tasks' options)
+    matches are skipped, so rerunning an interrupted batch finishes it. A mesh that fails
+    is a ``failed`` row; a worker that dies has its job rerun on another worker, up to
+    ``retries`` times. See ``docs/batch.md``.
+
+    Parameters
+    ----------
+    inputs : iterable of str or path
+        Mesh files, folders (searched recursively for OBJ, OFF, PLY) and glob patterns.
+    out : str or path
+        Output folder: ``summary.csv``, ``meshes/``, ``pairs/``.
+    tasks : iterable of str or Task, or comma-separated str, optional
+        Registered task names (:func:`fvf.batch.registered_tasks`) or :class:`Task`
+        objects. Default: ``info, basis, fields, singularities`` for meshes, and
+        ``match`` (if ``fvf.match`` exists, else ``fmap``) for pairs.
+    k : int
+        Eigenpairs of ``basis`` and ``fmap``.
+    n : int, optional
+        Symmetry of the fields (N-fields, when :func:`fvf.design_field` takes ``n``).
+    pairs : str or path, optional
+        CSV of mesh pairs, ``source,target[,map]`` per line: one pair task per row.
+    client : distributed.Client, optional
+        Run on this client's cluster (it is left open).
+    scheduler : str, optional
+        Address of a running Dask scheduler, e.g. ``"tcp://10.0.0.5:8786"``.
+    workers : int, optional
+        Worker processes of the local cluster (default: one per core).
+    memory_limit : str, int, float or None
+        Memory limit per worker of the local cluster (``"4GB"``; ``"auto"``: the machine's
+        memory divided among the workers; None: none). A worker past 95 % of it is
+        restarted and its job retried.
+    retries : int
+        How many times a job may be rerun after its worker died (the local cluster's
+        ``allowed-failures``; a cluster at ``scheduler`` keeps its own setting).
+    progress : bool
+        Show progress on stderr.
+    as_frame : bool, optional
+        Return a pandas DataFrame (default when pandas is installed) or a list of dicts.
+    command : str, optional
+        Provenance stored in every result (default: this call).
+
+    Returns
+    -------
+    pandas.DataFrame or list of dict
+        The rows of ``OUT/summary.csv``, in input order (meshes, then pairs): ``mesh``,
+        ``status`` (``ok``, ``skipped``, ``failed``), ``error``, ``n``, ``m``, ``chi``,
+        ``seconds``, ``peak_mb``, ``kind``, ``path``, ``result``, ``warnings`` and the
+        task figures ``<task>_<figure>``.
+
+    Raises
+    ------
+    MissingExtraError
+        dask.distributed is not installed (``pip install 'fvf[batch]'``).
+    BatchInputError
+        Missing inputs, a bad pairs file, an unreachable scheduler.
+    BatchOutputError
+        ``out`` is a file, or another batch is writing into it.
+    ParameterError
+        Unknown tasks or invalid options.
+    """
+    _require_dask()
+    _check_options(k, n, workers, memory_limit, retries, client, scheduler)
+    options = {"k": k, "n": n}
+    meshes, pair_inputs = plan_inputs(inputs, pairs)
+    mesh_tasks, pair_tasks = _split_tasks(tasks, bool(meshes), bool(pair_inputs), options)
+    out = Path(out).resolve()
+    if command is None:
+        command = f"fvf.batch.run({len(meshes)} meshes, {len(pair_inputs)} pairs)"
+    jobs = _jobs(out, meshes, pair_inputs, mesh_tasks, pair_tasks, options, command)
+    summary_path = out / "summary.csv"
+    rows: dict[int, dict] = {}
+    show = Progress(len(jobs), enabled=progress)
+    last_save = [time.perf_counter()]
+
+    def save(current: dict[int, dict], force: bool = False) -> None:
+        if force or time.perf_counter() - last_save[0] >= SUMMARY_INTERVAL:
+            write_summary(summary_path, [current[i] for i in sorted(current)])
+            last_save[0] = time.perf_counter()
+
+    with output_lock(out):
+        remove_temporaries(out)
+        try:
+            with _connected(client, scheduler, workers, memory_limit, retries) as (c, where):
+                local = client is None and scheduler is None
+                resources = _prepare(c, show.note, local)
+                show.note(f"fvf batch: {len(meshes)} meshes, {len(pair_inputs)} pairs on {where}")
+                show.start = time.perf_counter()
+                _execute(c, jobs, show, resources, retries if local else None, rows, save)
+        finally:
+            show.close()
+            save(rows, force=True)
+            remove_temporaries(out)
+    ordered = [rows[i] for i in sorted(rows)]
+    return _table(ordered, columns_of(ordered), as_frame)

@@ -1,0 +1,207 @@
+"""The output folder of a batch: result files, their hashes, ``summary.csv``, the lock.
+
+Layout of ``OUT``::
+
+    OUT/summary.csv            one row per input mesh and per pair (SUMMARY_COLUMNS + figures)
+    OUT/meshes/<name>.npz      one result per mesh (the data-file schema of the fvf command)
+    OUT/pairs/<a>--<b>.npz     one result per pair
+    OUT/.fvf-batch.lock        held while a batch writes into OUT
+
+Every file is written through :func:`fvf.io.atomic.atomic_path`: a result exists whole or
+not at all. A result records :data:`KEY_FIELD`, the SHA-256 of its input files' contents
+and of the options that made it (:func:`options_text`); a batch reuses a result only when
+that key matches, so a rerun skips what is done and redoes what changed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import json
+import math
+import os
+import socket
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import BatchOutputError
+from ..io.atomic import atomic_path
+
+__all__ = [
+    "SUMMARY_COLUMNS",
+    "RESULT_SCHEMA",
+    "KEY_FIELD",
+    "file_sha256",
+    "options_text",
+    "result_key",
+    "stored_row",
+    "write_summary",
+    "output_lock",
+    "remove_temporaries",
+]
+
+#: Columns of ``summary.csv`` before the per-task figures (``<task>_<figure>``).
+SUMMARY_COLUMNS = (
+    "mesh",
+    "status",
+    "error",
+    "n",
+    "m",
+    "chi",
+    "seconds",
+    "peak_mb",
+    "kind",
+    "path",
+    "result",
+    "warnings",
+)
+
+#: Version of the result layout; part of every key, so a new layout recomputes.
+RESULT_SCHEMA = 1
+
+#: The key of a result file under which its hash is stored.
+KEY_FIELD = "batch_key"
+
+
+def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
+    """SHA-256 of a file's contents (hex), read in chunks of ``chunk`` bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while block := fh.read(chunk):
+            h.update(block)
+    return h.hexdigest()
+
+
+def options_text(tasks: Sequence[str], options: Mapping[str, Any]) -> str:
+    """The canonical JSON of what a result depends on besides its input files.
+
+    Parameters
+    ----------
+    tasks : sequence of str
+        Task names, in the order they run.
+    options : mapping
+        The options those tasks read (and only those).
+    """
+    return json.dumps(
+        {"schema": RESULT_SCHEMA, "tasks": list(tasks), "options": dict(options)},
+        sort_keys=True,
+        default=str,
+    )
+
+
+def result_key(file_hashes: Sequence[str], options_json: str) -> str:
+    """SHA-256 (hex) of the input files' hashes and the options' JSON."""
+    return hashlib.sha256("\n".join([*file_hashes, options_json]).encode()).hexdigest()
+
+
+def stored_row(path: str | os.PathLike, key: str) -> dict | None:
+    """The summary row stored in the result ``path`` when its key is ``key``, else None.
+
+    A missing, unreadable or stale (other key) result gives None: the mesh is recomputed.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if KEY_FIELD not in data.files or str(data[KEY_FIELD]) != key:
+                return None
+            return json.loads(str(data["batch_summary"]))
+    except (OSError, ValueError, KeyError, EOFError):
+        return None
+    except Exception:  # a damaged zip raises zipfile.BadZipFile and others
+        return None
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else repr(value)
+    return str(value)
+
+
+def columns_of(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """SUMMARY_COLUMNS, then every other key of the rows in order of first appearance."""
+    extra = dict.fromkeys(k for row in rows for k in row if k not in SUMMARY_COLUMNS)
+    return [*SUMMARY_COLUMNS, *extra]
+
+
+def write_summary(path: str | os.PathLike, rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Write ``rows`` as CSV (atomically); return the columns written.
+
+    Floats are written in their shortest round-trip form, missing values as empty cells.
+    """
+    columns = columns_of(rows)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(columns)
+        for row in rows:
+            writer.writerow([_cell(row.get(c)) for c in columns])
+    return columns
+
+
+def remove_temporaries(folder: str | os.PathLike) -> int:
+    """Delete the temporary files that interrupted atomic writes left in ``folder``.
+
+    :func:`fvf.io.atomic.atomic_path` names them ``.<target>.<random><suffix>``; a worker
+    killed while writing leaves one behind (its target is untouched). Returns the count.
+    """
+    count = 0
+    for sub in ("meshes", "pairs", "."):
+        d = Path(folder) / sub
+        if not d.is_dir():
+            continue
+        for p in d.glob(".*.npz.*"):
+            with contextlib.suppress(OSError):
+                p.unlink()
+                count += 1
+        for p in d.glob(".summary.csv.*"):
+            with contextlib.suppress(OSError):
+                p.unlink()
+                count += 1
+    return count
+
+
+@contextlib.contextmanager
+def output_lock(folder: str | os.PathLike) -> Iterator[Path]:
+    """Hold ``folder/.fvf-batch.lock`` (an ``fcntl`` lock) while a batch writes there.
+
+    The lock is released when the block ends or the process dies, so a crashed batch never
+    blocks the next one. Where ``fcntl`` is missing (Windows) no lock is taken.
+
+    Raises
+    ------
+    BatchOutputError
+        Another process holds the lock (its host and process id are named), or ``folder``
+        exists and is not a folder.
+    """
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise BatchOutputError(f"{folder} is not a folder; give -o a folder for the results")
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / ".fvf-batch.lock"
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover (Windows)
+        yield path
+        return
+    fh = open(path, "a+")
+    try:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            raise BatchOutputError(
+                f"{folder} is in use by another fvf batch ({holder}); wait for it to finish "
+                "or write to another folder"
+            ) from exc
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"host {socket.gethostname()}, pid {os.getpid()}\n")
+        fh.flush()
+        yield path
+    finally:
+        fh.close()

@@ -1,0 +1,239 @@
+"""The built-in batch tasks: each one library call, its arrays and its summary figures.
+
+Each task, its library call and the arrays it stores:
+
+- ``repair`` (mesh, before validation): :func:`fvf.repair_mesh`; ``repair_vertex_origin``,
+  ``repair_face_origin``, ``repair_flipped``, ``repair_log``.
+- ``info`` (mesh, before validation): :func:`fvf.mesh.diagnostics.mesh_report`;
+  ``info_report`` (the report as a JSON string).
+- ``basis`` (mesh): :func:`fvf.laplace_basis` with ``k``; ``eigenvalues`` (k,),
+  ``eigenfunctions`` (k, n), one function per row.
+- ``fields`` (mesh): :func:`fvf.design_field` (with ``n`` when it takes one); ``v`` (m, 3).
+- ``singularities`` (mesh, after ``fields``): :func:`fvf.singularities` of ``v``;
+  ``singularity_vertices``, ``singularity_indices``, ``singularity_positions``.
+- ``fmap`` (pair): :func:`fvf.functional_map_from_bases` and :func:`fvf.map_quality` with
+  ``k``; ``fmap`` (k, k), ``p2p`` (n_source,).
+- ``match`` (pair, registered when ``fvf.match`` exists) and ``quad`` (mesh, when
+  ``fvf.quad_mesh`` exists): what the function returns (:func:`output_of`), keys
+  prefixed ``match`` / ``quad``.
+
+Keys follow the data-file schema of the ``fvf`` command (``docs/cli.md``): `v` is a
+per-face field and the `singularity_*` keys are those of ``fvf design``, so ``fvf render
+MESH RESULT.npz --field v --singularities`` draws a result; `eigenfunctions` holds one
+function per row, so ``--function eigenfunctions[3]`` draws one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+import fvf
+
+from ..errors import ParameterError
+from .registry import MeshContext, PairContext, TaskOutput, accepts, register_task
+
+__all__ = ["output_of"]
+
+
+def _check_k(options: Mapping[str, Any]) -> None:
+    k = options.get("k")
+    if not isinstance(k, (int, np.integer)) or isinstance(k, bool) or k < 1:
+        raise ParameterError(f"k (eigenpairs per mesh) must be an integer >= 1, not {k!r}")
+
+
+def _n_keywords(func, options: Mapping[str, Any], what: str) -> dict:
+    """``{"n": n}`` when an N-field is asked for and ``func`` takes ``n``; {} for n = 1."""
+    n = options.get("n")
+    if n is None or n == 1:
+        return {}
+    if accepts(func, "n"):
+        return {"n": n}
+    raise ParameterError(
+        f"n = {n} asks for N-fields, but {what} of this fvf takes no n (only n = 1); "
+        "drop --n or update fvf"
+    )
+
+
+def _check_n(options: Mapping[str, Any]) -> None:
+    n = options.get("n")
+    if n is not None and (not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1):
+        raise ParameterError(f"n (field symmetry) must be an integer >= 1, not {n!r}")
+    _n_keywords(fvf.design_field, options, "fvf.design_field")
+
+
+def _check_singularities(options: Mapping[str, Any]) -> None:
+    _check_n(options)
+    _n_keywords(fvf.singularities, options, "fvf.singularities")
+
+
+def _json(obj: Any) -> np.ndarray:
+    return np.array(json.dumps(obj, default=str, sort_keys=True))
+
+
+# ---------------------------------------------------------------------------- mesh tasks
+@register_task("repair", raw=True, description="repair the file's arrays (fvf.repair_mesh)")
+def repair(ctx: MeshContext) -> TaskOutput:
+    """Weld, drop degenerate and duplicate faces, split non-manifold vertices, orient."""
+    n0, m0 = len(ctx.vertices), len(ctx.faces)
+    r = fvf.repair_mesh(ctx.vertices, ctx.faces)
+    ctx.replace(r.vertices, r.faces)
+    arrays = {
+        "repair_vertex_origin": r.vertex_origin,
+        "repair_face_origin": r.face_origin,
+        "repair_flipped": r.flipped,
+        "repair_log": np.array(r.log, dtype=str),
+    }
+    figures = {
+        "steps": len(r.log),
+        "vertices_delta": len(r.vertices) - n0,
+        "faces_delta": len(r.faces) - m0,
+    }
+    return TaskOutput(arrays, figures)
+
+
+@register_task("info", raw=True, description="validation report (what `fvf info` prints)")
+def info(ctx: MeshContext) -> TaskOutput:
+    """Every problem of the arrays, genus, boundary loops, components, smallest angle."""
+    from ..mesh.diagnostics import mesh_report
+
+    report = mesh_report(ctx.vertices, ctx.faces)
+    figures = {"problems": len(report.get("problems", ()))}
+    for key in ("genus", "boundary_loops", "components", "min_angle_deg"):
+        if report.get(key) is not None:
+            figures[key] = report[key]
+    return TaskOutput({"info_report": _json(report)}, figures)
+
+
+@register_task(
+    "basis", options=("k",), check=_check_k, description="k Laplace-Beltrami eigenpairs (--k)"
+)
+def basis(ctx: MeshContext) -> TaskOutput:
+    """The k smallest eigenpairs of the cotangent Laplacian, L φ = λ A_V φ."""
+    lam, phi = fvf.laplace_basis(ctx.mesh, int(ctx.options["k"]))
+    figures = {f"lambda_{i}": float(lam[i]) for i in range(1, min(4, lam.size))}
+    return TaskOutput({"eigenvalues": lam, "eigenfunctions": np.ascontiguousarray(phi.T)}, figures)
+
+
+@register_task(
+    "fields", options=("n",), check=_check_n, description="smoothest field (fvf.design_field)"
+)
+def fields(ctx: MeshContext) -> TaskOutput:
+    """The smoothest unit-L2 tangent field (an N-field when --n is given and supported)."""
+    v = fvf.design_field(ctx.mesh, **_n_keywords(fvf.design_field, ctx.options, "design_field"))
+    return TaskOutput({"v": np.asarray(v)})
+
+
+@register_task(
+    "singularities",
+    needs=("fields",),
+    options=("n",),
+    check=_check_singularities,
+    description="singular vertices of the field and their indices",
+)
+def singularities(ctx: MeshContext) -> TaskOutput:
+    """Singular vertices of ``fields``' v, their indices and positions."""
+    kw = _n_keywords(fvf.singularities, ctx.options, "singularities")
+    ids, index = fvf.singularities(ctx.mesh, ctx.arrays["v"], zero="warn", **kw)
+    arrays = {
+        "singularity_vertices": ids,
+        "singularity_indices": index,
+        "singularity_positions": fvf.singularity_positions(ctx.mesh, ids, "vertex"),
+    }
+    figures = {"count": int(ids.size), "index_sum": float(np.sum(index))}
+    return TaskOutput(arrays, figures)
+
+
+# ---------------------------------------------------------------------------- pair tasks
+@register_task(
+    "fmap",
+    kind="pair",
+    options=("k",),
+    check=_check_k,
+    description="functional map of a given vertex map (pairs file's 3rd column, or identity)",
+)
+def fmap(ctx: PairContext) -> TaskOutput:
+    """C (k, k): spectral coefficients on the target -> on the source, pulled back by the
+    vertex map source -> target (fvf.functional_map_from_bases(target, source, map))."""
+    k = int(ctx.options["k"])
+    p2p = ctx.point_map()
+    b_src = fvf.SpectralBasis(ctx.source.mesh, k)
+    b_tgt = fvf.SpectralBasis(ctx.target.mesh, k)
+    C = fvf.functional_map_from_bases(b_tgt, b_src, p2p)
+    quality = fvf.map_quality(C, b_tgt.eigenvalues, b_src.eigenvalues)
+    figures = {k_: v for k_, v in quality.items() if np.isscalar(v)}
+    return TaskOutput({"fmap": C, "p2p": p2p}, figures)
+
+
+# ---------------------------------------------------------------------------- adapters
+def _storable(value: Any) -> np.ndarray | None:
+    a = np.asarray(value) if not isinstance(value, np.ndarray) else value
+    return a if a.dtype.kind in "biufcU" else None
+
+
+def output_of(result: Any, prefix: str) -> TaskOutput:
+    """A :class:`TaskOutput` from whatever a library function returns.
+
+    An array becomes ``arrays[prefix]``; a tuple or list ``arrays[prefix_i]``; a mapping,
+    dataclass, named tuple or object with attributes one entry per field: scalars become
+    figures, arrays become ``arrays[prefix_field]``, a :class:`fvf.TriMesh` its
+    ``prefix_field_vertices`` and ``prefix_field_faces``. Anything else is left out.
+    """
+    from ..mesh.trimesh import TriMesh
+
+    if isinstance(result, np.ndarray):
+        return TaskOutput({prefix: result})
+    if isinstance(result, tuple) and hasattr(result, "_asdict"):
+        items = result._asdict()
+    elif isinstance(result, (tuple, list)):
+        items = {str(i): v for i, v in enumerate(result)}
+    elif isinstance(result, Mapping):
+        items = dict(result)
+    elif dataclasses.is_dataclass(result):
+        items = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
+    else:
+        items = {k: v for k, v in vars(result).items() if not k.startswith("_")}
+    arrays, figures = {}, {}
+    for key, value in items.items():
+        if isinstance(value, TriMesh):
+            arrays[f"{prefix}_{key}_vertices"] = value.vertices
+            arrays[f"{prefix}_{key}_faces"] = value.faces
+        elif isinstance(value, (bool, int, float, np.number)) and np.ndim(value) == 0:
+            figures[key] = value.item() if isinstance(value, np.generic) else value
+        elif (a := _storable(value)) is not None and a.ndim > 0:
+            arrays[f"{prefix}_{key}"] = a
+    return TaskOutput(arrays, figures)
+
+
+def _call(func, *args, **optional):
+    """``func(*args, **kw)`` with the optional keywords ``func`` accepts."""
+    return func(*args, **{k: v for k, v in optional.items() if v is not None and accepts(func, k)})
+
+
+if hasattr(fvf, "match"):
+
+    @register_task(
+        "match",
+        kind="pair",
+        options=("k",),
+        check=_check_k,
+        description="fvf.match(source, target)",
+    )
+    def match(ctx: PairContext) -> TaskOutput:
+        """The correspondence fvf.match computes between the pair's meshes."""
+        return output_of(
+            _call(fvf.match, ctx.source.mesh, ctx.target.mesh, k=ctx.options.get("k")), "match"
+        )
+
+
+if hasattr(fvf, "quad_mesh"):
+
+    @register_task("quad", options=("n",), description="fvf.quad_mesh(mesh)")
+    def quad(ctx: MeshContext) -> TaskOutput:
+        """The quad mesh fvf.quad_mesh extracts (with the field of ``fields`` if it ran)."""
+        optional = {"field": ctx.arrays.get("v")} if "v" in ctx.arrays else {}
+        return output_of(_call(fvf.quad_mesh, ctx.mesh, **optional), "quad")
