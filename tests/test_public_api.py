@@ -252,6 +252,34 @@ def _at_rest(mesh):
     return errors.FieldShapeError if mesh.boundary_vertices.size == mesh.n_vertices else None
 
 
+def _quad_input_error(mesh):
+    """Seamless parameterization and quad meshing take closed, connected meshes only."""
+    if mesh.n_components != 1 or not mesh.is_closed:
+        return errors.ParameterizationInputError
+    return None
+
+
+def _check_seamless(r, mesh):
+    assert isinstance(r, fvf.SeamlessParameterization)
+    assert r.uv.shape == (mesh.n_faces, 3, 2)
+    t = r.translation[r.cut]
+    assert np.abs(t - np.round(t)).max(initial=0.0) < 1e-9
+
+
+def _check_same_cross(r, mesh, u):
+    """The identity map leaves a cross field's directions (mod 90°) unchanged."""
+    z, w = mesh.to_complex(r) ** 4, mesh.to_complex(mesh.project_tangent(u)) ** 4
+    ok = np.abs(w) > 1e-6 * np.abs(w).max()
+    assert np.allclose(z[ok] / np.abs(z[ok]), w[ok] / np.abs(w[ok]), atol=1e-8)
+
+
+def _check_quads(r, mesh):
+    V, Q = r
+    assert V.dtype == np.float64 and Q.dtype == np.int64 and Q.shape[1] == 4
+    closed, manifold, chi, _ = fvf.param.quality.quad_topology(V.shape[0], Q)
+    assert closed and manifold and chi == mesh.euler_characteristic
+
+
 SPECS: dict[str, Spec] = {
     # -- mesh, io, repair, shapes
     "TriMesh": Spec(
@@ -983,6 +1011,53 @@ SPECS: dict[str, Spec] = {
         meshless=True,
     ),
     "ZeroFieldWarning": _check_error_class(errors.FvfWarning),
+    # -- parameterization and quad meshes
+    "param": Spec(
+        lambda fn, mesh, c: fn,
+        lambda r, m, c: all(hasattr(r, n) for n in r.__all__) or pytest.fail("subpackage"),
+        meshless=True,
+    ),
+    "seamless_parameterization": Spec(
+        lambda fn, mesh, c: fn(mesh, target_faces=max(24, mesh.n_faces // 4)),
+        lambda r, mesh, c: _check_seamless(r, mesh),
+        error=_quad_input_error,
+        warns=(errors.FlippedParameterizationWarning,),
+    ),
+    "SeamlessParameterization": Spec(
+        lambda fn, mesh, c: fvf.seamless_parameterization(mesh, target_faces=mesh.n_faces // 4),
+        lambda r, mesh, c: _check_seamless(r, mesh),
+        error=_quad_input_error,
+        warns=(errors.FlippedParameterizationWarning,),
+    ),
+    "quad_mesh": Spec(
+        lambda fn, mesh, c: fn(mesh, target_faces=max(24, mesh.n_faces // 4)),
+        lambda r, mesh, c: _check_quads(r, mesh),
+        error=_quad_input_error,
+    ),
+    "quad_quality": Spec(
+        lambda fn, mesh, c: fn(mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))),
+        lambda r, mesh, c: (r.closed and r.manifold) or pytest.fail(repr(r)),
+        error=_quad_input_error,
+    ),
+    "symmetrize_cross_field": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, np.arange(mesh.n_vertices)),
+        lambda r, mesh, c: _check_same_cross(r, mesh, c.u),
+    ),
+    "quad_symmetry_error": Spec(
+        lambda fn, mesh, c: fn(
+            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2, 3]],
+            lambda P: P * [-1, 1, 1] + [1, 0, 0],
+        ),
+        lambda r, m, c: (r == (0.0, 0.0)) or pytest.fail(repr(r)),
+        meshless=True,
+    ),
+    "QuadQuality": Spec(
+        lambda fn, mesh, c: fvf.quad_quality(
+            mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))
+        ),
+        lambda r, mesh, c: isinstance(r, fvf.QuadQuality) or pytest.fail(repr(r)),
+        error=_quad_input_error,
+    ),
 }
 for _name in errors.__all__:
     if _name != "format_indices":

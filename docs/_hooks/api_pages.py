@@ -31,6 +31,7 @@ GROUPS = {
     "Flows and transport (§3.4–3.5, §4.5)": ["flows"],
     "Spectral tools and maps": ["spectral"],
     "Field design": ["design"],
+    "Parameterization and quad meshes": ["param"],
     "Numerics": ["numerics"],
     "Chapter names and errors": ["chapter", "errors"],
     "Batch processing": ["batch"],

@@ -24,7 +24,7 @@ from __future__ import annotations
 import warnings as _warnings
 from importlib import metadata as _metadata
 
-from . import chapter, design, flows, io, mesh, numerics, operators, spectral
+from . import chapter, design, flows, io, mesh, numerics, operators, param, spectral
 from .calculus import (
     div,
     divergence,
@@ -127,6 +127,15 @@ from .operators import (
     directional_derivatives,
     dirichlet_ratio,
     extract_field,
+)
+from .param import (
+    QuadQuality,
+    SeamlessParameterization,
+    quad_mesh,
+    quad_quality,
+    quad_symmetry_error,
+    seamless_parameterization,
+    symmetrize_cross_field,
 )
 from .spectral import (
     SpectralBasis,
@@ -288,5 +297,14 @@ __all__ = [
     "spectral",
     "design",
     "numerics",
+    # parameterization and quad meshes
+    "param",
+    "seamless_parameterization",
+    "SeamlessParameterization",
+    "quad_mesh",
+    "quad_quality",
+    "QuadQuality",
+    "symmetrize_cross_field",
+    "quad_symmetry_error",
     *_errors_all,
 ]

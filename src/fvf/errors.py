@@ -59,6 +59,9 @@ __all__ = [
     "BatchInputError",
     "BatchOutputError",
     "BatchWarning",
+    "ParameterizationInputError",
+    "FlippedParameterizationWarning",
+    "QuadExtractionError",
     "format_indices",
 ]
 
@@ -299,6 +302,21 @@ def user_stacklevel() -> int:
     while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(package):
         frame, level = frame.f_back, level + 1
     return level
+
+
+# ---------------------------------------------------------------------------- quads
+class ParameterizationInputError(FvfError):
+    """A mesh or cross field the seamless parameterization cannot handle (boundary,
+    several components, cones of unsupported index)."""
+
+
+class FlippedParameterizationWarning(FvfWarning):
+    """Some uv triangles of a parameterization are flipped or degenerate."""
+
+
+class QuadExtractionError(FvfError, RuntimeError):
+    """Quad extraction met a parameterization it cannot turn into a valid quad mesh
+    (flipped or degenerate uv triangles, a target too coarse for the topology)."""
 
 
 def format_indices(idx: object, limit: int = 8) -> str:

@@ -527,6 +527,61 @@ def _cmd_design(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_quad(args: argparse.Namespace) -> int:
+    import time
+
+    import fvf
+    from fvf.io.meshfile import write_quad_mesh, write_uv_mesh
+
+    _check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
+    mesh = _load_mesh(args.mesh)
+    field = _Sources(args, mesh).field(args.field) if args.field else None
+    t0 = time.perf_counter()
+
+    def progress(message: str) -> None:
+        print(f"fvf quad: {time.perf_counter() - t0:6.1f}s  {message}", file=sys.stderr)
+
+    from fvf.param.extraction import extract_quads
+
+    param = fvf.seamless_parameterization(
+        mesh, target_faces=args.faces, field=field, align=args.align, progress=progress
+    )
+    progress("quad extraction")
+    qm = extract_quads(mesh, param.uv)
+    V, Q = qm.vertices, qm.quads
+    write_quad_mesh(args.output, V, Q)
+    q = fvf.quad_quality(mesh, V, Q, parameterization=param)
+    print(
+        f"wrote {args.output}: {Q.shape[0]} quads, {V.shape[0]} vertices, "
+        f"{q.n_irregular} irregular ({q.irregular_fraction:.1%}), corner angle deviation "
+        f"median {q.angle_deviation_median:.1f} deg, 95% {q.angle_deviation_p95:.1f} deg"
+    )
+    if args.uv:
+        write_uv_mesh(args.uv, mesh.vertices, mesh.faces, param.uv)
+        print(f"wrote {args.uv}: the parameterized triangle mesh (vt per corner)")
+    if args.png:
+        viz = _viz()
+        try:
+            info = viz.render_quads(V, Q, args.png, title=f"{Q.shape[0]} quads")
+        except ImportError as exc:
+            raise Unavailable(" ".join(str(exc).split())) from exc
+        print(f"wrote {info.path}")
+    return EXIT_OK
+
+
+def _quad_file(path: str) -> tuple[Any, Any] | None:
+    """(V, Q) when the mesh file holds only quads, else None."""
+    from fvf.errors import MeshReadError
+    from fvf.io.meshfile import read_quad_mesh
+
+    try:
+        return read_quad_mesh(path)
+    except MeshReadError as exc:
+        if "non-quads" in str(exc):
+            return None
+        raise
+
+
 def _display_arrays(args, mesh):
     """function, field and singularities to draw, from the data file and the options."""
     import fvf
@@ -577,6 +632,16 @@ def _numbers_of(src, spec, shapes):
 def _cmd_render(args: argparse.Namespace) -> int:
     _check_outputs(args, ("-o", args.output))
     viz = _viz()
+    quads = None if args.data else _quad_file(args.mesh)
+    if quads is not None:  # a quad mesh: shading, wireframe, irregular vertices by valence
+        kwargs = {n: getattr(args, n) for n in ("title", "backend") if getattr(args, n)}
+        kwargs.update({n: tuple(getattr(args, n)) for n in ("size", "view") if getattr(args, n)})
+        try:
+            info = viz.render_quads(*quads, args.output, **kwargs)
+        except ImportError as exc:
+            raise Unavailable(" ".join(str(exc).split())) from exc
+        print(f"wrote {info.path} (backend: {info.backend})")
+        return EXIT_OK
     mesh = _load_mesh(args.mesh)
     kwargs, _ = _display_arrays(args, mesh)
     for name in ("arrow_scale", "cmap", "title", "backend", "max_arrows", "arrow_spacing"):
@@ -807,7 +872,8 @@ def parser() -> argparse.ArgumentParser:
     p = _add(
         sub,
         "render",
-        "render a mesh with a function, a field and singularities to PNG (fvf.viz)",
+        "render a mesh with a function, a field and singularities to PNG (fvf.viz); a "
+        "pure-quad mesh is drawn with its wireframe and irregular vertices by valence",
         "fvf render mesh.obj designed.npz --field v --singularities -o field.png",
     )
     _add_display_options(p)
@@ -824,6 +890,33 @@ def parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--backend", help="auto (default), polyscope-egl or matplotlib")
     p.set_defaults(run=_cmd_render)
+
+    p = _add(
+        sub,
+        "quad",
+        "quad mesh along a cross field: seamless parameterization and integer-grid "
+        "extraction (fvf.quad_mesh)",
+        "fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
+        "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
+    )
+    p.add_argument("mesh", help="closed OBJ, OFF or PLY triangle mesh")
+    p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
+    p.add_argument("--faces", type=_integer, required=True, metavar="N", help="target quads")
+    p.add_argument(
+        "--align",
+        choices=("curvature", "smooth"),
+        default="curvature",
+        help="default cross field: curvature aligned (default) or smoothest",
+    )
+    p.add_argument(
+        "--field",
+        metavar="KEY",
+        help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
+    )
+    _add_output(p, "output quad mesh (.obj or .off)")
+    p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
+    p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
+    p.set_defaults(run=_cmd_quad)
 
     p = _add(
         sub,

@@ -7,12 +7,22 @@ int64 (m, 3) faces, and a writer); a new data format to :mod:`.datafile`.
 
 from .atomic import atomic_path
 from .datafile import DataFile, read_data, write_data
-from .meshfile import read_mesh, read_ply_properties, write_mesh
+from .meshfile import (
+    read_mesh,
+    read_ply_properties,
+    read_quad_mesh,
+    write_mesh,
+    write_quad_mesh,
+    write_uv_mesh,
+)
 
 __all__ = [
     "read_mesh",
     "write_mesh",
     "read_ply_properties",
+    "read_quad_mesh",
+    "write_quad_mesh",
+    "write_uv_mesh",
     "DataFile",
     "read_data",
     "write_data",

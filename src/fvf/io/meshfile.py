@@ -35,6 +35,9 @@ from .inputfile import read_bytes
 __all__ = [
     "read_mesh",
     "write_mesh",
+    "read_quad_mesh",
+    "write_quad_mesh",
+    "write_uv_mesh",
 ]
 
 _T = TypeVar("_T")
@@ -423,6 +426,108 @@ def _write_vtk(path: Path, V: np.ndarray, F: np.ndarray, vdata: dict, fdata: dic
     grid = poly if suffix == ".vtp" else poly.cast_to_unstructured_grid()
     with atomic_path(path) as tmp:
         grid.save(str(tmp), binary=True)
+
+
+def read_quad_mesh(
+    path: str | os.PathLike,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """Read a pure-quad mesh (OBJ, OFF or PLY): vertices float64 (n, 3), quads int64 (q, 4).
+
+    Raises :class:`fvf.errors.MeshReadError` when a face does not have 4 vertices (and
+    for every failure of :func:`read_mesh`).
+    """
+    path = Path(path)
+    reader = _READERS.get(path.suffix.lower())
+    if reader is None:
+        raise MeshReadError(f"{path}: unsupported mesh file suffix {path.suffix!r}")
+    poly, _ = _parsed(path, lambda p, data: _checked(p, reader(p, data)))
+    bad = np.flatnonzero(poly.counts != 4)
+    if bad.size:
+        raise MeshReadError(
+            f"{path}: {poly.where(int(bad[0]))}: face has {poly.counts[bad[0]]} vertices "
+            f"({bad.size} non-quads in all); read_quad_mesh reads pure-quad meshes only "
+            "(use read_mesh for triangles and mixed polygons)"
+        )
+    return np.ascontiguousarray(poly.vertices, dtype=np.float64), poly.flat.reshape(-1, 4)
+
+
+def write_quad_mesh(path: str | os.PathLike, vertices: npt.ArrayLike, quads: npt.ArrayLike) -> None:
+    """Write a quad mesh as OBJ or OFF text (17 significant digits), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.obj`` or ``.off``; written through :func:`fvf.io.atomic.atomic_path`.
+    vertices : array_like (n, 3) float
+    quads : array_like (q, 4) int
+        0-based vertex indices.
+    """
+    from .atomic import atomic_path
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".obj", ".off"):
+        raise FvfError(f"{path}: quad meshes are written as .obj or .off; got {path.suffix!r}")
+    V = np.asarray(vertices, dtype=np.float64)
+    Q = np.asarray(quads)
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise MeshShapeError(f"vertices must have shape (n, 3), got {V.shape}")
+    if Q.ndim != 2 or Q.shape[1] != 4 or not (Q.size == 0 or np.issubdtype(Q.dtype, np.integer)):
+        raise MeshShapeError(f"quads must be integers of shape (q, 4), got {Q.dtype} {Q.shape}")
+    Q = Q.astype(np.int64)
+    if Q.size and (Q.min() < 0 or Q.max() >= len(V)):
+        raise MeshIndexError(f"quads refer to vertices outside [0, {len(V)}); fix the quads")
+    n, q = len(V), len(Q)
+    if suffix == ".obj":
+        v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
+        f_text = ("f %d %d %d %d\n" * q) % tuple((Q + 1).ravel().tolist())
+        text = f"# written by fvf: {n} vertices, {q} quads\n{v_text}{f_text}"
+    else:
+        v_text = ("%.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
+        f_text = ("4 %d %d %d %d\n" * q) % tuple(Q.ravel().tolist())
+        text = f"OFF\n{n} {q} 0\n{v_text}{f_text}"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="ascii")
+
+
+def write_uv_mesh(
+    path: str | os.PathLike, vertices: npt.ArrayLike, faces: npt.ArrayLike, uv: npt.ArrayLike
+) -> None:
+    """Write a triangle mesh with per-corner texture coordinates as OBJ (``vt``), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.obj``.
+    vertices : array_like (n, 3) float
+    faces : array_like (m, 3) int
+    uv : array_like (m, 3, 2) float
+        Coordinates of each corner (e.g. :attr:`fvf.SeamlessParameterization.uv`); one
+        ``vt`` line per distinct (u, v) pair, so seams stay seams.
+    """
+    from .atomic import atomic_path
+
+    path = Path(path)
+    if path.suffix.lower() != ".obj":
+        raise FvfError(f"{path}: texture coordinates are written as .obj; got {path.suffix!r}")
+    V = np.asarray(vertices, dtype=np.float64)
+    F = np.asarray(faces, dtype=np.int64)
+    T = np.asarray(uv, dtype=np.float64)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise MeshShapeError(f"need vertices (n, 3) and faces (m, 3); got {V.shape}, {F.shape}")
+    if T.shape != (F.shape[0], 3, 2):
+        raise MeshShapeError(f"uv must have shape ({F.shape[0]}, 3, 2), got {T.shape}")
+    if F.size and (F.min() < 0 or F.max() >= len(V)):
+        raise MeshIndexError(f"faces refer to vertices outside [0, {len(V)}); fix the faces")
+    vt, inv = np.unique(T.reshape(-1, 2), axis=0, return_inverse=True)
+    inv = inv.reshape(-1, 3)
+    n, m = len(V), len(F)
+    v_text = ("v %.17g %.17g %.17g\n" * n) % tuple(V.ravel().tolist())
+    t_text = ("vt %.17g %.17g\n" * len(vt)) % tuple(vt.ravel().tolist())
+    pairs = np.stack([F + 1, inv + 1], axis=2).reshape(-1).tolist()
+    f_text = ("f %d/%d %d/%d %d/%d\n" * m) % tuple(pairs)
+    with atomic_path(path) as tmp:
+        tmp.write_text(f"# written by fvf: {n} vertices, {m} faces\n{v_text}{t_text}{f_text}")
 
 
 def _triangulate(path: Path, p: _Polygons) -> tuple[np.ndarray, int]:

@@ -20,6 +20,8 @@ missing. ``docs/viz.md`` documents the conventions.
 - :func:`lic_texture`: line integral convolution the operator way,
   ``(1/2L) ∫_{−L}^{L} Φ_{v̂,s} N ds`` (chapter §3.5, Fig. 3).
 - :func:`write_gif`: an animated GIF of frames.
+- :func:`render_quads`, :func:`render_checkerboard`: quad meshes (wireframe, irregular
+  vertices by valence) and the checkerboard of a parameterization.
 """
 
 from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
@@ -43,6 +45,7 @@ from .lic import (
     surface_lic,
     unit_field,
 )
+from .quads import render_checkerboard, render_quads
 from .refine import subdivide
 from .tracing import streamlines
 
@@ -66,6 +69,8 @@ __all__ = [
     "polyscope_status",
     "render",
     "robust_limits",
+    "render_checkerboard",
+    "render_quads",
     "spread_faces",
     "streamlines",
     "subdivide",

@@ -1,0 +1,33 @@
+"""Seamless parameterization and quad meshing from cross fields.
+
+frames      cross fields as angles per face; the default curvature-aligned field
+cutgraph    combing, period jumps, cone indices, the cut graph, cut-mesh vertices
+cones       cancelling close pairs of opposite cones
+seams       transition functions across the cut, as a linear map of free variables
+rounding    the lattice of integer unknowns and greedy mixed-integer rounding
+seamless    the Poisson fit and :func:`seamless_parameterization`
+extraction  the integer grid of a parameterization as a quad mesh
+quadmesh    :func:`quad_mesh` (parameterize, then extract)
+quality     :func:`quad_quality`
+"""
+
+from .extraction import QuadMesh, edge_transitions, extract_quads
+from .frames import default_cross_field
+from .quadmesh import quad_mesh
+from .quality import QuadQuality, quad_quality
+from .seamless import SeamlessParameterization, seamless_parameterization
+from .symmetry import quad_symmetry_error, symmetrize_cross_field
+
+__all__ = [
+    "QuadMesh",
+    "QuadQuality",
+    "SeamlessParameterization",
+    "default_cross_field",
+    "edge_transitions",
+    "extract_quads",
+    "quad_mesh",
+    "quad_quality",
+    "seamless_parameterization",
+    "quad_symmetry_error",
+    "symmetrize_cross_field",
+]

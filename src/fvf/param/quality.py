@@ -1,0 +1,213 @@
+r"""Quality of a quad mesh against the triangle mesh it was made from.
+
+Measures (all vectorized):
+
+- **irregular vertices**: valence ≠ 4, with their valence histogram;
+- **corner angles**: |θ − 90°| over all quad corners (median, 95th percentile), θ the 3D
+  angle between the two edges at the corner;
+- **area distortion**: the coefficient of variation std(A_q)/mean(A_q) of the quad areas
+  (each quad split along its shorter diagonal) and the 95th percentile of |log(A_q/Ā)|;
+- **alignment**: the angle between each quad edge and the nearest direction of the target
+  cross field on the input triangle nearest its midpoint (mean and 95th percentile, °);
+- **one-sided Hausdorff distances** (as fractions of the input's bounding-box diagonal):
+  input → quads and quads → input, measured between dense samples of both surfaces
+  (vertices, edge points and face points; exact to the sampling step);
+- **topology**: closed, manifold, Euler characteristic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
+from ..mesh.trimesh import TriMesh
+from .seamless import SeamlessParameterization
+
+__all__ = ["QuadQuality", "quad_quality", "quad_topology"]
+
+
+@dataclass(frozen=True)
+class QuadQuality:
+    """Quality measures of a quad mesh (see the module docstring)."""
+
+    n_vertices: int
+    n_quads: int
+    n_irregular: int
+    irregular_fraction: float
+    valences: dict
+    angle_deviation_median: float
+    angle_deviation_p95: float
+    area_cv: float
+    area_log_p95: float
+    alignment_mean: float | None
+    alignment_p95: float | None
+    hausdorff_to_input: float
+    hausdorff_from_input: float
+    closed: bool
+    manifold: bool
+    euler_characteristic: int
+    flipped_uv: int | None = None
+    curl_residual: float | None = None
+    rounded_residual: float | None = None
+
+    def as_dict(self) -> dict:
+        """The measures as a plain dict (JSON-friendly)."""
+        return asdict(self)
+
+
+def quad_topology(n_vertices: int, quads: np.ndarray) -> tuple[bool, bool, int, np.ndarray]:
+    """(closed, manifold, χ, valence (k,)) of a quad mesh from its connectivity."""
+    Q = np.asarray(quads, dtype=np.int64)
+    e = np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2)
+    und = np.sort(e, axis=1)
+    ue, cnt = np.unique(und, axis=0, return_counts=True)
+    directed = np.unique(e, axis=0).shape[0] == e.shape[0]
+    closed = bool(np.all(cnt == 2))
+    manifold = bool(np.all(cnt <= 2) and directed)
+    valence = np.bincount(ue.ravel(), minlength=n_vertices)
+    chi = int(n_vertices - ue.shape[0] + Q.shape[0])
+    return closed, manifold, chi, valence
+
+
+def _corner_angles(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    a = V[np.roll(Q, -1, axis=1)] - V[Q]
+    b = V[np.roll(Q, 1, axis=1)] - V[Q]
+    cos = np.einsum("qkd,qkd->qk", a, b)
+    sin = np.linalg.norm(np.cross(a, b), axis=2)
+    return np.degrees(np.arctan2(sin, cos))
+
+
+def _quad_areas(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    p0, p1, p2, p3 = (V[Q[:, i]] for i in range(4))
+    a1 = 0.5 * (
+        np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+        + np.linalg.norm(np.cross(p2 - p0, p3 - p0), axis=1)
+    )
+    a2 = 0.5 * (
+        np.linalg.norm(np.cross(p2 - p1, p3 - p1), axis=1)
+        + np.linalg.norm(np.cross(p3 - p1, p0 - p1), axis=1)
+    )
+    return np.minimum(a1, a2)
+
+
+def _surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
+    """Points on triangles T (k, 3) with spacing ≈ step (barycentric grids per triangle)."""
+    e = np.maximum(
+        np.linalg.norm(V[T[:, 1]] - V[T[:, 0]], axis=1),
+        np.linalg.norm(V[T[:, 2]] - V[T[:, 0]], axis=1),
+    )
+    k = np.clip(np.ceil(e / step).astype(np.int64), 1, 16)
+    out = [V]
+    for level in np.unique(k):  # a loop over a few subdivision levels
+        sel = T[k == level]
+        i, j = np.meshgrid(np.arange(level + 1), np.arange(level + 1), indexing="ij")
+        keep = (i + j) <= level
+        b1, b2 = i[keep] / level, j[keep] / level
+        b0 = 1.0 - b1 - b2
+        pts = (
+            b0[None, :, None] * V[sel[:, 0]][:, None]
+            + b1[None, :, None] * V[sel[:, 1]][:, None]
+            + b2[None, :, None] * V[sel[:, 2]][:, None]
+        )
+        out.append(pts.reshape(-1, 3))
+    return np.concatenate(out)
+
+
+def _alignment(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, field: np.ndarray) -> np.ndarray:
+    """Angle (°) between each quad edge and the nearest direction of the cross field."""
+    e0, e1 = V[Q], V[np.roll(Q, -1, axis=1)]
+    mid = (0.5 * (e0 + e1)).reshape(-1, 3)
+    d = (e1 - e0).reshape(-1, 3)
+    _, face = cKDTree(mesh.face_centroids).query(mid)
+    N = mesh.face_normals[face]
+    d = d - np.einsum("kd,kd->k", d, N)[:, None] * N
+    u = field[face] / np.linalg.norm(field[face], axis=1, keepdims=True)
+    w = np.cross(N, u)
+    ang = np.arctan2(np.einsum("kd,kd->k", d, w), np.einsum("kd,kd->k", d, u))
+    r = np.mod(ang, np.pi / 2)
+    return np.degrees(np.minimum(r, np.pi / 2 - r))
+
+
+@takes_mesh
+def quad_quality(
+    mesh: TriMesh,
+    vertices: npt.ArrayLike,
+    quads: npt.ArrayLike,
+    *,
+    field: npt.ArrayLike | None = None,
+    parameterization: SeamlessParameterization | None = None,
+) -> QuadQuality:
+    """Quality report of a quad mesh made from ``mesh`` (module docstring).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+        The input triangle mesh.
+    vertices : array_like (k, 3) float
+    quads : array_like (q, 4) int
+    field : array_like (m, 3), optional
+        Target cross field (one representative per input face) for the alignment error;
+        default: the parameterization's field if given.
+    parameterization : SeamlessParameterization, optional
+        Adds the flipped-uv count and the fit residuals before and after rounding.
+
+    Returns
+    -------
+    QuadQuality
+    """
+    V = np.asarray(vertices, dtype=np.float64)
+    Q = np.asarray(quads, dtype=np.int64)
+    if V.ndim != 2 or V.shape[1] != 3 or Q.ndim != 2 or Q.shape[1] != 4 or Q.shape[0] == 0:
+        raise ParameterError(
+            f"vertices must be (k, 3) and quads (q, 4) with q > 0; got {V.shape} and {Q.shape}"
+        )
+    if Q.min() < 0 or Q.max() >= V.shape[0]:
+        raise ParameterError("quads index vertices out of range")
+    closed, manifold, chi, valence = quad_topology(V.shape[0], Q)
+    used = np.zeros(V.shape[0], dtype=bool)
+    used[Q.ravel()] = True
+    irr = used & (valence != 4)
+    vals, counts = np.unique(valence[irr], return_counts=True)
+    dev = np.abs(_corner_angles(V, Q) - 90.0).ravel()
+    area = _quad_areas(V, Q)
+    logs = np.abs(np.log(np.maximum(area, 1e-300) / area.mean()))
+    diag = float(np.linalg.norm(mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)))
+    step = 0.25 * min(mesh.mean_edge_length, float(np.sqrt(area.mean())))
+    tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
+    quad_pts = _surface_samples(V, tris, step)
+    in_pts = _surface_samples(mesh.vertices, mesh.faces, step)
+    h_to = float(cKDTree(in_pts).query(quad_pts)[0].max()) / diag
+    h_from = float(cKDTree(quad_pts).query(in_pts)[0].max()) / diag
+    if field is None and parameterization is not None:
+        field = parameterization.field
+    align_mean = align_p95 = None
+    if field is not None:
+        al = _alignment(mesh, V, Q, np.asarray(field, dtype=np.float64))
+        align_mean, align_p95 = float(al.mean()), float(np.percentile(al, 95))
+    p = parameterization
+    return QuadQuality(
+        n_vertices=int(used.sum()),
+        n_quads=int(Q.shape[0]),
+        n_irregular=int(irr.sum()),
+        irregular_fraction=float(irr.sum() / max(used.sum(), 1)),
+        valences={int(v): int(c) for v, c in zip(vals, counts, strict=True)},
+        angle_deviation_median=float(np.median(dev)),
+        angle_deviation_p95=float(np.percentile(dev, 95)),
+        area_cv=float(area.std() / area.mean()),
+        area_log_p95=float(np.percentile(logs, 95)),
+        alignment_mean=align_mean,
+        alignment_p95=align_p95,
+        hausdorff_to_input=h_to,
+        hausdorff_from_input=h_from,
+        closed=closed,
+        manifold=manifold,
+        euler_characteristic=chi,
+        flipped_uv=None if p is None else int(p.n_flipped),
+        curl_residual=None if p is None else float(p.residual_real),
+        rounded_residual=None if p is None else float(p.residual),
+    )
