@@ -914,6 +914,9 @@ def _run_expm_multiply(
 # ---------------------------------------------------------------------------- the series
 def _wnorm(X: np.ndarray, w: np.ndarray | None) -> np.ndarray:
     """W-norms of the columns of X (n, p): (p,)."""
+    if X.shape[1] == 1:  # one column: BLAS dots (a three-operand einsum is 5x slower)
+        x = X[:, 0]
+        return np.array([math.sqrt(float(np.dot(x if w is None else w * x, x)))])
     if w is None:
         return np.sqrt(np.einsum("ij,ij->j", X, X))
     return np.sqrt(np.einsum("i,ij,ij->j", w, X, X))
@@ -1127,15 +1130,20 @@ class _Basis:
         if self.skew:
             if j > 0:
                 Wj += self.H[:, j, j - 1] * self.U[j - 1]
-        else:
-            for i in range(max(0, j - IOM_WINDOW + 1), j + 1):
-                if self.w is None:
-                    hij = np.einsum("ij,ij->j", Wj, self.U[i])
-                else:
-                    hij = np.einsum("i,ij,ij->j", self.w, Wj, self.U[i])
-                Wj -= hij * self.U[i]
-                self.H[:, i, j] = hij
-                self.top = np.maximum(self.top, np.abs(hij))
+        else:  # W-orthogonalize against the window (classical Gram-Schmidt: two GEMVs)
+            lo = max(0, j - IOM_WINDOW + 1)
+            win = self.U[lo : j + 1]  # (k, n, p)
+            if Wj.shape[1] == 1:
+                y = Wj[:, 0] if self.w is None else self.w * Wj[:, 0]
+                hs = win[:, :, 0] @ y  # (k,)
+                Wj[:, 0] -= hs @ win[:, :, 0]
+                hs = hs[:, None]
+            else:
+                wW = Wj if self.w is None else self.w[:, None] * Wj
+                hs = np.einsum("kij,ij->kj", win, wW)  # (k, p)
+                Wj -= np.einsum("kij,kj->ij", win, hs)
+            self.H[:, lo : j + 1, j] = hs.T
+            self.top = np.maximum(self.top, np.abs(hs).max(axis=0))
         h = _wnorm(Wj, self.w)
         self.exact |= h <= 1e-14 * self.top
         h[self.exact] = 0.0
