@@ -7,6 +7,8 @@
 - :mod:`.symmetric`: fields consistent with a self-map (Azencot et al. 2017).
 - :mod:`.commuting`: commutation-guided rescaling and as-commuting-as-possible fields (§4.4).
 - :mod:`.indices`: indices and singularities of designed fields (Poincaré–Hopf).
+- :mod:`.nfields`: N-direction fields: power representation, period jumps, cut graph,
+  combing.
 
 A new design method goes into a module of its own here and is exported below.
 """
@@ -30,6 +32,15 @@ from .indices import (
     vertex_indices,
 )
 from .killing import commutator_energy, killing_fields
+from .nfields import (
+    CutGraph,
+    all_directions,
+    comb,
+    cut_graph,
+    from_power,
+    period_jumps,
+    to_power,
+)
 from .symmetric import consistency_residual, map_consistent_field
 
 __all__ = [
@@ -56,4 +67,11 @@ __all__ = [
     "face_indices",
     "face_singularities",
     "singularity_positions",
+    "to_power",
+    "from_power",
+    "all_directions",
+    "period_jumps",
+    "CutGraph",
+    "cut_graph",
+    "comb",
 ]

@@ -105,8 +105,11 @@ import scipy.sparse.linalg as spla
 
 from ..calculus import _freeze, face_rows_csr
 from ..errors import FieldShapeError, FvfError
-from ..mesh.inputs import as_face_field
+from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross, _readonly
+from ..numerics.cholesky import Backend
+from ..numerics.inverse_iteration import inverse_iteration
+from ..numerics.progress import ProgressCallback, make_progress
 from ..operators.directional import centered_vertices
 
 __all__ = [
@@ -139,6 +142,9 @@ _SINGULAR_RTOL = 1e-9
 _FOLDED_ALIGNMENT = 1e-3
 #: Meshes with at most this many faces use a dense eigensolver in smoothest_fields.
 _DENSE_FACES = 600
+EigenSolver = Literal["auto", "dense", "inverse", "arpack"]
+#: Accepted values of ``solver`` in :func:`smoothest_fields`.
+EIGEN_SOLVERS: tuple[str, ...] = ("auto", "dense", "inverse", "arpack")
 
 
 def _check_kind(kind: str) -> str:
@@ -318,15 +324,20 @@ def connection_pairs(
     return mesh.cached(f"connection_pairs:{kind}", lambda: _build_pairs(mesh, kind))
 
 
-def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.csr_array:
+def connection_laplacian(
+    mesh: TriMesh, kind: ConnectionKind = "knoppel", n: int = 1
+) -> sp.csr_array:
     """The face connection Laplacian L: complex Hermitian PSD, sparse (m, m).
 
     .. math::
 
-        z^* L z = E(z) = \\sum_{(s,t)} w_{st} |z_s - r_{st} z_t|^2 ,
+        z^* L z = E(z) = \\sum_{(s,t)} w_{st} |z_s - r_{st}^{\\,n} z_t|^2 ,
 
-    i.e. ``L[s, s] += w``, ``L[t, t] += w``, ``L[s, t] = −w r_st``,
-    ``L[t, s] = −w conj(r_st)``, acting on ``z = mesh.to_complex(u)`` (m,) complex128.
+    i.e. ``L[s, s] += w``, ``L[t, t] += w``, ``L[s, t] = −w r_st^n``,
+    ``L[t, s] = −w conj(r_st^n)``, acting on ``z = mesh.to_complex(u)`` (m,) complex128
+    for n = 1, and on the power representation ``z = fvf.design.nfields.to_power(mesh, u,
+    n)`` of an N-direction field for n = N (the N-fold connection of Knöppel et al. 2013:
+    the transport angle is multiplied by N).
 
     Parameters
     ----------
@@ -334,6 +345,8 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
     kind : {"knoppel", "singer_wu"}
         See the module docstring (Knöppel et al. 2013 edge coupling; Singer & Wu 2012 1-ring
         coupling).
+    n : int
+        Symmetry order N >= 1 of the fields it acts on (default 1: vector fields).
 
     Returns
     -------
@@ -355,9 +368,12 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
     ((320, 320), True)
     """
     kind = _check_kind(kind)
+    n = as_direction_count(n)
 
     def build():
         pairs, r, w = connection_pairs(mesh, kind)
+        if n != 1:
+            r = r**n
         m = mesh.n_faces
         s, t = pairs[:, 0], pairs[:, 1]
         diag = np.bincount(s, weights=w, minlength=m) + np.bincount(t, weights=w, minlength=m)
@@ -368,7 +384,8 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
         L.sort_indices()
         return _freeze(L)
 
-    return mesh.cached(f"connection_laplacian:{kind}", build)
+    key = f"connection_laplacian:{kind}" if n == 1 else f"connection_laplacian:{kind}:{n}"
+    return mesh.cached(key, build)
 
 
 def sample_points(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> np.ndarray:
@@ -539,9 +556,23 @@ def _complex_ritz(
 
 
 def smoothest_fields(
-    mesh: TriMesh, count: int, kind: ConnectionKind = "knoppel"
+    mesh: TriMesh,
+    count: int,
+    kind: ConnectionKind = "knoppel",
+    *,
+    n: int = 1,
+    solver: EigenSolver = "auto",
+    backend: Backend = "auto",
+    progress: bool | ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` smoothest unit fields: lowest eigenfields of L z = λ [A_F] z.
+    """The ``count`` smoothest fields: lowest eigenfields of L_n z = λ [A_F] z.
+
+    For n = 1 these are vector fields; for n = N ≥ 2 they are N-direction fields (lines,
+    crosses, …), computed in the power representation z = w^N with the N-fold connection
+    Laplacian L_N (Knöppel, Crane, Pinkall & Schröder 2013, "Globally optimal direction
+    fields": the transport angle multiplied by N; :func:`connection_laplacian` with
+    ``n``) and returned as one representative vector per face
+    (:func:`fvf.design.nfields.from_power`).
 
     Parameters
     ----------
@@ -550,38 +581,73 @@ def smoothest_fields(
         Number of complex eigenfields, 1 ≤ count ≤ m. Each complex eigenvalue is a real
         two-dimensional eigenspace {z, iz} (a field and its rotation by J).
     kind : {"knoppel", "singer_wu"}
+    n : int
+        Symmetry order N ≥ 1 (keyword): 1 vector, 2 line, 4 cross, 6 fields.
+    solver : {"auto", "dense", "inverse", "arpack"}
+        ``"dense"``: Hermitian dense solver (small meshes). ``"inverse"``: block inverse
+        iteration on one sparse Cholesky factorization
+        (:func:`fvf.numerics.inverse_iteration.inverse_iteration`). ``"arpack"``: ARPACK
+        shift-invert with SuperLU. ``"auto"``: dense up to 600 faces, else inverse.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Factorization of the inverse iteration (:mod:`fvf.numerics.cholesky`; the fast
+        ones need the ``[fast]`` extra).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`).
 
     Returns
     -------
     energies : float64 (count,)
-        Ascending eigenvalues λ_k = E(u_k) (= ∫|∇u_k|² approximately) with ∫|u_k|² = 1.
+        Ascending eigenvalues λ_k = E_n(z_k) (≈ ∫|∇ z_k|²) with ∫|z_k|² = 1.
     fields : float64 (count, m, 3)
-        The eigenfields as ambient per-face vectors, unit L2 norm
+        For n = 1 the eigenfields as ambient per-face vectors, unit L2 norm
         (Σ_t A_F(t) |u_k(t)|² = 1), mutually orthogonal in the complex sense
         (Σ A_F z̄_j z_k = 0), phase fixed so that the first coefficient of (within 1e-6)
-        largest modulus is real positive.
+        largest modulus is real positive. For n ≥ 2 one representative vector per face of
+        each N-field, of length |z_k(t)| (so again Σ A_F |u_k|² = 1; normalise per face
+        for unit crosses); the other directions are its rotations by 2πj/N about the face
+        normal.
+
+    Raises
+    ------
+    FvfError
+        count outside [1, m].
+    DirectionCountError
+        n not an integer ≥ 1.
 
     Notes
     -----
-    Sparse path (m > 600): ARPACK (``scipy.sparse.linalg.eigs``, complex arithmetic) in
-    shift-invert mode with a shift σ = −1e-8 max(L_tt / A_t) just below 0, for count + 2
-    eigenvectors, then a Rayleigh–Ritz step in their span (A_F-orthonormal basis, Hermitian
-    projected problem). The complex form is about three times faster than Lanczos on the
-    real (2m, 2m) form, whose eigenvalues are all double. Small meshes use a dense
-    Hermitian solver. Within a degenerate eigenspace (e.g. the sphere's
-    λ = 1, complex multiplicity 3) the basis returned is arbitrary.
+    Inverse iteration factors L_n + τ[A_F] once (τ = 1e-8 max L_tt/A_t makes it definite
+    on meshes with a parallel field) and iterates on a block of count + max(2, count)
+    vectors with a Rayleigh–Ritz step, until the wanted Ritz values change by less than
+    1e-12 relative. Within a degenerate eigenspace (e.g. the sphere's λ = 1 for n = 1,
+    complex multiplicity 3; λ = 4 for n = 4, multiplicity 9) the basis returned is
+    arbitrary. Measured speed: ``docs/nfields.md``.
     """
     kind = _check_kind(kind)
+    n = as_direction_count(n)
+    if solver not in EIGEN_SOLVERS:
+        raise FvfError(f"solver must be one of {EIGEN_SOLVERS}; got {solver!r}.")
+    report = make_progress(progress)
     m = mesh.n_faces
     count = int(count)
     if not 1 <= count <= m:
         raise FvfError(f"count must be in [1, {m}] (the number of faces); got {count}.")
-    L = connection_laplacian(mesh, kind)
+    report("assemble", 0, 1)
+    L = connection_laplacian(mesh, kind, n)
+    report("assemble", 1, 1)
     area = mesh.face_areas
-    if m <= _DENSE_FACES or count + 3 >= m:
+    if solver == "auto":
+        solver = "dense" if m <= _DENSE_FACES or count + 3 >= m else "inverse"
+    if solver != "dense" and count + 3 >= m:
+        solver = "dense"
+    if solver == "dense":
         lam, Z = sla.eigh(
             L.toarray(), np.diag(area.astype(complex)), subset_by_index=[0, count - 1]
         )
+    elif solver == "inverse":
+        lam, Z = inverse_iteration(L, area, count, tol=1e-12, backend=backend, progress=report)
+        lam, Z = _complex_ritz(L, area, Z, count)
     else:
         M = sp.diags_array(area.astype(complex))
         sigma = -1e-8 * float(np.max(L.diagonal().real / area))
@@ -590,5 +656,8 @@ def smoothest_fields(
         _, Z = spla.eigs(L, k=k, M=M, sigma=sigma, which="LM", v0=v0)
         lam, Z = _complex_ritz(L, area, Z, count)
     Z = _fix_phase(Z)
+    if n != 1:
+        mag = np.abs(Z)
+        Z = mag * np.exp(1j * np.angle(Z) / n)
     fields = np.einsum("tij,kti->ktj", mesh.face_bases, np.stack([Z.T.real, Z.T.imag], -1))
     return np.asarray(lam, dtype=float), fields
