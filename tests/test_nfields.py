@@ -349,3 +349,95 @@ def test_vector_field_needs_no_cut_on_a_sphere_beyond_singularities():
     cut = fvf.cut_graph(mesh, U[0], 1)
     C = fvf.comb(mesh, U[0], 1, cut)
     np.testing.assert_allclose(C[0], U[0], atol=1e-15)
+
+
+# ---------------------------------------------------------------------------- design
+@pytest.mark.parametrize("n", (2, 4, 6))
+def test_hard_constraints_met_exactly(n):
+    mesh = fvf.jittered_sphere(3, 0.3, seed=3)
+    rng = np.random.default_rng(n)
+    faces = rng.choice(mesh.n_faces, 6, replace=False)
+    d = rng.standard_normal((6, 3))
+    N = mesh.face_normals[faces]
+    d -= np.einsum("ij,ij->i", d, N)[:, None] * N
+    u = fvf.design_field(mesh, faces, d, hard=True, n=n)
+    np.testing.assert_allclose(u[faces], d / np.linalg.norm(d, axis=1)[:, None], atol=1e-14)
+    # it is the minimiser: perturbing a free face's power raises the N-fold energy
+    L = fvf.connection_laplacian(mesh, n=n)
+    z = fvf.to_power(mesh, u, n)
+    e0 = np.vdot(z, L @ z).real
+    free = np.setdiff1d(np.arange(mesh.n_faces), faces)[:5]
+    for t in free:
+        dz = np.zeros_like(z)
+        dz[t] = 1e-3 * (1 + 1j)
+        assert np.vdot(z + dz, L @ (z + dz)).real > e0
+
+
+def test_constraint_rotated_by_quarter_turn_is_the_same_cross():
+    mesh = fvf.icosphere(2)
+    f = [3]
+    d = mesh.face_bases[3, 0]
+    a = fvf.design_field(mesh, f, [d], hard=True, n=4)
+    b = fvf.design_field(mesh, f, [mesh.face_bases[3, 1]], hard=True, n=4)
+    np.testing.assert_allclose(fvf.to_power(mesh, a, 4), fvf.to_power(mesh, b, 4), atol=1e-12)
+    np.testing.assert_allclose(b[3], mesh.face_bases[3, 1], atol=1e-14)  # kept as given
+    # duplicates that are the same cross are accepted; different crosses conflict
+    fvf.design_field(mesh, [3, 3], [d, -d], hard=True, n=4)
+    fvf.design_field(mesh, [3, 3], [d, mesh.face_bases[3, 1]], hard=True, n=4)
+    skew = np.cos(0.3) * d + np.sin(0.3) * mesh.face_bases[3, 1]
+    with pytest.raises(fvf.ConflictingConstraintError, match=r"faces \[3\]"):
+        fvf.design_field(mesh, [3, 3], [d, skew], hard=True, n=4)
+    with pytest.raises(fvf.ConflictingConstraintError):  # opposite vectors differ for n = 1
+        fvf.design_field(mesh, [3, 3], [d, -d], hard=True)
+
+
+def test_soft_constraints_pull_with_their_weight():
+    mesh = fvf.torus(24, 12)
+    faces = np.array([5, 300])
+    d = np.stack([mesh.face_bases[5, 0], mesh.face_bases[300, 1]])
+    hard = fvf.design_field(mesh, faces, d, hard=True, n=4)
+    target = fvf.to_power(mesh, hard, 4)[faces]
+    gaps = []
+    for w in (10.0, 100.0, 1e3, 1e4, 1e5):
+        u = fvf.design_field(mesh, faces, d, weights=w, n=4)
+        gaps.append(np.abs(fvf.to_power(mesh, u, 4)[faces] - target).max())
+    assert all(b < a for a, b in zip(gaps, gaps[1:], strict=False))
+    assert gaps[-1] < 0.01 * gaps[0]
+
+
+def test_constraints_on_missing_faces_rejected():
+    mesh = fvf.icosphere(1)
+    with pytest.raises(fvf.ConstraintIndexError, match=r"\[1\]"):
+        fvf.design_field(mesh, [0, mesh.n_faces], [[1.0, 0, 0]] * 2, n=4)
+
+
+def test_user_alignment_field_and_weights():
+    """Aligning to a given cross field: a strong weight reproduces it, zero weight ignores it."""
+    mesh = fvf.torus(24, 12)
+    _, U = fvf.smoothest_fields(mesh, 2, n=4)
+    target = U[1]  # the second-smoothest cross field
+    close = fvf.design_field(mesh, n=4, align=target, align_strength=1e6)
+    err = np.abs(np.angle(fvf.to_power(mesh, close, 4) * np.conj(fvf.to_power(mesh, target, 4))))
+    assert err.max() < 1e-3
+    weights = np.zeros(mesh.n_faces)
+    weights[:10] = 1.0
+    partial = fvf.design_field(mesh, n=4, align=target, align_weights=weights)
+    assert np.isfinite(partial).all()
+    with pytest.raises(fvf.ConstraintError, match="align_weights"):
+        fvf.design_field(mesh, n=4, align=target, align_weights=-np.ones(mesh.n_faces))
+    with pytest.raises(fvf.ConstraintError, match="align must be"):
+        fvf.design_field(mesh, n=4, align="bogus")
+    with pytest.warns(fvf.UnconstrainedComponentWarning, match="zero on every face"):
+        fvf.design_field(mesh, n=4, align=target, align_weights=0.0)
+
+
+def test_design_progress_callback():
+    mesh = fvf.torus(24, 12)
+    seen = []
+    fvf.design_field(mesh, n=4, align="curvature", progress=lambda s, d, t: seen.append(s))
+    assert {"assemble", "solve"} <= set(seen)
+    seen.clear()
+    fvf.smoothest_fields(mesh, 1, n=4, solver="inverse", progress=lambda s, d, t: seen.append(s))
+    assert {"factor", "iterate"} <= set(seen)
+    with pytest.raises(fvf.ParameterError, match="progress"):
+        fvf.design_field(mesh, n=4, align="curvature", progress="yes")

@@ -100,6 +100,7 @@ from .mesh import (
     icosphere,
     jittered_sphere,
     orient_faces,
+    principal_curvatures,
     remove_degenerate_faces,
     remove_duplicate_faces,
     remove_duplicate_vertices,
@@ -283,6 +284,7 @@ __all__ = [
     "period_jumps",
     "cut_graph",
     "comb",
+    "principal_curvatures",
     # subpackages and chapter names
     "chapter",
     "mesh",

@@ -6,6 +6,7 @@ Where things go: a new mesh quality check goes to :mod:`.diagnostics`, a new rep
 """
 
 from .builtin import spot, spot_path
+from .curvature import PrincipalCurvatures, principal_curvatures, vertex_normals
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
 from .repair import (
@@ -24,6 +25,9 @@ from .trimesh import TriMesh
 
 __all__ = [
     "TriMesh",
+    "PrincipalCurvatures",
+    "principal_curvatures",
+    "vertex_normals",
     "as_vertex_function",
     "as_face_function",
     "as_face_field",
