@@ -13,9 +13,18 @@ N_VALUES = (1, 2, 4, 6)
 
 
 def rounded_cube(subdivisions: int = 4, p: float = 8.0) -> fvf.TriMesh:
-    """An icosphere pushed onto the superellipsoid |x|^p + |y|^p + |z|^p = 1 (a rounded cube)."""
+    """An icosphere pushed onto the superellipsoid |x|^p + |y|^p + |z|^p = 1 (a rounded cube).
+
+    The sphere is turned first so that no symmetry axis of the cube passes through a face
+    centre (there a symmetric mesh forces the cross field to vanish on a whole face).
+    """
     s = fvf.icosphere(subdivisions)
-    X = s.vertices / np.sum(np.abs(s.vertices) ** p, axis=1, keepdims=True) ** (1 / p)
+    a, b, c = 0.3, -0.2, 0.5  # a fixed generic rotation (about x, then y, then z)
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    V = s.vertices @ (Rz @ Ry @ Rx).T
+    X = V / np.sum(np.abs(V) ** p, axis=1, keepdims=True) ** (1 / p)
     return fvf.TriMesh(X, s.faces)
 
 
@@ -102,14 +111,14 @@ def test_nfold_laplacian_energy_matches_power():
 def test_smoothest_n1_matches_arpack_and_dense():
     """n = 1 gives today's fields: the inverse iteration agrees with ARPACK and LAPACK."""
     mesh = load_shared("spot.obj")
-    lam_i, U_i = fvf.smoothest_fields(mesh, 3, solver="inverse")
+    lam_i, U_i = fvf.smoothest_fields(mesh, 3, solver="lobpcg")
     lam_a, U_a = fvf.smoothest_fields(mesh, 3, solver="arpack")
     np.testing.assert_allclose(lam_i, lam_a, rtol=1e-9)
     # same fields up to the documented phase fix (non-degenerate spectrum on spot)
     np.testing.assert_allclose(U_i, U_a, atol=1e-5)
     small = fvf.icosphere(2)
     np.testing.assert_allclose(
-        fvf.smoothest_fields(small, 2, solver="inverse")[0],
+        fvf.smoothest_fields(small, 2, solver="lobpcg")[0],
         fvf.smoothest_fields(small, 2, solver="dense")[0],
         rtol=1e-9,
     )
@@ -118,16 +127,16 @@ def test_smoothest_n1_matches_arpack_and_dense():
 @pytest.mark.parametrize("n", (2, 4, 6))
 def test_smoothest_n_field_is_eigenfield_of_nfold_laplacian(n):
     mesh = fvf.torus(24, 12)
-    lam, U = fvf.smoothest_fields(mesh, 2, n=n, solver="inverse")
+    lam, U = fvf.smoothest_fields(mesh, 2, n=n, solver="lobpcg")
     lam_d, _ = fvf.smoothest_fields(mesh, 2, n=n, solver="dense")
-    np.testing.assert_allclose(lam, lam_d, rtol=1e-9)
+    np.testing.assert_allclose(lam, lam_d, rtol=1e-8)
     L = fvf.connection_laplacian(mesh, n=n)
     A = mesh.face_areas
     for k in range(2):
         z = fvf.to_power(mesh, U[k], n)
         assert np.isclose(A @ np.abs(z) ** 2, 1.0)
         res = L @ z - lam[k] * A * z
-        assert np.linalg.norm(res) <= 1e-6 * np.linalg.norm(L @ z)
+        assert np.linalg.norm(res) <= 1e-4 * np.linalg.norm(L @ z)  # LOBPCG tol 1e-6
 
 
 def test_smoothest_cross_field_sphere_spectrum():
@@ -437,7 +446,7 @@ def test_design_progress_callback():
     fvf.design_field(mesh, n=4, align="curvature", progress=lambda s, d, t: seen.append(s))
     assert {"assemble", "solve"} <= set(seen)
     seen.clear()
-    fvf.smoothest_fields(mesh, 1, n=4, solver="inverse", progress=lambda s, d, t: seen.append(s))
+    fvf.smoothest_fields(mesh, 1, n=4, solver="lobpcg", progress=lambda s, d, t: seen.append(s))
     assert {"factor", "iterate"} <= set(seen)
     with pytest.raises(fvf.ParameterError, match="progress"):
         fvf.design_field(mesh, n=4, align="curvature", progress="yes")

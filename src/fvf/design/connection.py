@@ -95,6 +95,7 @@ restricts to tangent fields as E_B = Bᵀ E B (the chapter's §4.4.2 notation).
 
 from __future__ import annotations
 
+import warnings
 from typing import Literal
 
 import numpy as np
@@ -104,7 +105,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..calculus import _freeze, face_rows_csr
-from ..errors import FieldShapeError, FvfError
+from ..errors import FieldShapeError, FvfError, SpectralFallbackWarning, SpectralSolveError
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross, _readonly
 from ..numerics.cholesky import Backend
@@ -142,9 +143,12 @@ _SINGULAR_RTOL = 1e-9
 _FOLDED_ALIGNMENT = 1e-3
 #: Meshes with at most this many faces use a dense eigensolver in smoothest_fields.
 _DENSE_FACES = 600
-EigenSolver = Literal["auto", "dense", "inverse", "arpack"]
+EigenSolver = Literal["auto", "dense", "arpack", "lobpcg"]
 #: Accepted values of ``solver`` in :func:`smoothest_fields`.
-EIGEN_SOLVERS: tuple[str, ...] = ("auto", "dense", "inverse", "arpack")
+EIGEN_SOLVERS: tuple[str, ...] = ("auto", "dense", "arpack", "lobpcg")
+#: ``solver="auto"`` uses LOBPCG preconditioned by one Cholesky factorization from this
+#: many faces on (ARPACK shift-invert with SuperLU below).
+LOBPCG_MIN_FACES = 20_000
 
 
 def _check_kind(kind: str) -> str:
@@ -583,13 +587,16 @@ def smoothest_fields(
     kind : {"knoppel", "singer_wu"}
     n : int
         Symmetry order N ≥ 1 (keyword): 1 vector, 2 line, 4 cross, 6 fields.
-    solver : {"auto", "dense", "inverse", "arpack"}
-        ``"dense"``: Hermitian dense solver (small meshes). ``"inverse"``: block inverse
-        iteration on one sparse Cholesky factorization
-        (:func:`fvf.numerics.inverse_iteration.inverse_iteration`). ``"arpack"``: ARPACK
-        shift-invert with SuperLU. ``"auto"``: dense up to 600 faces, else inverse.
+    solver : {"auto", "dense", "arpack", "lobpcg"}
+        ``"dense"``: Hermitian dense solver. ``"arpack"``: ARPACK shift-invert with
+        SuperLU (``scipy.sparse.linalg.eigs``). ``"lobpcg"``: LOBPCG preconditioned by one
+        sparse Cholesky factorization, i.e. accelerated inverse iteration
+        (:func:`fvf.numerics.inverse_iteration.inverse_iteration`). ``"auto"``: dense up to
+        600 faces, ARPACK below :data:`LOBPCG_MIN_FACES` (20k) faces, LOBPCG above
+        (falling back to ARPACK with a :class:`fvf.SpectralFallbackWarning` if it does not
+        converge).
     backend : {"auto", "cholmod", "cholespy", "scipy"}
-        Factorization of the inverse iteration (:mod:`fvf.numerics.cholesky`; the fast
+        Factorization of the LOBPCG preconditioner (:mod:`fvf.numerics.cholesky`; the fast
         ones need the ``[fast]`` extra).
     progress : None, bool or callable
         ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
@@ -617,12 +624,20 @@ def smoothest_fields(
 
     Notes
     -----
-    Inverse iteration factors L_n + τ[A_F] once (τ = 1e-8 max L_tt/A_t makes it definite
-    on meshes with a parallel field) and iterates on a block of count + max(2, count)
-    vectors with a Rayleigh–Ritz step, until the wanted Ritz values change by less than
-    1e-12 relative. Within a degenerate eigenspace (e.g. the sphere's λ = 1 for n = 1,
-    complex multiplicity 3; λ = 4 for n = 4, multiplicity 9) the basis returned is
-    arbitrary. Measured speed: ``docs/nfields.md``.
+    LOBPCG factors L_n + τ[A_F] once (τ = 1e-8 max L_tt/A_t makes it definite on meshes
+    with a parallel field) and iterates on a block of count + 1 vectors until every
+    residual is below 1e-6 (mass rescaled to mean 1), then a Rayleigh–Ritz step in their
+    span. ARPACK runs in complex arithmetic in shift-invert mode (σ just below 0) for
+    count + 2 vectors, then the same Rayleigh–Ritz step. Within a degenerate eigenspace
+    (e.g. the sphere's λ = 1 for n = 1, complex multiplicity 3; λ = 4 for n = 4,
+    multiplicity 9) the basis returned is arbitrary.
+
+    On shapes whose curvature varies strongly, the smoothest N-fields for N ≥ 2 localise:
+    the N-fold transport acts like a magnetic field N·K, and the lowest eigenfields
+    concentrate where |K| is small, with magnitudes that can fall to round-off level
+    elsewhere (where their directions are noise and :func:`fvf.singularities` reports
+    zero vectors). Constraints or ``align=`` in :func:`fvf.design_field` avoid this.
+    Measured speed: ``docs/nfields.md``.
     """
     kind = _check_kind(kind)
     n = as_direction_count(n)
@@ -637,18 +652,30 @@ def smoothest_fields(
     L = connection_laplacian(mesh, kind, n)
     report("assemble", 1, 1)
     area = mesh.face_areas
-    if solver == "auto":
-        solver = "dense" if m <= _DENSE_FACES or count + 3 >= m else "inverse"
-    if solver != "dense" and count + 3 >= m:
+    auto = solver == "auto"
+    if auto:
+        solver = "arpack" if m < LOBPCG_MIN_FACES else "lobpcg"
+        solver = "dense" if m <= _DENSE_FACES else solver
+    if solver != "dense" and 5 * (count + 3) >= m:
         solver = "dense"
+    if solver == "lobpcg":
+        try:
+            lam, Z = inverse_iteration(L, area, count, backend=backend, progress=report)
+            lam, Z = _complex_ritz(L, area, Z, count)
+        except SpectralSolveError as exc:
+            if not auto:
+                raise
+            warnings.warn(
+                f"smoothest_fields: {exc} Using ARPACK instead.",
+                SpectralFallbackWarning,
+                stacklevel=2,
+            )
+            solver = "arpack"
     if solver == "dense":
         lam, Z = sla.eigh(
             L.toarray(), np.diag(area.astype(complex)), subset_by_index=[0, count - 1]
         )
-    elif solver == "inverse":
-        lam, Z = inverse_iteration(L, area, count, tol=1e-12, backend=backend, progress=report)
-        lam, Z = _complex_ritz(L, area, Z, count)
-    else:
+    elif solver == "arpack":
         M = sp.diags_array(area.astype(complex))
         sigma = -1e-8 * float(np.max(L.diagonal().real / area))
         v0 = np.ones(m, dtype=complex)  # deterministic start vector

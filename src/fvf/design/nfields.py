@@ -163,6 +163,8 @@ def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
 def _edge_angles(mesh: TriMesh, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Interior edges and φ_e: the angle from t's unfolded representative to s's, (k,)."""
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
+    length = np.linalg.norm(u, axis=1)
+    u = u / np.where(length > 0, length, 1.0)[:, None]  # huge fields: no overflow below
     interior = np.flatnonzero((EF >= 0).all(axis=1))
     s, t = EF[interior, 0], EF[interior, 1]
     ev = X[E[interior, 1]] - X[E[interior, 0]]

@@ -44,7 +44,7 @@ ND_MIN = 30_000
 def _has(module: str) -> bool:
     try:
         __import__(module)
-    except ImportError:
+    except Exception:  # noqa: BLE001 (ImportError, or a binary built for another numpy)
         return False
     return True
 
