@@ -450,3 +450,62 @@ def test_design_progress_callback():
     assert {"factor", "iterate"} <= set(seen)
     with pytest.raises(fvf.ParameterError, match="progress"):
         fvf.design_field(mesh, n=4, align="curvature", progress="yes")
+
+
+# ---------------------------------------------------------------------------- map consistency
+def _mirror_mesh():
+    """A deformed icosphere symmetric under x ↦ −x, and that mirror's vertex permutation."""
+    from scipy.spatial import cKDTree
+
+    s = fvf.icosphere(3)
+    V = s.vertices
+    perm = cKDTree(V).query(V * [-1, 1, 1])[1]
+    x, y, z = V.T
+    X = np.stack([x * (1 + 0.2 * z), 0.8 * y + 0.3 * z**2, 0.6 * z + 0.2 * y * z + 0.1 * x**2], 1)
+    mesh = fvf.TriMesh(X, s.faces)
+    assert np.allclose(mesh.vertices[perm], mesh.vertices * [-1, 1, 1])
+    return mesh, perm
+
+
+@pytest.mark.parametrize("n", (2, 4))
+def test_map_consistent_nfield_is_mirror_symmetric(n):
+    from fvf.design.symmetric import map_consistent_field, power_pushforward
+
+    mesh, perm = _mirror_mesh()
+    basis = fvf.SpectralBasis(mesh, 30)
+    C = fvf.functional_map_from_bases(basis, basis, perm)
+    v, residual = map_consistent_field(basis, C, n=n)
+    src, tgt, rot, reflect = power_pushforward(mesh, perm, n)
+    assert src.size == mesh.n_faces and reflect.all()  # a mirror: every face, reversed
+
+    def inconsistency(u):
+        z = fvf.to_power(mesh, u, n)
+        image = rot * np.where(reflect, np.conj(z[src]), z[src])
+        return np.linalg.norm(z[tgt] - image) / np.linalg.norm(z)
+
+    _, U = fvf.smoothest_fields(mesh, 1, n=n)
+    assert residual < 1e-6 and inconsistency(v) < 1e-6
+    assert inconsistency(U[0]) > 0.1  # the smoothest field is not symmetric
+    np.testing.assert_allclose(mesh.face_areas @ (v * v).sum(1), 1.0, rtol=1e-9)
+    ids, ind = fvf.singularities(mesh, v, n=n)
+    # singularities come in mirror pairs (up to which vertex of a face carries the index)
+    P = mesh.vertices[ids]
+    gap = np.linalg.norm(P[:, None] * [-1, 1, 1] - P[None], axis=2).min(axis=1)
+    assert gap.max() < 2 * mesh.mean_edge_length
+    assert np.isclose(ind.sum(), 2.0)
+    # symmetric, and still smooth: its energy is close to the smoothest one's
+    L = fvf.connection_laplacian(mesh, n=n)
+    e = [np.vdot(fvf.to_power(mesh, w, n), L @ fvf.to_power(mesh, w, n)).real for w in (v, U[0])]
+    assert e[0] < 1.5 * e[1]
+
+
+def test_map_consistent_field_n_arguments():
+    from fvf.design.symmetric import map_consistent_field
+
+    mesh, perm = _mirror_mesh()
+    basis = fvf.SpectralBasis(mesh, 10)
+    C = fvf.functional_map_from_bases(basis, basis, perm)
+    with pytest.raises(fvf.DirectionCountError):
+        map_consistent_field(basis, C, n=0)
+    with pytest.raises(fvf.ParameterError, match="n = 1 only"):
+        map_consistent_field(basis, C, n=4, fields=np.zeros((2, mesh.n_faces, 3)))

@@ -866,6 +866,23 @@ SPECS: dict[str, Spec] = {
             or pytest.fail("k1 >= k2, unit d1")
         ),
     ),
+    "rescale_frame": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u),
+        lambda r, mesh, c: (
+            ((r.a > 0).all() and (r.b > 0).all() and r.a.shape == (mesh.n_vertices,))
+            or pytest.fail("positive scalings")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
+        zero=errors.FrameError,
+    ),
+    "frame_report": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u),
+        lambda r, mesh, c: (r.bracket_energy >= 0 and r.curl_u >= 0) or pytest.fail("report"),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
+        zero=errors.FrameError,
+    ),
     "locate_points": Spec(
         lambda fn, mesh, c: fn(mesh, [0, 1], [[0.2, 0.3, 0.5], [1.0, 0.0, 0.0]]),
         lambda r, mesh, c: (

@@ -75,10 +75,11 @@ class FrameReport:
     Attributes
     ----------
     bracket_energy : float
-        ‖[a u, b v]‖²_{A_V} / (⟨a²⟩⟨b²⟩): the squared A_V-norm of the commutator vertex
-        field (mixed bracket, eq. 54) over interior vertices off the seam, divided by the
-        area-weighted means of a² and b² so that it does not change when a or b is
-        multiplied by a constant.
+        ‖[X, Y]‖²_{A_V} / (⟨|X|²⟩⟨|Y|²⟩) for X = a u, Y = b v: the squared A_V-norm of
+        the commutator vertex field (mixed bracket, eq. 54) over interior vertices off the
+        seam, divided by the area-weighted means of |X|² and |Y|² over the faces, so that
+        it does not change when a, b, u or v is multiplied by a constant (units
+        1/length²).
     curl_u, curl_v : float
         Integrability errors of the dual 1-forms θ¹, θ²: ‖curl θ‖_{A_V} / ‖θ‖_{A_F} over
         interior vertices, with the weak curl −div(J θ) (units 1/length; 0 for closed
@@ -197,11 +198,13 @@ def frame_report(
     b = np.ones(n) if b is None else as_vertex_function(mesh, b, "b")
     P = vertex_to_face(mesh)
     X, Y = (P @ a)[:, None] * u, (P @ b)[:, None] * v
-    c = commutator_field(mesh, X, Y)
     keep = _measured(mesh, u)
     A = np.where(keep, mesh.vertex_areas, 0.0)
-    scale = (A @ a**2) * (A @ b**2) / max(A.sum(), 1e-300) ** 2
-    energy = float(A @ (c * c).sum(1)) / scale if scale > 0 else 0.0
+    sx, sy = np.abs(X).max(), np.abs(Y).max()
+    c = commutator_field(mesh, X / sx, Y / sy)  # the bracket is bilinear: no overflow
+    Af = mesh.face_areas
+    size = (Af @ (X / sx) ** 2).sum() * (Af @ (Y / sy) ** 2).sum() / Af.sum() ** 2
+    energy = float(A @ (c * c).sum(1)) / size
     t1, t2 = _coframe(mesh, X, Y)
     return FrameReport(
         energy,
