@@ -152,6 +152,7 @@ def render(
     backend: str = "auto",
     max_arrows: int | None = 1500,
     colorbar_label: str | None = None,
+    n: int = 1,
 ) -> RenderInfo:
     """Render a mesh with a function, a field, singularities, streamlines or a texture.
 
@@ -193,6 +194,12 @@ def render(
     max_arrows : int or None
         Draw arrows at about this many faces spread evenly over the surface
         (:func:`fvf.viz.arrows.spread_faces`); None draws one per face.
+    n : int
+        Symmetry order of ``field``: 1 draws arrows; N ≥ 2 draws the N directions of each
+        chosen face as strokes from its centroid (``field`` holds one representative per
+        face, :mod:`fvf.design.nfields`), half an arrow long, so a cross field shows
+        crosses. Singularity markers are coloured by index, fractions included
+        (±1/4 …), with a legend.
     colorbar_label : str, optional
         Label of the colorbar.
 
@@ -230,6 +237,7 @@ def render(
         clim=clim,
         view=view,
         colorbar_label=colorbar_label,
+        n=n,
     )
     sw, sh = layout(width, height, title, scene.colorbar is not None)
     fallback = None

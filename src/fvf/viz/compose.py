@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ._deps import require
-from .scene import Scene, index_color
+from .scene import Scene, index_color, index_label
 
 __all__ = ["layout", "compose"]
 
@@ -69,9 +69,10 @@ def compose(
                 markersize=8,
                 markerfacecolor=index_color(k),
                 markeredgecolor="black",
-                label=f"index {int(k):+d} ({c})",
+                label=f"index {index_label(k)} ({c})",
             )
             for k, c in zip(kinds, counts, strict=True)
         ]
         ax.legend(handles=handles, loc="lower left", fontsize=8, frameon=True)
+        ax.set_zorder(2)  # above the scene image (a figure-level artist drawn after the axes)
     fig.savefig(str(path), dpi=100, facecolor="white", pil_kwargs={"compress_level": 3})

@@ -86,7 +86,12 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
     ax.add_collection(
         PolyCollection(polys, facecolors=face_rgb, edgecolors=face_rgb, linewidths=0.3)
     )
-    has_overlay = scene.arrows is not None or scene.lines or scene.markers is not None
+    has_overlay = (
+        scene.arrows is not None
+        or scene.strokes is not None
+        or scene.lines
+        or scene.markers is not None
+    )
     if has_overlay:
         visible = _visibility(
             polys, order, face_depth, width, height, mesh.mean_edge_length, project
@@ -121,6 +126,15 @@ def draw_matplotlib(scene: Scene, width: int, height: int) -> np.ndarray:
             headlength=4.5,
             headaxislength=4.0,
             minlength=0.5,
+        )
+    if scene.strokes is not None and len(scene.strokes):
+        S = scene.strokes
+        front = (facing[scene.stroke_faces] > 0) | (not mesh.is_closed)
+        ok = front & visible(S[:, 0])
+        p0, _ = project(S[ok, 0])
+        p1, _ = project(S[ok, 1])
+        ax.add_collection(
+            LineCollection(np.stack([p0, p1], axis=1), colors=[scene.line_color], linewidths=lw)
         )
     if scene.markers is not None and len(scene.markers):
         ok = visible(scene.markers)

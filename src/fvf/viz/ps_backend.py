@@ -117,6 +117,16 @@ def populate(ps, scene: Scene) -> None:
             color=scene.line_color,
             material="flat",
         )
+    if scene.strokes is not None and len(scene.strokes):
+        k = len(scene.strokes)
+        ps.register_curve_network(
+            "directions",
+            scene.strokes.reshape(-1, 3),
+            np.arange(2 * k).reshape(k, 2),
+            radius=radius,
+            color=scene.line_color,
+            material="flat",
+        )
     if scene.markers is not None and len(scene.markers):
         pc = ps.register_point_cloud("singularities", scene.markers, radius=0.014, material="clay")
         cols = np.array([index_color(i) for i in scene.marker_indices])

@@ -13,11 +13,12 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import FieldShapeError, FieldValueError, FvfError
+from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh
 from .arrows import arrow_segments, default_arrow_scale, spread_faces
 from .camera import View, as_view, camera_frame
 
-__all__ = ["Scene", "SURFACE_COLOR", "index_color", "build_scene", "shade"]
+__all__ = ["Scene", "SURFACE_COLOR", "index_color", "index_label", "build_scene", "shade"]
 
 #: Colour of a surface that shows no function: light blue-grey.
 SURFACE_COLOR = (0.80, 0.83, 0.88)
@@ -31,10 +32,30 @@ _INDEX_COLORS = {
 }
 
 
-def index_color(index: int) -> tuple[float, float, float]:
+_FRACTION_COLORS = {
+    0.25: (0.98, 0.45, 0.10),
+    -0.25: (0.20, 0.65, 1.00),
+    0.5: (0.80, 0.10, 0.55),
+    -0.5: (0.10, 0.70, 0.55),
+}
+
+
+def index_color(index: float) -> tuple[float, float, float]:
     """Marker colour of a singularity of the given index (+1 red, −1 blue, +2 orange,
-    −2 cyan, any other purple)."""
-    return _INDEX_COLORS.get(int(index), (0.55, 0.25, 0.70))
+    −2 cyan; N-field indices +1/4 amber, −1/4 sky blue, +1/2 magenta, −1/2 teal; any
+    other purple)."""
+    x = float(index)
+    if x.is_integer():
+        return _INDEX_COLORS.get(int(x), (0.55, 0.25, 0.70))
+    return _FRACTION_COLORS.get(round(x, 9), (0.55, 0.25, 0.70))
+
+
+def index_label(index: float) -> str:
+    """The index as a signed fraction: ``+1``, ``-1/4``, ``+1/6`` …"""
+    from fractions import Fraction
+
+    f = Fraction(float(index)).limit_denominator(24)
+    return f"{f.numerator:+d}" if f.denominator == 1 else f"{f.numerator:+d}/{f.denominator}"
 
 
 @dataclass
@@ -50,7 +71,9 @@ class Scene:
     arrow_faces: np.ndarray | None = None  # (k,)
     arrow_scale: float | None = None
     markers: np.ndarray | None = None  # (s, 3)
-    marker_indices: np.ndarray | None = None  # (s,)
+    marker_indices: np.ndarray | None = None  # (s,) float: k or k/N
+    strokes: np.ndarray | None = None  # (k, 2, 3): N-field strokes, no heads
+    stroke_faces: np.ndarray | None = None  # (k,)
     lines: list[np.ndarray] = field(default_factory=list)
     line_color: tuple = LINE_COLOR
     colorbar: dict | None = None  # {"cmap", "clim", "label"}
@@ -114,11 +137,13 @@ def build_scene(
     clim: tuple[float, float] | None = None,
     view: View | tuple | dict | None = None,
     colorbar_label: str | None = None,
+    n: int = 1,
 ) -> Scene:
     """Check the inputs of :func:`fvf.viz.render` and build a :class:`Scene`."""
     from ._deps import require
 
     mpl = require("matplotlib")
+    n = as_direction_count(n)
     if not isinstance(mesh, TriMesh):
         raise FvfError(f"mesh must be a fvf.TriMesh; got {type(mesh).__name__}")
     view = as_view(view)
@@ -160,8 +185,24 @@ def build_scene(
         if not scale > 0:
             raise FvfError(f"arrow_scale must be positive; got {arrow_scale!r}")
         faces = spread_faces(mesh, max_arrows)
-        scene.arrows = arrow_segments(mesh, field, scale)[faces]
-        scene.arrow_faces, scene.arrow_scale = faces, scale
+        if n == 1:
+            scene.arrows = arrow_segments(mesh, field, scale)[faces]
+            scene.arrow_faces, scene.arrow_scale = faces, scale
+        else:  # an N-direction field: N strokes (no heads) from each chosen centroid
+            from ..design.nfields import all_directions
+
+            u = as_face_field(mesh, field, "field")
+            length = np.linalg.norm(u, axis=1)
+            top = float(length.max(initial=0.0))
+            u = u * (top / np.where(length > 0, length, np.inf))[:, None]  # equal strokes
+            d = all_directions(mesh, u, n)[:, faces]
+            c = mesh.face_centroids[faces]
+            tips = c[None] + 0.5 * scale * d  # half length: a cross spans one arrow
+            scene.strokes = np.stack([np.broadcast_to(c, tips.shape), tips], axis=2).reshape(
+                -1, 2, 3
+            )
+            scene.stroke_faces = np.tile(faces, n)
+            scene.arrow_scale = scale
     if singularities is not None:
         try:
             P, ind = singularities
@@ -172,7 +213,7 @@ def build_scene(
             raise FieldShapeError(
                 f"singularity positions ({P.shape[0]}) and indices ({ind.shape[0]}) differ"
             )
-        scene.markers, scene.marker_indices = P, ind.astype(np.int64)
+        scene.markers, scene.marker_indices = P, ind.astype(np.float64)
     if streamlines is not None:
         lines = [np.asarray(x, float).reshape(-1, 3) for x in streamlines]
         scene.lines = [x for x in lines if x.shape[0] >= 2]
