@@ -509,3 +509,23 @@ def test_map_consistent_field_n_arguments():
         map_consistent_field(basis, C, n=0)
     with pytest.raises(fvf.ParameterError, match="n = 1 only"):
         map_consistent_field(basis, C, n=4, fields=np.zeros((2, mesh.n_faces, 3)))
+
+
+def test_singularities_match_libigl():
+    """The same cross field's singular vertices and indices (mod 4) as libigl's
+    find_cross_field_singularities (an independent implementation)."""
+    igl = pytest.importorskip("igl")
+    mesh = load_shared("spot.obj")
+    u = fvf.design_field(mesh, n=4, align="curvature")
+    u = u / np.linalg.norm(u, axis=1)[:, None]
+    V, F = np.ascontiguousarray(mesh.vertices), np.ascontiguousarray(mesh.faces)
+    is_s, index = igl.find_cross_field_singularities(V, F, u, fvf.rotate(mesh, u))
+    ids, ind = fvf.singularities(mesh, u, n=4)
+    assert ids.size > 10
+    np.testing.assert_array_equal(ids, np.flatnonzero(is_s))
+    np.testing.assert_array_equal(np.mod(np.rint(4 * ind), 4), index[ids])
+    # libigl's combing is smooth across its own cut; ours across ours: both comb the same
+    # cross (the same power field)
+    P1, _ = igl.comb_cross_field(V, F, u, fvf.rotate(mesh, u))
+    C = fvf.comb(mesh, u, 4)
+    np.testing.assert_allclose(fvf.to_power(mesh, P1, 4), fvf.to_power(mesh, C[0], 4), atol=1e-9)
