@@ -51,6 +51,7 @@ def test_design_bad_n_exits_with_input_error(torus_file, tmp_path, capsys):
     assert code != 0 and "even n" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_render_crosses_and_fractional_singularities(tmp_path):
     pytest.importorskip("matplotlib")
     mesh = fvf.icosphere(3)

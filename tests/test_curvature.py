@@ -198,6 +198,7 @@ def test_curvature_aligned_cross_field_on_cylinder_is_exact():
         assert fvf.singularities(mesh, u, n=4)[0].size == 0
 
 
+@pytest.mark.slow
 def test_curvature_aligned_cross_field_on_ellipsoid_converges():
     """With a strong alignment (β = 10⁴) the cross field follows the principal directions
     away from the umbilics, and the error falls under refinement."""

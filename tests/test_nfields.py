@@ -139,6 +139,7 @@ def test_smoothest_n_field_is_eigenfield_of_nfold_laplacian(n):
         assert np.linalg.norm(res) <= 1e-4 * np.linalg.norm(L @ z)  # LOBPCG tol 1e-6
 
 
+@pytest.mark.slow
 def test_smoothest_cross_field_sphere_spectrum():
     """Cross fields on the unit sphere: spin-4 harmonics, λ = l(l+1) − 16 with l = 4 → 4."""
     mesh = fvf.icosphere(4)
@@ -170,14 +171,16 @@ def test_rounded_cube_singularities_sit_at_corners():
 
 
 # ---------------------------------------------------------------------------- Poincaré–Hopf
-def _ph_meshes():
+def _ph_meshes(slow=()):
+    marks = {name: [pytest.mark.slow] if name in slow else [] for name in ("torus", "bob")}
+    marks |= {name: [pytest.mark.slow] if name in slow else [] for name in ("3holes", "fert")}
     return [
         pytest.param(lambda: fvf.icosphere(2), 0, id="icosphere"),
-        pytest.param(lambda: fvf.torus(24, 12), 1, id="torus"),
+        pytest.param(lambda: fvf.torus(24, 12), 1, id="torus", marks=marks["torus"]),
         pytest.param(lambda: load_shared("spot.obj"), 0, id="spot"),
-        pytest.param(lambda: load_shared("bob_tri.obj"), 1, id="bob"),
-        pytest.param(lambda: load_shared("3holes.off"), 3, id="3holes"),
-        pytest.param(lambda: load_shared("fertility.off"), 4, id="fertility"),
+        pytest.param(lambda: load_shared("bob_tri.obj"), 1, id="bob", marks=marks["bob"]),
+        pytest.param(lambda: load_shared("3holes.off"), 3, id="3holes", marks=marks["3holes"]),
+        pytest.param(lambda: load_shared("fertility.off"), 4, id="fertility", marks=marks["fert"]),
     ]
 
 
@@ -195,7 +198,7 @@ def test_poincare_hopf(make, genus, n):
         assert int(k.sum()) == n * chi
 
 
-@pytest.mark.parametrize("make, genus", _ph_meshes())
+@pytest.mark.parametrize("make, genus", _ph_meshes(slow=("torus", "bob", "3holes", "fert")))
 def test_poincare_hopf_smoothest(make, genus):
     """The smoothest N-fields' singularities sum to chi; on the torus there are none."""
     mesh = make()
@@ -286,7 +289,7 @@ def test_monodromy_equals_index():
     [
         pytest.param(lambda: fvf.icosphere(3), id="sphere"),
         pytest.param(lambda: fvf.torus(24, 12), id="torus"),
-        pytest.param(lambda: load_shared("3holes.off"), id="3holes"),
+        pytest.param(lambda: load_shared("3holes.off"), id="3holes", marks=pytest.mark.slow),
         pytest.param(lambda: fvf.disk(8, 6), id="disk"),
     ],
 )
