@@ -268,12 +268,13 @@ def _bfs_forest(mesh: TriMesh, edge_ids: np.ndarray) -> tuple[np.ndarray, np.nda
     parent = np.asarray(pred[:m], dtype=np.int64)
     parent[parent == m] = -1
     child = np.flatnonzero(parent >= 0)
-    # the edge of each tree pair: look (child, parent) up among the directed pairs
-    key = rows.astype(np.int64) * m + cols
-    order = np.argsort(key, kind="stable")
-    pos = order[np.searchsorted(key, child * m + parent[child], sorter=order)]
+    # the edge of each tree pair: the allowed edge of the child shared with its parent
+    allowed = np.zeros(mesh.n_edges, dtype=bool)
+    allowed[edge_ids] = True
+    fe = mesh.face_edges[child]
+    match = (mesh.face_adjacency[child] == parent[child][:, None]) & allowed[fe]
     via = np.full(m, -1, dtype=np.int64)
-    via[child] = np.concatenate([edge_ids, edge_ids])[pos]
+    via[child] = fe[np.arange(child.size), np.argmax(match, axis=1)]
     return parent, via
 
 
