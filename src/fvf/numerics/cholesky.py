@@ -59,15 +59,27 @@ def available_backends() -> tuple[str, ...]:
     return (*out, "scipy")
 
 
-def _real_form(K: sp.sparray) -> sp.csr_array:
-    """[[Re, −Im], [Im, Re]] blocks on interleaved (Re, Im) unknowns, (2n, 2n)."""
-    C = sp.coo_array(K)
-    r, c, x, y = C.row, C.col, C.data.real, C.data.imag
-    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1])
-    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1])
-    data = np.concatenate([x, -y, y, x])
-    n = K.shape[0]
-    return sp.csr_array(sp.coo_array((data, (rows, cols)), shape=(2 * n, 2 * n)))
+def _lower(K: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """int32 rows, cols and float64 values of the lower triangle of a real K."""
+    L = sp.coo_array(sp.tril(K))
+    return L.row.astype(np.int32), L.col.astype(np.int32), np.ascontiguousarray(L.data, float)
+
+
+def _real_lower(K: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lower triangle of the real form of a Hermitian K, built without the full form.
+
+    An entry x + iy below the diagonal gives four real entries (all below the diagonal);
+    a diagonal entry x (real) gives (2r, 2r) and (2r+1, 2r+1) = x (and (2r+1, 2r) = 0).
+    """
+    C = sp.coo_array(sp.tril(K, k=-1))
+    r, c = C.row.astype(np.int32), C.col.astype(np.int32)
+    x, y = C.data.real, C.data.imag
+    d = K.diagonal().real
+    i = np.arange(d.size, dtype=np.int32)
+    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1, 2 * i, 2 * i + 1])
+    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1, 2 * i, 2 * i + 1])
+    data = np.concatenate([x, -y, y, x, d, d])
+    return rows, cols, data
 
 
 class HermitianFactor:
@@ -109,16 +121,10 @@ def _cholmod(K: sp.sparray, is_complex: bool) -> HermitianFactor:
 def _cholespy(K: sp.sparray, is_complex: bool) -> HermitianFactor:
     from cholespy import CholeskySolverD, MatrixType
 
-    R = _real_form(K) if is_complex else sp.csr_array(K)
-    R = sp.coo_array(sp.tril(R))  # CHOLMOD reads the lower triangle
-    n = R.shape[0]
-    fac = CholeskySolverD(
-        n,
-        R.row.astype(np.int32),
-        R.col.astype(np.int32),
-        np.ascontiguousarray(R.data, dtype=np.float64),
-        MatrixType.COO,
-    )
+    rows, cols, data = _real_lower(K) if is_complex else _lower(K)
+    n = 2 * K.shape[0] if is_complex else K.shape[0]
+    fac = CholeskySolverD(n, rows, cols, data, MatrixType.COO)  # CHOLMOD reads the lower part
+    del rows, cols, data
 
     def solve_real(b):
         b = np.ascontiguousarray(b, dtype=np.float64)
