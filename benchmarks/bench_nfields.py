@@ -123,11 +123,14 @@ def _run_case(mesh_name: str, case: str, backend: str, timeout: float) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="86k faces only")
+    ap.add_argument("--sizes", default=None, help="comma-separated subset of 86k,750k")
     ap.add_argument("--backend", default="auto", help="auto, cholmod, cholespy or scipy")
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated subset")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per case")
     args = ap.parse_args()
     sizes = ["86k"] if args.quick else ["86k", "750k"]
+    if args.sizes:
+        sizes = args.sizes.split(",")
     print(f"bench_nfields: one BLAS thread, backend {args.backend}, one child process per case")
     head = f"{'mesh':>5} {'case':<12} {'wall s':>8} {'cpu s':>8} {'peak':>8} {'sing':>5}  note"
     print(head)
