@@ -837,6 +837,86 @@ SPECS: dict[str, Spec] = {
         _check_design,
         warns=lambda mesh: (UnconstrainedComponentWarning,) if mesh.n_components > 1 else (),
     ),
+    "to_power": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4),
+        lambda r, mesh, c: (
+            close(np.abs(r), np.linalg.norm(mesh.project_tangent(c.u), axis=1), 1e-12)
+            or pytest.fail("|w| = |u|")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4),
+    ),
+    "from_power": Spec(
+        lambda fn, mesh, c: fn(mesh, fvf.to_power(mesh, c.u, 4), 4),
+        lambda r, mesh, c: (
+            close(fvf.to_power(mesh, r, 4), fvf.to_power(mesh, c.u, 4), 1e-10)
+            or pytest.fail("round trip")
+        ),
+    ),
+    "period_jumps": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4),
+        lambda r, mesh, c: (
+            (r.shape == (mesh.n_edges,) and r.min(initial=0) >= 0 and r.max(initial=0) < 4)
+            or pytest.fail("jumps in [0, 4)")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4),
+        zero=errors.FieldShapeError,
+    ),
+    "cut_graph": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4),
+        lambda r, mesh, c: (
+            (
+                r.mask.shape == (mesh.n_edges,)
+                and not r.mask[mesh.boundary_edges].any()
+                and np.array_equal(r.edges, mesh.edges[r.mask])
+            )
+            or pytest.fail("cut mask")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4),
+        zero=errors.FieldShapeError,
+    ),
+    "comb": Spec(
+        lambda fn, mesh, c: (fn(mesh, c.u, 4), fvf.cut_graph(mesh, c.u, 4)),
+        lambda r, mesh, c: (
+            (
+                r[0].shape == (4, mesh.n_faces, 3)
+                and not fvf.period_jumps(mesh, r[0][0], 4)[~r[1].mask].any()
+            )
+            or pytest.fail("combed on uncut edges")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4),
+        zero=errors.FieldShapeError,
+    ),
+    "principal_curvatures": Spec(
+        lambda fn, mesh, c: fn(mesh),
+        lambda r, mesh, c: (
+            (
+                (r.k1 >= r.k2).all()
+                and close(np.linalg.norm(r.d1, axis=1), np.ones(mesh.n_faces), 1e-12)
+            )
+            or pytest.fail("k1 >= k2, unit d1")
+        ),
+    ),
+    "rescale_frame": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u),
+        lambda r, mesh, c: (
+            ((r.a > 0).all() and (r.b > 0).all() and r.a.shape == (mesh.n_vertices,))
+            or pytest.fail("positive scalings")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
+        zero=errors.FrameError,
+    ),
+    "frame_report": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u),
+        lambda r, mesh, c: (r.bracket_energy >= 0 and r.curl_u >= 0) or pytest.fail("report"),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
+        zero=errors.FrameError,
+    ),
     "locate_points": Spec(
         lambda fn, mesh, c: fn(mesh, [0, 1], [[0.2, 0.3, 0.5], [1.0, 0.0, 0.0]]),
         lambda r, mesh, c: (

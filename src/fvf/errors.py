@@ -62,6 +62,9 @@ __all__ = [
     "ParameterizationInputError",
     "FlippedParameterizationWarning",
     "QuadExtractionError",
+    "DirectionCountError",
+    "CutGraphError",
+    "FrameError",
     "format_indices",
 ]
 
@@ -222,6 +225,22 @@ class PointLocationError(ConstraintError):
 
 class UnconstrainedComponentWarning(FvfWarning):
     """A connected component of the mesh has no constraint; the field is zero there."""
+
+
+# ---------------------------------------------------------------------------- N-direction fields
+class DirectionCountError(ParameterError):
+    """The symmetry order N of an N-direction field is not an integer >= 1, or does not
+    fit the request (curvature alignment needs an even N)."""
+
+
+class CutGraphError(FvfError):
+    """A cut given to :func:`fvf.comb` is malformed (shape, edges not in the mesh) or does
+    not make the field combable (an uncut edge would keep a period jump)."""
+
+
+class FrameError(FvfError):
+    """A frame (u, v) given to :func:`fvf.rescale_frame` is not usable: the two fields are
+    parallel or zero on some faces."""
 
 
 # ---------------------------------------------------------------------------- data files

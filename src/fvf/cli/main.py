@@ -514,16 +514,25 @@ def _cmd_design(args: argparse.Namespace) -> int:
             kwargs["weights"] = arrays["weights"] = c.numbers("weights", (k,) if w.ndim else ())
     if args.soft is not None:
         kwargs["weights"] = arrays["weights"] = _array(args.soft)
+    n = args.n
+    kwargs.update(n=n, progress=args.progress or None)
+    if args.align is not None:
+        kwargs["align"] = args.align
+        if args.align_strength is not None:
+            kwargs["align_strength"] = args.align_strength
     v = fvf.design_field(mesh, **kwargs)
-    ids, index = fvf.singularities(mesh, v, zero="warn")
+    ids, index = fvf.singularities(mesh, v, n=n, zero="warn")
     arrays.update(
         v=v,
         singularity_vertices=ids,
         singularity_indices=index,
         singularity_positions=fvf.singularity_positions(mesh, ids, "vertex"),
     )
+    if n != 1:
+        arrays["n"] = _array(n)
     _write(args, args.output, arrays, mesh, inputs)
-    print(f"singularities: {ids.size} (indices {index.tolist()[:20]})")
+    shown = [str(x) for x in index.tolist()[:20]]
+    print(f"singularities: {ids.size} (indices {', '.join(shown)})")
     return EXIT_OK
 
 
@@ -595,12 +604,17 @@ def _display_arrays(args, mesh):
         kwargs["function"] = _numbers_of(src, args.function, [(mesh.n_vertices,), (mesh.n_faces,)])
     if args.field:
         kwargs["field"] = _numbers_of(src, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
+    n = args.n
+    if n is None:
+        n = int(data.numbers("n", ())) if data is not None and "n" in data else 1
+    if n != 1:
+        kwargs["n"] = n
     if args.singularities:
         if data is not None and "singularity_positions" in data and "singularity_indices" in data:
             pos = data.numbers("singularity_positions", (None, 3))
-            idx = data.integers("singularity_indices", (pos.shape[0],))
+            idx = data.numbers("singularity_indices", (pos.shape[0],))
         elif "field" in kwargs and kwargs["field"].shape[0] == mesh.n_faces:
-            ids, idx = fvf.singularities(mesh, kwargs["field"], zero="warn")
+            ids, idx = fvf.singularities(mesh, kwargs["field"], n=n, zero="warn")
             pos = fvf.singularity_positions(mesh, ids, "vertex")
         elif "field" in kwargs:
             ids, idx = fvf.face_singularities(mesh, kwargs["field"], zero="warn")
@@ -743,6 +757,11 @@ def _add_display_options(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="mark singularities (stored singularity_* keys, else found in --field)",
     )
+    p.add_argument(
+        "--n",
+        type=int,
+        help="directions per face of --field: draw N strokes (default: key n, else 1)",
+    )
 
 
 def parser() -> argparse.ArgumentParser:
@@ -857,7 +876,8 @@ def parser() -> argparse.ArgumentParser:
         "smoothest tangent field meeting direction constraints (fvf.design_field), "
         "and its singularities",
         "fvf design mesh.obj --constraints c.npz --soft 50 -o designed.npz\n"
-        "  (c.npz: constraint_faces (k,) int or points (k,3), directions (k,3))",
+        "  (c.npz: constraint_faces (k,) int or points (k,3), directions (k,3))\n"
+        "fvf design mesh.obj --n 4 --align curvature -o cross.npz",
     )
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
@@ -866,7 +886,15 @@ def parser() -> argparse.ArgumentParser:
     mode.add_argument("--hard", action="store_true", help="meet the constraints exactly")
     p.add_argument("--kind", choices=("knoppel", "singer_wu"), default="knoppel")
     p.add_argument("--keep-length", action="store_true", help="don't normalize directions")
-    _add_output(p, "output .npz (keys v, singularity_*)")
+    p.add_argument(
+        "--n", type=_integer, default=1, help="directions per face: 1 vector, 2 line, 4 cross, 6 …"
+    )
+    p.add_argument(
+        "--align", choices=("curvature",), help="align to principal curvature directions (even n)"
+    )
+    p.add_argument("--align-strength", type=_real, metavar="B", help="alignment weight (1)")
+    p.add_argument("--progress", action="store_true", help="show a progress bar (tqdm)")
+    _add_output(p, "output .npz (keys v, n, singularity_*)")
     p.set_defaults(run=_cmd_design)
 
     p = _add(

@@ -7,6 +7,10 @@
 - :mod:`.symmetric`: fields consistent with a self-map (Azencot et al. 2017).
 - :mod:`.commuting`: commutation-guided rescaling and as-commuting-as-possible fields (§4.4).
 - :mod:`.indices`: indices and singularities of designed fields (Poincaré–Hopf).
+- :mod:`.frames`: frames (u, v) rescaled so that their flows nearly commute.
+- :mod:`.alignment`: alignment targets (principal curvature directions, user fields).
+- :mod:`.nfields`: N-direction fields: power representation, period jumps, cut graph,
+  combing.
 
 A new design method goes into a module of its own here and is exported below.
 """
@@ -22,6 +26,7 @@ from .connection import (
     tangent_basis_matrix,
 )
 from .constrained import closest_faces, design_field, locate_points
+from .frames import FrameReport, FrameRescaling, frame_report, rescale_frame
 from .indices import (
     face_indices,
     face_singularities,
@@ -30,6 +35,15 @@ from .indices import (
     vertex_indices,
 )
 from .killing import commutator_energy, killing_fields
+from .nfields import (
+    CutGraph,
+    all_directions,
+    comb,
+    cut_graph,
+    from_power,
+    period_jumps,
+    to_power,
+)
 from .symmetric import consistency_residual, map_consistent_field
 
 __all__ = [
@@ -56,4 +70,15 @@ __all__ = [
     "face_indices",
     "face_singularities",
     "singularity_positions",
+    "to_power",
+    "from_power",
+    "all_directions",
+    "period_jumps",
+    "CutGraph",
+    "cut_graph",
+    "comb",
+    "rescale_frame",
+    "frame_report",
+    "FrameRescaling",
+    "FrameReport",
 ]

@@ -95,6 +95,7 @@ restricts to tangent fields as E_B = Bᵀ E B (the chapter's §4.4.2 notation).
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -104,10 +105,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..calculus import _freeze, face_rows_csr
-from ..errors import FieldShapeError, FvfError
+from ..errors import FieldShapeError, FvfError, SpectralFallbackWarning, SpectralSolveError
 from ..mesh.convert import takes_mesh
-from ..mesh.inputs import as_face_field
+from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross, _readonly
+from ..numerics.cholesky import Backend
+from ..numerics.inverse_iteration import inverse_iteration
+from ..numerics.progress import ProgressCallback, make_progress
 from ..operators.directional import centered_vertices
 
 __all__ = [
@@ -140,6 +144,12 @@ _SINGULAR_RTOL = 1e-9
 _FOLDED_ALIGNMENT = 1e-3
 #: Meshes with at most this many faces use a dense eigensolver in smoothest_fields.
 _DENSE_FACES = 600
+EigenSolver = Literal["auto", "dense", "arpack", "lobpcg"]
+#: Accepted values of ``solver`` in :func:`smoothest_fields`.
+EIGEN_SOLVERS: tuple[str, ...] = ("auto", "dense", "arpack", "lobpcg")
+#: ``solver="auto"`` uses LOBPCG preconditioned by one Cholesky factorization from this
+#: many faces on (ARPACK shift-invert with SuperLU below).
+LOBPCG_MIN_FACES = 20_000
 
 
 def _check_kind(kind: str) -> ConnectionKind:
@@ -321,15 +331,20 @@ def connection_pairs(
 
 
 @takes_mesh
-def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.csr_array:
+def connection_laplacian(
+    mesh: TriMesh, kind: ConnectionKind = "knoppel", n: int = 1
+) -> sp.csr_array:
     """The face connection Laplacian L: complex Hermitian PSD, sparse (m, m).
 
     .. math::
 
-        z^* L z = E(z) = \\sum_{(s,t)} w_{st} |z_s - r_{st} z_t|^2 ,
+        z^* L z = E(z) = \\sum_{(s,t)} w_{st} |z_s - r_{st}^{\\,n} z_t|^2 ,
 
-    i.e. ``L[s, s] += w``, ``L[t, t] += w``, ``L[s, t] = −w r_st``,
-    ``L[t, s] = −w conj(r_st)``, acting on ``z = mesh.to_complex(u)`` (m,) complex128.
+    i.e. ``L[s, s] += w``, ``L[t, t] += w``, ``L[s, t] = −w r_st^n``,
+    ``L[t, s] = −w conj(r_st^n)``, acting on ``z = mesh.to_complex(u)`` (m,) complex128
+    for n = 1, and on the power representation ``z = fvf.design.nfields.to_power(mesh, u,
+    n)`` of an N-direction field for n = N (the N-fold connection of Knöppel et al. 2013:
+    the transport angle is multiplied by N).
 
     Parameters
     ----------
@@ -337,6 +352,8 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
     kind : {"knoppel", "singer_wu"}
         See the module docstring (Knöppel et al. 2013 edge coupling; Singer & Wu 2012 1-ring
         coupling).
+    n : int
+        Symmetry order N >= 1 of the fields it acts on (default 1: vector fields).
 
     Returns
     -------
@@ -358,9 +375,12 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
     ((320, 320), True)
     """
     kind = _check_kind(kind)
+    n = as_direction_count(n)
 
     def build():
         pairs, r, w = connection_pairs(mesh, kind)
+        if n != 1:
+            r = r**n
         m = mesh.n_faces
         s, t = pairs[:, 0], pairs[:, 1]
         diag = np.bincount(s, weights=w, minlength=m) + np.bincount(t, weights=w, minlength=m)
@@ -371,7 +391,8 @@ def connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> sp.
         L.sort_indices()
         return _freeze(L)
 
-    return mesh.cached(f"connection_laplacian:{kind}", build)
+    key = f"connection_laplacian:{kind}" if n == 1 else f"connection_laplacian:{kind}:{n}"
+    return mesh.cached(key, build)
 
 
 @takes_mesh
@@ -549,9 +570,23 @@ def _complex_ritz(
 
 @takes_mesh
 def smoothest_fields(
-    mesh: TriMesh, count: int, kind: ConnectionKind = "knoppel"
+    mesh: TriMesh,
+    count: int,
+    kind: ConnectionKind = "knoppel",
+    *,
+    n: int = 1,
+    solver: EigenSolver = "auto",
+    backend: Backend = "auto",
+    progress: bool | ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` smoothest unit fields: lowest eigenfields of L z = λ [A_F] z.
+    """The ``count`` smoothest fields: lowest eigenfields of L_n z = λ [A_F] z.
+
+    For n = 1 these are vector fields; for n = N ≥ 2 they are N-direction fields (lines,
+    crosses, …), computed in the power representation z = w^N with the N-fold connection
+    Laplacian L_N (Knöppel, Crane, Pinkall & Schröder 2013, "Globally optimal direction
+    fields": the transport angle multiplied by N; :func:`connection_laplacian` with
+    ``n``) and returned as one representative vector per face
+    (:func:`fvf.design.nfields.from_power`).
 
     Parameters
     ----------
@@ -560,39 +595,97 @@ def smoothest_fields(
         Number of complex eigenfields, 1 ≤ count ≤ m. Each complex eigenvalue is a real
         two-dimensional eigenspace {z, iz} (a field and its rotation by J).
     kind : {"knoppel", "singer_wu"}
+    n : int
+        Symmetry order N ≥ 1 (keyword): 1 vector, 2 line, 4 cross, 6 fields.
+    solver : {"auto", "dense", "arpack", "lobpcg"}
+        ``"dense"``: Hermitian dense solver. ``"arpack"``: ARPACK shift-invert with
+        SuperLU (``scipy.sparse.linalg.eigs``). ``"lobpcg"``: LOBPCG preconditioned by one
+        sparse Cholesky factorization, i.e. accelerated inverse iteration
+        (:func:`fvf.numerics.inverse_iteration.inverse_iteration`). ``"auto"``: dense up to
+        600 faces, ARPACK below :data:`LOBPCG_MIN_FACES` (20k) faces, LOBPCG above
+        (falling back to ARPACK with a :class:`fvf.SpectralFallbackWarning` if it does not
+        converge).
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Factorization of the LOBPCG preconditioner (:mod:`fvf.numerics.cholesky`; the fast
+        ones need the ``[fast]`` extra).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`).
 
     Returns
     -------
     energies : float64 (count,)
-        Ascending eigenvalues λ_k = E(u_k) (= ∫|∇u_k|² approximately) with ∫|u_k|² = 1.
+        Ascending eigenvalues λ_k = E_n(z_k) (≈ ∫|∇ z_k|²) with ∫|z_k|² = 1.
     fields : float64 (count, m, 3)
-        The eigenfields as ambient per-face vectors, unit L2 norm
+        For n = 1 the eigenfields as ambient per-face vectors, unit L2 norm
         (Σ_t A_F(t) |u_k(t)|² = 1), mutually orthogonal in the complex sense
         (Σ A_F z̄_j z_k = 0), phase fixed so that the first coefficient of (within 1e-6)
-        largest modulus is real positive.
+        largest modulus is real positive. For n ≥ 2 one representative vector per face of
+        each N-field, of length |z_k(t)| (so again Σ A_F |u_k|² = 1; normalise per face
+        for unit crosses); the other directions are its rotations by 2πj/N about the face
+        normal.
+
+    Raises
+    ------
+    FvfError
+        count outside [1, m].
+    DirectionCountError
+        n not an integer ≥ 1.
 
     Notes
     -----
-    Sparse path (m > 600): ARPACK (``scipy.sparse.linalg.eigs``, complex arithmetic) in
-    shift-invert mode with a shift σ = −1e-8 max(L_tt / A_t) just below 0, for count + 2
-    eigenvectors, then a Rayleigh–Ritz step in their span (A_F-orthonormal basis, Hermitian
-    projected problem). The complex form is about three times faster than Lanczos on the
-    real (2m, 2m) form, whose eigenvalues are all double. Small meshes use a dense
-    Hermitian solver. Within a degenerate eigenspace (e.g. the sphere's
-    λ = 1, complex multiplicity 3) the basis returned is arbitrary.
+    LOBPCG factors L_n + τ[A_F] once (τ = 1e-8 max L_tt/A_t makes it definite on meshes
+    with a parallel field) and iterates on a block of count + 1 vectors until every
+    residual is below 1e-6 (mass rescaled to mean 1), then a Rayleigh–Ritz step in their
+    span. ARPACK runs in complex arithmetic in shift-invert mode (σ just below 0) for
+    count + 2 vectors, then the same Rayleigh–Ritz step. Within a degenerate eigenspace
+    (e.g. the sphere's λ = 1 for n = 1, complex multiplicity 3; λ = 4 for n = 4,
+    multiplicity 9) the basis returned is arbitrary.
+
+    On shapes whose curvature varies strongly, the smoothest N-fields for N ≥ 2 localise:
+    the N-fold transport acts like a magnetic field N·K, and the lowest eigenfields
+    concentrate where |K| is small, with magnitudes that can fall to round-off level
+    elsewhere (where their directions are noise and :func:`fvf.singularities` reports
+    zero vectors). Constraints or ``align=`` in :func:`fvf.design_field` avoid this.
+    Measured speed: ``docs/nfields.md``.
     """
     kind = _check_kind(kind)
+    n = as_direction_count(n)
+    if solver not in EIGEN_SOLVERS:
+        raise FvfError(f"solver must be one of {EIGEN_SOLVERS}; got {solver!r}.")
+    report = make_progress(progress)
     m = mesh.n_faces
     count = int(count)
     if not 1 <= count <= m:
         raise FvfError(f"count must be in [1, {m}] (the number of faces); got {count}.")
-    L = connection_laplacian(mesh, kind)
+    report("assemble", 0, 1)
+    L = connection_laplacian(mesh, kind, n)
+    report("assemble", 1, 1)
     area = mesh.face_areas
-    if m <= _DENSE_FACES or count + 3 >= m:
+    auto = solver == "auto"
+    if auto:
+        solver = "arpack" if m < LOBPCG_MIN_FACES else "lobpcg"
+        solver = "dense" if m <= _DENSE_FACES else solver
+    if solver != "dense" and 5 * (count + 3) >= m:
+        solver = "dense"
+    if solver == "lobpcg":
+        try:
+            lam, Z = inverse_iteration(L, area, count, backend=backend, progress=report)
+            lam, Z = _complex_ritz(L, area, Z, count)
+        except SpectralSolveError as exc:
+            if not auto:
+                raise
+            warnings.warn(
+                f"smoothest_fields: {exc} Using ARPACK instead.",
+                SpectralFallbackWarning,
+                stacklevel=2,
+            )
+            solver = "arpack"
+    if solver == "dense":
         lam, Z = sla.eigh(
             L.toarray(), np.diag(area.astype(complex)), subset_by_index=[0, count - 1]
         )
-    else:
+    elif solver == "arpack":
         M = sp.diags_array(area.astype(complex))
         sigma = -1e-8 * float(np.max(L.diagonal().real / area))
         v0 = np.ones(m, dtype=complex)  # deterministic start vector
@@ -600,5 +693,8 @@ def smoothest_fields(
         _, Z = spla.eigs(L, k=k, M=M, sigma=sigma, which="LM", v0=v0)
         lam, Z = _complex_ritz(L, area, Z, count)
     Z = _fix_phase(Z)
+    if n != 1:
+        mag = np.abs(Z)
+        Z = mag * np.exp(1j * np.angle(Z) / n)
     fields = np.einsum("tij,kti->ktj", mesh.face_bases, np.stack([Z.T.real, Z.T.imag], -1))
     return np.asarray(lam, dtype=float), fields

@@ -36,7 +36,6 @@ import warnings
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from ..calculus import hat_gradients
@@ -53,7 +52,11 @@ from ..errors import (  # noqa: F401 (re-exported)
     format_indices,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.inputs import as_direction_count
 from ..mesh.trimesh import TriMesh
+from ..numerics.cholesky import Backend, factor_hermitian
+from ..numerics.progress import ProgressCallback, make_progress
+from .alignment import ALIGN_STRENGTH, alignment_targets
 from .connection import ConnectionKind, _check_kind, connection_laplacian, smoothest_fields
 
 __all__ = [
@@ -348,8 +351,73 @@ def closest_faces(
 
 
 # ---------------------------------------------------------------------------- design
-def _solve(A: sp.sparray, b: np.ndarray) -> np.ndarray:
-    return spla.splu(sp.csc_array(A)).solve(b.astype(complex))
+def _soft_weights(mesh: TriMesh, L, f: np.ndarray, weights) -> np.ndarray:
+    """w_c per constraint: the user's, checked, or SOFT_WEIGHT · L_cc / A_F(c)."""
+    A = mesh.face_areas
+    if weights is None:
+        return SOFT_WEIGHT * L.diagonal().real[f] / A[f]
+    w = np.asarray(weights, dtype=float)
+    if w.ndim > 1 or w.size not in (1, f.size):
+        raise ConstraintError(
+            f"weights must be a scalar or have shape ({f.size},), one per constraint; got "
+            f"shape {w.shape}."
+        )
+    w = np.broadcast_to(w.reshape(-1), f.shape).copy()
+    bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
+    if bad.size:
+        raise ConstraintError(
+            f"weights must be finite and > 0; constraints {format_indices(bad)} are not."
+        )
+    return w
+
+
+def _active_faces(L, seeds: np.ndarray) -> np.ndarray:
+    """Faces in a component of L's coupling graph holding a seed; warns about the others."""
+    pattern = sp.csr_array((np.ones(L.nnz), L.indices, L.indptr), shape=L.shape)
+    _, label = connected_components(pattern, directed=False)
+    has = np.zeros(label.max() + 1, dtype=bool)
+    has[label[seeds]] = True
+    active = has[label]
+    if not active.all():
+        free = np.flatnonzero(~active)
+        warnings.warn(
+            f"faces {format_indices(free)} lie in components of the mesh without "
+            "constraints; the field is zero there. Fix: add a constraint per component.",
+            UnconstrainedComponentWarning,
+            stacklevel=3,
+        )
+    return active
+
+
+def _power(z: np.ndarray, n: int) -> np.ndarray:
+    """|z| (z/|z|)^n for non-zero z."""
+    return z if n == 1 else np.abs(z) * (z / np.abs(z)) ** n
+
+
+def _nearest_root(w: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
+    """The n-th root of w (|w|, angle/n + 2πk/n) closest in angle to ``target``."""
+    root = np.abs(w) * np.exp(1j * np.angle(w) / n)
+    k = np.rint(n * np.angle(target * np.conj(root)) / (2 * np.pi))
+    return root * np.exp(2j * np.pi * k / n)
+
+
+def _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend) -> np.ndarray:
+    """Minimise z*Lz + Σ pen |z − t|² (rhs = pen·t) with z fixed on ``fixed``, zero off
+    ``active``: one Hermitian positive definite solve."""
+    m = L.shape[0]
+    z = np.zeros(m, dtype=complex)
+    z[fixed] = tau_fixed
+    free = np.zeros(m, dtype=bool)
+    free[active] = True
+    free[fixed] = False
+    rest = np.flatnonzero(free)
+    if rest.size:
+        L = sp.csr_array(L)
+        Lr = L[rest]
+        S = Lr[:, rest] + sp.diags_array(pen[rest])
+        b = rhs[rest] - Lr[:, fixed] @ tau_fixed if fixed.size else rhs[rest]
+        z[rest] = factor_hermitian(S, backend).solve(b.astype(complex))
+    return z
 
 
 @takes_mesh
@@ -363,26 +431,40 @@ def design_field(
     hard: bool = False,
     kind: ConnectionKind = "knoppel",
     normalize: bool = True,
+    n: int = 1,
+    align: str | npt.ArrayLike | None = None,
+    align_weights: npt.ArrayLike | float | None = None,
+    align_strength: float = ALIGN_STRENGTH,
+    backend: Backend = "auto",
+    progress: bool | ProgressCallback | None = None,
 ) -> np.ndarray:
-    """The smoothest tangent field meeting direction constraints (Knöppel et al. 2013).
+    """The smoothest tangent N-field meeting direction constraints (Knöppel et al. 2013).
 
-    Minimises the connection energy E(z) = z^* L z (:func:`fvf.connection_laplacian`,
-    the n = 1 smoothness energy of Knöppel, Crane, Pinkall & Schröder, "Globally optimal
-    direction fields", 2013) of a piecewise-constant field subject to constraints on faces:
+    Minimises the connection energy E(z) = z^* L_N z (:func:`fvf.connection_laplacian`
+    with ``n``; the smoothness energy of Knöppel, Crane, Pinkall & Schröder, "Globally
+    optimal direction fields", 2013) of a piecewise-constant field in its power
+    representation z (:mod:`fvf.design.nfields`; z = the field itself for n = 1), subject
+    to constraints on faces and an optional alignment term:
 
     * soft (default): minimise E(z) + Σ_c w_c A_F(c) |z_c − τ_c|²;
-    * hard (``hard=True``): z_c = τ_c exactly, E minimised over the other faces.
+    * hard (``hard=True``): z_c = τ_c exactly, E minimised over the other faces;
+    * alignment (``align=``): + β Σ_t ω_t A_t |z_t − τ_t|² over all faces
+      (:mod:`fvf.design.alignment`: principal curvature directions weighted by the
+      curvature anisotropy, or a user field with per-face weights).
+
+    For n ≥ 2 the targets are the N-th powers of the given directions, so a constrained
+    face keeps its direction up to a rotation by 2π/N.
 
     Parameters
     ----------
     mesh : TriMesh
     faces : array_like of int, (k,), optional
-        Constrained faces (duplicates allowed when their targets agree; their soft weights
-        add up).
+        Constrained faces (duplicates allowed when their targets agree as N-direction
+        sets; their soft weights add up).
     directions : array_like, float (k, 3), optional
         Ambient direction of each constraint, projected onto its face plane; the target
         τ_c is the projection in complex frame coordinates (unit length when
-        ``normalize``, else its length is the target magnitude).
+        ``normalize``, else its length is the target magnitude), raised to the N-th power.
     points : array_like, float (k, 3), optional
         Ambient positions instead of ``faces``: each constraint applies to the face
         nearest to (containing) its point (:func:`closest_faces`).
@@ -397,37 +479,57 @@ def design_field(
         The connection Laplacian (:mod:`fvf.connection`).
     normalize : bool
         Normalise the projected directions to unit length.
+    n : int
+        Symmetry order N ≥ 1: 1 vector (default), 2 line, 4 cross, 6 field.
+    align : "curvature" or array_like float (m, 3), optional
+        Alignment targets (:func:`fvf.design.alignment.alignment_targets`);
+        ``"curvature"`` needs an even n.
+    align_weights : float or array_like (m,), optional
+        ω_t ≥ 0 per face (1/length²); see :mod:`fvf.design.alignment` for the defaults.
+    align_strength : float
+        β ≥ 0 (default 1).
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Sparse factorization (:mod:`fvf.numerics.cholesky`).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``.
 
     Returns
     -------
     ndarray, float64 (m, 3)
-        The field as ambient per-face vectors (tangent). With no constraints: the
+        The field as ambient per-face vectors (tangent); for n ≥ 2 one representative per
+        face (:func:`fvf.design.nfields.from_power`), of length |z_t|, chosen on each
+        constrained face as the direction of the set nearest to the given one (so a hard
+        constraint is returned exactly). With no constraints and no alignment: the
         smoothest field of unit L2 norm, Σ A_F |u|² = 1, the lowest eigenfield of
-        L z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`; its sign/phase is fixed as
-        documented there).
+        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`).
 
     Raises
     ------
     ConstraintIndexError, ZeroDirectionError, NormalDirectionError,
     ConflictingConstraintError
         Bad constraints, naming the offending constraint rows and faces
-        (:func:`constraint_targets`).
+        (:func:`constraint_targets`); for n ≥ 2 two constraints on a face conflict when
+        they are different N-direction sets.
     ConstraintError
-        Wrong shapes, non-positive weights, ``faces`` together with ``points``, or
-        ``weights`` with ``hard=True``.
+        Wrong shapes, non-positive weights, ``faces`` together with ``points``,
+        ``weights`` with ``hard=True``, bad ``align`` or ``align_weights``.
+    DirectionCountError
+        n not an integer ≥ 1, or ``align="curvature"`` with an odd n.
 
     Warns
     -----
     UnconstrainedComponentWarning
-        A connected component (of the faces coupled by L) carries no constraint; the field
-        is zero on it (the minimiser of least norm).
+        A connected component (of the faces coupled by L) carries no constraint and no
+        positive alignment weight; the field is zero on it (the minimiser of least norm).
 
     Notes
     -----
-    Soft: (L + [w A_F]_C) z = [w A_F]_C τ. Hard: z_C = τ_C and L_FF z_F = −L_FC τ_C.
-    Both systems are Hermitian positive definite on every component with a constraint
-    (a parallel field never vanishes), solved by sparse LU. The soft solution is linear in
-    the targets; with a single constraint on a flat mesh both give the constant field.
+    Soft: (L_N + [w A_F]_C + β[ω A_F]) z = [w A_F]_C τ + β[ω A_F] τ_align. Hard:
+    z_C = τ_C and the same system on the free faces, moving L_FC τ_C to the right side.
+    Both systems are Hermitian positive definite on every component with a constraint,
+    solved by one sparse Cholesky factorization (:mod:`fvf.numerics.cholesky`; SuperLU
+    without the ``[fast]`` extra). The soft solution is linear in the targets; with a
+    single constraint on a flat mesh both give the constant field.
 
     Examples
     --------
@@ -440,71 +542,78 @@ def design_field(
     True
     """
     kind = _check_kind(kind)
+    n = as_direction_count(n)
+    report = make_progress(progress)
     if points is not None:
         if faces is not None:
             raise ConstraintError("give either faces or points, not both.")
         faces, _ = closest_faces(mesh, points)
-    if faces is None and directions is None:
-        if weights is not None:
-            raise ConstraintError("weights were given without constraints.")
-        return smoothest_fields(mesh, 1, kind)[1][0]
-    if faces is None or directions is None:
+    if (faces is None) != (directions is None):
         raise ConstraintError("faces (or points) and directions must be given together.")
-    f, tau = constraint_targets(mesh, faces, directions, normalize)
-    if f.size == 0:
-        return design_field(mesh, kind=kind)
-    L = connection_laplacian(mesh, kind)
-    m = mesh.n_faces
-    A = mesh.face_areas
+    if faces is None and weights is not None:
+        raise ConstraintError("weights were given without constraints.")
     if hard and weights is not None:
         raise ConstraintError("weights apply to soft constraints only (hard=False).")
-    if weights is None:
-        w = SOFT_WEIGHT * L.diagonal().real[f] / A[f]
+    f = np.zeros(0, dtype=np.int64)
+    tau = np.zeros(0, dtype=complex)
+    if faces is not None:
+        f, tau = constraint_targets(mesh, faces, directions, normalize)
+    if f.size == 0 and align is None:
+        return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
+    report("assemble", 0, 1)
+    L = connection_laplacian(mesh, kind, n)
+    m = mesh.n_faces
+    A = mesh.face_areas
+    pen = np.zeros(m)
+    rhs = np.zeros(m, dtype=complex)
+    seeds = f
+    if align is not None:
+        beta = _nonnegative(align_strength, "align_strength")
+        t_align, omega = alignment_targets(mesh, align, n, align_weights)
+        pen += beta * omega * A
+        rhs += beta * omega * A * t_align
+        seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
+    if f.size:
+        w = _soft_weights(mesh, L, f, None if hard else weights)
+        _, first = np.unique(f, return_index=True)
+        given = tau if first.size == f.size else tau[first]  # _merge_duplicates' order
+        f, tau_n, w = _merge_duplicates(f, _power(tau, n), w)
+        tau = given
     else:
-        w = np.asarray(weights, dtype=float)
-        if w.ndim > 1 or w.size not in (1, f.size):
-            raise ConstraintError(
-                f"weights must be a scalar or have shape ({f.size},), one per constraint; got "
-                f"shape {w.shape}."
-            )
-        w = np.broadcast_to(w.reshape(-1), f.shape).copy()
-        bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
-        if bad.size:
-            raise ConstraintError(
-                f"weights must be finite and > 0; constraints {format_indices(bad)} are not."
-            )
-    f, tau, w = _merge_duplicates(f, tau, w)
-
-    # components of the coupling graph without constraints get the zero field
-    pattern = sp.csr_array((np.ones(L.nnz), L.indices, L.indptr), shape=L.shape)
-    _, label = connected_components(pattern, directed=False)
-    has = np.zeros(label.max() + 1, dtype=bool)
-    has[label[f]] = True
-    active = has[label]
-    if not active.all():
-        free = np.flatnonzero(~active)
+        tau_n, w = tau, np.zeros(0)
+    report("assemble", 1, 1)
+    if seeds.size == 0:
         warnings.warn(
-            f"faces {format_indices(free)} lie in components of the mesh without "
-            "constraints; the field is zero there. Fix: add a constraint per component.",
+            "the alignment weights are zero on every face (e.g. a flat or umbilic surface "
+            "with align='curvature'); returning the smoothest field. Fix: add constraints "
+            "or give align_weights.",
             UnconstrainedComponentWarning,
             stacklevel=2,
         )
-    z = np.zeros(m, dtype=complex)
+        return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
+    active = _active_faces(L, seeds)
     if hard:
-        fixed = np.zeros(m, dtype=bool)
-        fixed[f] = True
-        z[f] = tau
-        rest = np.flatnonzero(active & ~fixed)
-        if rest.size:
-            Lrr = L[rest][:, rest]
-            rhs = -(L[rest][:, f] @ tau)
-            z[rest] = _solve(Lrr, rhs)
+        fixed, tau_fixed = f, tau_n
     else:
-        idx = np.flatnonzero(active)
-        pen = np.zeros(m)
-        pen[f] = w * A[f]
-        S = L[idx][:, idx] + sp.diags_array(pen[idx])
-        rhs = np.zeros(m, dtype=complex)
-        rhs[f] = w * A[f] * tau
-        z[idx] = _solve(S, rhs[idx])
-    return mesh.from_complex(z)
+        fixed, tau_fixed = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=complex)
+        pen[f] += w * A[f]
+        rhs[f] += w * A[f] * tau_n
+    report("solve", 0, 1)
+    z = _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend)
+    report("solve", 1, 1)
+    if n == 1:
+        return mesh.from_complex(z)
+    root = np.abs(z) * np.exp(1j * np.angle(z) / n)
+    if f.size:
+        root[f] = tau if hard else _nearest_root(z[f], tau, n)
+    return mesh.from_complex(root)
+
+
+def _nonnegative(x, name: str) -> float:
+    try:
+        x = float(x)
+    except (TypeError, ValueError) as exc:
+        raise ConstraintError(f"{name} must be a finite number >= 0; got {x!r}.") from exc
+    if not (np.isfinite(x) and x >= 0):
+        raise ConstraintError(f"{name} must be a finite number >= 0; got {x!r}.")
+    return x

@@ -38,7 +38,13 @@ from ..errors import (
     format_indices,
 )
 from ..mesh.convert import takes_mesh
-from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
+from ..mesh.inputs import (
+    TangentPolicy,
+    as_direction_count,
+    as_face_field,
+    as_vertex_function,
+    unit_scale,
+)
 from ..mesh.trimesh import _cross
 
 if TYPE_CHECKING:
@@ -112,6 +118,7 @@ def vertex_indices(
     mesh: TriMesh,
     u: npt.ArrayLike,
     *,
+    n: int = 1,
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
@@ -140,11 +147,22 @@ def vertex_indices(
     (discrete Gauss–Bonnet + Poincaré–Hopf). The computation is vectorised: per-edge
     and per-corner terms are accumulated with ``np.bincount``.
 
+    **N-direction fields** (``n = N ≥ 2``; u holds one representative vector per face,
+    the other directions being its rotations by 2πj/N): the turning across each edge is
+    taken modulo 2π/N, i.e. ``wrap`` is replaced by the shortest rotation between the two
+    N-direction sets, ``δ = φ − (2π/N) rint(N φ / 2π)`` with φ the 1-field turning, and
+    the index is a multiple of 1/N (``N ind_v`` an integer). The period jumps
+    ``rint(N φ / 2π) mod N`` are :func:`fvf.period_jumps`. Poincaré–Hopf holds exactly in
+    the same way: the N-indices sum to chi.
+
     Parameters
     ----------
     mesh : TriMesh
     u : array_like, float (m, 3) or (3m,)
-        One tangent vector per face. Only the tangential part enters the angles.
+        One tangent vector per face (for n ≥ 2, one representative per face). Only the
+        tangential part enters the angles.
+    n : int
+        Symmetry order N ≥ 1 of the field (default 1: a vector field).
     zero : {"raise", "warn"}
         What to do when some faces have a zero vector (tangential length at most
         ``zero_rtol`` times the largest one; an all-zero field counts as zero
@@ -160,8 +178,9 @@ def vertex_indices(
 
     Returns
     -------
-    ndarray, int64 (n,)
-        The index at each vertex. **Boundary vertices get 0**: no closed loop of faces
+    ndarray, int64 (n,) for n = 1; float64 (n,) for n ≥ 2
+        The index at each vertex; for n ≥ 2 the values k/N (``rint(N * ind)`` gives the
+        exact integers k). **Boundary vertices get 0**: no closed loop of faces
         surrounds them, so their index is not defined; a singularity on the boundary
         is therefore not reported, and Poincaré–Hopf (sum = chi) holds only on closed
         meshes.
@@ -187,6 +206,7 @@ def vertex_indices(
     -1
     """
     _check_zero_policy(zero)
+    order = as_direction_count(n)
     u = as_face_field(mesh, u, "u", tangent=tangent)
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
     n = mesh.n_vertices
@@ -213,11 +233,13 @@ def vertex_indices(
     # b the same edge is crossed from s0 into s1.
     z = complex_angle(s0) * np.conj(complex_angle(s1))
     delta = _wrap(np.arctan2(z.imag, z.real))
+    if order != 1:  # shortest rotation between the two N-direction sets
+        delta = delta - (TWO_PI / order) * np.rint(order * delta / TWO_PI)
     turning = np.bincount(a, weights=delta, minlength=n) - np.bincount(
         b, weights=delta, minlength=n
     )
 
-    index = np.rint((turning + _angle_defects(mesh)) / TWO_PI).astype(np.int64)
+    index = np.rint(order * (turning + _angle_defects(mesh)) / TWO_PI).astype(np.int64)
     index[mesh.boundary_vertices] = 0
 
     if is_zero.any():
@@ -235,7 +257,7 @@ def vertex_indices(
             )
         warnings.warn(msg + "; their index was set to 0.", ZeroFieldWarning, stacklevel=2)
         index[verts] = 0
-    return index
+    return index if order == 1 else index / order
 
 
 @takes_mesh
@@ -243,6 +265,7 @@ def singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
     *,
+    n: int = 1,
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
@@ -253,7 +276,9 @@ def singularities(
     ----------
     mesh : TriMesh
     u : array_like, float (m, 3) or (3m,)
-        One tangent vector per face.
+        One tangent vector per face (one representative per face for n ≥ 2).
+    n : int
+        Symmetry order N ≥ 1 (1 vector, 2 line, 4 cross, …).
     zero, zero_rtol, tangent
         As in :func:`vertex_indices`.
 
@@ -261,8 +286,11 @@ def singularities(
     -------
     vertex_ids : ndarray, int64 (s,)
         Sorted ids of the vertices with non-zero index (never boundary vertices).
-    indices : ndarray, int64 (s,)
-        Their indices (:func:`vertex_indices`); on a closed mesh they sum to chi.
+    indices : ndarray, int64 (s,) for n = 1, float64 (s,) multiples of 1/N for n ≥ 2
+        Their indices (:func:`vertex_indices`); on a closed mesh they sum to chi
+        (Poincaré–Hopf). On a mesh with boundary, boundary vertices are never reported
+        (no loop of faces surrounds them) and the interior indices sum to chi minus the
+        boundary's share, which depends on how the field meets the boundary.
 
     Examples
     --------
@@ -273,7 +301,7 @@ def singularities(
     >>> ids.tolist(), ind.tolist()
     ([0], [1])
     """
-    index = vertex_indices(mesh, u, zero=zero, zero_rtol=zero_rtol, tangent=tangent)
+    index = vertex_indices(mesh, u, n=n, zero=zero, zero_rtol=zero_rtol, tangent=tangent)
     ids = np.flatnonzero(index).astype(np.int64)
     return ids, index[ids]
 

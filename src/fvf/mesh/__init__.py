@@ -7,6 +7,7 @@ Where things go: a new mesh quality check goes to :mod:`.diagnostics`, a new rep
 
 from .builtin import spot, spot_path
 from .convert import as_mesh, takes_mesh
+from .curvature import PrincipalCurvatures, principal_curvatures, vertex_normals
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
 from .repair import (
@@ -27,6 +28,9 @@ __all__ = [
     "TriMesh",
     "as_mesh",
     "takes_mesh",
+    "PrincipalCurvatures",
+    "principal_curvatures",
+    "vertex_normals",
     "as_vertex_function",
     "as_face_function",
     "as_face_field",

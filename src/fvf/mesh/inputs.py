@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import (
+    DirectionCountError,
     FieldShapeError,
     FieldValueError,
     NonTangentFieldWarning,
@@ -42,6 +43,7 @@ __all__ = [
     "as_vertex_function",
     "as_face_function",
     "as_face_field",
+    "as_direction_count",
     "TANGENT_RTOL",
     "tangent_rtol",
     "check_tangent_policy",
@@ -290,3 +292,24 @@ def as_face_field(
     )
     a = a - normal[:, None] * N
     return a
+
+
+def as_direction_count(n, name: str = "n") -> int:
+    """Check the symmetry order N of an N-direction field: an integer >= 1.
+
+    Integral floats (``4.0``) are accepted; booleans, fractions, strings and N < 1 are not.
+
+    Raises
+    ------
+    DirectionCountError
+        Naming the value and the fix.
+    """
+    ok = isinstance(n, int | np.integer) and not isinstance(n, bool | np.bool_)
+    if not ok and isinstance(n, float | np.floating) and float(n).is_integer():
+        n, ok = int(n), True
+    if not ok or int(n) < 1:
+        raise DirectionCountError(
+            f"{name} (the number of directions of the field) must be an integer >= 1, e.g. "
+            f"1 (vector), 2 (line), 4 (cross) or 6; got {n!r}."
+        )
+    return int(n)

@@ -1,0 +1,208 @@
+"""Sparse Hermitian positive definite factorizations with optional fast backends.
+
+One entrance, :func:`factor_hermitian`, factors a sparse Hermitian (complex) or symmetric
+(real) positive definite matrix K once and returns a :class:`HermitianFactor` whose
+``solve`` applies K⁻¹ to one or many right-hand sides. Three backends:
+
+``"cholmod"``
+    CHOLMOD's supernodal Cholesky through scikit-sparse (``sksparse.cholmod``), complex
+    arithmetic, CHOLMOD's own fill-reducing ordering. Optional extra ``[fast]``.
+``"cholespy"``
+    CHOLMOD bundled in the ``cholespy`` wheel (real arithmetic only): a complex K is
+    factored through its real (2n, 2n) form ``[[Re, −Im], [Im, Re]]`` on interleaved
+    ``[Re z0, Im z0, Re z1, …]`` unknowns. Optional extra ``[fast]``.
+``"scipy"``
+    SuperLU (``scipy.sparse.linalg.splu``) in symmetric mode with diagonal pivots after a
+    nested-dissection ordering (:func:`fvf.numerics.ordering.nested_dissection`) from
+    :data:`ND_MIN` unknowns on (minimum degree below). Always available; stores both L and
+    U, so it needs about twice the memory of a Cholesky factor.
+
+``backend="auto"`` takes the first of ``"cholmod"``, ``"cholespy"``, ``"scipy"`` that
+imports. Which is fastest here is measured by ``benchmarks/bench_nfields.py``.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import MissingExtraError, ParameterError
+from .ordering import nested_dissection
+
+__all__ = ["BACKENDS", "HermitianFactor", "factor_hermitian", "available_backends", "ND_MIN"]
+
+Backend = Literal["auto", "cholmod", "cholespy", "scipy"]
+#: Accepted values of ``backend``.
+BACKENDS: tuple[str, ...] = ("auto", "cholmod", "cholespy", "scipy")
+#: The scipy backend orders by nested dissection from this many unknowns on.
+ND_MIN = 30_000
+
+
+def _has(module: str) -> bool:
+    try:
+        __import__(module)
+    except Exception:  # noqa: BLE001 (ImportError, or a binary built for another numpy)
+        return False
+    return True
+
+
+def available_backends() -> tuple[str, ...]:
+    """The backends that import here, fastest first (``"scipy"`` always last)."""
+    out = []
+    if _has("sksparse.cholmod"):
+        out.append("cholmod")
+    if _has("cholespy"):
+        out.append("cholespy")
+    return (*out, "scipy")
+
+
+def _lower(K: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """int32 rows, cols and float64 values of the lower triangle of a real K."""
+    L = sp.coo_array(sp.tril(K))
+    return L.row.astype(np.int32), L.col.astype(np.int32), np.ascontiguousarray(L.data, float)
+
+
+def _real_lower(K: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lower triangle of the real form of a Hermitian K, built without the full form.
+
+    An entry x + iy below the diagonal gives four real entries (all below the diagonal);
+    a diagonal entry x (real) gives (2r, 2r) and (2r+1, 2r+1) = x (and (2r+1, 2r) = 0).
+    """
+    C = sp.coo_array(sp.tril(K, k=-1))
+    r, c = C.row.astype(np.int32), C.col.astype(np.int32)
+    x, y = C.data.real, C.data.imag
+    d = K.diagonal().real
+    i = np.arange(d.size, dtype=np.int32)
+    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1, 2 * i, 2 * i + 1])
+    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1, 2 * i, 2 * i + 1])
+    data = np.concatenate([x, -y, y, x, d, d])
+    return rows, cols, data
+
+
+class HermitianFactor:
+    """A factorization of a Hermitian positive definite K; ``solve`` applies K⁻¹.
+
+    Attributes
+    ----------
+    backend : str
+        ``"cholmod"``, ``"cholespy"`` or ``"scipy"``.
+    complex : bool
+        True when K was complex.
+    shape : tuple of int
+    """
+
+    def __init__(self, backend: str, solve, shape, is_complex: bool) -> None:
+        self.backend = backend
+        self._solve = solve
+        self.shape = shape
+        self.complex = is_complex
+
+    def solve(self, B: np.ndarray) -> np.ndarray:
+        """K⁻¹ B for B of shape (n,) or (n, p); complex128 if K is complex, else float64."""
+        B = np.asarray(B)
+        dtype = np.complex128 if self.complex else np.float64
+        return self._solve(np.asarray(B, dtype=dtype))
+
+
+def _cholmod(K: sp.sparray, is_complex: bool) -> HermitianFactor:
+    from sksparse.cholmod import cholesky
+
+    fac = cholesky(sp.csc_matrix(K))
+
+    def solve(B):
+        return np.asarray(fac(B))
+
+    return HermitianFactor("cholmod", solve, K.shape, is_complex)
+
+
+def _cholespy(K: sp.sparray, is_complex: bool) -> HermitianFactor:
+    from cholespy import CholeskySolverD, MatrixType
+
+    rows, cols, data = _real_lower(K) if is_complex else _lower(K)
+    n = 2 * K.shape[0] if is_complex else K.shape[0]
+    fac = CholeskySolverD(n, rows, cols, data, MatrixType.COO)  # CHOLMOD reads the lower part
+    del rows, cols, data
+
+    def solve_real(b):
+        b = np.ascontiguousarray(b, dtype=np.float64)
+        x = np.empty_like(b)
+        fac.solve(b, x)
+        return x
+
+    if not is_complex:
+        return HermitianFactor("cholespy", solve_real, K.shape, False)
+
+    def solve(B):
+        shape = B.shape
+        b = B.reshape(shape[0], -1)
+        inter = np.empty((2 * shape[0], b.shape[1]))
+        inter[0::2], inter[1::2] = b.real, b.imag
+        x = solve_real(inter)
+        return (x[0::2] + 1j * x[1::2]).reshape(shape)
+
+    return HermitianFactor("cholespy", solve, K.shape, True)
+
+
+def _superlu(K: sp.sparray, is_complex: bool) -> HermitianFactor:
+    n = K.shape[0]
+    perm, spec = None, "MMD_AT_PLUS_A"
+    if n >= ND_MIN:
+        perm = nested_dissection(K)
+        K = sp.csr_array(K)[perm][:, perm]
+        spec = "NATURAL"
+    lu = spla.splu(
+        sp.csc_matrix(K),
+        permc_spec=spec,
+        diag_pivot_thresh=0.0,
+        options=dict(SymmetricMode=True),
+    )
+
+    def solve(B):
+        if perm is None:
+            return lu.solve(B)
+        X = np.empty(B.shape, dtype=B.dtype)
+        X[perm] = lu.solve(np.asfortranarray(B[perm]))
+        return X
+
+    return HermitianFactor("scipy", solve, K.shape, is_complex)
+
+
+_BUILDERS = {"cholmod": _cholmod, "cholespy": _cholespy, "scipy": _superlu}
+
+
+def factor_hermitian(K: sp.sparray | sp.spmatrix, backend: Backend = "auto") -> HermitianFactor:
+    """Factor a sparse Hermitian (or real symmetric) positive definite matrix once.
+
+    Parameters
+    ----------
+    K : sparse (n, n), complex128 or float64
+        Hermitian positive definite (only its values are used; it is not checked).
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        See the module docstring; ``"auto"`` takes the first one that imports.
+
+    Returns
+    -------
+    HermitianFactor
+
+    Raises
+    ------
+    ParameterError
+        Unknown backend.
+    MissingExtraError
+        The requested backend's package is not installed (extra ``[fast]``).
+    """
+    if backend not in BACKENDS:
+        raise ParameterError(f"backend must be one of {BACKENDS}; got {backend!r}")
+    if backend == "auto":
+        backend = available_backends()[0]
+    elif backend != "scipy" and backend not in available_backends():
+        package = "scikit-sparse" if backend == "cholmod" else "cholespy"
+        raise MissingExtraError(
+            f"backend={backend!r} needs {package}: pip install 'fvf[fast]' (or pip install "
+            f"{package}), or use backend='scipy'."
+        )
+    is_complex = np.iscomplexobj(K.data) if sp.issparse(K) else np.iscomplexobj(K)
+    return _BUILDERS[backend](sp.csr_array(K), bool(is_complex))
