@@ -196,6 +196,7 @@ def test_fallback_when_factorization_fails(monkeypatch):
         raise eigen._MethodFailed("factorization of W - sigma*M failed (forced in test)")
 
     monkeypatch.setattr(eigen, "factor_spd", broken)
+    monkeypatch.setattr(eigen, "_fast_factor", lambda K, seed: None)  # (no fast backend)
     with pytest.warns(SpectralFallbackWarning, match="'krylov' failed.*falling back to 'eigsh'"):
         lam, X = smallest_eigenpairs(W, mass, 10, method="krylov")
     np.testing.assert_allclose(lam, expected, rtol=1e-9, atol=1e-9)
@@ -321,3 +322,20 @@ def test_spd_factor_solves_in_float64_and_ordering_is_validated():
         assert x.dtype == np.float64 and np.abs(K @ x - b).max() < 1e-9 * b.max()
     with pytest.raises(fvf.numerics.eigen.SpectralInputError, match="ordering"):
         smallest_eigenpairs(W, mass, 4, method="dense", ordering="bogus")
+
+
+def test_fast_cholesky_is_used_when_installed_and_refuses_indefinite_matrices():
+    """With a fast Cholesky backend (the [fast] extra) the shift-invert solves use it; a
+    matrix that is not positive definite is caught by the solve's own residual, so the
+    SuperLU path (with its pivot check and the fallback chain) takes over."""
+    from fvf.numerics.cholesky import available_backends
+
+    if available_backends() == ("scipy",):
+        pytest.skip("no fast Cholesky backend installed (extra [fast])")
+    W, mass = problem(fvf.jittered_sphere(3, 0.3, seed=1))
+    K = sp.csc_array(W + 1e-3 * sp.diags_array(mass))
+    fac = eigen._fast_factor(K, seed=0)
+    assert fac is not None and fac.backend != "scipy"
+    b = np.random.default_rng(1).standard_normal(K.shape[0])
+    assert np.linalg.norm(K @ fac.solve(b) - b) <= 1e-10 * np.linalg.norm(b)
+    assert eigen._fast_factor(sp.csc_array(W - 5.0 * sp.diags_array(mass)), seed=0) is None
