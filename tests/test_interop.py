@@ -103,6 +103,18 @@ def test_as_mesh_pyfm():
     assert np.allclose(fvf.vertex_areas(m), ico.vertex_areas)
 
 
+RESULTS = {"FluidResult", "LicTexture"}  # results holding a mesh, not entrances
+
+
+def _required_after_mesh(fn) -> int:
+    """How many required positional parameters ``fn`` has after its mesh."""
+    target = fn.__init__ if inspect.isclass(fn) else fn
+    params = list(inspect.signature(target).parameters.values())
+    params = params[1:] if inspect.isclass(fn) else params
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return sum(p.kind in kinds and p.default is inspect.Parameter.empty for p in params[1:])
+
+
 def _mesh_entrances() -> list[tuple[str, object]]:
     """Every public callable (flat namespace, fvf.viz) whose first parameter is a mesh."""
     out = []
@@ -117,7 +129,7 @@ def _mesh_entrances() -> list[tuple[str, object]]:
             except (TypeError, ValueError):
                 continue
             params = params[1:] if inspect.isclass(obj) else params
-            if params[:1] == ["mesh"] and name != "FluidResult":  # a result, not an entrance
+            if params[:1] == ["mesh"] and name not in RESULTS:
                 out.append((f"{space.__name__}.{name}", obj))
     return out
 
@@ -125,9 +137,10 @@ def _mesh_entrances() -> list[tuple[str, object]]:
 @pytest.mark.parametrize("name,fn", _mesh_entrances(), ids=[n for n, _ in _mesh_entrances()])
 def test_every_public_entrance_calls_as_mesh(name, fn):
     """docs/architecture.md: every public entrance converts its mesh with as_mesh first,
-    so a foreign object gives as_mesh's TypeError (no AttributeError 'cached')."""
+    so a foreign object gives as_mesh's TypeError (no AttributeError 'cached'), before any
+    other argument is looked at (here all None)."""
     with pytest.raises(TypeError, match=r"as_mesh: got builtins\.object"):
-        fn(object())
+        fn(object(), *[None] * _required_after_mesh(fn))
 
 
 # ---------------------------------------------------------------------------- soups, seams

@@ -66,7 +66,9 @@ def read_text(tmp_path, name, text):
 
 
 def test_public_api():
-    assert io.__all__ == ["read_mesh", "write_mesh"]
+    assert io.__all__[:2] == ["read_mesh", "write_mesh"]
+    assert {"read_quad_mesh", "write_quad_mesh", "write_uv_mesh"} <= set(io.__all__)
+    assert all(getattr(io, name) is getattr(fvf.io, name) for name in io.__all__)
     assert fvf.PolygonTriangulatedWarning is io.PolygonTriangulatedWarning
     assert issubclass(MeshReadError, ValueError)
 
