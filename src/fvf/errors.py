@@ -50,6 +50,11 @@ __all__ = [
     "MissingExtraError",
     "NoDisplayError",
     "RenderBackendWarning",
+    "CorrespondenceError",
+    "LandmarkError",
+    "BasisSizeError",
+    "DisconnectedMeshError",
+    "NotEnoughEigenpairsError",
     "format_indices",
 ]
 
@@ -226,6 +231,27 @@ class NoDisplayError(FvfError):
 
 class RenderBackendWarning(FvfWarning):
     """A rendering backend failed to start; fvf fell back to the next one."""
+
+
+# ---------------------------------------------------------------------------- correspondence
+class CorrespondenceError(FvfError):
+    """Bad input to shape correspondence (descriptors, functional-map fitting, matching)."""
+
+
+class LandmarkError(CorrespondenceError):
+    """Landmark vertex indices out of range, repeated, or not paired between the meshes."""
+
+
+class BasisSizeError(CorrespondenceError):
+    """A spectral basis, descriptor array or functional map has other sizes than asked."""
+
+
+class DisconnectedMeshError(CorrespondenceError):
+    """A mesh to match has several connected components (one shape is expected)."""
+
+
+class NotEnoughEigenpairsError(CorrespondenceError):
+    """A mesh has too few vertices for the number of eigenfunctions asked for."""
 
 
 def user_stacklevel() -> int:

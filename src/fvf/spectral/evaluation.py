@@ -1,0 +1,236 @@
+"""Evaluating vertex maps: geodesic distances, geodesic errors, cumulative error curves.
+
+The field's standard accuracy of a map p2p_21 (mesh 2 -> mesh 1) against a ground truth
+gt_21 is the geodesic distance on mesh 1 between the predicted and the true image of each
+vertex of mesh 2, divided by √(area of mesh 1) (Kim et al. 2011; Ovsjanikov et al. 2012).
+
+Geodesic distances are approximated on the mesh, two ways:
+
+- ``"dijkstra"``: shortest paths along edges (:func:`scipy.sparse.csgraph.dijkstra`). Exact
+  for vertices joined by an edge and never below the true distance; paths that zigzag
+  along edges are longer than the straight geodesic, by a few percent on average.
+- ``"heat"``: the heat method (Crane et al. 2013) with fvf's own calculus: heat
+  u = (A_V + t W)⁻¹ δ_s for a short time t = h² (h the mean edge length), the unit field
+  X = −grad u / |grad u|, and the distance φ with W φ = gradᵀ[A_F] X (the least-squares fit
+  grad φ ≈ X), shifted so that φ(s) = 0. Smooth and accurate far from the source, but it
+  smooths the distance within a few edges of it.
+
+``docs/correspondence.md`` lists both against exact polyhedral geodesics (the MMP
+algorithm of pygeodesic, test-only) on the correspondence data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+import scipy.sparse.linalg as spla
+
+from ..calculus import grad, stiffness
+from ..errors import FieldShapeError, ParameterError, format_indices
+from ..mesh.trimesh import TriMesh
+from .fmaps import check_p2p
+
+__all__ = [
+    "geodesic_distances",
+    "geodesic_errors",
+    "mean_geodesic_error",
+    "cumulative_error_curve",
+    "GEODESIC_METHODS",
+]
+
+GEODESIC_METHODS = ("dijkstra", "heat")
+
+#: Sources per batch of the heat method (two sparse solves with this many right-hand sides).
+HEAT_BATCH = 256
+
+
+def _edge_graph(mesh: TriMesh) -> sp.csr_array:
+    """Symmetric sparse (n, n) graph of the edges, weighted by their lengths."""
+
+    def build():
+        E = mesh.edges
+        w = np.linalg.norm(mesh.vertices[E[:, 0]] - mesh.vertices[E[:, 1]], axis=1)
+        n = mesh.n_vertices
+        G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+        return (G + G.T).tocsr()
+
+    return mesh.cached("edge_graph", build)
+
+
+class _HeatSolver:
+    """The two factorizations of the heat method, reused for every batch of sources."""
+
+    def __init__(self, mesh: TriMesh, time_factor: float = 1.0) -> None:
+        self.mesh = mesh
+        W = stiffness(mesh).tocsc()
+        t = time_factor * mesh.mean_edge_length**2
+        self.heat = spla.splu((sp.diags_array(mesh.vertex_areas) + t * W).tocsc())
+        n = mesh.n_vertices
+        # W is singular (constants); ground vertex 0 of every component-free system
+        keep = np.arange(1, n)
+        self.poisson = spla.splu(W[keep][:, keep].tocsc())
+        self.G = grad(mesh)
+        self.GtA = (self.G.T @ sp.diags_array(np.repeat(mesh.face_areas, 3))).tocsr()
+
+    def distances(self, sources: np.ndarray) -> np.ndarray:
+        """Distance fields (n, s) of the given source vertices."""
+        n, m = self.mesh.n_vertices, self.mesh.n_faces
+        delta = np.zeros((n, sources.size))
+        delta[sources, np.arange(sources.size)] = 1.0
+        u = self.heat.solve(delta)
+        g = (self.G @ u).reshape(m, 3, -1)
+        norm = np.linalg.norm(g, axis=1, keepdims=True)
+        X = -np.divide(g, norm, out=np.zeros_like(g), where=norm > 0)
+        b = self.GtA @ X.reshape(3 * m, -1)  # gradᵀ [A_F] X, (n, s)
+        phi = np.zeros((n, sources.size))
+        phi[1:] = self.poisson.solve(b[1:])
+        phi -= phi[sources, np.arange(sources.size)][None, :]
+        return phi
+
+
+def _check_sources(mesh: TriMesh, sources: npt.ArrayLike, name: str) -> np.ndarray:
+    s = np.atleast_1d(np.asarray(sources))
+    if s.ndim != 1 or not np.issubdtype(s.dtype, np.integer):
+        raise FieldShapeError(f"{name} must be integer vertex indices; got {s.dtype} {s.shape}")
+    bad = np.flatnonzero((s < 0) | (s >= mesh.n_vertices))
+    if bad.size:
+        raise FieldShapeError(
+            f"{name} at positions {format_indices(bad)} are outside [0, {mesh.n_vertices})"
+        )
+    return s.astype(np.int64)
+
+
+def geodesic_distances(
+    mesh: TriMesh, sources: npt.ArrayLike, *, method: str = "dijkstra"
+) -> np.ndarray:
+    """Approximate geodesic distances from source vertices to every vertex.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    sources : array_like of int (s,)
+    method : {"dijkstra", "heat"}
+        See the module docstring for what each approximates and how well.
+
+    Returns
+    -------
+    float64 (s, n)
+        Row i: distances from ``sources[i]``; ``inf`` for vertices in another component
+        (``"dijkstra"``).
+
+    Raises
+    ------
+    FieldShapeError
+        A source outside [0, n).
+    ParameterError
+        An unknown method.
+    """
+    s = _check_sources(mesh, sources, "sources")
+    if method == "dijkstra":
+        return csgraph.dijkstra(_edge_graph(mesh), directed=False, indices=s)
+    if method != "heat":
+        raise ParameterError(f"method must be one of {GEODESIC_METHODS}; got {method!r}")
+    solver = mesh.cached("heat_geodesic_solver", lambda: _HeatSolver(mesh))
+    out = np.empty((s.size, mesh.n_vertices))
+    for start in range(0, s.size, HEAT_BATCH):
+        out[start : start + HEAT_BATCH] = solver.distances(s[start : start + HEAT_BATCH]).T
+    return out
+
+
+def geodesic_errors(
+    mesh_1: TriMesh,
+    p2p_21: npt.ArrayLike,
+    gt_p2p_21: npt.ArrayLike,
+    *,
+    method: str = "dijkstra",
+    normalize: bool = True,
+) -> np.ndarray:
+    """Per-vertex geodesic error of a vertex map against a ground-truth map.
+
+    Parameters
+    ----------
+    mesh_1 : TriMesh
+        The mesh both maps land on (n_1 vertices).
+    p2p_21 : array_like of int (n_2,)
+        Predicted image on mesh 1 of each vertex of mesh 2.
+    gt_p2p_21 : array_like of int (n_2,)
+        True images (same convention).
+    method : {"dijkstra", "heat"}
+        Geodesic approximation (:func:`geodesic_distances`).
+    normalize : bool
+        Divide by √(area of mesh 1), the field's standard.
+
+    Returns
+    -------
+    float64 (n_2,)
+        d_1(p2p_21[j], gt_p2p_21[j]) (/ √area_1): one distance field per distinct true
+        image, evaluated at the predicted one.
+
+    Raises
+    ------
+    FieldShapeError
+        Maps of different lengths or with entries outside [0, n_1).
+    """
+    gt = np.asarray(gt_p2p_21)
+    n2 = gt.shape[0] if gt.ndim == 1 else -1
+    gt = check_p2p(gt, mesh_1.n_vertices, n2)
+    p = check_p2p(p2p_21, mesh_1.n_vertices, gt.size)
+    sources, inverse = np.unique(gt, return_inverse=True)
+    err = np.empty(gt.size)
+    block = 512  # distance rows kept in memory at once
+    for start in range(0, sources.size, block):
+        rows = geodesic_distances(mesh_1, sources[start : start + block], method=method)
+        sel = (inverse >= start) & (inverse < start + block)
+        err[sel] = rows[inverse[sel] - start, p[sel]]
+    if normalize:
+        err /= np.sqrt(mesh_1.total_area)
+    return err
+
+
+def mean_geodesic_error(
+    mesh_1: TriMesh,
+    p2p_21: npt.ArrayLike,
+    gt_p2p_21: npt.ArrayLike,
+    *,
+    valid: npt.ArrayLike | None = None,
+    method: str = "dijkstra",
+) -> float:
+    """Mean of :func:`geodesic_errors` (normalized by √area_1) over the valid vertices.
+
+    Parameters
+    ----------
+    valid : array_like of bool (n_2,), optional
+        Vertices of mesh 2 that have a ground truth (default all).
+    """
+    gt = np.asarray(gt_p2p_21)
+    p = np.asarray(p2p_21)
+    if valid is not None:
+        valid = np.asarray(valid, dtype=bool)
+        if valid.shape != gt.shape:
+            raise FieldShapeError(f"valid must have shape {gt.shape}; got {valid.shape}")
+        gt, p = gt[valid], p[valid]
+    return float(geodesic_errors(mesh_1, p, gt, method=method).mean())
+
+
+def cumulative_error_curve(
+    errors: npt.ArrayLike, thresholds: npt.ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Fraction of vertices with error at most each threshold (the correspondence curve).
+
+    Parameters
+    ----------
+    errors : array_like (n,)
+        Normalized geodesic errors.
+    thresholds : array_like (T,), optional
+        Default 101 values in [0, 0.25] (the usual range of the field's plots).
+
+    Returns
+    -------
+    thresholds : float64 (T,)
+    fraction : float64 (T,), non-decreasing in [0, 1]
+    """
+    e = np.sort(np.asarray(errors, dtype=float).ravel())
+    t = np.linspace(0.0, 0.25, 101) if thresholds is None else np.asarray(thresholds, float)
+    return t, np.searchsorted(e, t, side="right") / max(e.size, 1)
