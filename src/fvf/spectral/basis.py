@@ -95,6 +95,36 @@ class SpectralBasis:
             path.parent.mkdir(parents=True, exist_ok=True)
             np.savez(path, eigenvalues=self.eigenvalues, eigenvectors=self.eigenvectors)
 
+    @classmethod
+    def from_eigenpairs(
+        cls, mesh: TriMesh, eigenvalues: npt.ArrayLike, eigenvectors: npt.ArrayLike
+    ) -> SpectralBasis:
+        """A basis from eigenpairs computed elsewhere (no eigensolve, no check of them).
+
+        Parameters
+        ----------
+        mesh : TriMesh
+        eigenvalues : array_like (k,)
+        eigenvectors : array_like (n, k)
+            Expected A_V-orthonormal eigenvectors of L = −div grad on ``mesh``.
+
+        Raises
+        ------
+        FieldShapeError
+            Shapes that do not fit the mesh or each other.
+        """
+        lam = np.asarray(eigenvalues, dtype=float)
+        phi = np.asarray(eigenvectors, dtype=float)
+        if lam.ndim != 1 or phi.shape != (mesh.n_vertices, lam.size):
+            raise FieldShapeError(
+                f"eigenvectors must be ({mesh.n_vertices}, {lam.size}) for "
+                f"{lam.size} eigenvalues; got {phi.shape}"
+            )
+        out = object.__new__(cls)
+        out.mesh, out.k, out.tol = mesh, lam.size, float("nan")
+        out.eigenvalues, out.eigenvectors = lam, phi
+        return out
+
     def truncate(self, k: int) -> SpectralBasis:
         """The first k eigenpairs as a basis of its own (no eigensolve; arrays shared).
 

@@ -24,6 +24,7 @@ __all__ = [
     "p2p_from_functional_map",
     "functional_map_from_p2p",
     "nearest_rows",
+    "farthest_point_samples",
     "zoomout",
 ]
 
@@ -162,6 +163,43 @@ def _k_in(k: int, basis: SpectralBasis, name: str) -> int:
     return k
 
 
+def farthest_point_samples(points: npt.ArrayLike, count: int, start: int = 0) -> np.ndarray:
+    """Farthest-point sampling in Euclidean space: int64 (count,) row indices.
+
+    Greedy: each new sample is the point farthest from those chosen (Gonzalez 1985), so the
+    samples cover the shape evenly. Costs count passes over the points.
+
+    Parameters
+    ----------
+    points : float64 (n, d)
+    count : int
+        1 <= count; capped at n.
+    start : int
+        The first sample.
+    """
+    X = np.asarray(points, dtype=float)
+    count = min(int(count), X.shape[0])
+    if count < 1:
+        raise ParameterError(f"count must be >= 1; got {count}")
+    chosen = np.empty(count, dtype=np.int64)
+    chosen[0] = start
+    dist = np.linalg.norm(X - X[start], axis=1)
+    for i in range(1, count):  # a loop over samples, each a vectorized pass
+        chosen[i] = int(dist.argmax())
+        np.minimum(dist, np.linalg.norm(X - X[chosen[i]], axis=1), out=dist)
+    return chosen
+
+
+def _zoomout_sizes(C: np.ndarray, k_final: int, step: int) -> list[tuple[int, int]]:
+    """The (k_1, k_2) sizes ZoomOut passes through after the start, ending at k_final."""
+    k2, k1 = C.shape
+    sizes = []
+    while max(k1, k2) < k_final or k1 != k2:
+        k1, k2 = min(k1 + step, k_final), min(k2 + step, k_final)
+        sizes.append((k1, k2))
+    return sizes
+
+
 def zoomout(
     C_12: npt.ArrayLike,
     basis_1: SpectralBasis,
@@ -169,14 +207,14 @@ def zoomout(
     k_final: int | None = None,
     *,
     step: int = 1,
+    samples: int | tuple[np.ndarray, np.ndarray] | None = None,
     adjoint: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Refine a functional map by ZoomOut (Melzi et al. 2019).
 
     Starting from C_12 (k_2, k_1), repeat: p2p_21 = :func:`p2p_from_functional_map` (C);
-    C = :func:`functional_map_from_p2p` (p2p_21) with ``step`` more eigenpairs on each
-    side, until the size reaches ``k_final``; the returned vertex map is converted from
-    the final C.
+    C = the functional map of p2p_21 with ``step`` more eigenpairs on each side, until the
+    size reaches ``k_final``; the returned vertex map is converted from the final C.
 
     Parameters
     ----------
@@ -187,6 +225,13 @@ def zoomout(
         Final size (k_final, k_final); default the smaller basis size.
     step : int
         Eigenpairs added per iteration (>= 1).
+    samples : int or (int64 (s_1,), int64 (s_2,)), optional
+        Iterate on vertex samples only (Melzi et al. 2019, §5): the count of
+        :func:`farthest_point_samples` per mesh, or the sample indices. Each iteration
+        then matches samples of mesh 2 to samples of mesh 1 and fits C by least squares
+        Φ_2[s_2] C ≈ Φ_1[p] (needs more samples than k_final); the final vertex map is
+        computed on all vertices. None: every vertex, C by projection
+        (:func:`functional_map_from_p2p`).
     adjoint : bool
         Conversion variant, see :func:`p2p_from_functional_map`.
 
@@ -198,7 +243,7 @@ def zoomout(
     Raises
     ------
     BasisSizeError
-        k_final larger than a basis or smaller than C_12.
+        k_final larger than a basis or smaller than C_12, or fewer samples than k_final.
     ParameterError
         step < 1.
     """
@@ -211,9 +256,35 @@ def zoomout(
         )
     if int(step) < 1:
         raise ParameterError(f"step must be >= 1; got {step}")
-    k2, k1 = C.shape
-    while max(k1, k2) < k_final or k1 != k2:
-        p2p = p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint)
-        k1, k2 = min(k1 + step, k_final), min(k2 + step, k_final)
-        C = functional_map_from_p2p(p2p, basis_1, basis_2, (k1, k2))
+    sizes = _zoomout_sizes(C, k_final, int(step))
+    if samples is None:
+        for k1, k2 in sizes:
+            p2p = p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint)
+            C = functional_map_from_p2p(p2p, basis_1, basis_2, (k1, k2))
+    else:
+        C = _zoomout_on_samples(C, basis_1, basis_2, sizes, samples, adjoint)
     return C, p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint)
+
+
+def _zoomout_on_samples(C, basis_1, basis_2, sizes, samples, adjoint) -> np.ndarray:
+    """ZoomOut iterations restricted to vertex samples, C fitted by least squares."""
+    if np.isscalar(samples):
+        s1 = farthest_point_samples(basis_1.mesh.vertices, int(samples))
+        s2 = farthest_point_samples(basis_2.mesh.vertices, int(samples))
+    else:
+        s1, s2 = (np.asarray(s, dtype=np.int64) for s in samples)
+    k_final = sizes[-1][0] if sizes else C.shape[1]
+    if min(s1.size, s2.size) <= k_final:
+        raise BasisSizeError(
+            f"ZoomOut on samples needs more samples than k_final = {k_final}; got "
+            f"{s1.size} and {s2.size}. Fix: more samples, or samples=None."
+        )
+    P1, P2 = basis_1.eigenvectors[s1], basis_2.eigenvectors[s2]
+    for k1, k2 in sizes:
+        kc2, kc1 = C.shape
+        if adjoint:
+            p = nearest_rows(P1[:, :kc1], P2[:, :kc2] @ C)
+        else:
+            p = nearest_rows(P1[:, :kc1] @ C.T, P2[:, :kc2])
+        C = np.linalg.lstsq(P2[:, :k2], P1[p, :k1], rcond=None)[0]
+    return C
