@@ -8,6 +8,7 @@ Where things go: a new mesh quality check goes to :mod:`.diagnostics`, a new rep
 from .builtin import spot, spot_path
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
+from .prepared import PreparedMesh, prepare_mesh
 from .repair import (
     RepairResult,
     orient_faces,
@@ -27,6 +28,8 @@ __all__ = [
     "as_vertex_function",
     "as_face_function",
     "as_face_field",
+    "PreparedMesh",
+    "prepare_mesh",
     "RepairResult",
     "repair_mesh",
     "remove_unreferenced_vertices",

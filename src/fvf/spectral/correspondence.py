@@ -261,9 +261,7 @@ def _correspond(
     unit_2, basis_2 = (unit_1, basis_1) if p2 is None else _unit_area_basis(p2.mesh, k, "mesh_2")
     timings["bases"] = time.perf_counter() - t
     t = time.perf_counter()
-    d1, d2 = matching_descriptors(
-        unit_1, unit_2, n_descriptors=n_descriptors, landmarks=landmarks
-    )
+    d1, d2 = matching_descriptors(unit_1, unit_2, n_descriptors=n_descriptors, landmarks=landmarks)
     timings["descriptors"] = time.perf_counter() - t
     t = time.perf_counter()
     C_fit = fit_functional_map(unit_1, unit_2, d1, d2, k=k_fit, orientation=orientation, **weights)

@@ -43,6 +43,7 @@ __all__ = [
     "geodesic_errors",
     "mean_geodesic_error",
     "cumulative_error_curve",
+    "orientation_agreement",
     "GEODESIC_METHODS",
 ]
 
@@ -287,3 +288,34 @@ def cumulative_error_curve(
     e = np.sort(np.asarray(errors, dtype=float).ravel())
     t = np.linspace(0.0, 0.25, 101) if thresholds is None else np.asarray(thresholds, float)
     return t, np.searchsorted(e, t, side="right") / max(e.size, 1)
+
+
+def orientation_agreement(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLike) -> float:
+    """How much a vertex map preserves orientation: +1 preserving, −1 reversing.
+
+    Each face (j_0, j_1, j_2) of mesh 2 is sent to the triangle (x_{i_0}, x_{i_1}, x_{i_2})
+    of mesh-1 vertices, i = p2p_21[j]; its normal (x_{i_1} − x_{i_0}) × (x_{i_2} − x_{i_0})
+    is compared with the area-weighted normal of mesh 1 at those vertices. The result is
+    the area-weighted mean sign over the faces whose image is not degenerate (faces
+    mapped onto fewer than three vertices are skipped).
+
+    Parameters
+    ----------
+    mesh_1, mesh_2 : TriMesh
+    p2p_21 : array_like of int (n_2,)
+
+    Returns
+    -------
+    float in [−1, 1]; 0 when every image is degenerate.
+    """
+    p = check_p2p(p2p_21, mesh_1.n_vertices, mesh_2.n_vertices)
+    img = p[mesh_2.faces]  # (m_2, 3)
+    X = mesh_1.vertices
+    normal = np.cross(X[img[:, 1]] - X[img[:, 0]], X[img[:, 2]] - X[img[:, 0]])
+    vn = np.zeros((mesh_1.n_vertices, 3))
+    np.add.at(vn, mesh_1.faces.ravel(), np.repeat(mesh_1._face_cross, 3, axis=0))
+    ref = vn[img].sum(axis=1)  # (m_2, 3)
+    s = np.sign(np.einsum("ij,ij->i", normal, ref))
+    ok = (img[:, 0] != img[:, 1]) & (img[:, 1] != img[:, 2]) & (img[:, 2] != img[:, 0])
+    w = mesh_2.face_areas * ok
+    return float((w * s).sum() / w.sum()) if w.sum() > 0 else 0.0

@@ -261,7 +261,9 @@ class FunctionalMapEnergy:
             weights=dict(weights, orientation=orientation, laplacian=laplacian),
         )
         if w_dcomm > 0:
-            energy.add_pair(w_dcomm, descriptor_operators(basis_1, F), descriptor_operators(basis_2, G))
+            energy.add_pair(
+                w_dcomm, descriptor_operators(basis_1, F), descriptor_operators(basis_2, G)
+            )
         sign = ORIENTATIONS[orientation]
         if w_orient > 0 and sign != 0:
             P = orientation_operators(basis_1, F, normalize=_NORMALIZE)
