@@ -311,6 +311,11 @@ def test_geodesic_distances_on_the_sphere():
         ratio = d[far] / exact[far]
         # the inscribed polyhedron's geodesics are a little shorter than great circles
         assert ratio.min() > 0.995 and ratio.mean() < 1 + tol, (method, ratio.mean())
+    tet = fvf.TriMesh(
+        [[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]],
+        [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
+    )  # every unfolded diagonal is also an edge: the shorter one must win
+    assert rel(geodesic_distances(tet, [0])[0, 1:], np.full(3, np.sqrt(8))) < 1e-12
     heat = geodesic_distances(mesh, src, method="heat")
     mid = (exact > 0.3) & (exact < 2.5)
     assert np.abs(heat[mid] / exact[mid] - 1).mean() < 0.05

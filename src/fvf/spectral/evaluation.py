@@ -53,17 +53,29 @@ GEODESIC_METHODS = ("unfolded", "edges", "heat")
 HEAT_BATCH = 256
 
 
+def _min_graph(n: int, rows: np.ndarray, cols: np.ndarray, w: np.ndarray) -> sp.csr_array:
+    """Symmetric sparse (n, n) graph; a pair given several times keeps its smallest weight."""
+    r, c = np.concatenate([rows, cols]), np.concatenate([cols, rows])
+    w = np.concatenate([w, w])
+    key = r * n + c
+    order = np.lexsort((w, key))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = key[order][1:] != key[order][:-1]
+    keep = order[first]
+    return sp.csr_array((w[keep], (r[keep], c[keep])), shape=(n, n))
+
+
+def _edge_lengths(mesh: TriMesh) -> np.ndarray:
+    E = mesh.edges
+    return np.linalg.norm(mesh.vertices[E[:, 0]] - mesh.vertices[E[:, 1]], axis=1)
+
+
 def _edge_graph(mesh: TriMesh) -> sp.csr_array:
     """Symmetric sparse (n, n) graph of the edges, weighted by their lengths."""
-
-    def build():
-        E = mesh.edges
-        w = np.linalg.norm(mesh.vertices[E[:, 0]] - mesh.vertices[E[:, 1]], axis=1)
-        n = mesh.n_vertices
-        G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
-        return (G + G.T).tocsr()
-
-    return mesh.cached("edge_graph", build)
+    return mesh.cached(
+        "edge_graph",
+        lambda: _min_graph(mesh.n_vertices, *mesh.edges.T, _edge_lengths(mesh)),
+    )
 
 
 def _unfolded_diagonals(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -73,16 +85,11 @@ def _unfolded_diagonals(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
     Returns (c (q,), d (q,), length (q,)).
     """
-    X, F = mesh.vertices, mesh.faces
-    ef = mesh.edge_faces
-    inner = ef[:, 1] >= 0
-    E, f0, f1 = mesh.edges[inner], ef[inner, 0], ef[inner, 1]
-
-    def opposite(f):
-        Ff = F[f]
-        return Ff[(Ff != E[:, :1]) & (Ff != E[:, 1:])]
-
-    c, d = opposite(f0), opposite(f1)
+    X = mesh.vertices
+    corners = mesh._edge_corners  # (E, 2): the corner opposite each edge on each side
+    inner = (corners >= 0).all(axis=1)
+    E = mesh.edges[inner]
+    c, d = (mesh.faces.ravel()[corners[inner, side]] for side in (0, 1))
     a = X[E[:, 0]]
     length = np.linalg.norm(X[E[:, 1]] - a, axis=1)
     u = (X[E[:, 1]] - a) / length[:, None]
@@ -105,9 +112,9 @@ def _unfolded_graph(mesh: TriMesh) -> sp.csr_array:
 
     def build():
         c, d, w = _unfolded_diagonals(mesh)
-        n = mesh.n_vertices
-        D = sp.coo_array((w, (c, d)), shape=(n, n)).tocsr()
-        return (_edge_graph(mesh) + D + D.T).tocsr()
+        E = mesh.edges
+        rows, cols = np.concatenate([E[:, 0], c]), np.concatenate([E[:, 1], d])
+        return _min_graph(mesh.n_vertices, rows, cols, np.concatenate([_edge_lengths(mesh), w]))
 
     return mesh.cached("unfolded_graph", build)
 
