@@ -14,12 +14,20 @@ missing. ``docs/viz.md`` documents the conventions.
 - :func:`lic_texture`: line integral convolution the operator way,
   ``(1/2L) ∫_{−L}^{L} Φ_{v̂,s} N ds`` (chapter §3.5, Fig. 3).
 - :func:`write_gif`: an animated GIF of frames.
+- :func:`render_correspondence`, :func:`render_error_map`, :func:`plot_error_curves`:
+  pictures of a vertex map between two meshes (transferred colours, errors, curves).
 """
 
 from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
 from .arrows import DEFAULT_ARROW_LENGTH, arrow_segments, default_arrow_scale, spread_faces
 from .backends import BACKENDS, RenderInfo, available_backends, polyscope_status, render, view
 from .camera import View
+from .correspondence import (
+    coordinate_stripes,
+    plot_error_curves,
+    render_correspondence,
+    render_error_map,
+)
 from .gif import write_gif
 from .lic import DEFAULT_LIC_LENGTH, lic_noise, lic_texture, unit_field
 from .refine import subdivide
@@ -33,11 +41,15 @@ __all__ = [
     "View",
     "arrow_segments",
     "available_backends",
+    "coordinate_stripes",
     "default_arrow_scale",
     "lic_noise",
     "lic_texture",
+    "plot_error_curves",
     "polyscope_status",
     "render",
+    "render_correspondence",
+    "render_error_map",
     "spread_faces",
     "streamlines",
     "subdivide",
