@@ -427,3 +427,62 @@ def test_unfolded_geodesics_against_exact_mmp():
     near, far = (exact > 0.5 * h) & (exact <= 6 * h), exact > 6 * h
     assert (d >= exact * (1 - 1e-9)).all()
     assert np.mean(d[near] / exact[near]) < 1.05 and np.mean(d[far] / exact[far]) < 1.03
+
+
+# ---------------------------------------------------------------------------- command
+def test_cli_match_and_symmetry(tmp_path, sym_shape):
+    """`fvf match` and `fvf symmetry` on files: the mirror pair and the symmetric shape."""
+    from fvf.cli.main import main
+
+    S, M = sym_shape, mirror_image(sym_shape)
+    a, b = tmp_path / "a.off", tmp_path / "b.off"
+    fvf.write_mesh(a, S.vertices, S.faces)
+    fvf.write_mesh(b, M.vertices, M.faces)
+    sym = mirror_index(S)
+    small = ["--k", "40", "--k-fit", "15"]
+    assert main(["match", str(a), str(b), "-o", str(tmp_path / "map.npz"), *small]) == 0
+    with np.load(tmp_path / "map.npz") as data:
+        assert np.mean(data["p2p_21"] == sym) > 0.99 and data["C_12"].shape == (40, 40)
+    truth = tmp_path / "truth.txt"
+    np.savetxt(truth, sym, fmt="%d")
+    args = ["match", str(a), str(b), "-o", str(tmp_path / "m2.npz"), "--truth", str(truth)]
+    assert main([*args, *small]) == 0
+    with np.load(tmp_path / "m2.npz") as data:
+        assert data["errors"].max() < 1e-12
+    assert main(["symmetry", str(a), "-o", str(tmp_path / "sym.npz"), *small]) == 0
+    with np.load(tmp_path / "sym.npz") as data:
+        assert np.mean(data["p2p"] == sym) > 0.99
+        basis = fvf.SpectralBasis.from_eigenpairs(
+            fvf.TriMesh(data["vertices"], data["faces"]), data["eigenvalues"], data["eigenvectors"]
+        )
+        _, residual = map_consistent_field(basis.truncate(30), data["C"][:30, :30])
+        assert residual < 1e-3
+    bad = tmp_path / "l.txt"
+    bad.write_text("0 1 2\n")
+    assert (
+        main(["match", str(a), str(b), "-o", str(tmp_path / "x.npz"), "--landmarks", str(bad)]) == 2
+    )
+    bad.write_text(f"0 0\n1 {S.n_vertices}\n")
+    assert (
+        main(["match", str(a), str(b), "-o", str(tmp_path / "x.npz"), "--landmarks", str(bad)]) == 2
+    )
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_cli_match_pictures(tmp_path, shape):
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("PIL")
+    from fvf.cli.main import main
+
+    a = tmp_path / "a.off"
+    fvf.write_mesh(a, shape.vertices, shape.faces)
+    truth = tmp_path / "t.txt"
+    np.savetxt(truth, np.arange(shape.n_vertices), fmt="%d")
+    args = ["match", str(a), str(a), "-o", str(tmp_path / "m.npz"), "--k", "30", "--k-fit", "10"]
+    assert main([*args, "--truth", str(truth), "--png", str(tmp_path / "m.png")]) == 0
+    assert (tmp_path / "m_colors.png").stat().st_size > 1000
+    assert (tmp_path / "m_errors.png").stat().st_size > 1000
+    from fvf import viz
+
+    viz.plot_error_curves({"fvf": np.zeros(5)}, tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 1000
