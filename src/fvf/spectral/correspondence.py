@@ -8,7 +8,7 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
 2. Laplace–Beltrami bases (:class:`fvf.SpectralBasis`) with k eigenpairs.
 3. Wave kernel signatures on a common grid of log-energies, plus landmark WKS when
    corresponding landmarks are given, each column normalized in the A_V norm.
-4. Fit a small functional map (``k_fit``, default 20) with descriptor preservation,
+4. Fit a small functional map (``k_fit``, default 15) with descriptor preservation,
    Laplacian and descriptor commutativity, the orientation term on the functional vector
    fields D_{J grad f} of the descriptors (orientation-preserving between two shapes,
    orientation-reversing for a self-symmetry) and a penalty on C ᵀC − I
@@ -285,7 +285,7 @@ def match(
     mesh_2: MeshLike,
     *,
     k: int = 200,
-    k_fit: int = 20,
+    k_fit: int = 15,
     landmarks: npt.ArrayLike | None = None,
     n_descriptors: int = 50,
     orientation: str | None = "preserving",
@@ -376,7 +376,7 @@ def symmetry_map(
     mesh: MeshLike,
     *,
     k: int = 100,
-    k_fit: int = 20,
+    k_fit: int = 15,
     n_descriptors: int = 50,
     weights: dict | None = None,
     zoomout_step: int = 5,
