@@ -3,12 +3,13 @@
 The unknown is C_12 (k_2, k_1), taking coefficients on mesh 1 to coefficients on mesh 2
 (the convention of :func:`fvf.functional_map`). With descriptors f_j on mesh 1 and g_j on
 mesh 2 (corresponding columns), reduced to the bases as A = Φ_1ᵀ[A_V1] F (k_1, p) and
-B = Φ_2ᵀ[A_V2] G (k_2, p), the energy is a sum of four quadratic terms
+B = Φ_2ᵀ[A_V2] G (k_2, p), the energy is a sum of five terms, the first four quadratic
 
     E(C) = w_d ‖C A − B‖² / τ_d                                  descriptor preservation
          + w_l Σ_ij M_ij C_ij² / τ_l                              Laplacian commutativity
          + w_c Σ_j ‖C X_j − Y_j C‖² / τ_c                         descriptor commutativity
          + w_o Σ_j ‖C P_j − s Q_j C‖² / τ_o                       orientation
+         + w_r ‖CᵀC − I‖² / 4                                     area preservation
 
 (Ovsjanikov et al. 2012; Nogneng & Ovsjanikov 2017; Ren et al. 2018) with
 
@@ -22,13 +23,15 @@ B = Φ_2ᵀ[A_V2] G (k_2, p), the energy is a sum of four quadratic terms
   :meth:`SpectralBasis.reduced_D`). D_{J∇f} g = ⟨J∇f, ∇g⟩ = ⟨∇f × ∇g, N⟩ changes sign
   with the orientation, so an orientation-preserving map makes C P_j = Q_j C
   (s = +1) and an orientation-reversing one C P_j = −Q_j C (s = −1);
-- τ the mean diagonal of each term's Hessian, so the weights w are dimensionless.
+- τ the mean diagonal of each term's Hessian, so the weights w are dimensionless (the
+  last term's Hessian at an orthonormal C has mean diagonal about 1 already).
 
 The first column of C is fixed to the image of the constant function,
 C_{:,0} = ±√(area_2 / area_1) e_0, which excludes the trivial minimizer C = 0. The rest of
-the energy is an exact quadratic, minimized by one dense Cholesky solve of its
-k_2 (k_1 − 1) unknowns (``solver="direct"``) or by L-BFGS on the same energy and gradient
-(``solver="lbfgs"``, for large k).
+the energy without the last term is an exact quadratic, minimized by one dense Cholesky
+solve of its k_2 (k_1 − 1) unknowns (``solver="direct"``) or by L-BFGS on the same energy
+and gradient (``solver="lbfgs"``, for large k); with w_r > 0, L-BFGS starts from the
+quadratic minimizer.
 """
 
 from __future__ import annotations
@@ -57,7 +60,6 @@ __all__ = [
 #: Up to this many unknowns k_2 (k_1 − 1), ``solver="auto"`` solves the normal equations
 #: densely (Cholesky of a matrix this size squared); above, L-BFGS.
 DIRECT_MAX_UNKNOWNS = 3000
-_NORMALIZE = False
 
 ORIENTATIONS = {"preserving": 1.0, "reversing": -1.0, None: 0.0}
 
@@ -266,8 +268,7 @@ class FunctionalMapEnergy:
             )
         sign = ORIENTATIONS[orientation]
         if w_orient > 0 and sign != 0:
-            P = orientation_operators(basis_1, F, normalize=_NORMALIZE)
-            Q = orientation_operators(basis_2, G, normalize=_NORMALIZE)
+            P, Q = orientation_operators(basis_1, F), orientation_operators(basis_2, G)
             energy.add_pair(w_orient, P, sign * Q)
         phi1_0, phi2_0 = basis_1.eigenvectors[0, 0], basis_2.eigenvectors[0, 0]
         c0 = np.zeros(k2)
@@ -350,7 +351,14 @@ class FunctionalMapEnergy:
             ``"direct"``: Cholesky of the reduced normal equations (exact);
             ``"lbfgs"``: scipy's L-BFGS-B on E and its gradient, from C0 (default zeros),
             to a projected gradient of 1e-10 relative; ``"auto"``: direct up to
-            :data:`DIRECT_MAX_UNKNOWNS` unknowns.
+            :data:`DIRECT_MAX_UNKNOWNS` unknowns. With the non-quadratic ``w_orth`` term,
+            ``"direct"`` means L-BFGS-B started from the quadratic terms' exact minimizer.
+        C0 : float64 (k_2, k_1), optional
+            Start of L-BFGS-B.
+
+        Returns
+        -------
+        float64 (k_2, k_1)
         """
         k2, k1 = self.shape
         c0 = self.first_column if self.first_column is not None else np.zeros(k2)
@@ -367,22 +375,18 @@ class FunctionalMapEnergy:
     def _quadratic_minimizer(self, c0: np.ndarray) -> np.ndarray:
         """Exact minimizer of the quadratic terms (w_orth ignored), first column c0."""
         k2, k1 = self.shape
-        if True:
-            H, b = self.hessian()
-            free = (np.arange(k2 * k1) % k1) != 0  # every column but the first
-            fixed = ~free
-            rhs = b[free] - H[np.ix_(free, fixed)] @ c0
-            Hff = H[np.ix_(free, free)]
-            try:
-                x = sla.cho_solve(sla.cho_factor(Hff, lower=True, check_finite=False), rhs)
-            except np.linalg.LinAlgError:  # semidefinite (e.g. all weights zero but one)
-                x = sla.lstsq(Hff, rhs, check_finite=False)[0]
-            C = np.empty((k2, k1))
-            C[:, 0] = c0
-            C[:, 1:] = x.reshape(k2, k1 - 1)
-            return C
+        H, b = self.hessian()
+        free = (np.arange(k2 * k1) % k1) != 0  # every column but the first
+        rhs = b[free] - H[np.ix_(free, ~free)] @ c0
+        Hff = H[np.ix_(free, free)]
+        try:
+            x = sla.cho_solve(sla.cho_factor(Hff, lower=True, check_finite=False), rhs)
+        except np.linalg.LinAlgError:  # semidefinite (e.g. all weights zero but one)
+            x = sla.lstsq(Hff, rhs, check_finite=False)[0]
+        return np.concatenate([c0[:, None], x.reshape(k2, k1 - 1)], axis=1)
 
     def _lbfgs(self, c0: np.ndarray, C0: np.ndarray | None) -> np.ndarray:
+        """L-BFGS-B on E over every column but the first (fixed to c0), from C0."""
         k2, k1 = self.shape
         start = np.zeros((k2, k1)) if C0 is None else np.array(C0, dtype=float)
         start[:, 0] = c0
