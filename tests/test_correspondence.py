@@ -515,3 +515,12 @@ def test_camel_symmetry_map():
     moved = fvf.geodesic_errors(mesh, p, np.arange(p.size))
     assert np.mean(moved[legs] < 0.05) < 0.05
     assert fvf.geodesic_errors(mesh, p[p], np.arange(p.size)).mean() < 0.02
+
+
+@pytest.mark.parametrize("command", ["match", "symmetry"])
+def test_cli_help_shows_an_example(command, capsys):
+    from fvf.cli.main import main
+
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "example:" in out and f"fvf {command}" in out and "exit status" in out
