@@ -90,9 +90,46 @@ def run_pyfm(prep_1, prep_2, w_orient: float) -> np.ndarray:
     return prep_1.mesh_to_input[p2p[prep_2.input_to_mesh]]
 
 
-def evaluate(prep_1, p2p_21, truth, valid) -> float:
+def errors_of(prep_1, p2p_21, truth, valid) -> np.ndarray:
+    """Normalized geodesic errors (on prepared mesh 1) of the valid vertices of mesh 2."""
     to = prep_1.input_to_mesh
-    return fvf.mean_geodesic_error(prep_1.mesh, to[p2p_21], to[truth], valid=valid)
+    return fvf.geodesic_errors(prep_1.mesh, to[p2p_21[valid]], to[truth[valid]])
+
+
+def figures(folder: Path, maps: dict, errors: dict) -> None:
+    """Transferred colours and error maps of the first pair, pooled error curves, and the
+    symmetry map of frame 3, as PNG files in ``folder``."""
+    from fvf import viz
+
+    folder.mkdir(parents=True, exist_ok=True)
+    pooled = {m: np.concatenate([e[m] for e in errors.values()]) for m in ("fvf", "pyFM")}
+    viz.plot_error_curves(
+        pooled, folder / "curves.png", title="camel pairs: cumulative geodesic error"
+    )
+    pair = next(iter(maps))
+    prep_1, prep_2, truth, valid, by_method = maps[pair]
+    for method, p2p in by_method.items():
+        q = prep_1.input_to_mesh[p2p[prep_2.mesh_to_input]]
+        viz.render_correspondence(
+            prep_1.mesh, prep_2.mesh, q, folder / f"colors_{pair}_{method}.png", title=method
+        )
+        e = np.zeros(p2p.size)
+        e[valid] = errors[pair][method]
+        viz.render_error_map(
+            prep_2.mesh,
+            e[prep_2.mesh_to_input],
+            folder / f"errors_{pair}_{method}.png",
+            title=f"{method}: geodesic error / sqrt(area)",
+        )
+    sym = fvf.symmetry_map(DATA / "camel-gallop-03.off")
+    viz.render_correspondence(
+        sym.prepared_1.mesh,
+        sym.prepared_1.mesh,
+        sym.p2p_21_prepared,
+        folder / "symmetry_3.png",
+        title="symmetry_map",
+    )
+    print(f"wrote pictures to {folder}")
 
 
 def main(argv=None) -> int:
@@ -100,6 +137,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS))
     ap.add_argument("--pyfm-orient", type=float, default=1.0, help="pyFM's w_orient (README: 1)")
     ap.add_argument("--json", help="also write the results here")
+    ap.add_argument("--figures", help="also write pictures (needs the [viz] extra) here")
     args = ap.parse_args(argv)
     pairs = [tuple(int(x) for x in p.split("-")) for p in args.pairs.split(",")]
     if not DATA.exists():
@@ -112,7 +150,7 @@ def main(argv=None) -> int:
     head = f"{'pair':>5} | {'fvf err':>8} {'pyFM err':>8} {'ratio':>6} | "
     head += f"{'fvf s':>6} {'pyFM s':>6} {'fvf cpu':>7} {'pyFM cpu':>8} | verdict"
     print(head)
-    rows = []
+    rows, maps, errors = [], {}, {}
     for a, b in pairs:
         V1, F1 = fvf.read_mesh(DATA / f"camel-gallop-0{b}.off")
         V2, F2 = fvf.read_mesh(DATA / f"camel-gallop-0{a}.off")
@@ -121,10 +159,12 @@ def main(argv=None) -> int:
         prep_1, prep_2 = prepare_mesh(V1, F1), prepare_mesh(V2, F2)
         p_fvf, w_fvf, c_fvf = _timed(run_fvf, V1, F1, V2, F2)
         p_pyfm, w_pyfm, c_pyfm = _timed(run_pyfm, prep_1, prep_2, args.pyfm_orient)
-        e_fvf, e_pyfm = (
-            evaluate(prep_1, p_fvf, truth, valid),
-            evaluate(prep_1, p_pyfm, truth, valid),
-        )
+        errors[f"{a}to{b}"] = {
+            "fvf": errors_of(prep_1, p_fvf, truth, valid),
+            "pyFM": errors_of(prep_1, p_pyfm, truth, valid),
+        }
+        maps[f"{a}to{b}"] = (prep_1, prep_2, truth, valid, {"fvf": p_fvf, "pyFM": p_pyfm})
+        e_fvf, e_pyfm = (float(errors[f"{a}to{b}"][m].mean()) for m in ("fvf", "pyFM"))
         ok = e_fvf <= e_pyfm and w_fvf <= w_pyfm
         rows.append(
             dict(
@@ -152,6 +192,8 @@ def main(argv=None) -> int:
         f"{np.mean([r['pyfm_wall'] for r in rows]):6.1f}"
         f" | mean error <= half of pyFM's: {'PASS' if half else 'MISS'}"
     )
+    if args.figures:
+        figures(Path(args.figures), maps, errors)
     if args.json:
         with atomic_path(args.json) as tmp:
             Path(tmp).write_text(
