@@ -280,6 +280,18 @@ def _check_quads(r, mesh):
     assert closed and manifold and chi == mesh.euler_characteristic
 
 
+def _check_p2p(r, mesh) -> None:
+    assert r.dtype == np.int64 and r.shape == (mesh.n_vertices,)
+    assert r.min() >= 0 and r.max() < mesh.n_vertices
+
+
+def _match_error(mesh):
+    """fvf.match needs one component and more vertices than eigenpairs (k = 8)."""
+    if mesh.n_components > 1:
+        return errors.DisconnectedMeshError
+    return errors.NotEnoughEigenpairsError if mesh.n_vertices <= 8 else None
+
+
 SPECS: dict[str, Spec] = {
     # -- mesh, io, repair, shapes
     "TriMesh": Spec(
@@ -1125,7 +1137,8 @@ SPECS: dict[str, Spec] = {
     ),
     "quad_symmetry_error": Spec(
         lambda fn, mesh, c: fn(
-            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2, 3]],
+            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
+            [[0, 1, 2, 3]],
             lambda P: P * [-1, 1, 1] + [1, 0, 0],
         ),
         lambda r, m, c: (r == (0.0, 0.0)) or pytest.fail(repr(r)),
@@ -1137,6 +1150,64 @@ SPECS: dict[str, Spec] = {
         ),
         lambda r, mesh, c: isinstance(r, fvf.QuadQuality) or pytest.fail(repr(r)),
         error=_quad_input_error,
+    ),
+    # -- shape correspondence (tests/test_correspondence.py has the known answers)
+    "match": Spec(
+        lambda fn, mesh, c: fn(mesh, mesh, k=8, k_fit=4, zoomout_samples=None),
+        lambda r, mesh, c: _check_p2p(r, mesh),
+        error=_match_error,
+        max_faces=30_000,
+    ),
+    "symmetry_map": Spec(
+        lambda fn, mesh, c: fn(mesh, k=8, k_fit=4, zoomout_samples=None),
+        lambda r, mesh, c: (_check_p2p(r.p2p, mesh), r.C.shape == (8, 8) or pytest.fail("C")),
+        error=_match_error,
+        max_faces=30_000,
+    ),
+    "MatchResult": Spec(
+        lambda fn, mesh, c: fn,
+        lambda r, mesh, c: dataclasses.is_dataclass(r) or pytest.fail("a dataclass"),
+        meshless=True,
+    ),
+    "heat_kernel_signature": Spec(
+        lambda fn, mesh, c: fn(c.basis, n_times=5),
+        lambda r, mesh, c: (r.shape == (mesh.n_vertices, 5) and (r >= 0).all()) or pytest.fail(),
+        error=_needs_vertices(8),  # the context's basis has k = 8
+    ),
+    "wave_kernel_signature": Spec(
+        lambda fn, mesh, c: fn(c.basis, n_energies=5),
+        lambda r, mesh, c: (r.shape == (mesh.n_vertices, 5) and (r >= 0).all()) or pytest.fail(),
+        error=_needs_vertices(8),
+    ),
+    "fit_functional_map": Spec(
+        lambda fn, mesh, c: fn(
+            c.basis, c.basis, np.stack([c.f, c.g], 1), np.stack([c.f, c.g], 1), k=6
+        ),
+        lambda r, mesh, c: r.shape == (6, 6) or pytest.fail("C_12 shape"),
+        error=_needs_vertices(8),
+    ),
+    "p2p_from_functional_map": Spec(
+        lambda fn, mesh, c: fn(np.eye(8), c.basis, c.basis),
+        lambda r, mesh, c: _check_p2p(r, mesh),
+        error=_needs_vertices(8),
+    ),
+    "functional_map_from_p2p": Spec(
+        lambda fn, mesh, c: fn(np.arange(mesh.n_vertices), c.basis, c.basis, 5),
+        lambda r, mesh, c: close(r, np.eye(5), 1e-8, 1.0) or pytest.fail("C = I"),
+        error=_needs_vertices(8),
+    ),
+    "zoomout": Spec(
+        lambda fn, mesh, c: fn(np.eye(4), c.basis, c.basis, 8, step=2),
+        lambda r, mesh, c: (r[0].shape == (8, 8) or pytest.fail("C"), _check_p2p(r[1], mesh)),
+        error=_needs_vertices(8),
+    ),
+    "geodesic_errors": Spec(
+        lambda fn, mesh, c: fn(mesh, np.arange(mesh.n_vertices), np.arange(mesh.n_vertices)),
+        lambda r, mesh, c: (r.shape == (mesh.n_vertices,) and not r.any()) or pytest.fail(),
+    ),
+    "mean_geodesic_error": Spec(
+        lambda fn, mesh, c: fn(mesh, np.arange(mesh.n_vertices), np.arange(mesh.n_vertices)),
+        lambda r, mesh, c: r == 0.0 or pytest.fail(str(r)),
     ),
 }
 for _name in errors.__all__:

@@ -146,12 +146,23 @@ from .param import (
     symmetrize_cross_field,
 )
 from .spectral import (
+    MatchResult,
     SpectralBasis,
+    fit_functional_map,
     functional_map,
     functional_map_from_bases,
+    functional_map_from_p2p,
+    geodesic_errors,
     gradient_field_basis,
+    heat_kernel_signature,
     laplace_basis,
     map_quality,
+    match,
+    mean_geodesic_error,
+    p2p_from_functional_map,
+    symmetry_map,
+    wave_kernel_signature,
+    zoomout,
 )
 
 try:
@@ -274,6 +285,18 @@ __all__ = [
     "functional_map",
     "functional_map_from_bases",
     "map_quality",
+    # shape correspondence
+    "match",
+    "symmetry_map",
+    "MatchResult",
+    "heat_kernel_signature",
+    "wave_kernel_signature",
+    "fit_functional_map",
+    "p2p_from_functional_map",
+    "functional_map_from_p2p",
+    "zoomout",
+    "geodesic_errors",
+    "mean_geodesic_error",
     # design
     "connection_laplacian",
     "connection_mass",

@@ -65,6 +65,11 @@ __all__ = [
     "DirectionCountError",
     "CutGraphError",
     "FrameError",
+    "CorrespondenceError",
+    "LandmarkError",
+    "BasisSizeError",
+    "DisconnectedMeshError",
+    "NotEnoughEigenpairsError",
     "format_indices",
 ]
 
@@ -306,6 +311,27 @@ class BatchOutputError(FvfError):
 class BatchWarning(FvfWarning):
     """A batch runs, but not as documented: e.g. the cluster's workers have several threads
     and declare no ``MESH`` resource, so a worker may hold several meshes at once."""
+
+
+# ---------------------------------------------------------------------------- correspondence
+class CorrespondenceError(FvfError):
+    """Bad input to shape correspondence (descriptors, functional-map fitting, matching)."""
+
+
+class LandmarkError(CorrespondenceError):
+    """Landmark vertex indices out of range, repeated, or not paired between the meshes."""
+
+
+class BasisSizeError(CorrespondenceError):
+    """A spectral basis, descriptor array or functional map has other sizes than asked."""
+
+
+class DisconnectedMeshError(CorrespondenceError):
+    """A mesh to match has several connected components (one shape is expected)."""
+
+
+class NotEnoughEigenpairsError(CorrespondenceError):
+    """A mesh has too few vertices for the number of eigenfunctions asked for."""
 
 
 def user_stacklevel() -> int:

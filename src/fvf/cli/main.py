@@ -252,7 +252,9 @@ def _inputs(args: argparse.Namespace) -> list:
     data = getattr(args, "data", None) or []
     data = [data] if isinstance(data, str) else list(data)
     named = [_split_source(getattr(args, o, None) or "")[0] for o in _KEY_OPTIONS]
-    return [getattr(args, "mesh", None), *data, getattr(args, "constraints", None), *named]
+    meshes = [getattr(args, o, None) for o in ("mesh", "mesh_1", "mesh_2")]
+    extra = [getattr(args, o, None) for o in ("constraints", "landmarks", "truth")]
+    return [*meshes, *data, *extra, *named]
 
 
 def _check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
@@ -591,6 +593,123 @@ def _quad_file(path: str) -> tuple[Any, Any] | None:
         raise
 
 
+def _read_landmarks(path: str):
+    """Landmark pairs from a text file: one line "i1 i2" per landmark (vertex of the first
+    mesh, vertex of the second), '#' comments allowed; int64 (q, 2)."""
+    import numpy as np
+
+    try:
+        L = np.loadtxt(path, dtype=np.int64, comments="#", ndmin=2)
+    except ValueError as exc:
+        raise ValueError(f"{path}: landmarks must be two integers per line ({exc})") from exc
+    if L.shape[1] != 2:
+        raise ValueError(f"{path}: landmarks must be two integers per line; got {L.shape[1]}")
+    return L
+
+
+def _save_npz(path: str, arrays: dict) -> str:
+    import numpy as np
+
+    from fvf import __version__
+    from fvf.io.atomic import atomic_path
+
+    out = Path(path)
+    if out.suffix.lower() != ".npz":
+        out = out.with_name(out.name + ".npz")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    arrays = dict(arrays, fvf_version=np.array(__version__))
+    with atomic_path(out) as tmp:
+        np.savez(tmp, **arrays)
+    shapes = ", ".join(f"{k} {tuple(v.shape)}" for k, v in arrays.items() if np.ndim(v))
+    print(f"wrote {out}: {shapes}")
+    return str(out)
+
+
+def _match_pictures(args, result, stem: str, mesh_2_prepared) -> None:
+    """Transferred colours (and the error map when a ground truth is given)."""
+    viz = _viz()
+    p1, p2 = result.prepared_1, mesh_2_prepared
+    p2p = p1.input_to_mesh[result.p2p_21[p2.mesh_to_input]]  # prepared 2 -> prepared 1
+    path = f"{stem}_colors.png"
+    try:
+        viz.render_correspondence(p1.mesh, p2.mesh, p2p, path)
+    except ImportError as exc:
+        raise Unavailable(" ".join(str(exc).split())) from exc
+    print(f"wrote {path}")
+
+
+def _cmd_match(args) -> int:
+    import numpy as np
+
+    import fvf
+
+    _check_outputs(args, _data_output(args), ("--png", args.png))
+    landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
+    result = fvf.match(
+        args.mesh_1,
+        args.mesh_2,
+        k=args.k,
+        k_fit=args.k_fit,
+        landmarks=landmarks,
+        full_output=True,
+    )
+    arrays = {
+        "p2p_21": result.p2p_21,
+        "C_12": result.C_12,
+        "mesh_1_path": np.array(str(Path(args.mesh_1).resolve())),
+        "mesh_2_path": np.array(str(Path(args.mesh_2).resolve())),
+        "command": np.array(args.command_line),
+    }
+    if args.truth:
+        truth = np.loadtxt(args.truth, dtype=np.int64, ndmin=1)
+        valid = truth != args.truth_missing if args.truth_missing is not None else None
+        p1 = result.prepared_1
+        err = fvf.geodesic_errors(p1.mesh, p1.input_to_mesh[result.p2p_21], p1.input_to_mesh[truth])
+        if valid is not None:
+            err = np.where(valid, err, np.nan)
+        arrays["errors"] = err
+        print(f"mean geodesic error / sqrt(area): {np.nanmean(err):.4f}")
+    _save_npz(args.output, arrays)
+    times = ", ".join(f"{k} {v:.1f} s" for k, v in result.timings.items())
+    print(f"matched {result.p2p_21.size} vertices ({times})")
+    if args.png:
+        stem = str(Path(args.png).with_suffix(""))
+        _match_pictures(args, result, stem, result.prepared_2)
+        if args.truth:
+            p2 = result.prepared_2
+            e = np.nan_to_num(arrays["errors"])[p2.mesh_to_input]
+            _viz().render_error_map(p2.mesh, e, f"{stem}_errors.png")
+            print(f"wrote {stem}_errors.png")
+    return EXIT_OK
+
+
+def _cmd_symmetry(args) -> int:
+    import numpy as np
+
+    import fvf
+
+    _check_outputs(args, _data_output(args), ("--png", args.png))
+    result = fvf.symmetry_map(args.mesh, k=args.k, k_fit=args.k_fit)
+    p = result.prepared_1
+    arrays = {
+        "p2p": result.p2p,
+        "C": result.C,
+        "eigenvalues": result.basis.eigenvalues,
+        "eigenvectors": result.basis.eigenvectors,
+        "vertices": p.mesh.vertices,
+        "faces": p.mesh.faces,
+        "mesh_path": np.array(str(Path(args.mesh).resolve())),
+        "command": np.array(args.command_line),
+    }
+    _save_npz(args.output, arrays)
+    involution = float(np.mean(result.p2p[result.p2p] == np.arange(result.p2p.size)))
+    print(f"symmetry map: {involution:.1%} of the vertices are fixed by applying it twice")
+    if args.png:
+        stem = str(Path(args.png).with_suffix(""))
+        _match_pictures(args, result, stem, result.prepared_2)
+    return EXIT_OK
+
+
 def _display_arrays(args, mesh):
     """function, field and singularities to draw, from the data file and the options."""
     import fvf
@@ -896,6 +1015,39 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--progress", action="store_true", help="show a progress bar (tqdm)")
     _add_output(p, "output .npz (keys v, n, singularity_*)")
     p.set_defaults(run=_cmd_design)
+
+    p = _add(
+        sub,
+        "match",
+        "vertex correspondence between two near-isometric shapes (fvf.match: functional "
+        "maps with the orientation term, ZoomOut)",
+        "fvf match A.off B.off -o map.npz --k 200 [--landmarks l.txt] [--png map.png]\n"
+        "  (map.npz: p2p_21 (n_B,) = vertex of A for each vertex of B, C_12 (k,k))",
+    )
+    p.add_argument("mesh_1", help="first mesh (OBJ, OFF, PLY): the map lands on it")
+    p.add_argument("mesh_2", help="second mesh: the map has one entry per vertex of it")
+    p.add_argument("--k", type=int, default=200, help="final functional map size (200)")
+    p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
+    p.add_argument("--landmarks", help='text file, one "i1 i2" pair of vertex indices per line')
+    p.add_argument("--truth", help="ground-truth p2p_21 (one integer per line): report errors")
+    p.add_argument("--truth-missing", type=int, help="value marking vertices without truth")
+    _add_output(p, "output .npz (keys p2p_21, C_12)")
+    p.add_argument("--png", help="also write STEM_colors.png (and STEM_errors.png with --truth)")
+    p.set_defaults(run=_cmd_match)
+
+    p = _add(
+        sub,
+        "symmetry",
+        "left-right intrinsic symmetry of a shape (fvf.symmetry_map, orientation-reversing)",
+        "fvf symmetry A.off -o sym.npz [--png sym.png]\n"
+        "  (sym.npz: p2p (n,), C (k,k) and the basis, for fvf.map_consistent_field)",
+    )
+    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("--k", type=int, default=100, help="functional map size (100)")
+    p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
+    _add_output(p, "output .npz")
+    p.add_argument("--png", help="also write STEM_colors.png (the mesh and its mirror colours)")
+    p.set_defaults(run=_cmd_symmetry)
 
     p = _add(
         sub,

@@ -10,6 +10,7 @@ from .convert import as_mesh, takes_mesh
 from .curvature import PrincipalCurvatures, principal_curvatures, vertex_normals
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
+from .prepared import PreparedMesh, prepare_mesh
 from .repair import (
     RepairResult,
     orient_faces,
@@ -34,6 +35,8 @@ __all__ = [
     "as_vertex_function",
     "as_face_function",
     "as_face_field",
+    "PreparedMesh",
+    "prepare_mesh",
     "RepairResult",
     "repair_mesh",
     "remove_unreferenced_vertices",

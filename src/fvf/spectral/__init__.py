@@ -1,8 +1,40 @@
 """Spectral tools: Laplace–Beltrami bases and operators reduced to them (:mod:`.basis`),
-and functional maps between shapes (:mod:`.fmaps`)."""
+functional maps between shapes (:mod:`.fmaps`), and shape correspondence: descriptors
+(:mod:`.descriptors`), the functional-map fit with the orientation term (:mod:`.fmap_fit`),
+conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`)
+and map evaluation (:mod:`.evaluation`)."""
 
 from .basis import SpectralBasis, gradient_field_basis, laplace_basis
+from .correspondence import (
+    MatchResult,
+    as_prepared_mesh,
+    match,
+    matching_descriptors,
+    symmetry_map,
+)
+from .descriptors import heat_kernel_signature, hks_times, wave_kernel_signature, wks_energies
+from .evaluation import (
+    cumulative_error_curve,
+    geodesic_distances,
+    geodesic_errors,
+    mean_geodesic_error,
+    orientation_agreement,
+)
+from .fmap_fit import (
+    FunctionalMapEnergy,
+    descriptor_operators,
+    fit_functional_map,
+    laplacian_mask,
+    orientation_operators,
+)
 from .fmaps import functional_map, functional_map_from_bases, map_quality
+from .zoomout import (
+    farthest_point_samples,
+    functional_map_from_p2p,
+    nearest_rows,
+    p2p_from_functional_map,
+    zoomout,
+)
 
 __all__ = [
     "SpectralBasis",
@@ -11,4 +43,28 @@ __all__ = [
     "functional_map",
     "functional_map_from_bases",
     "map_quality",
+    "heat_kernel_signature",
+    "wave_kernel_signature",
+    "hks_times",
+    "wks_energies",
+    "FunctionalMapEnergy",
+    "fit_functional_map",
+    "descriptor_operators",
+    "orientation_operators",
+    "laplacian_mask",
+    "p2p_from_functional_map",
+    "functional_map_from_p2p",
+    "nearest_rows",
+    "farthest_point_samples",
+    "zoomout",
+    "MatchResult",
+    "match",
+    "symmetry_map",
+    "as_prepared_mesh",
+    "matching_descriptors",
+    "geodesic_distances",
+    "geodesic_errors",
+    "mean_geodesic_error",
+    "cumulative_error_curve",
+    "orientation_agreement",
 ]

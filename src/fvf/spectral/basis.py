@@ -114,6 +114,55 @@ class SpectralBasis:
         self.eigenvalues, self.eigenvectors = values, vectors
         return True
 
+    @classmethod
+    def from_eigenpairs(
+        cls, mesh: TriMesh, eigenvalues: npt.ArrayLike, eigenvectors: npt.ArrayLike
+    ) -> SpectralBasis:
+        """A basis from eigenpairs computed elsewhere (no eigensolve, no check of them).
+
+        Parameters
+        ----------
+        mesh : TriMesh
+        eigenvalues : array_like (k,)
+        eigenvectors : array_like (n, k)
+            Expected A_V-orthonormal eigenvectors of L = −div grad on ``mesh``.
+
+        Raises
+        ------
+        FieldShapeError
+            Shapes that do not fit the mesh or each other.
+        """
+        lam = np.asarray(eigenvalues, dtype=float)
+        phi = np.asarray(eigenvectors, dtype=float)
+        if lam.ndim != 1 or phi.shape != (mesh.n_vertices, lam.size):
+            raise FieldShapeError(
+                f"eigenvectors must be ({mesh.n_vertices}, {lam.size}) for "
+                f"{lam.size} eigenvalues; got {phi.shape}"
+            )
+        out = object.__new__(cls)
+        out.mesh, out.k, out.tol = mesh, lam.size, float("nan")
+        out.eigenvalues, out.eigenvectors = lam, phi
+        return out
+
+    def truncate(self, k: int) -> SpectralBasis:
+        """The first k eigenpairs as a basis of its own (no eigensolve; arrays shared).
+
+        Raises
+        ------
+        ParameterError
+            k outside [1, self.k].
+        """
+        k = int(k)
+        if not 1 <= k <= self.k:
+            raise ParameterError(f"k must be in [1, {self.k}]; got {k}")
+        if k == self.k:
+            return self
+        out = object.__new__(SpectralBasis)
+        out.mesh, out.k, out.tol = self.mesh, k, self.tol
+        out.eigenvalues = self.eigenvalues[:k]
+        out.eigenvectors = self.eigenvectors[:, :k]
+        return out
+
     def cache_key(self) -> str:
         """sha256 of the mesh arrays, k and tol: the on-disk cache's file name."""
         h = hashlib.sha256(_CACHE_VERSION.encode())
@@ -166,8 +215,10 @@ class SpectralBasis:
     def reduced_D_many(self, fields: np.ndarray) -> np.ndarray:
         """D̂ for a stack of checked tangent fields (p, m, 3) -> (p, k, k)."""
         H, G = self._hat_data
-        DPhi = np.einsum("ptc,tck->ptk", fields, G, optimize=True)  # (p, m, k): D^F_v Φ
-        return np.einsum("tj,ptk->pjk", H, DPhi, optimize=True)
+        p, m = fields.shape[0], self.mesh.n_faces
+        DPhi = np.matmul(np.asarray(fields).transpose(1, 0, 2), G)  # (m, p, k): D^F_v Φ
+        out = H.T @ DPhi.reshape(m, -1)  # (k, p k): one matrix product for all fields
+        return out.reshape(self.k, p, self.k).transpose(1, 0, 2)
 
     def reduced_laplacian(self) -> np.ndarray:
         """L̂ = diag(eigenvalues), (k, k)."""

@@ -22,6 +22,8 @@ missing. ``docs/viz.md`` documents the conventions.
 - :func:`write_gif`: an animated GIF of frames.
 - :func:`render_quads`, :func:`render_checkerboard`: quad meshes (wireframe, irregular
   vertices by valence) and the checkerboard of a parameterization.
+- :func:`render_correspondence`, :func:`render_error_map`, :func:`plot_error_curves`:
+  pictures of a vertex map between two meshes (transferred colours, errors, curves).
 """
 
 from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
@@ -35,6 +37,12 @@ from .arrows import (
 from .backends import BACKENDS, RenderInfo, available_backends, polyscope_status, render, view
 from .camera import View, detect_up_axis, two_sides
 from .colors import index_color, index_label, robust_limits
+from .correspondence import (
+    coordinate_stripes,
+    plot_error_curves,
+    render_correspondence,
+    render_error_map,
+)
 from .gif import write_gif
 from .lic import (
     DEFAULT_LIC_LENGTH,
@@ -59,6 +67,7 @@ __all__ = [
     "View",
     "arrow_segments",
     "available_backends",
+    "coordinate_stripes",
     "default_arrow_scale",
     "detect_up_axis",
     "direction_set",
@@ -66,11 +75,14 @@ __all__ = [
     "index_label",
     "lic_noise",
     "lic_texture",
+    "plot_error_curves",
     "polyscope_status",
     "render",
     "robust_limits",
     "render_checkerboard",
     "render_quads",
+    "render_correspondence",
+    "render_error_map",
     "spread_faces",
     "streamlines",
     "subdivide",

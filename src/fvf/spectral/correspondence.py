@@ -1,0 +1,427 @@
+"""Shape correspondence in one call: :func:`match` and :func:`symmetry_map`.
+
+The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`.zoomout`):
+
+1. Prepare each mesh as the user has it (a TriMesh, arrays (V, F) or a file): repair
+   non-manifold edges and vertices and keep the one large piece
+   (:func:`fvf.mesh.prepared.prepare_mesh`), scale it to unit area.
+2. Laplace–Beltrami bases (:class:`fvf.SpectralBasis`) with k eigenpairs.
+3. Wave kernel signatures on a common grid of log-energies, plus landmark WKS when
+   corresponding landmarks are given, each column normalized in the A_V norm.
+4. Fit a small functional map (``k_fit``, default 15) with descriptor preservation,
+   Laplacian and descriptor commutativity, the orientation term on the functional vector
+   fields D_{J grad f} of the descriptors (orientation-preserving between two shapes,
+   orientation-reversing for a self-symmetry) and a penalty on C ᵀC − I
+   (:func:`fvf.fit_functional_map`). A small map is fitted on purpose: the orientation
+   term must fix the signs of the few eigenfunctions that distinguish left from right,
+   and in a small basis no other term can outweigh it.
+5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
+   on all vertices.
+6. Carry the map back to the vertices the user passed.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import (
+    BasisSizeError,
+    LandmarkError,
+    NotEnoughEigenpairsError,
+    ParameterError,
+    format_indices,
+)
+from ..io.meshfile import read_mesh
+from ..mesh.convert import as_mesh
+from ..mesh.prepared import PreparedMesh, prepare_mesh
+from ..mesh.trimesh import TriMesh
+from .basis import SpectralBasis
+from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
+from .fmap_fit import fit_functional_map
+from .zoomout import zoomout
+
+__all__ = [
+    "MatchResult",
+    "match",
+    "symmetry_map",
+    "as_prepared_mesh",
+    "matching_descriptors",
+    "DEFAULT_WEIGHTS",
+]
+
+#: Dimensionless weights of the fit used by :func:`match` (see :mod:`.fmap_fit`).
+DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0, "w_orth": 1.0}
+
+MeshLike = TriMesh | tuple | str | os.PathLike
+
+
+@dataclass(frozen=True, eq=False)
+class MatchResult:
+    """Everything :func:`match` (or :func:`symmetry_map`) computed.
+
+    Attributes
+    ----------
+    p2p_21 : int64 (n_2,)
+        For each vertex of mesh 2 as passed, a vertex of mesh 1 as passed.
+    C_12 : float64 (k, k)
+        The refined functional map in ``basis_1``, ``basis_2`` (coefficients on mesh 1 ->
+        on mesh 2; for a symmetry, the self-map's functional map).
+    C_fit : float64 (k_fit, k_fit)
+        The fitted map before ZoomOut.
+    basis_1, basis_2 : SpectralBasis
+        Bases of the prepared meshes at their own scale (the same object for a symmetry);
+        use them with ``C_12``, e.g. ``fvf.map_consistent_field(result.basis_1,
+        result.C_12)``.
+    prepared_1, prepared_2 : PreparedMesh
+        The clean meshes and the index maps to the input vertices.
+    p2p_21_prepared : int64 (n_2',)
+        The map between the prepared meshes.
+    timings : dict
+        Seconds per step.
+    """
+
+    p2p_21: np.ndarray
+    C_12: np.ndarray
+    C_fit: np.ndarray
+    basis_1: SpectralBasis
+    basis_2: SpectralBasis
+    prepared_1: PreparedMesh
+    prepared_2: PreparedMesh
+    p2p_21_prepared: np.ndarray
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def C(self) -> np.ndarray:
+        """Alias of ``C_12`` (natural for a self-map)."""
+        return self.C_12
+
+    @property
+    def basis(self) -> SpectralBasis:
+        """Alias of ``basis_1`` (natural for a self-map)."""
+        return self.basis_1
+
+    @property
+    def p2p(self) -> np.ndarray:
+        """Alias of ``p2p_21`` (natural for a self-map)."""
+        return self.p2p_21
+
+
+# ---------------------------------------------------------------------------- inputs
+def as_prepared_mesh(mesh: MeshLike, name: str = "mesh") -> PreparedMesh:
+    """A TriMesh, a (vertices, faces) pair, a mesh file path or any mesh object
+    :func:`fvf.as_mesh` converts, prepared for matching.
+
+    Raises
+    ------
+    DisconnectedMeshError
+        Several connected components.
+    MeshError, MeshReadError
+        Arrays or files that cannot be read or repaired.
+    """
+    if isinstance(mesh, TriMesh):
+        return prepare_mesh(mesh.vertices, mesh.faces, name=name)
+    if isinstance(mesh, str | os.PathLike):
+        return prepare_mesh(*read_mesh(mesh), name=name)
+    if isinstance(mesh, tuple | list) and len(mesh) == 2:
+        return prepare_mesh(mesh[0], mesh[1], name=name)
+    converted = as_mesh(mesh)  # trimesh, meshio, pyvista, ...; TypeError for the unknown
+    return prepare_mesh(converted.vertices, converted.faces, name=name)
+
+
+def _unit_area_basis(mesh: TriMesh, k: int, name: str) -> tuple[SpectralBasis, SpectralBasis]:
+    """(basis of the unit-area copy, the same eigenpairs rescaled to ``mesh``)."""
+    n = mesh.n_vertices
+    if not 2 <= k < n:
+        raise NotEnoughEigenpairsError(
+            f"{name} has {n} vertices, too few for {k} eigenfunctions (need k < n). Fix: "
+            f"pass k <= {n - 1} (and k_fit <= k), or a finer mesh."
+        )
+    area = mesh.total_area
+    unit = TriMesh(mesh.vertices / np.sqrt(area), mesh.faces)
+    b_unit = SpectralBasis(unit, k)
+    b_mesh = SpectralBasis.from_eigenpairs(
+        mesh, b_unit.eigenvalues / area, b_unit.eigenvectors / np.sqrt(area)
+    )
+    return b_unit, b_mesh
+
+
+def _landmark_pairs(
+    landmarks: npt.ArrayLike | None, p1: PreparedMesh, p2: PreparedMesh
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(q, 2) input indices [vertex of mesh 1, vertex of mesh 2] -> prepared indices."""
+    if landmarks is None:
+        return None
+    L = np.asarray(landmarks)
+    if L.ndim != 2 or L.shape[1] != 2 or not np.issubdtype(L.dtype, np.integer):
+        raise LandmarkError(
+            "landmarks must be an integer array of shape (q, 2): row j holds a vertex of "
+            f"mesh 1 and its corresponding vertex of mesh 2; got {L.dtype} {L.shape}."
+        )
+    if L.shape[0] == 0:
+        return None
+    l1 = check_landmarks(L[:, 0], p1.n_input, "landmarks[:, 0] (mesh 1)")
+    l2 = check_landmarks(L[:, 1], p2.n_input, "landmarks[:, 1] (mesh 2)")
+    m1, m2 = p1.input_to_mesh[l1], p2.input_to_mesh[l2]
+    for m, name in ((m1, "mesh 1"), (m2, "mesh 2")):
+        _, first, counts = np.unique(m, return_index=True, return_counts=True)
+        if (counts > 1).any():
+            raise LandmarkError(
+                f"landmarks on {name} at rows {format_indices(np.sort(first[counts > 1]))} "
+                "stand for the same vertex after repair; give landmarks on distinct vertices."
+            )
+    return m1, m2
+
+
+def matching_descriptors(
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    *,
+    n_descriptors: int = 50,
+    k_descr: int = 100,
+    landmarks: tuple[np.ndarray, np.ndarray] | None = None,
+    n_landmark_energies: int = 10,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Corresponding WKS descriptors on two meshes, normalized, (n_1, p) and (n_2, p).
+
+    Both use the same log-energies and σ (:func:`fvf.spectral.descriptors.wks_energies`
+    of the mean of the two spectra, with twice as many energies as ``n_descriptors``,
+    every other one kept) so that a column means the same on both shapes; the bases
+    should be of unit-area meshes. With landmarks, ``n_landmark_energies`` landmark WKS
+    columns per landmark are appended. Each column is divided by its A_V norm.
+
+    Parameters
+    ----------
+    basis_1, basis_2 : SpectralBasis
+        Same number of eigenpairs.
+    n_descriptors : int
+    k_descr : int
+        Eigenpairs used (the first min(k_descr, k)).
+    landmarks : (int64 (q,), int64 (q,)), optional
+        Corresponding vertices of mesh 1 and mesh 2.
+    n_landmark_energies : int
+
+    Returns
+    -------
+    descr_1 : float64 (n_1, p)
+    descr_2 : float64 (n_2, p)
+    """
+    if basis_1.k != basis_2.k:
+        raise BasisSizeError(
+            f"basis_1 has {basis_1.k} eigenpairs and basis_2 has {basis_2.k}; descriptors "
+            "compare spectra term by term, so give both bases the same k."
+        )
+    k_d = min(int(k_descr), basis_1.k)
+    basis_1, basis_2 = basis_1.truncate(k_d), basis_2.truncate(k_d)
+    lam = 0.5 * (basis_1.eigenvalues + basis_2.eigenvalues)
+    e, sigma = wks_energies(lam, 2 * int(n_descriptors))
+    e = e[::2]
+    d1 = [wave_kernel_signature(basis_1, e, sigma)]
+    d2 = [wave_kernel_signature(basis_2, e, sigma)]
+    if landmarks is not None:
+        el, sl = wks_energies(lam, int(n_landmark_energies))
+        d1.append(wave_kernel_signature(basis_1, el, sl, landmarks=landmarks[0]))
+        d2.append(wave_kernel_signature(basis_2, el, sl, landmarks=landmarks[1]))
+    out = []
+    for basis, parts in ((basis_1, d1), (basis_2, d2)):
+        D = np.hstack(parts)
+        norm = np.sqrt(basis.mesh.vertex_areas @ (D * D))
+        out.append(D / np.where(norm > 0, norm, 1.0))
+    return out[0], out[1]
+
+
+def _check_sizes(k: int, k_fit: int) -> tuple[int, int]:
+    k, k_fit = int(k), int(k_fit)
+    if not 3 <= k_fit <= k:
+        raise ParameterError(f"need 3 <= k_fit <= k; got k_fit = {k_fit}, k = {k}")
+    return k, k_fit
+
+
+# ---------------------------------------------------------------------------- pipeline
+def _correspond(
+    p1: PreparedMesh,
+    p2: PreparedMesh | None,
+    *,
+    k: int,
+    k_fit: int,
+    landmarks,
+    n_descriptors: int,
+    orientation: str | None,
+    weights: dict,
+    zoomout_step: int,
+    zoomout_samples: int | None,
+) -> MatchResult:
+    """The pipeline of the module docstring; p2 None means a self-map of p1."""
+    timings = {}
+    t = time.perf_counter()
+    unit_1, basis_1 = _unit_area_basis(p1.mesh, k, "mesh_1")
+    unit_2, basis_2 = (unit_1, basis_1) if p2 is None else _unit_area_basis(p2.mesh, k, "mesh_2")
+    timings["bases"] = time.perf_counter() - t
+    t = time.perf_counter()
+    d1, d2 = matching_descriptors(unit_1, unit_2, n_descriptors=n_descriptors, landmarks=landmarks)
+    timings["descriptors"] = time.perf_counter() - t
+    t = time.perf_counter()
+    C_fit = fit_functional_map(unit_1, unit_2, d1, d2, k=k_fit, orientation=orientation, **weights)
+    timings["fit"] = time.perf_counter() - t
+    t = time.perf_counter()
+    n_min = min(unit_1.mesh.n_vertices, unit_2.mesh.n_vertices)
+    samples = zoomout_samples if zoomout_samples and zoomout_samples < n_min else None
+    if samples is not None and samples <= k:
+        raise ParameterError(
+            f"zoomout_samples = {samples} must exceed k = {k} (or be None for all vertices)"
+        )
+    C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
+    timings["zoomout"] = time.perf_counter() - t
+    q2 = p1 if p2 is None else p2
+    p2p_input = p1.mesh_to_input[p2p[q2.input_to_mesh]]
+    return MatchResult(p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings)
+
+
+def match(
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
+    *,
+    k: int = 200,
+    k_fit: int = 15,
+    landmarks: npt.ArrayLike | None = None,
+    n_descriptors: int = 50,
+    orientation: str | None = "preserving",
+    weights: dict | None = None,
+    zoomout_step: int = 5,
+    zoomout_samples: int | None = 2000,
+    full_output: bool = False,
+) -> np.ndarray | MatchResult:
+    """A vertex-to-vertex correspondence between two near-isometric shapes.
+
+    Parameters
+    ----------
+    mesh_1, mesh_2 : TriMesh, (vertices, faces) or path
+        The shapes as you have them: non-manifold edges and vertices are repaired
+        internally and the result indexes the vertices you passed.
+    k : int
+        Size of the final functional map (ZoomOut target, and eigenpairs computed).
+    k_fit : int
+        Size of the fitted functional map (see the module docstring).
+    landmarks : array_like of int (q, 2), optional
+        Row j: a vertex of mesh 1 and the corresponding vertex of mesh 2 (input indices).
+    n_descriptors : int
+        Number of WKS descriptors.
+    orientation : {"preserving", "reversing", None}
+        The orientation term: keep "preserving" for two shapes of the same orientation.
+    weights : dict, optional
+        Overrides of :data:`DEFAULT_WEIGHTS` (``w_descr``, ``w_lap``, ``w_dcomm``,
+        ``w_orient``, ``w_orth``).
+    zoomout_step : int
+        Eigenpairs added per ZoomOut iteration.
+    zoomout_samples : int or None
+        ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
+        a mesh has fewer, or None); the final map is computed on all vertices.
+    full_output : bool
+        Return a :class:`MatchResult` instead of the vertex map.
+
+    Returns
+    -------
+    p2p_21 : int64 (n_2,)
+        For each vertex of mesh 2, a vertex of mesh 1 (the convention of
+        :func:`fvf.functional_map`); or a :class:`MatchResult`.
+
+    Raises
+    ------
+    DisconnectedMeshError
+        A mesh with several connected components.
+    NotEnoughEigenpairsError
+        A mesh with k or fewer vertices.
+    LandmarkError
+        Landmarks not of shape (q, 2), out of range or repeated.
+    ParameterError
+        k_fit outside [3, k], an unknown weight or option.
+
+    Examples
+    --------
+    >>> import numpy as np, fvf
+    >>> mesh = fvf.jittered_sphere(2, 0.3, seed=2)
+    >>> perm = np.random.default_rng(0).permutation(mesh.n_vertices)
+    >>> p2p = fvf.match(mesh, (mesh.vertices[perm], np.argsort(perm)[mesh.faces]), k=30)
+    >>> float(np.mean(p2p == perm)) > 0.9
+    True
+    """
+    k, k_fit = _check_sizes(k, k_fit)
+    w = dict(DEFAULT_WEIGHTS)
+    unknown = set(weights or {}) - set(w)
+    if unknown:
+        raise ParameterError(f"unknown weights {sorted(unknown)}; choose from {sorted(w)}")
+    w.update(weights or {})
+    p1 = as_prepared_mesh(mesh_1, "mesh_1")
+    p2 = as_prepared_mesh(mesh_2, "mesh_2")
+    lm = _landmark_pairs(landmarks, p1, p2)
+    result = _correspond(
+        p1,
+        p2,
+        k=k,
+        k_fit=k_fit,
+        landmarks=lm,
+        n_descriptors=n_descriptors,
+        orientation=orientation,
+        weights=w,
+        zoomout_step=zoomout_step,
+        zoomout_samples=zoomout_samples,
+    )
+    return result if full_output else result.p2p_21
+
+
+def symmetry_map(
+    mesh: MeshLike,
+    *,
+    k: int = 100,
+    k_fit: int = 15,
+    n_descriptors: int = 50,
+    weights: dict | None = None,
+    zoomout_step: int = 5,
+    zoomout_samples: int | None = 2000,
+) -> MatchResult:
+    """The orientation-reversing intrinsic self-map (left-right symmetry) of a shape.
+
+    The same pipeline as :func:`match` from the mesh to itself, with the orientation term
+    reversed: C P_j = −P_j C for the reduced operators P_j of D_{J grad f_j}, which the
+    identity violates as much as possible, so the fit lands on the reflection.
+
+    Parameters
+    ----------
+    mesh : TriMesh, (vertices, faces) or path
+    k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples
+        As for :func:`match`.
+
+    Returns
+    -------
+    MatchResult
+        ``result.p2p`` int64 (n,): the image of each input vertex; ``result.C`` (k, k)
+        and ``result.basis`` the functional map of the symmetry in the prepared mesh's
+        basis, ready for ``fvf.map_consistent_field(result.basis, result.C)``.
+
+    Raises
+    ------
+    As for :func:`match`.
+    """
+    k, k_fit = _check_sizes(k, k_fit)
+    w = dict(DEFAULT_WEIGHTS)
+    unknown = set(weights or {}) - set(w)
+    if unknown:
+        raise ParameterError(f"unknown weights {sorted(unknown)}; choose from {sorted(w)}")
+    w.update(weights or {})
+    p = as_prepared_mesh(mesh, "mesh")
+    return _correspond(
+        p,
+        None,
+        k=k,
+        k_fit=k_fit,
+        landmarks=None,
+        n_descriptors=n_descriptors,
+        orientation="reversing",
+        weights=w,
+        zoomout_step=zoomout_step,
+        zoomout_samples=zoomout_samples,
+    )

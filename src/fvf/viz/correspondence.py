@@ -1,0 +1,165 @@
+"""Pictures of correspondences: transferred colours, error maps, cumulative error curves.
+
+- :func:`render_correspondence`: mesh 1 coloured by a function, and mesh 2 coloured by the
+  same function pulled back through the vertex map (f ∘ π, i.e. ``f[p2p_21]``), side by
+  side: a correct map shows the same pattern on the same body parts.
+- :func:`render_error_map`: per-vertex geodesic errors on mesh 2.
+- :func:`plot_error_curves`: the fraction of vertices below each error threshold
+  (:func:`fvf.spectral.evaluation.cumulative_error_curve`), one curve per method.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from ..io.atomic import atomic_path
+from ..mesh.convert import takes_mesh
+from ..mesh.trimesh import TriMesh
+from ._deps import require
+from .backends import render
+
+__all__ = ["coordinate_stripes", "render_correspondence", "render_error_map", "plot_error_curves"]
+
+
+@takes_mesh
+def coordinate_stripes(mesh: TriMesh, periods: float = 3.0) -> np.ndarray:
+    """A striped function of the position, float64 (n,) in [−1, 1]: sin(2π periods s),
+    s the coordinate along the mesh's longest bounding-box side, plus a slower wave
+    across it, so that left and right, front and back look different."""
+    X = mesh.vertices - mesh.vertices.min(axis=0)
+    ext = X.max(axis=0)
+    order = np.argsort(ext)[::-1]
+    s = X[:, order[0]] / max(ext[order[0]], 1e-300)
+    t = X[:, order[1]] / max(ext[order[1]], 1e-300)
+    u = X[:, order[2]] / max(ext[order[2]], 1e-300)
+    return 0.7 * np.sin(2 * np.pi * periods * s) + 0.3 * np.cos(np.pi * (t + 2 * u))
+
+
+def render_correspondence(
+    mesh_1: TriMesh,
+    mesh_2: TriMesh,
+    p2p_21: npt.ArrayLike,
+    path: str | Path,
+    *,
+    function: npt.ArrayLike | None = None,
+    cmap: str = "twilight",
+    size: tuple[int, int] = (1200, 520),
+    view=None,
+    title: str | None = None,
+    backend: str = "auto",
+) -> Path:
+    """Mesh 1 coloured by ``function`` beside mesh 2 coloured by ``function[p2p_21]``.
+
+    Parameters
+    ----------
+    mesh_1, mesh_2 : TriMesh
+    p2p_21 : array_like of int (n_2,)
+        Vertex of mesh 1 for each vertex of mesh 2.
+    path : str or Path
+        Output PNG (written atomically).
+    function : array_like (n_1,), optional
+        Default :func:`coordinate_stripes` of mesh 1.
+    cmap, size, view, title, backend
+        As for :func:`fvf.viz.render`; ``size`` is the whole picture.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    image = require("PIL.Image", "render_correspondence")
+    f1 = coordinate_stripes(mesh_1) if function is None else np.asarray(function, dtype=float)
+    f2 = f1[np.asarray(p2p_21, dtype=np.int64)]
+    clim = (float(f1.min()), float(f1.max()))
+    half = (size[0] // 2, size[1])
+    with tempfile.TemporaryDirectory() as tmp:
+        parts = []
+        for i, (mesh, f, name) in enumerate(((mesh_1, f1, "mesh 1"), (mesh_2, f2, "mesh 2"))):
+            p = Path(tmp) / f"{i}.png"
+            render(
+                mesh,
+                p,
+                function=f,
+                cmap=cmap,
+                clim=clim,
+                size=half,
+                view=view,
+                title=name if title is None else f"{title}: {name}",
+                backend=backend,
+            )
+            parts.append(image.open(p).convert("RGB"))
+        canvas = image.new(
+            "RGB", (sum(q.width for q in parts), max(q.height for q in parts)), "white"
+        )
+        canvas.paste(parts[0], (0, 0))
+        canvas.paste(parts[1], (parts[0].width, 0))
+        with atomic_path(path) as out:
+            canvas.save(out, format="PNG")
+    return Path(path)
+
+
+def render_error_map(
+    mesh_2: TriMesh,
+    errors: npt.ArrayLike,
+    path: str | Path,
+    *,
+    clim: tuple[float, float] | None = (0.0, 0.1),
+    title: str | None = "geodesic error / sqrt(area)",
+    **kwargs,
+):
+    """Per-vertex errors (n_2,) on mesh 2 (``magma``, clipped to ``clim``); returns the
+    :class:`fvf.viz.RenderInfo` of :func:`fvf.viz.render`."""
+    e = np.asarray(errors, dtype=float)
+    if clim is not None:
+        e = np.clip(e, *clim)
+    return render(
+        mesh_2,
+        path,
+        function=e,
+        cmap="magma",
+        clim=clim,
+        title=title,
+        colorbar_label="error",
+        **kwargs,
+    )
+
+
+def plot_error_curves(
+    errors: Mapping[str, npt.ArrayLike],
+    path: str | Path,
+    *,
+    max_error: float = 0.1,
+    title: str | None = None,
+) -> Path:
+    """Cumulative error curves: for each label, the fraction of vertices with normalized
+    geodesic error at most each threshold in [0, max_error]. Written atomically as PNG."""
+    from ..spectral.evaluation import cumulative_error_curve
+
+    require("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=110)
+    thresholds = np.linspace(0.0, max_error, 201)
+    for label, e in errors.items():
+        t, frac = cumulative_error_curve(e, thresholds)
+        ax.plot(t, frac, label=f"{label} (mean {np.mean(e):.4f})")
+    ax.set_xlabel("geodesic error / sqrt(area)")
+    ax.set_ylabel("fraction of vertices")
+    ax.set_xlim(0, max_error)
+    ax.set_ylim(0, 1.01)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    with atomic_path(path) as out:
+        fig.savefig(out, format="png")
+    plt.close(fig)
+    return Path(path)
