@@ -69,8 +69,8 @@ def _sort_with_ids(key: np.ndarray, key_bound: int) -> tuple[np.ndarray, np.ndar
 
     When the key and the position fit in 63 bits together, the position is packed into
     the low bits and the values are sorted (numpy's vectorized sort of plain integers is
-    several times faster than its argsort); otherwise an argsort. ``key`` is overwritten.
-    Ties keep no particular order.
+    several times faster than its argsort); otherwise a stable argsort. Either way equal
+    keys keep their input order. ``key`` is overwritten.
     """
     size = key.size
     id_bits = max(size - 1, 1).bit_length()
@@ -81,7 +81,7 @@ def _sort_with_ids(key: np.ndarray, key_bound: int) -> tuple[np.ndarray, np.ndar
         ids = key & ((1 << id_bits) - 1)
         key >>= id_bits
         return key, ids
-    ids = np.argsort(key)
+    ids = np.argsort(key, kind="stable")
     return key[ids], ids
 
 
@@ -186,13 +186,14 @@ def vertex_fans(
     boundary = corners[~interior].ravel()
     boundary = boundary[boundary >= 0]
     ends = boundary + _NEXT_STEP[boundary % 3]  # corners whose leaving edge is a boundary edge
-    label = step.copy()
+    # int32 labels halve the bytes gathered per round; take() is faster than P[P].
+    label = step.astype(np.int32 if size <= np.iinfo(np.int32).max else np.int64)
     label[ends] = -1  # P[end] == end: chains collapse onto their end, labelled -1
     rounds = max(int(max_valence) - 1, 0).bit_length()
     for r in range(rounds):
-        np.minimum(label, label[P], out=label)
+        np.minimum(label, label.take(P), out=label)
         if r + 1 < rounds:
-            P = P[P]
+            P = P.take(P)
     del P
     flat, n = faces.ravel(), int(n_vertices)
     cycles = flat[label == step]  # the smallest corner of each cycle
