@@ -128,14 +128,14 @@ def hat_gradients(mesh: TriMesh) -> np.ndarray:
     """
 
     def build():
-        g = _hat_gradient_blocks(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas))
-        return _readonly(np.ascontiguousarray(g.transpose(0, 2, 1)))
+        g = _rotated_edges(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas))  # [k, t, i]
+        return _readonly(np.ascontiguousarray(g.transpose(1, 2, 0)))
 
     return mesh.cached("hat_gradients", build)
 
 
-def _hat_gradient_blocks(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """``out[t, k, j]`` = scale_t (N_t × e_j)_k, float64 (m, 3, 3), e_j opposite corner j.
+def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``out[k, t, j]`` = scale_t (N_t × e_j)_k, float64 (3, m, 3), e_j opposite corner j.
 
     With ``corners = faces`` and ``scale = 1 / (2 A_F)`` this is component k of the hat
     gradient of corner j (eq. 27). ``corners`` may list each face's vertices in another
@@ -144,12 +144,11 @@ def _hat_gradient_blocks(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray) 
     """
     e = edge_components(mesh._vertex_columns, corners)  # (3 coordinates, m, 3 corners)
     N = mesh.face_normals
-    out = np.empty((corners.shape[0], 3, 3))
+    out = np.empty((3, corners.shape[0], 3))  # component-major: contiguous (m, 3) rows
     for k in range(3):
         a, b = (k + 1) % 3, (k + 2) % 3  # (N x e)_k = N_a e_b - N_b e_a
-        na, nb = N[:, a] * scale, N[:, b] * scale
-        np.multiply(na[:, None], e[b], out=out[:, k])
-        out[:, k] -= nb[:, None] * e[a]
+        np.multiply(e[b], (N[:, a] * scale)[:, None], out=out[k])
+        out[k] -= e[a] * (N[:, b] * scale)[:, None]
     return out
 
 
@@ -290,7 +289,8 @@ def grad(mesh: TriMesh) -> sp.csr_array:
         # Sorting a face's corners is a rotation (even) or a reflection (odd) of the face.
         odd = order[:, 1] != (order[:, 0] + 1) % 3
         scale = np.where(odd, -0.5, 0.5) / mesh.face_areas
-        vals = _hat_gradient_blocks(mesh, Fs, scale)  # (m, 3k, 3j): row (t, k), column j
+        g = _rotated_edges(mesh, Fs, scale)  # [k, t, j]
+        vals = np.ascontiguousarray(g.transpose(1, 0, 2))  # (m, 3k, 3j): row (t, k), column j
         m, n = mesh.n_faces, mesh.n_vertices
         # int32 indices when they fit, as for the 1-ring pattern (scipy keeps int64 here)
         index = np.int32 if max(9 * m, n) <= np.iinfo(np.int32).max else np.int64
@@ -329,14 +329,14 @@ def _cotangent_weights(mesh: TriMesh) -> np.ndarray:
     face's contribution to the edge opposite corner c, from squared edge lengths only.
     """
     sq = mesh._edge_lengths_sq  # (m, 3): |e_c|² opposite corner c
-    w = sq.copy()
-    w -= sq[:, [1, 2, 0]]
-    w -= sq[:, [2, 0, 1]]
+    w = 2.0 * sq  # |e_c|² − |e_a|² − |e_b|² = 2 |e_c|² − (|e_a|² + |e_b|² + |e_c|²)
+    w -= (sq[:, 0] + sq[:, 1] + sq[:, 2])[:, None]
     w *= (0.125 / mesh.face_areas)[:, None]
     corners = mesh._edge_corners  # (E, 2): the corner opposite each edge on each side
     per_side = w.reshape(-1).take(corners)
-    per_side[corners < 0] = 0.0
-    return per_side.sum(axis=1)
+    if mesh.boundary_edges.size:
+        per_side[corners < 0] = 0.0
+    return per_side[:, 0] + per_side[:, 1]
 
 
 @takes_mesh

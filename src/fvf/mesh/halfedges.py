@@ -176,18 +176,20 @@ def vertex_fans(
         Fans per vertex; 0 for a vertex in no face.
     """
     size = faces.size
-    interior = (corners >= 0).all(axis=1)
-    g1, g2 = corners[interior, 0], corners[interior, 1]  # twins
-    step = np.arange(size, dtype=np.int64)
-    P = step.copy()
-    P[g1 + _NEXT_STEP[g1 % 3]] = g2 + _PREV_STEP[g2 % 3]
-    P[g2 + _NEXT_STEP[g2 % 3]] = g1 + _PREV_STEP[g1 % 3]
-    del g1, g2
+    interior = np.minimum(corners[:, 0], corners[:, 1]) >= 0
+    closed = bool(interior.all())
+    g1, g2 = (corners[:, 0], corners[:, 1]) if closed else corners[interior].T  # twins
+    r1, r2 = g1 % 3, g2 % 3
+    P = np.arange(size, dtype=np.int64)
+    P[g1 + _NEXT_STEP[r1]] = g2 + _PREV_STEP[r2]
+    P[g2 + _NEXT_STEP[r2]] = g1 + _PREV_STEP[r1]
+    del g1, g2, r1, r2
     boundary = corners[~interior].ravel()
     boundary = boundary[boundary >= 0]
     ends = boundary + _NEXT_STEP[boundary % 3]  # corners whose leaving edge is a boundary edge
     # int32 labels halve the bytes gathered per round; take() is faster than P[P].
-    label = step.astype(np.int32 if size <= np.iinfo(np.int32).max else np.int64)
+    step = np.arange(size, dtype=np.int32 if size <= np.iinfo(np.int32).max else np.int64)
+    label = step.copy()
     label[ends] = -1  # P[end] == end: chains collapse onto their end, labelled -1
     rounds = max(int(max_valence) - 1, 0).bit_length()
     for r in range(rounds):
@@ -196,8 +198,10 @@ def vertex_fans(
             P = P.take(P)
     del P
     flat, n = faces.ravel(), int(n_vertices)
-    cycles = flat[label == step]  # the smallest corner of each cycle
-    return np.bincount(flat[ends], minlength=n) + np.bincount(cycles, minlength=n)
+    fans = np.bincount(flat[label == step], minlength=n)  # the smallest corner of each cycle
+    if not closed:
+        fans += np.bincount(flat[ends], minlength=n)
+    return fans
 
 
 class OneRing(NamedTuple):

@@ -110,16 +110,16 @@ def _face_geometry_arrays(
     """
     e = edge_components(coordinates, F)  # (3 coordinates, m, 3 edges)
     edge_sq = np.einsum("ctk,ctk->tk", e, e)
-    cross = np.empty((F.shape[0], 3))
+    cross = np.empty((3, F.shape[0]))  # component-major: contiguous rows
     for c in range(3):
         a, b = (c + 1) % 3, (c + 2) % 3
-        np.multiply(e[a, :, 1], e[b, :, 2], out=cross[:, c])
-        cross[:, c] -= e[b, :, 1] * e[a, :, 2]
+        np.multiply(e[a, :, 1], e[b, :, 2], out=cross[c])
+        cross[c] -= e[b, :, 1] * e[a, :, 2]
     del e
-    twice_area = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    twice_area = np.sqrt(np.einsum("ct,ct->t", cross, cross))
     with np.errstate(divide="ignore", invalid="ignore"):  # degenerate faces: rejected later
-        cross /= twice_area[:, None]
-    return 0.5 * twice_area, cross, edge_sq
+        cross /= twice_area
+    return 0.5 * twice_area, np.ascontiguousarray(cross.T), edge_sq
 
 
 class TriMesh:
@@ -411,7 +411,8 @@ class TriMesh:
     @cached_property
     def boundary_edges(self) -> np.ndarray:
         """Indices into :attr:`edges` of edges with one face, int64 (b,)."""
-        return _readonly(np.flatnonzero((self._edge_corners < 0).any(axis=1)))
+        c = self._edge_corners
+        return _readonly(np.flatnonzero(np.minimum(c[:, 0], c[:, 1]) < 0))
 
     @cached_property
     def boundary_vertices(self) -> np.ndarray:
@@ -556,7 +557,8 @@ class TriMesh:
 
     # ------------------------------------------------------------------ validation
     def _validate_geometry(self) -> None:
-        extent = float(np.ptp(self.vertices, axis=0).max())
+        X = self._vertex_columns  # (3, n): reductions along contiguous rows
+        extent = float((X.max(axis=1) - X.min(axis=1)).max())
         lo, hi = EXTENT_RANGE
         if extent > 0 and not lo <= extent <= hi:
             raise MeshScaleError(
@@ -574,8 +576,9 @@ class TriMesh:
                 "`V, F, kept = fvf.remove_unreferenced_vertices(V, F)` (kept maps new to old "
                 "indices)."
             )
-        edge_sq = self._edge_lengths_sq
-        bad = np.flatnonzero(self.face_areas <= DEGENERATE_AREA_RTOL * edge_sq.max(axis=1))
+        sq = self._edge_lengths_sq
+        longest = np.maximum(np.maximum(sq[:, 0], sq[:, 1]), sq[:, 2])
+        bad = np.flatnonzero(self.face_areas <= DEGENERATE_AREA_RTOL * longest)
         if bad.size:
             raise DegenerateFaceError(
                 f"faces {format_indices(bad)} have zero area (collinear or coincident "
