@@ -128,14 +128,17 @@ def hat_gradients(mesh: TriMesh) -> np.ndarray:
     """
 
     def build():
-        g = _rotated_edges(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas))  # [k, t, i]
-        return _readonly(np.ascontiguousarray(g.transpose(1, 2, 0)))
+        g = np.empty((mesh.n_faces, 3, 3))  # [t, i, k]
+        _rotated_edges(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas), g.transpose(2, 0, 1))
+        return _readonly(g)
 
     return mesh.cached("hat_gradients", build)
 
 
-def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """``out[k, t, j]`` = scale_t (N_t × e_j)_k, float64 (3, m, 3), e_j opposite corner j.
+def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray, out: np.ndarray) -> None:
+    """Write ``out[k, t, j]`` = scale_t (N_t × e_j)_k, e_j the edge opposite corner j.
+
+    ``out`` is a (3, m, 3) float64 view (any strides) of the caller's array.
 
     With ``corners = faces`` and ``scale = 1 / (2 A_F)`` this is component k of the hat
     gradient of corner j (eq. 27). ``corners`` may list each face's vertices in another
@@ -144,12 +147,11 @@ def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray) -> np.
     """
     e = edge_components(mesh._vertex_columns, corners)  # (3 coordinates, m, 3 corners)
     N = mesh.face_normals
-    out = np.empty((3, corners.shape[0], 3))  # component-major: contiguous (m, 3) rows
-    for k in range(3):
+    for k in range(3):  # contiguous (m, 3) arithmetic, one strided copy into out
         a, b = (k + 1) % 3, (k + 2) % 3  # (N x e)_k = N_a e_b - N_b e_a
-        np.multiply(e[b], (N[:, a] * scale)[:, None], out=out[k])
-        out[k] -= e[a] * (N[:, b] * scale)[:, None]
-    return out
+        component = e[b] * (N[:, a] * scale)[:, None]
+        component -= e[a] * (N[:, b] * scale)[:, None]
+        out[k] = component
 
 
 # ---------------------------------------------------------------------------- mass, J, [.]
@@ -289,8 +291,8 @@ def grad(mesh: TriMesh) -> sp.csr_array:
         # Sorting a face's corners is a rotation (even) or a reflection (odd) of the face.
         odd = order[:, 1] != (order[:, 0] + 1) % 3
         scale = np.where(odd, -0.5, 0.5) / mesh.face_areas
-        g = _rotated_edges(mesh, Fs, scale)  # [k, t, j]
-        vals = np.ascontiguousarray(g.transpose(1, 0, 2))  # (m, 3k, 3j): row (t, k), column j
+        vals = np.empty((mesh.n_faces, 3, 3))  # [t, k, j]: row (t, k), column j
+        _rotated_edges(mesh, Fs, scale, vals.transpose(1, 0, 2))
         m, n = mesh.n_faces, mesh.n_vertices
         # int32 indices when they fit, as for the 1-ring pattern (scipy keeps int64 here)
         index = np.int32 if max(9 * m, n) <= np.iinfo(np.int32).max else np.int64
