@@ -147,11 +147,12 @@ def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray, out: n
     """
     e = edge_components(mesh._vertex_columns, corners)  # (3 coordinates, m, 3 corners)
     N = mesh.face_normals
-    for k in range(3):  # contiguous (m, 3) arithmetic, one strided copy into out
+    first, second = np.empty(e.shape[1:]), np.empty(e.shape[1:])  # contiguous (m, 3)
+    for k in range(3):
         a, b = (k + 1) % 3, (k + 2) % 3  # (N x e)_k = N_a e_b - N_b e_a
-        component = e[b] * (N[:, a] * scale)[:, None]
-        component -= e[a] * (N[:, b] * scale)[:, None]
-        out[k] = component
+        np.multiply(e[b], (N[:, a] * scale)[:, None], out=first)
+        np.multiply(e[a], (N[:, b] * scale)[:, None], out=second)
+        np.subtract(first, second, out=out[k])  # the one strided write
 
 
 # ---------------------------------------------------------------------------- mass, J, [.]
