@@ -156,13 +156,18 @@ def test_sorted_pass_matches_unique(name):
 
 
 @pytest.mark.parametrize("name", ["torus", "disk", "two components", "camelhead.off"])
-def test_argsort_fallback_gives_the_same_pass(name, monkeypatch):
-    """Keys too wide to pack with their position fall back to argsort: same results."""
+@pytest.mark.parametrize("path", ["two packed sorts", "argsort"])
+def test_sort_fallbacks_give_the_same_pass(name, path, monkeypatch):
+    """Keys too wide to pack with their positions: two narrower packed sorts (edge keys
+    of huge meshes), or argsort (positions beyond 2³¹). Same results as one packed sort."""
     mesh = get_mesh(name)
     F, n = np.asarray(mesh.faces), mesh.n_vertices
     packed = halfedges.sort_halfedges(F, n)
     ring = halfedges.one_ring(packed.edges, n)
-    monkeypatch.setattr(halfedges, "_INT64_BITS", 0)
+    one_sort = (2 * n * n - 1).bit_length() + (F.size - 1).bit_length()
+    monkeypatch.setattr(halfedges, "_INT64_BITS", one_sort - 1 if path != "argsort" else 0)
+    assert not halfedges._packs(2 * n * n, F.size)
+    assert halfedges._packs(2 * n, F.size) == (path != "argsort")
     fallback = halfedges.sort_halfedges(F, n)
     for a, b in zip(packed, fallback, strict=True):  # no ties: (edge, direction) is unique
         np.testing.assert_array_equal(a, b)

@@ -64,6 +64,11 @@ class EdgeRuns(NamedTuple):
     edges: np.ndarray
 
 
+def _packs(key_bound: int, size: int) -> bool:
+    """Whether keys below ``key_bound`` and positions below ``size`` fit in one int64."""
+    return max(key_bound - 1, 1).bit_length() + max(size - 1, 1).bit_length() <= _INT64_BITS
+
+
 def _sort_with_ids(key: np.ndarray, key_bound: int) -> tuple[np.ndarray, np.ndarray]:
     """Sort non-negative int64 ``key`` (< key_bound), returning (sorted keys, argsort).
 
@@ -74,7 +79,7 @@ def _sort_with_ids(key: np.ndarray, key_bound: int) -> tuple[np.ndarray, np.ndar
     """
     size = key.size
     id_bits = max(size - 1, 1).bit_length()
-    if max(key_bound - 1, 1).bit_length() + id_bits <= _INT64_BITS:
+    if _packs(key_bound, size):
         key <<= id_bits
         key |= np.arange(size, dtype=np.int64)
         key.sort()
@@ -101,17 +106,29 @@ def sort_halfedges(faces: np.ndarray, n_vertices: int) -> EdgeRuns:
     n = max(int(n_vertices), 1)
     tail = faces[:, [1, 2, 0]].ravel()  # half-edge 3t + i runs F[t, i+1] -> F[t, i+2]
     head = faces[:, [2, 0, 1]].ravel()
-    key = np.minimum(tail, head)
+    lo = np.minimum(tail, head)
     backward = tail > head
     np.maximum(tail, head, out=head)
-    del tail
-    key *= n
-    key += head  # lo * n + hi: the undirected edge
-    del head
-    key <<= 1
-    key |= backward  # forward half-edges first within an edge's run
-    del backward
-    key, order = _sort_with_ids(key, 2 * n * n)
+    hi = head
+    del tail, head
+    if _packs(2 * n * n, lo.size):  # one sort of (lo, hi, direction) with the positions
+        key = lo * n
+        key += hi
+        key <<= 1
+        key |= backward  # forward half-edges first within an edge's run
+        del lo, hi, backward
+        key, order = _sort_with_ids(key, 2 * n * n)
+    else:  # two stable sorts, least significant first: (hi, direction), then lo
+        key = hi * 2
+        key |= backward
+        _, order = _sort_with_ids(key, 2 * n)
+        _, by_lo = _sort_with_ids(lo.take(order), n)
+        order = order.take(by_lo)
+        key = lo.take(order) * n
+        key += hi.take(order)
+        key <<= 1
+        key |= backward.take(order)
+        del lo, hi, backward, by_lo
     backward = (key & 1).astype(bool)
     key >>= 1
     size = key.size
