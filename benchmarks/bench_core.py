@@ -5,15 +5,21 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_core.py            # ~10k, ~100k, ~1M faces
     .venv/bin/python benchmarks/bench_core.py --quick    # the two small sizes (smoke test)
     .venv/bin/python benchmarks/bench_core.py --sizes 2e4,4e5
+    .venv/bin/python benchmarks/bench_core.py --construction-only   # the construction goal
 
 Meshes are the built-in spot mesh (5856 faces) refined by 1-to-4 midpoint subdivision
 (a vectorized helper in this file; vertices are not moved), at the subdivision level whose
-face count is closest (in log scale) to each requested size.
+face count is closest (in log scale) to each requested size. The construction goal uses
+the real armadillo meshes of ``../shared/meshes`` (86k, 346k, 750k faces, and 1.38M
+faces from ``igl.loop(armadillo, 2)``); it is skipped when they are absent.
 
 Everything runs on one thread: BLAS pools are limited with threadpoolctl and libigl's own
-thread pool with ``IGL_NUM_THREADS`` (``--igl-threads`` to change it). Timings are the best
-of r repetitions (``time.perf_counter``, garbage collector paused), with r larger at small
-sizes. See ``benchmarks/README.md`` for what "cold" and "warm" mean.
+thread pool with ``IGL_NUM_THREADS`` (``--igl-threads`` to change it). Timings are CPU
+time of this process (``time.process_time``), the best of r repetitions (garbage collector
+paused), with r larger at small sizes: on a shared, loaded machine wall time measures the
+other processes as much as this one, while the CPU time of a single-threaded computation
+does not depend on how often it is descheduled. See ``benchmarks/README.md`` for what
+"cold" and "warm" mean.
 """
 
 from __future__ import annotations
@@ -46,12 +52,23 @@ from fvf.mesh.trimesh import TriMesh
 # Goals checked in the summary.
 GOAL_VS_IGL = 1.0  # every assembled operator: fvf cold time <= this x libigl's, at ~1M faces
 GOAL_DV_VS_COMPOSITION = 0.3  # D^V_v for a new field <= this x the sparse-product composition
+# Construction goal: TriMesh + stiffness + vertex_mass + grad against libigl's cotmatrix +
+# massmatrix(BARYCENTRIC) + grad, at 86k-1.38M faces.
+GOAL_BUILD_TIME = 1.0  # CPU time <= this x libigl's
+GOAL_BUILD_MEMORY = 1.2  # peak RSS <= this x libigl's
 
 MEMORY_CHILD_FLAG = "--_memory-child"
+BUILD_MEMORY_CHILD_FLAG = "--_build-memory-child"
 
 # Per-face geometry that TriMesh validation computes and caches (cached_property names);
 # dropped from a fresh mesh to time face_areas / face_normals from scratch.
-GEOMETRY_KEYS = ("face_edge_vectors", "_face_cross", "face_areas", "face_normals", "vertex_areas")
+GEOMETRY_KEYS = (
+    "face_edge_vectors",
+    "_face_geometry",
+    "face_areas",
+    "face_normals",
+    "vertex_areas",
+)
 
 # ------------------------------------------------------------------------------ utilities
 
@@ -83,10 +100,12 @@ def best_of(
     budget: float = 2.0,
     min_reps: int = 3,
 ) -> tuple[float, Any]:
-    """Best wall time of ``fn(setup())`` over up to ``reps`` runs; setup is not timed.
+    """Best CPU time of ``fn(setup())`` over up to ``reps`` runs; setup is not timed.
 
-    Stops early once ``min_reps`` runs are done and the runs (setup included) have used
-    ``budget`` seconds. Returns the best time and the last result.
+    CPU time of this process (``time.process_time``), so other processes on a loaded
+    machine do not inflate it. Stops early once ``min_reps`` runs are done and the runs
+    (setup included) have used ``budget`` seconds of wall time. Returns the best time and
+    the last result.
     """
     best = math.inf
     result = None
@@ -96,9 +115,9 @@ def best_of(
         arg = setup() if setup is not None else None
         gc.disable()
         try:
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             result = fn(arg)
-            t = time.perf_counter() - t0
+            t = time.process_time() - t0
         finally:
             gc.enable()
         best = min(best, t)
@@ -305,7 +324,7 @@ class FreshMeshes:
     def new_uncached_edges(self) -> TriMesh:
         """A fresh mesh without the edge tables that validation leaves cached."""
         mesh = self.new()
-        for key in ("_edge_data", "edges", "face_edges", "edge_faces"):
+        for key in ("_connectivity", "edges", "_edge_corners", "face_edges", "edge_faces"):
             mesh.__dict__.pop(key, None)
         return mesh
 
@@ -527,16 +546,17 @@ def bench_breakdown(fm: FreshMeshes, reps: int) -> list[tuple[str, float]]:
         lambda mesh: mesh._validate_vertex_fans(),
     )
     add(
-        "mesh._edge_data (unique undirected edges)",
-        lambda mesh: mesh._edge_data,
+        "mesh._connectivity (sorted half-edge pass and its checks)",
+        lambda mesh: mesh._connectivity,
         fm.new_uncached_edges,
     )
+    add("mesh._one_ring (1-ring CSR pattern from the sorted edges)", lambda mesh: mesh._one_ring)
     add("mesh.vertex_pattern (1-ring CSR pattern + slots)", lambda mesh: mesh.vertex_pattern)
     add("hat_gradients", lambda mesh: calculus.hat_gradients(mesh))
     add("_sorted_corners (argsort per face)", lambda mesh: calculus._sorted_corners(mesh))
     add(
-        "_stiffness_local (per-face 3x3 cotangent blocks)",
-        lambda mesh: calculus._stiffness_local(mesh),
+        "_cotangent_weights (per-edge cotangent weights)",
+        lambda mesh: calculus._cotangent_weights(mesh),
         warm_all,
     )
     local = rng.standard_normal((m, 3, 3))
@@ -689,6 +709,153 @@ def run_memory(V: np.ndarray, F: np.ndarray) -> None:
                 row("operator bytes", total)
 
 
+# ------------------------------------------------------------------------------ construction
+
+
+def construction_meshes() -> list[tuple[str, str, str]]:
+    """(label, file in ../shared/meshes, how) of the construction goal's meshes."""
+    return [
+        ("86k", "armadillo.obj", "armadillo.obj"),
+        ("346k", "armadillo_loop1.ply", "armadillo_loop1.ply"),
+        ("750k", "armadillo_750k.ply", "armadillo_750k.ply"),
+        ("1.38M", "armadillo.obj", "igl.loop(armadillo.obj, 2)"),
+    ]
+
+
+def shared_meshes_dir() -> str:
+    default = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared")
+    return os.environ.get("FVF_SHARED_MESHES", os.path.join(default, "meshes"))
+
+
+def load_construction_mesh(igl: Any, label: str, name: str) -> tuple[np.ndarray, np.ndarray]:
+    V, F = igl.read_triangle_mesh(os.path.join(shared_meshes_dir(), name))
+    if label == "1.38M":
+        V, F = igl.loop(V, F, 2)
+    return np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64)
+
+
+def build_fvf(V: np.ndarray, F: np.ndarray) -> tuple[Any, ...]:
+    """What the goal times on fvf's side: a new TriMesh and its basic operators."""
+    mesh = TriMesh(V, F)
+    return mesh, fvf.stiffness(mesh), fvf.vertex_mass(mesh), fvf.grad(mesh)
+
+
+def build_igl(igl: Any, V: np.ndarray, F: np.ndarray) -> tuple[Any, ...]:
+    """libigl's counterpart (libigl validates nothing)."""
+    return (
+        igl.cotmatrix(V, F),
+        igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_BARYCENTRIC),
+        igl.grad(V, F),
+    )
+
+
+def cpu_alternating(fns: list[Callable[[], Any]], reps: int) -> list[float]:
+    """Best CPU time of each function, the functions run in turn (a, b, a, b, ...)."""
+    best = [math.inf] * len(fns)
+    for _ in range(reps):
+        for i, fn in enumerate(fns):
+            gc.collect()
+            gc.disable()
+            try:
+                t0 = time.process_time()
+                fn()
+                best[i] = min(best[i], time.process_time() - t0)
+            finally:
+                gc.enable()
+    return best
+
+
+def build_memory_child(path: str, which: str) -> None:
+    """Runs in a fresh process: peak RSS of the construction goal's work on one side.
+
+    Both sides import numpy, scipy, fvf and libigl first, so the processes start equal.
+    """
+    import igl
+
+    data = np.load(path)
+    V, F = np.ascontiguousarray(data["V"]), np.ascontiguousarray(data["F"])
+    del data
+    loaded = rss_now()
+    reset_peak_rss()
+    kept = build_fvf(V, F) if which == "fvf" else build_igl(igl, V, F)
+    print(json.dumps({"loaded": loaded, "peak": peak_rss(), "kept": len(kept)}))
+
+
+def build_memory(V: np.ndarray, F: np.ndarray) -> dict[str, dict[str, int]] | None:
+    """Peak RSS of fvf's and libigl's construction, each in a fresh process."""
+    out: dict[str, dict[str, int]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "mesh.npz")
+        np.savez(path, V=V, F=F)
+        for which in ("fvf", "igl"):
+            proc = subprocess.run(
+                [sys.executable, os.path.abspath(__file__), BUILD_MEMORY_CHILD_FLAG, path, which],
+                capture_output=True,
+                text=True,
+                check=False,
+                env=dict(os.environ, IGL_NUM_THREADS=os.environ.get("IGL_NUM_THREADS", "1")),
+            )
+            if proc.returncode != 0:
+                print(f"  {which}: memory child failed:\n{proc.stderr}")
+                return None
+            out[which] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out
+
+
+def run_construction_goal(igl: Any, reps: int, memory: bool) -> list[str]:
+    """Time and peak memory of a new mesh with its basic operators, fvf against libigl.
+
+    Returns the summary lines (PASS/MISS per size).
+    """
+    print(
+        "\n== Construction goal: fvf TriMesh(V, F) + stiffness + vertex_mass + grad vs libigl "
+        "cotmatrix +\n   massmatrix(BARYCENTRIC) + grad. CPU time (time.process_time), one "
+        f"thread, best of {reps or 'r'} (r as above), the\n   two sides alternating in this "
+        "process; peak RSS (VmHWM) in a fresh process per side. =="
+    )
+    if not os.path.isdir(shared_meshes_dir()):
+        print(f"  skipped: {shared_meshes_dir()} not found (set FVF_SHARED_MESHES)")
+        return ["    skip  construction goal: shared meshes not found"]
+    headers = ["mesh", "faces", "fvf CPU", "igl CPU", "time ratio"]
+    if memory:
+        headers += ["fvf peak", "igl peak", "mem ratio", "fvf +", "igl +", "+ ratio"]
+    rows, summary = [], []
+    for label, name, how in construction_meshes():
+        V, F = load_construction_mesh(igl, label, name)
+        t_fvf, t_igl = cpu_alternating(
+            [lambda V=V, F=F: build_fvf(V, F), lambda V=V, F=F: build_igl(igl, V, F)],
+            reps or reps_for(F.shape[0]),
+        )
+        row = [f"{label} ({how})", f"{F.shape[0]:,}", fmt_time(t_fvf), fmt_time(t_igl)]
+        row.append(fmt_ratio(t_fvf, t_igl))
+        ok_time = t_fvf <= GOAL_BUILD_TIME * t_igl
+        line = f"    {'PASS' if ok_time else 'MISS'}  {label:>5} time {t_fvf / t_igl:.2f}x"
+        mem = build_memory(V, F) if memory else None
+        if mem is not None:
+            f, g = mem["fvf"], mem["igl"]
+            grow_f, grow_g = f["peak"] - f["loaded"], g["peak"] - g["loaded"]
+            row += [fmt_bytes(f["peak"]), fmt_bytes(g["peak"]), fmt_ratio(f["peak"], g["peak"])]
+            row += [fmt_bytes(grow_f), fmt_bytes(grow_g), fmt_ratio(grow_f, grow_g)]
+            ok_mem = max(f["peak"] / g["peak"], grow_f / grow_g) <= GOAL_BUILD_MEMORY
+            line += (
+                f"; {'PASS' if ok_mem else 'MISS'} peak memory {f['peak'] / g['peak']:.2f}x "
+                f"(growth after loading {grow_f / grow_g:.2f}x)"
+            )
+        elif memory:
+            row += ["-"] * 6
+        rows.append(row)
+        summary.append(line)
+    print_table(headers, rows)
+    if memory:
+        print(
+            "  peak = the process's peak RSS; + = peak minus the RSS after loading V, F (both "
+            "children import\n  numpy, scipy, fvf and libigl first). The memory goal needs "
+            "both ratios <= "
+            f"{GOAL_BUILD_MEMORY:.1f}x."
+        )
+    return summary
+
+
 # ------------------------------------------------------------------------------ main
 
 
@@ -704,6 +871,17 @@ def main() -> None:
         "--igl-threads", type=int, default=1, help="libigl thread pool size (default 1)"
     )
     ap.add_argument("--no-memory", action="store_true", help="skip the peak-memory subprocess")
+    ap.add_argument(
+        "--construction-only",
+        action="store_true",
+        help="only the construction goal on the shared armadillo meshes",
+    )
+    ap.add_argument(
+        "--construction-reps",
+        type=int,
+        default=0,
+        help="repetitions per side (default: as for the other timings, 12 at 86k, 3 from 346k)",
+    )
     args = ap.parse_args()
 
     # libigl reads IGL_NUM_THREADS on its first parallel call (cached for the process).
@@ -737,7 +915,20 @@ def main() -> None:
         "  meshes: spot.obj refined by this script's vectorized 1-to-4 midpoint subdivision "
         "(vertices not moved)"
     )
-    print("  timings: best of r runs (time.perf_counter, gc paused); r shown per size")
+    print(
+        "  timings: CPU time of this process (time.process_time; on a shared machine wall "
+        "time would\n  also measure the other processes), best of r runs, gc paused; r shown "
+        "per size"
+    )
+    if args.construction_only:
+        summary = run_construction_goal(igl, args.construction_reps, not args.no_memory)
+        print("\n== Summary ==")
+        print(
+            f"  Construction goal: CPU time <= {GOAL_BUILD_TIME:.1f}x and peak memory <= "
+            f"{GOAL_BUILD_MEMORY:.1f}x libigl"
+        )
+        print("\n".join(summary))
+        return
 
     targets = [float(s) for s in args.sizes.split(",") if s.strip()]
     if args.quick:
@@ -831,6 +1022,7 @@ def main() -> None:
 
     if largest is not None and not args.no_memory:
         run_memory(*largest)
+    build_summary = run_construction_goal(igl, args.construction_reps, not args.no_memory)
 
     # ---------------------------------------------------------------- summary
     level = levels[-1]
@@ -867,6 +1059,11 @@ def main() -> None:
         max(x["diff"] for x in res["igl"].values()), max(x["diff"] for x in res["comp"].values())
     )
     print(f"  Correctness: largest relative difference over all pairs {worst:.1e}")
+    print(
+        f"  Goal 3: TriMesh + stiffness + vertex_mass + grad, CPU time <= {GOAL_BUILD_TIME:.1f}x "
+        f"and peak memory <= {GOAL_BUILD_MEMORY:.1f}x libigl's cotmatrix + massmatrix + grad"
+    )
+    print("\n".join(build_summary))
 
 
 if __name__ == "__main__":
@@ -875,5 +1072,10 @@ if __name__ == "__main__":
 
         with threadpool_limits(1):
             memory_child(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 4 and sys.argv[1] == BUILD_MEMORY_CHILD_FLAG:
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(1):
+            build_memory_child(sys.argv[2], sys.argv[3])
     else:
         main()

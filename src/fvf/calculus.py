@@ -22,7 +22,7 @@ from .mesh.inputs import (
     as_face_function,
     as_vertex_function,
 )
-from .mesh.trimesh import TriMesh, _cross, _readonly
+from .mesh.trimesh import TriMesh, _cross, _readonly, edge_components
 
 __all__ = [
     "face_areas",
@@ -128,12 +128,31 @@ def hat_gradients(mesh: TriMesh) -> np.ndarray:
     """
 
     def build():
-        N = np.repeat(mesh.face_normals, 3, axis=0)  # (3m, 3)
-        e = mesh.face_edge_vectors.reshape(-1, 3)
-        g = _cross(N, e) / np.repeat(2.0 * mesh.face_areas, 3)[:, None]
-        return _readonly(g.reshape(-1, 3, 3))
+        g = np.empty((mesh.n_faces, 3, 3))  # [t, i, k]
+        _rotated_edges(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas), g.transpose(2, 0, 1))
+        return _readonly(g)
 
     return mesh.cached("hat_gradients", build)
+
+
+def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray, out: np.ndarray) -> None:
+    """Write ``out[k, t, j]`` = scale_t (N_t × e_j)_k, e_j the edge opposite corner j.
+
+    ``out`` is a (3, m, 3) float64 view (any strides) of the caller's array.
+
+    With ``corners = faces`` and ``scale = 1 / (2 A_F)`` this is component k of the hat
+    gradient of corner j (eq. 27). ``corners`` may list each face's vertices in another
+    order: e_j is then the edge from corner j+1 to j+2 of that order, which reverses the
+    face's edges for an odd permutation (flip the sign of ``scale`` there).
+    """
+    e = edge_components(mesh._vertex_columns, corners)  # (3 coordinates, m, 3 corners)
+    N = mesh.face_normals
+    first, second = np.empty(e.shape[1:]), np.empty(e.shape[1:])  # contiguous (m, 3)
+    for k in range(3):
+        a, b = (k + 1) % 3, (k + 2) % 3  # (N x e)_k = N_a e_b - N_b e_a
+        np.multiply(e[b], (N[:, a] * scale)[:, None], out=first)
+        np.multiply(e[a], (N[:, b] * scale)[:, None], out=second)
+        np.subtract(first, second, out=out[k])  # the one strided write
 
 
 # ---------------------------------------------------------------------------- mass, J, [.]
@@ -270,10 +289,18 @@ def grad(mesh: TriMesh) -> sp.csr_array:
 
     def build():
         order, Fs = _sorted_corners(mesh)
-        g = np.take_along_axis(hat_gradients(mesh), order[:, :, None], axis=1)  # (m, 3i, 3k)
-        vals = g.transpose(0, 2, 1).reshape(-1, 3)  # (3m, 3): row (t, k), corner i
-        cols = np.repeat(Fs, 3, axis=0)
-        return _freeze(face_rows_csr(vals, cols, mesh.n_vertices))
+        # Sorting a face's corners is a rotation (even) or a reflection (odd) of the face.
+        odd = order[:, 1] != (order[:, 0] + 1) % 3
+        scale = np.where(odd, -0.5, 0.5) / mesh.face_areas
+        vals = np.empty((mesh.n_faces, 3, 3))  # [t, k, j]: row (t, k), column j
+        _rotated_edges(mesh, Fs, scale, vals.transpose(1, 0, 2))
+        m, n = mesh.n_faces, mesh.n_vertices
+        # int32 indices when they fit, as for the 1-ring pattern (scipy keeps int64 here)
+        index = np.int32 if max(9 * m, n) <= np.iinfo(np.int32).max else np.int64
+        cols = np.empty((m, 3, 3), dtype=index)
+        cols[:] = Fs[:, None, :]
+        indptr = np.arange(0, 9 * m + 1, 3, dtype=index)
+        return _freeze(sp.csr_array((vals.reshape(-1), cols.reshape(-1), indptr), shape=(3 * m, n)))
 
     return mesh.cached("grad", build)
 
@@ -297,23 +324,22 @@ def div(mesh: TriMesh) -> sp.csr_array:
     return mesh.cached("div", build)
 
 
-def _stiffness_local(mesh: TriMesh) -> np.ndarray:
-    """A_F(t) ⟨∇φ_a, ∇φ_b⟩ = ⟨e_a, e_b⟩ / (4 A_F(t)) per face: cotangent blocks, (m, 3, 3).
+def _cotangent_weights(mesh: TriMesh) -> np.ndarray:
+    """W_ij = −(cot α_ij + cot β_ij) / 2 for each edge, float64 (E,) (eq. 30).
 
-    J preserves inner products, so the hat-gradient products are those of the opposite
-    edges (eq. 27); the off-diagonal entries are −cot(angle at the third corner) / 2.
+    Per face, A_F ⟨∇φ_a, ∇φ_b⟩ = ⟨e_a, e_b⟩ / (4 A_F) (J preserves inner products, eq.
+    27), and e_a + e_b + e_c = 0 gives ⟨e_a, e_b⟩ = (|e_c|² − |e_a|² − |e_b|²) / 2: the
+    face's contribution to the edge opposite corner c, from squared edge lengths only.
     """
-
-    def build():
-        e = mesh.face_edge_vectors  # (m, 3, 3)
-        w = 0.25 / mesh.face_areas
-        K = np.empty((mesh.n_faces, 3, 3))
-        for a in range(3):  # 6 distinct dot products, each vectorized over faces
-            for b in range(a, 3):
-                K[:, a, b] = K[:, b, a] = np.einsum("ij,ij->i", e[:, a], e[:, b]) * w
-        return _readonly(K)
-
-    return mesh.cached("stiffness_local", build)
+    sq = mesh._edge_lengths_sq  # (m, 3): |e_c|² opposite corner c
+    w = 2.0 * sq  # |e_c|² − |e_a|² − |e_b|² = 2 |e_c|² − (|e_a|² + |e_b|² + |e_c|²)
+    w -= (sq[:, 0] + sq[:, 1] + sq[:, 2])[:, None]
+    w *= (0.125 / mesh.face_areas)[:, None]
+    corners = mesh._edge_corners  # (E, 2): the corner opposite each edge on each side
+    per_side = w.reshape(-1).take(corners)
+    if mesh.boundary_edges.size:
+        per_side[corners < 0] = 0.0
+    return per_side[:, 0] + per_side[:, 1]
 
 
 @takes_mesh
@@ -321,11 +347,19 @@ def stiffness(mesh: TriMesh) -> sp.csr_array:
     """W = gradᵀ [A_F] grad: the symmetric positive semidefinite cotangent matrix (n, n).
 
     ``laplacian(mesh) = [A_V]⁻¹ W``; use W with :func:`vertex_mass` for symmetric
-    eigenproblems.
+    eigenproblems. Off the diagonal, W_ij = −(cot α_ij + cot β_ij) / 2 (the angles
+    opposite edge ij); each diagonal entry is minus the rest of its row, so constants are
+    in the kernel up to the rounding of one sum.
     """
-    return mesh.cached(
-        "stiffness", lambda: _freeze(mesh.assemble_vertex_operator(_stiffness_local(mesh)))
-    )
+
+    def build():
+        w = _cotangent_weights(mesh)
+        E, n = mesh.edges, mesh.n_vertices
+        diagonal = np.bincount(E[:, 0], w, minlength=n)
+        diagonal += np.bincount(E[:, 1], w, minlength=n)
+        return _freeze(mesh.assemble_edge_operator(w, -diagonal))
+
+    return mesh.cached("stiffness", build)
 
 
 @takes_mesh
