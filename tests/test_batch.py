@@ -475,9 +475,10 @@ def test_batch_pairs(client, tmp_path):
     (tmp_path / "pairs.csv").write_text("\n".join(lines[:3]))
     table = rows_by_mesh(
         fvf.batch.run(
-            [], tmp_path / "out", pairs=tmp_path / "pairs.csv", k=K, client=client, progress=False
+            [], tmp_path / "out", pairs=tmp_path / "pairs.csv", tasks=["fmap"], k=K,
+            client=client, progress=False,
         )
-    )
+    )  # fmt: skip
     meshes = {n: fvf.TriMesh(*fvf.read_mesh(p)) for n, p in zip("abc", (a, b, c), strict=True)}
     for pair, p2p in (("a--b", np.arange(torus.n_vertices)), ("a--c", inverse)):
         row = table[pair]
@@ -489,6 +490,28 @@ def test_batch_pairs(client, tmp_path):
     assert table["a--c"]["fmap_orthogonality"] < 1e-6  # an exact isometry: C is orthogonal
     assert table["b--a"]["status"] == "failed"  # a mesh file as a map: a row, not a crash
     assert table["b--a"]["error"].startswith("ValueError")
+
+
+def test_batch_match_task_recovers_a_permutation(client, tmp_path):
+    """The default pair task is fvf.match: on a shape without symmetry and a copy with its
+    vertices permuted, match_p2p is the permutation (source -> target), as fvf.match gives."""
+    sphere = fvf.icosphere(3)
+    x, y, z = sphere.vertices.T
+    r = 1 + 0.25 * y + 0.2 * z + 0.15 * np.cos(2.5 * y) * z + 0.3 * x * y + 0.2 * x**3
+    shape = fvf.TriMesh(sphere.vertices * np.array([2.0, 1.2, 0.8]) * r[:, None], sphere.faces)
+    perm = np.random.default_rng(5).permutation(shape.n_vertices)  # t's vertex j = s's perm[j]
+    _write(tmp_path / "s.off", shape)
+    _write(tmp_path / "t.off", fvf.TriMesh(shape.vertices[perm], np.argsort(perm)[shape.faces]))
+    (tmp_path / "pairs.csv").write_text("s.off,t.off\n")
+    out = tmp_path / "out"
+    table = rows_by_mesh(
+        fvf.batch.run([], out, pairs=tmp_path / "pairs.csv", k=40, client=client, progress=False)
+    )
+    row = table["s--t"]
+    assert row["status"] == "ok" and row["match_seconds_bases"] >= 0, row
+    with np.load(out / "pairs" / "s--t.npz") as data:
+        np.testing.assert_array_equal(data["match_p2p"], np.argsort(perm))  # s's i -> t's vertex
+        assert data["match_C"].shape == (40, 40)
 
 
 def test_cli_batch_exit_status(client, tmp_path):

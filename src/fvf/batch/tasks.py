@@ -13,9 +13,10 @@ Each task, its library call and the arrays it stores:
   ``singularity_vertices``, ``singularity_indices``, ``singularity_positions``.
 - ``fmap`` (pair): :func:`fvf.functional_map_from_bases` and :func:`fvf.map_quality` with
   ``k``; ``fmap`` (k, k), ``p2p`` (n_source,).
-- ``match`` (pair, registered when ``fvf.match`` exists) and ``quad`` (mesh, when
-  ``fvf.quad_mesh`` exists): what the function returns (:func:`output_of`), keys
-  prefixed ``match`` / ``quad``.
+- ``match`` (pair): :func:`fvf.match` with ``k``; ``match_p2p`` (n_source,) and
+  ``match_C`` (k, k), in the directions of ``fmap``.
+- ``quad`` (mesh, when ``fvf.quad_mesh`` exists): what the function returns
+  (:func:`output_of`), keys prefixed ``quad``.
 
 Keys follow the data-file schema of the ``fvf`` command (``docs/cli.md``): `v` is a
 per-face field and the `singularity_*` keys are those of ``fvf design``, so ``fvf render
@@ -214,20 +215,31 @@ def _call(func, *args, **optional):
     return func(*args, **{k: v for k, v in optional.items() if v is not None and accepts(func, k)})
 
 
-if hasattr(fvf, "match"):
+@register_task(
+    "match",
+    kind="pair",
+    options=("k",),
+    check=_check_k,
+    description="fvf.match: the vertex map source -> target (functional maps, ZoomOut to --k)",
+)
+def match(ctx: PairContext) -> TaskOutput:
+    """The vertex map source → target that :func:`fvf.match` computes.
 
-    @register_task(
-        "match",
-        kind="pair",
-        options=("k",),
-        check=_check_k,
-        description="fvf.match(source, target)",
+    ``match_p2p`` int64 (n_source,): for each source vertex a target vertex (the direction
+    of the ``fmap`` task's ``p2p``); ``match_C`` float64 (k, k): the functional map from
+    coefficients on the target to coefficients on the source. The arrays as read are
+    passed, so meshes with non-manifold flaps (which :class:`fvf.TriMesh` rejects) match
+    as :func:`fvf.match` documents.
+    """
+    k = ctx.options.get("k")
+    r = fvf.match(
+        (ctx.target.vertices, ctx.target.faces),
+        (ctx.source.vertices, ctx.source.faces),
+        full_output=True,
+        **({"k": int(k), "k_fit": min(15, int(k))} if k is not None else {}),
     )
-    def match(ctx: PairContext) -> TaskOutput:
-        """The correspondence fvf.match computes between the pair's meshes."""
-        return output_of(
-            _call(fvf.match, ctx.source.mesh, ctx.target.mesh, k=ctx.options.get("k")), "match"
-        )
+    figures = {f"seconds_{step}": float(t) for step, t in r.timings.items()}
+    return TaskOutput({"match_p2p": r.p2p_21, "match_C": r.C_12}, figures)
 
 
 if hasattr(fvf, "quad_mesh"):
