@@ -502,7 +502,75 @@ def _fig12(s, story):
     )
 
 
-STAGES = (_calculus, _brackets, _flow, _fluid, _fig7, _fig9, _fig10, _fig11, _fig12)
+def _cross_field(s, story):
+    """Cross fields: a curvature-aligned 4-direction field and its singularities."""
+    import fvf
+
+    st = story.begin("A curvature-aligned cross field (N = 4)", _cross_field)
+    mesh = s.mesh
+    s.cross = fvf.design_field(mesh, n=4, align="curvature")
+    ids, ind = fvf.singularities(mesh, s.cross, n=4)
+    story.picture(
+        st,
+        "cross_field.png",
+        mesh,
+        "cross field aligned to principal curvature directions, singularities of index ±1/4",
+        field=_directions(mesh, s.cross),
+        n=4,
+        singularities=(fvf.singularity_positions(mesh, ids), ind),
+        view=_both_sides(),
+        wide=True,
+    )
+    st.info("cross field singularities", len(ids), note="vertices of nonzero index")
+    st.check(
+        "cross field indices are multiples of 1/4",
+        float(np.abs(4 * ind - np.round(4 * ind)).max(initial=0.0)),
+        at_most=1e-9,
+    )
+    st.check(
+        "cross field sum of indices",
+        float(np.sum(ind)),
+        expect=float(mesh.euler_characteristic),
+        tol=1e-9,
+        note="Poincaré-Hopf: the Euler characteristic",
+    )
+
+
+def _quads(s, story):
+    """Fig. 1: a seamless parameterization along the cross field, and its quad mesh."""
+    import functools
+
+    import fvf
+
+    st = story.begin("A quad mesh from the cross field (Fig. 1)", _quads)
+    mesh = s.mesh
+    if not mesh.is_closed or mesh.n_components != 1:
+        st.info("quad mesh", "skipped", note="needs a closed, connected mesh")
+        return
+    V, Q = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    q = fvf.quad_quality(mesh, V, Q)
+    story.picture(
+        st,
+        "quads.png",
+        mesh,
+        f"{Q.shape[0]} quads; irregular vertices by valence",
+        draw=functools.partial(fvf.viz.render_quads, V, Q),
+        view=_both_sides(),
+        wide=True,
+    )
+    st.info("quads", Q.shape[0])
+    st.info("irregular vertex fraction", q.irregular_fraction, note="valence other than 4")
+    st.check(
+        "quad mesh is closed and manifold with the input's Euler characteristic",
+        [q.closed, q.manifold, q.euler_characteristic],
+        equals=[True, True, mesh.euler_characteristic],
+    )
+
+
+STAGES = (
+    _calculus, _brackets, _flow, _fluid, _fig7, _fig9, _fig10, _fig11, _fig12, _cross_field,
+    _quads,
+)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------- report

@@ -215,13 +215,17 @@ class Story:
         listed: bool = True,
         wide: bool = False,
         link: str | None = None,
+        draw: Any = None,
         **kwargs: Any,
     ) -> Path | None:
         """Render ``name`` into the output folder, or record why it was skipped.
 
         ``listed=False`` renders without showing the picture in the report (frames of an
         animation); ``wide=True`` makes it 1.6 times as wide (two views side by side);
-        ``link`` is a file the picture links to (an animation). Returns the PNG's path.
+        ``link`` is a file the picture links to (an animation); ``draw`` renders something
+        other than ``mesh`` (a ``fvf.viz`` function taking the path and ``render``'s
+        keywords, e.g. ``functools.partial(fvf.viz.render_quads, V, Q)``). Returns the PNG's
+        path.
         """
         if self.skip_reason is not None:
             if listed:
@@ -231,7 +235,10 @@ class Story:
 
         w, h = self.size
         kwargs.setdefault("size", (int(1.6 * w), h) if wide else (w, h))
-        info = fvf.viz.render(mesh, self.out / name, title=caption, **kwargs)
+        if draw is None:
+            info = fvf.viz.render(mesh, self.out / name, title=caption, **kwargs)
+        else:
+            info = draw(self.out / name, title=caption, **kwargs)
         self.backend = info.backend
         self.files.append(name)
         if listed:

@@ -16,7 +16,7 @@ B = Φ_2ᵀ[A_V2] G (k_2, p), the energy is a sum of five terms, the first four 
 - M_ij = (λ_1j − λ_2i)² (``laplacian="squared"``) or the bounded resolvent mask of Ren et
   al. 2019 (``laplacian="resolvent"``), both zero exactly where C may map eigenspaces of
   equal eigenvalue to each other;
-- X_j = Φ_1ᵀ[A_V1][f_j]Φ_1, Y_j = Φ_2ᵀ[A_V2][g_j]Φ_2: the multiplication operators of the
+- X_j = Φ_1ᵀ A_V1 diag(f_j) Φ_1, Y_j = Φ_2ᵀ A_V2 diag(g_j) Φ_2: the multiplication operators of the
   descriptors, which a pointwise map makes commute with C;
 - P_j = Φ_1ᵀ[A_V1] D^V_{J grad f_j} Φ_1 and Q_j likewise on mesh 2: the functional vector
   fields of the rotated descriptor gradients (the chapter's D_v, reduced by
@@ -77,7 +77,7 @@ def _check_k(basis: SpectralBasis, k: int | None, name: str) -> SpectralBasis:
 
 
 def descriptor_operators(basis: SpectralBasis, descriptors: npt.ArrayLike) -> np.ndarray:
-    """Multiplication operators Φᵀ[A_V][f_j]Φ of descriptors: float64 (p, k, k).
+    """Multiplication operators Φᵀ A_V diag(f_j) Φ of descriptors: float64 (p, k, k).
 
     Parameters
     ----------
