@@ -248,7 +248,7 @@ def _correspond(
     *,
     k: int,
     k_fit: int,
-    landmarks,
+    landmarks: tuple[np.ndarray, np.ndarray] | None,
     n_descriptors: int,
     orientation: str | None,
     weights: dict,
