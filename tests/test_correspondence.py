@@ -325,6 +325,17 @@ def test_geodesic_distances_on_the_sphere():
     assert frac[0] == pytest.approx(1 / 3) and frac[-1] == 1 and np.all(np.diff(frac) >= 0)
 
 
+def test_orientation_agreement_signs():
+    """+1 for the identity, −1 onto the same surface with its faces reversed, 0 when every
+    image triangle is degenerate."""
+    mesh = fvf.icosphere(2)
+    ident = np.arange(mesh.n_vertices)
+    flipped = fvf.TriMesh(mesh.vertices, mesh.faces[:, ::-1])
+    assert orientation_agreement(mesh, mesh, ident) == pytest.approx(1.0, abs=1e-12)
+    assert orientation_agreement(mesh, flipped, ident) == pytest.approx(-1.0, abs=1e-12)
+    assert orientation_agreement(mesh, mesh, np.zeros(mesh.n_vertices, dtype=int)) == 0.0
+
+
 # ---------------------------------------------------------------------------- bad input
 def test_bad_input_raises_typed_errors(shape, basis):
     d = fvf.wave_kernel_signature(basis, n_energies=4)

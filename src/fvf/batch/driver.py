@@ -18,7 +18,7 @@ import os
 import time
 import uuid
 from collections import deque
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -99,7 +99,15 @@ def local_cluster_config(retries: int) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------- planning
-def _check_options(k, n, workers, memory_limit, retries, client, scheduler) -> None:
+def _check_options(
+    k: int,
+    n: int | None,
+    workers: int | None,
+    memory_limit: str | int | float | None,
+    retries: int,
+    client: Any,
+    scheduler: str | None,
+) -> None:
     if client is not None and scheduler is not None:
         raise ParameterError("give either client or scheduler, not both")
     if (client is not None or scheduler is not None) and (
@@ -215,7 +223,13 @@ def _has_bokeh() -> bool:
 
 
 @contextlib.contextmanager
-def _connected(client, scheduler, workers, memory_limit, retries) -> Iterator[tuple[Any, str]]:
+def _connected(
+    client: Any,
+    scheduler: str | None,
+    workers: int | None,
+    memory_limit: str | int | float | None,
+    retries: int,
+) -> Iterator[tuple[Any, str]]:
     """A client of the given, addressed or a new local cluster, and a description."""
     distributed = _require_dask()
     if client is not None:
@@ -262,7 +276,7 @@ def _warm() -> bool:
     return True
 
 
-def _prepare(client, note, local: bool) -> dict | None:
+def _prepare(client: Any, note: Callable[[str], None], local: bool) -> dict | None:
     """Wait for a worker, warm the workers up, print the dashboard; the jobs' resources."""
     import warnings
 
@@ -311,7 +325,7 @@ def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -
     }
 
 
-def _capacity(client, resources) -> int:
+def _capacity(client: Any, resources: dict | None) -> int:
     """Jobs the cluster runs at once: its threads, or its MESH resource units."""
     if resources:
         workers = client.scheduler_info()["workers"].values()
@@ -360,7 +374,15 @@ def chunks(sizes: Sequence[int], capacity: int) -> deque[tuple[int, ...]]:
     return groups
 
 
-def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -> None:
+def _execute(
+    client: Any,
+    jobs: Sequence[MeshJob | PairJob],
+    progress: Progress,
+    resources: dict | None,
+    retries: int | None,
+    rows: dict[int, dict],
+    save: Callable[[dict[int, dict]], None],
+) -> None:
     """Run the jobs, largest files first, at most one task per worker thread at a time; put
     each row into ``rows`` (by job index) as it finishes. On an interrupt the tasks in
     flight are cancelled (the rows so far stay in ``rows``).
@@ -376,15 +398,16 @@ def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:8]
-    state = {"capacity": _capacity(client, resources), "checked": time.monotonic()}
-    waiting = chunks([_size(job) for job in jobs], state["capacity"])
+    capacity, checked = _capacity(client, resources), time.monotonic()
+    waiting = chunks([_size(job) for job in jobs], capacity)
     futures: dict[Any, tuple[int, ...]] = {}
     done = as_completed()
 
     def submit_more() -> None:
-        if time.monotonic() - state["checked"] > CAPACITY_INTERVAL:  # workers come and go
-            state.update(capacity=_capacity(client, resources), checked=time.monotonic())
-        while waiting and len(futures) < state["capacity"]:
+        nonlocal capacity, checked
+        if time.monotonic() - checked > CAPACITY_INTERVAL:  # workers come and go
+            capacity, checked = _capacity(client, resources), time.monotonic()
+        while waiting and len(futures) < capacity:
             group = waiting.popleft()
             first = jobs[group[0]].name
             key = f"fvf-batch-{first}{f'+{len(group) - 1}' if len(group) > 1 else ''}-{token}"
@@ -416,7 +439,8 @@ def _execute(client, jobs, progress: Progress, resources, retries, rows, save) -
             client.cancel(list(futures))
 
 
-def _table(rows: list[dict], columns: list[str], as_frame: bool | None):
+def _table(rows: list[dict], columns: list[str], as_frame: bool | None) -> Any:
+    """A pandas.DataFrame of the rows (when pandas is there and wanted), else a list."""
     if as_frame is not False:
         try:
             import pandas as pd
@@ -450,7 +474,7 @@ def run(
     progress: bool = True,
     as_frame: bool | None = None,
     command: str | None = None,
-):
+) -> Any:
     """Run tasks over many meshes (and mesh pairs) in parallel on a Dask cluster.
 
     Each mesh is one Dask task: a worker process reads the file, runs the tasks

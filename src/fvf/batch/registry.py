@@ -27,11 +27,14 @@ import inspect
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from ..errors import MeshError, ParameterError
+
+if TYPE_CHECKING:
+    from ..mesh.trimesh import TriMesh
 
 __all__ = [
     "Task",
@@ -217,10 +220,10 @@ class MeshContext:
         self.vertices, self.faces = vertices, faces
         self.options = options
         self.arrays: dict[str, np.ndarray] = {}
-        self._mesh = None
+        self._mesh: TriMesh | None = None
 
     @property
-    def mesh(self):
+    def mesh(self) -> TriMesh:
         """The validated :class:`fvf.TriMesh` (built on first use).
 
         Raises
@@ -259,7 +262,13 @@ class PairContext:
         Arrays of the pair tasks that ran before.
     """
 
-    def __init__(self, source: MeshContext, target: MeshContext, map_path, options: Mapping):
+    def __init__(
+        self,
+        source: MeshContext,
+        target: MeshContext,
+        map_path: str | Path | None,
+        options: Mapping,
+    ):
         self.source, self.target = source, target
         self.map_path = None if map_path is None else Path(map_path)
         self.options = options

@@ -130,7 +130,7 @@ def _read(path: str, options: dict) -> MeshContext:
     return MeshContext(Path(path), vertices, faces, options)
 
 
-def _apply(task: Task, ctx, figures: dict) -> None:
+def _apply(task: Task, ctx: MeshContext | PairContext, figures: dict) -> None:
     out = task.func(ctx)
     if not isinstance(out, TaskOutput):
         raise TypeError(f"batch task {task.name!r} returned {type(out).__name__}, not TaskOutput")
@@ -145,7 +145,9 @@ def _apply(task: Task, ctx, figures: dict) -> None:
         figures[f"{task.name}_{key}"] = value.item() if isinstance(value, np.generic) else value
 
 
-def _provenance(job, key: str, file_hashes: Sequence[str], row: dict) -> dict[str, np.ndarray]:
+def _provenance(
+    job: MeshJob | PairJob, key: str, file_hashes: Sequence[str], row: dict
+) -> dict[str, np.ndarray]:
     return {
         KEY_FIELD: np.array(key),
         "batch_input_sha256": np.array(list(file_hashes), dtype=str),
@@ -207,7 +209,7 @@ def _write_pair(job: PairJob, ctx: PairContext, extra: dict) -> None:
         np.savez(tmp, **arrays)
 
 
-def _inputs_of(job) -> list[str]:
+def _inputs_of(job: MeshJob | PairJob) -> list[str]:
     if isinstance(job, MeshJob):
         return [job.path]
     return [job.source, job.target] + ([job.map] if job.map else [])
@@ -232,13 +234,12 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
     """
     start = time.perf_counter()
     reset = _reset_peak()
-    pair = isinstance(job, PairJob)
     row: dict[str, Any] = {
         "mesh": job.name,
         "status": "failed",
         "error": "",
-        "kind": "pair" if pair else "mesh",
-        "path": f"{job.source} -> {job.target}" if pair else job.path,
+        "kind": "pair" if isinstance(job, PairJob) else "mesh",
+        "path": f"{job.source} -> {job.target}" if isinstance(job, PairJob) else job.path,
         "result": job.result,
     }
     figures: dict[str, Any] = {}
@@ -250,11 +251,17 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
             return {**stored, "status": "skipped"}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            ctx = _run_pair(job, row, figures) if pair else _run_mesh(job, row, figures)[0]
+            if isinstance(job, PairJob):
+                pair_ctx = _run_pair(job, row, figures)
+            else:
+                mesh_ctx = _run_mesh(job, row, figures)[0]
         row.update(status="ok", warnings=_warning_text(caught), **figures)
         row.update(seconds=time.perf_counter() - start, peak_mb=_peak_mb(reset))
         extra = _provenance(job, key, hashes, row)
-        (_write_pair if pair else _write_mesh)(job, ctx, extra)
+        if isinstance(job, PairJob):
+            _write_pair(job, pair_ctx, extra)
+        else:
+            _write_mesh(job, mesh_ctx, extra)
     except Exception as exc:  # every failure of one mesh is a row, never a stopped batch
         row.update(status="failed", error=_one_line(exc), **figures)
     row["seconds"] = time.perf_counter() - start

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -47,7 +47,7 @@ def _check_k(options: Mapping[str, Any]) -> None:
         raise ParameterError(f"k (eigenpairs per mesh) must be an integer >= 1, not {k!r}")
 
 
-def _n_keywords(func, options: Mapping[str, Any], what: str) -> dict:
+def _n_keywords(func: Callable, options: Mapping[str, Any], what: str) -> dict:
     """``{"n": n}`` when an N-field is asked for and ``func`` takes ``n``; {} for n = 1."""
     n = options.get("n")
     if n is None or n == 1:

@@ -38,7 +38,9 @@ if TYPE_CHECKING:
     import numpy as np
 
     from ..io.datafile import DataFile
+    from ..mesh.prepared import PreparedMesh
     from ..mesh.trimesh import TriMesh
+    from ..spectral.correspondence import MatchResult
 
 __all__ = [
     "main",
@@ -593,7 +595,7 @@ def _quad_file(path: str) -> tuple[Any, Any] | None:
         raise
 
 
-def _read_landmarks(path: str):
+def _read_landmarks(path: str) -> np.ndarray:
     """Landmark pairs from a text file: one line "i1 i2" per landmark (vertex of the first
     mesh, vertex of the second), '#' comments allowed; int64 (q, 2)."""
     import numpy as np
@@ -625,7 +627,9 @@ def _save_npz(path: str, arrays: dict) -> str:
     return str(out)
 
 
-def _match_pictures(args, result, stem: str, mesh_2_prepared) -> None:
+def _match_pictures(
+    args: argparse.Namespace, result: MatchResult, stem: str, mesh_2_prepared: PreparedMesh
+) -> None:
     """Transferred colours (and the error map when a ground truth is given)."""
     viz = _viz()
     p1, p2 = result.prepared_1, mesh_2_prepared
@@ -638,7 +642,7 @@ def _match_pictures(args, result, stem: str, mesh_2_prepared) -> None:
     print(f"wrote {path}")
 
 
-def _cmd_match(args) -> int:
+def _cmd_match(args: argparse.Namespace) -> int:
     import numpy as np
 
     import fvf
@@ -683,7 +687,7 @@ def _cmd_match(args) -> int:
     return EXIT_OK
 
 
-def _cmd_symmetry(args) -> int:
+def _cmd_symmetry(args: argparse.Namespace) -> int:
     import numpy as np
 
     import fvf
@@ -1111,7 +1115,7 @@ def parser() -> argparse.ArgumentParser:
     return top
 
 
-def _add_batch(sub) -> None:
+def _add_batch(sub: Any) -> None:
     from fvf.batch import DEFAULT_MESH_TASKS, registered_tasks
 
     listing = "\n".join(

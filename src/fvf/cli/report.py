@@ -190,7 +190,9 @@ class Section:
 class Story:
     """Collects sections, renders pictures (or records why not), writes the report."""
 
-    def __init__(self, out: Path, pictures: bool, size: tuple[int, int], skip_reason=None):
+    def __init__(
+        self, out: Path, pictures: bool, size: tuple[int, int], skip_reason: str | None = None
+    ):
         self.out, self.size = Path(out), tuple(size)
         self.skip_reason = None if pictures else "pictures were turned off (pictures=False)"
         if self.skip_reason is None:

@@ -43,7 +43,9 @@ def _unit_power(z: np.ndarray, n: int) -> np.ndarray:
     return np.where(r > 0, (z / np.where(r > 0, r, 1.0)) ** n, 0.0)
 
 
-def _user_weights(mesh: TriMesh, align_weights, default: float) -> np.ndarray:
+def _user_weights(
+    mesh: TriMesh, align_weights: npt.ArrayLike | float | None, default: float
+) -> np.ndarray:
     m = mesh.n_faces
     if align_weights is None:
         return np.full(m, default)

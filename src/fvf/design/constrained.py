@@ -351,7 +351,9 @@ def closest_faces(
 
 
 # ---------------------------------------------------------------------------- design
-def _soft_weights(mesh: TriMesh, L, f: np.ndarray, weights) -> np.ndarray:
+def _soft_weights(
+    mesh: TriMesh, L: sp.csr_array, f: np.ndarray, weights: npt.ArrayLike | float | None
+) -> np.ndarray:
     """w_c per constraint: the user's, checked, or SOFT_WEIGHT · L_cc / A_F(c)."""
     A = mesh.face_areas
     if weights is None:
@@ -371,7 +373,7 @@ def _soft_weights(mesh: TriMesh, L, f: np.ndarray, weights) -> np.ndarray:
     return w
 
 
-def _active_faces(L, seeds: np.ndarray) -> np.ndarray:
+def _active_faces(L: sp.csr_array, seeds: np.ndarray) -> np.ndarray:
     """Faces in a component of L's coupling graph holding a seed; warns about the others."""
     pattern = sp.csr_array((np.ones(L.nnz), L.indices, L.indptr), shape=L.shape)
     _, label = connected_components(pattern, directed=False)
@@ -401,7 +403,15 @@ def _nearest_root(w: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
     return root * np.exp(2j * np.pi * k / n)
 
 
-def _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend) -> np.ndarray:
+def _solve_design(
+    L: sp.csr_array,
+    pen: np.ndarray,
+    rhs: np.ndarray,
+    active: np.ndarray,
+    fixed: np.ndarray,
+    tau_fixed: np.ndarray,
+    backend: Backend,
+) -> np.ndarray:
     """Minimise z*Lz + Σ pen |z − t|² (rhs = pen·t) with z fixed on ``fixed``, zero off
     ``active``: one Hermitian positive definite solve."""
     m = L.shape[0]
@@ -556,7 +566,7 @@ def design_field(
         raise ConstraintError("weights apply to soft constraints only (hard=False).")
     f = np.zeros(0, dtype=np.int64)
     tau = np.zeros(0, dtype=complex)
-    if faces is not None:
+    if faces is not None and directions is not None:  # given together (checked above)
         f, tau = constraint_targets(mesh, faces, directions, normalize)
     if f.size == 0 and align is None:
         return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
@@ -609,7 +619,7 @@ def design_field(
     return mesh.from_complex(root)
 
 
-def _nonnegative(x, name: str) -> float:
+def _nonnegative(x: float, name: str) -> float:
     try:
         x = float(x)
     except (TypeError, ValueError) as exc:

@@ -117,7 +117,9 @@ class FrameRescaling:
         return iter((self.a, self.b))
 
 
-def _check_frame(mesh: TriMesh, u, v) -> tuple[np.ndarray, np.ndarray]:
+def _check_frame(
+    mesh: TriMesh, u: npt.ArrayLike, v: npt.ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray]:
     u = as_face_field(mesh, u, "u")
     v = rotate(mesh, u) if v is None else as_face_field(mesh, v, "v")
     cross = np.abs(np.einsum("ij,ij->i", np.cross(u, v), mesh.face_normals))
@@ -214,7 +216,9 @@ def frame_report(
     )
 
 
-def _frame_system(mesh: TriMesh, u: np.ndarray, v: np.ndarray, alpha: float):
+def _frame_system(
+    mesh: TriMesh, u: np.ndarray, v: np.ndarray, alpha: float
+) -> tuple[sp.csr_array, np.ndarray]:
     """Normal equations K [s; t] = r of the log-scaling least squares (module docstring)."""
     n = mesh.n_vertices
     I = face_to_vertex(mesh)

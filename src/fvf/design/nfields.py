@@ -358,7 +358,7 @@ def cut_graph(mesh: TriMesh, u: npt.ArrayLike, n: int) -> CutGraph:
 
 
 # ---------------------------------------------------------------------------- combing
-def _as_cut_mask(mesh: TriMesh, cut) -> np.ndarray:
+def _as_cut_mask(mesh: TriMesh, cut: CutGraph | npt.ArrayLike) -> np.ndarray:
     """A user cut (CutGraph, bool (E,) or (k, 2) vertex pairs) as a bool mask over edges."""
     if isinstance(cut, CutGraph):
         cut = cut.mask

@@ -134,7 +134,9 @@ def _vertex_map(basis: SpectralBasis, C: np.ndarray) -> np.ndarray:
     return cKDTree(Phi).query(Phi @ C)[1].astype(np.int64)  # Φ C ≈ Φ[φ] row by row
 
 
-def power_pushforward(mesh: TriMesh, vertex_map: npt.ArrayLike, n: int):
+def power_pushforward(
+    mesh: TriMesh, vertex_map: npt.ArrayLike, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The action of a vertex self-map on N-field powers, face by face.
 
     Parameters
@@ -187,7 +189,9 @@ def power_pushforward(mesh: TriMesh, vertex_map: npt.ArrayLike, n: int):
     return src, tgt, c**n, reflect
 
 
-def _consistent_nfield(basis: SpectralBasis, C: np.ndarray, weight: float, n: int):
+def _consistent_nfield(
+    basis: SpectralBasis, C: np.ndarray, weight: float, n: int
+) -> tuple[np.ndarray, float]:
     mesh = basis.mesh
     m = mesh.n_faces
     src, tgt, rot, reflect = power_pushforward(mesh, _vertex_map(basis, C), n)

@@ -294,7 +294,7 @@ def as_face_field(
     return a
 
 
-def as_direction_count(n, name: str = "n") -> int:
+def as_direction_count(n: Any, name: str = "n") -> int:
     """Check the symmetry order N of an N-direction field: an integer >= 1.
 
     Integral floats (``4.0``) are accepted; booleans, fractions, strings and N < 1 are not.

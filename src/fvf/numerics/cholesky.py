@@ -23,6 +23,7 @@ imports. Which is fastest here is measured by ``benchmarks/bench_nfields.py``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -49,9 +50,9 @@ def _has(module: str) -> bool:
     return True
 
 
-def available_backends() -> tuple[str, ...]:
+def available_backends() -> tuple[Backend, ...]:
     """The backends that import here, fastest first (``"scipy"`` always last)."""
-    out = []
+    out: list[Backend] = []
     if _has("sksparse.cholmod"):
         out.append("cholmod")
     if _has("cholespy"):
@@ -94,7 +95,13 @@ class HermitianFactor:
     shape : tuple of int
     """
 
-    def __init__(self, backend: str, solve, shape, is_complex: bool) -> None:
+    def __init__(
+        self,
+        backend: str,
+        solve: Callable[[np.ndarray], np.ndarray],
+        shape: tuple[int, int],
+        is_complex: bool,
+    ) -> None:
         self.backend = backend
         self._solve = solve
         self.shape = shape

@@ -26,10 +26,10 @@ def _silent(stage: str, done: int, total: int) -> None:
 class _TqdmProgress:
     """One tqdm bar per stage, closed when the stage changes or completes."""
 
-    def __init__(self, tqdm) -> None:
+    def __init__(self, tqdm: Callable[..., Any]) -> None:
         self._tqdm = tqdm
-        self._bar = None
-        self._stage = None
+        self._bar: Any = None  # a tqdm.tqdm bar while a stage runs
+        self._stage: str | None = None
 
     def __call__(self, stage: str, done: int, total: int) -> None:
         if stage != self._stage:

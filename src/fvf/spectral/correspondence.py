@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -248,7 +249,7 @@ def _correspond(
     *,
     k: int,
     k_fit: int,
-    landmarks,
+    landmarks: tuple[np.ndarray, np.ndarray] | None,
     n_descriptors: int,
     orientation: str | None,
     weights: dict,
@@ -279,6 +280,57 @@ def _correspond(
     q2 = p1 if p2 is None else p2
     p2p_input = p1.mesh_to_input[p2p[q2.input_to_mesh]]
     return MatchResult(p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings)
+
+
+@overload
+def match(
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
+    *,
+    k: int = ...,
+    k_fit: int = ...,
+    landmarks: npt.ArrayLike | None = ...,
+    n_descriptors: int = ...,
+    orientation: str | None = ...,
+    weights: dict | None = ...,
+    zoomout_step: int = ...,
+    zoomout_samples: int | None = ...,
+    full_output: Literal[False] = ...,
+) -> np.ndarray: ...
+
+
+@overload
+def match(
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
+    *,
+    k: int = ...,
+    k_fit: int = ...,
+    landmarks: npt.ArrayLike | None = ...,
+    n_descriptors: int = ...,
+    orientation: str | None = ...,
+    weights: dict | None = ...,
+    zoomout_step: int = ...,
+    zoomout_samples: int | None = ...,
+    full_output: Literal[True],
+) -> MatchResult: ...
+
+
+@overload
+def match(
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
+    *,
+    k: int = ...,
+    k_fit: int = ...,
+    landmarks: npt.ArrayLike | None = ...,
+    n_descriptors: int = ...,
+    orientation: str | None = ...,
+    weights: dict | None = ...,
+    zoomout_step: int = ...,
+    zoomout_samples: int | None = ...,
+    full_output: bool,
+) -> np.ndarray | MatchResult: ...
 
 
 def match(

@@ -135,7 +135,7 @@ def wks_energies(eigenvalues: npt.ArrayLike, n_energies: int = 100) -> tuple[np.
 
 
 def _kernel_signature(
-    basis: SpectralBasis, weights: np.ndarray, phi: np.ndarray, landmarks
+    basis: SpectralBasis, weights: np.ndarray, phi: np.ndarray, landmarks: npt.ArrayLike | None
 ) -> np.ndarray:
     """Σ_i w[s, i] φ_i(x) φ_i(y) for y = x (diagonal) or y = each landmark.
 

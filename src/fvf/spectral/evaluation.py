@@ -72,9 +72,10 @@ def _edge_lengths(mesh: TriMesh) -> np.ndarray:
 
 def _edge_graph(mesh: TriMesh) -> sp.csr_array:
     """Symmetric sparse (n, n) graph of the edges, weighted by their lengths."""
+    E = mesh.edges
     return mesh.cached(
         "edge_graph",
-        lambda: _min_graph(mesh.n_vertices, *mesh.edges.T, _edge_lengths(mesh)),
+        lambda: _min_graph(mesh.n_vertices, E[:, 0], E[:, 1], _edge_lengths(mesh)),
     )
 
 
@@ -320,7 +321,8 @@ def orientation_agreement(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLik
     X = mesh_1.vertices
     normal = np.cross(X[img[:, 1]] - X[img[:, 0]], X[img[:, 2]] - X[img[:, 0]])
     vn = np.zeros((mesh_1.n_vertices, 3))
-    np.add.at(vn, mesh_1.faces.ravel(), np.repeat(mesh_1._face_cross, 3, axis=0))
+    area_normal = mesh_1.face_areas[:, None] * mesh_1.face_normals  # (m_1, 3)
+    np.add.at(vn, mesh_1.faces.ravel(), np.repeat(area_normal, 3, axis=0))
     ref = vn[img].sum(axis=1)  # (m_2, 3)
     s = np.sign(np.einsum("ij,ij->i", normal, ref))
     ok = (img[:, 0] != img[:, 1]) & (img[:, 1] != img[:, 2]) & (img[:, 2] != img[:, 0])

@@ -47,6 +47,7 @@ from ..calculus import grad, rotation
 from ..errors import BasisSizeError, ParameterError
 from ..mesh.inputs import as_vertex_function
 from .basis import SpectralBasis
+from .fmaps import split_sizes
 
 __all__ = [
     "FunctionalMapEnergy",
@@ -131,7 +132,10 @@ def orientation_operators(
 
 
 def laplacian_mask(
-    eigenvalues_1: np.ndarray, eigenvalues_2: np.ndarray, kind: str = "resolvent", gamma=0.5
+    eigenvalues_1: np.ndarray,
+    eigenvalues_2: np.ndarray,
+    kind: str = "resolvent",
+    gamma: float = 0.5,
 ) -> np.ndarray:
     """Penalty M (k_2, k_1) of the Laplacian-commutativity term Σ M_ij C_ij².
 
@@ -457,7 +461,7 @@ def fit_functional_map(
     ParameterError
         A negative weight or an unknown option.
     """
-    k1, k2 = (k, k) if k is None or np.isscalar(k) else k
+    k1, k2 = split_sizes(k)
     b1 = _check_k(basis_1, k1, "basis_1")
     b2 = _check_k(basis_2, k2, "basis_2")
     energy = FunctionalMapEnergy.from_descriptors(

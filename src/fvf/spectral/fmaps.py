@@ -20,6 +20,14 @@ from .basis import SpectralBasis
 __all__ = ["functional_map", "functional_map_from_bases", "map_quality", "check_p2p"]
 
 
+def split_sizes(k: int | tuple[int, int] | None) -> tuple[int | None, int | None]:
+    """(k_1, k_2) of a functional-map size given once for both bases or as a pair."""
+    if isinstance(k, tuple | list | np.ndarray):
+        k1, k2 = k
+        return k1, k2
+    return k, k
+
+
 def check_p2p(p2p_21: npt.ArrayLike, n_1: int, n_2: int) -> np.ndarray:
     """Validate a vertex map from mesh 2 to mesh 1: int64 (n_2,) with values in [0, n_1)."""
     p = np.asarray(p2p_21)

@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import BasisSizeError, ParameterError
 from .basis import SpectralBasis
-from .fmaps import functional_map_from_bases
+from .fmaps import functional_map_from_bases, split_sizes
 
 __all__ = [
     "p2p_from_functional_map",
@@ -73,8 +73,8 @@ def nearest_rows(
     return out
 
 
-def _check_sizes(C: np.ndarray, basis_1: SpectralBasis, basis_2: SpectralBasis) -> np.ndarray:
-    C = np.asarray(C, dtype=float)
+def _check_sizes(C_12: npt.ArrayLike, basis_1: SpectralBasis, basis_2: SpectralBasis) -> np.ndarray:
+    C = np.asarray(C_12, dtype=float)
     if C.ndim != 2:
         raise BasisSizeError(f"C_12 must be a (k_2, k_1) matrix; got shape {C.shape}")
     k2, k1 = C.shape
@@ -147,7 +147,7 @@ def functional_map_from_p2p(
     -------
     float64 (k_2, k_1)
     """
-    k1, k2 = (k, k) if k is None or np.isscalar(k) else k
+    k1, k2 = split_sizes(k)
     b1 = basis_1 if k1 is None else basis_1.truncate(_k_in(k1, basis_1, "basis_1"))
     b2 = basis_2 if k2 is None else basis_2.truncate(_k_in(k2, basis_2, "basis_2"))
     return functional_map_from_bases(b1, b2, p2p_21)
@@ -266,13 +266,20 @@ def zoomout(
     return C, p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint)
 
 
-def _zoomout_on_samples(C, basis_1, basis_2, sizes, samples, adjoint) -> np.ndarray:
+def _zoomout_on_samples(
+    C: np.ndarray,
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    sizes: list[tuple[int, int]],
+    samples: int | tuple[np.ndarray, np.ndarray],
+    adjoint: bool,
+) -> np.ndarray:
     """ZoomOut iterations restricted to vertex samples, C fitted by least squares."""
-    if np.isscalar(samples):
+    if isinstance(samples, tuple | list | np.ndarray):
+        s1, s2 = (np.asarray(s, dtype=np.int64) for s in samples)
+    else:
         s1 = farthest_point_samples(basis_1.mesh.vertices, int(samples))
         s2 = farthest_point_samples(basis_2.mesh.vertices, int(samples))
-    else:
-        s1, s2 = (np.asarray(s, dtype=np.int64) for s in samples)
     k_final = sizes[-1][0] if sizes else C.shape[1]
     if min(s1.size, s2.size) <= k_final:
         raise BasisSizeError(

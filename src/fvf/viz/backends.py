@@ -19,7 +19,7 @@ import warnings
 from dataclasses import dataclass, field
 from numbers import Integral, Real
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +28,10 @@ from ..errors import FvfError, ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
+
+if TYPE_CHECKING:
+    from .overlay import PanelOverlay
+    from .scene import Scene
 
 __all__ = [
     "BACKENDS",
@@ -298,7 +302,7 @@ def render(
     pw, ph = lay.panel_width, lay.panel_height
     if pw < 32 or ph < 32:
         raise FvfError(f"size {size!r} leaves panels of {pw} x {ph} pixels; make it larger")
-    overlays = []
+    overlays: list[PanelOverlay] = []
     for frame, v in zip(scene.frames, scene.views, strict=True):
         first = overlays[0] if overlays else None
         spacing_mesh = None if first is None else first.spacing / first.pixel_scale
@@ -327,7 +331,9 @@ def render(
     )
 
 
-def _draw_panels(scene, overlays, pw, ph, backend) -> tuple[str, str | None, list]:
+def _draw_panels(
+    scene: Scene, overlays: list[PanelOverlay], pw: int, ph: int, backend: str
+) -> tuple[str, str | None, list]:
     """Draw every panel with polyscope when it works (and is wanted), else matplotlib."""
     fallback = None
     if backend in ("auto", "polyscope-egl"):

@@ -12,6 +12,7 @@ y-up.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TypeGuard
 
 import numpy as np
 
@@ -89,7 +90,7 @@ def as_view(view: View | tuple | dict | None) -> View:
     return out
 
 
-def _is_many(view: object) -> bool:
+def _is_many(view: object) -> TypeGuard[list | tuple]:
     """A list of views (each a View, dict or tuple), not one view given as a tuple."""
     return (
         isinstance(view, (list, tuple))
@@ -101,8 +102,10 @@ def _is_many(view: object) -> bool:
 def as_views(view: object) -> list[View]:
     """One or several views: a View / tuple / dict / None, or a list of them."""
     if _is_many(view):
-        return [as_view(x) for x in view]  # type: ignore[union-attr]
-    return [as_view(view)]  # type: ignore[arg-type]
+        return [as_view(x) for x in view]
+    if view is None or isinstance(view, View | tuple | dict):
+        return [as_view(view)]
+    raise FvfError(f"view must be a fvf.viz.View, a tuple or a dict; got {type(view)!r}")
 
 
 def two_sides(view: View | tuple | dict | None = None) -> list[View]:

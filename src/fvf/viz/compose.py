@@ -58,10 +58,11 @@ def layout(
 
 
 def _legend_handles(scene: Scene) -> list:
+    from matplotlib.artist import Artist
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = []
+    handles: list[Artist] = []
     for f in scene.fields:
         if f.label:
             handles.append(Patch(facecolor=f.color, edgecolor="black", label=f.label))
@@ -101,6 +102,7 @@ def compose(
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
+    from matplotlib.ticker import ScalarFormatter
 
     images = [panels] if isinstance(panels, np.ndarray) else list(panels)
     legend = has_legend(scene)
@@ -134,7 +136,8 @@ def compose(
         sm = ScalarMappable(Normalize(*cb["clim"]), matplotlib.colormaps[cb["cmap"]])
         bar = fig.colorbar(sm, cax=cax, extend=cb.get("extend", "neither"))
         bar.ax.tick_params(labelsize=7 if small else 8)
-        bar.formatter.set_powerlimits((-3, 4))
+        if isinstance(bar.formatter, ScalarFormatter):  # the default of a linear norm
+            bar.formatter.set_powerlimits((-3, 4))
         bar.set_label(cb.get("label") or "value", fontsize=8 if small else 9)
     if legend:
         top = 0.46 if scene.colorbar is not None else 0.95

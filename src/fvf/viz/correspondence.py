@@ -13,6 +13,7 @@ from __future__ import annotations
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -21,7 +22,7 @@ from ..io.atomic import atomic_path
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import require
-from .backends import render
+from .backends import RenderInfo, render
 
 __all__ = ["coordinate_stripes", "render_correspondence", "render_error_map", "plot_error_curves"]
 
@@ -49,7 +50,7 @@ def render_correspondence(
     function: npt.ArrayLike | None = None,
     cmap: str = "twilight",
     size: tuple[int, int] = (1200, 520),
-    view=None,
+    view: Any = None,
     title: str | None = None,
     backend: str = "auto",
 ) -> Path:
@@ -109,8 +110,8 @@ def render_error_map(
     *,
     clim: tuple[float, float] | None = (0.0, 0.1),
     title: str | None = "geodesic error / sqrt(area)",
-    **kwargs,
-):
+    **kwargs: Any,
+) -> RenderInfo:
     """Per-vertex errors (n_2,) on mesh 2 (``magma``, clipped to ``clim``); returns the
     :class:`fvf.viz.RenderInfo` of :func:`fvf.viz.render`."""
     e = np.asarray(errors, dtype=float)
@@ -147,7 +148,8 @@ def plot_error_curves(
 
     fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=110)
     thresholds = np.linspace(0.0, max_error, 201)
-    for label, e in errors.items():
+    for label, values in errors.items():
+        e = np.asarray(values, dtype=float)
         t, frac = cumulative_error_curve(e, thresholds)
         ax.plot(t, frac, label=f"{label} (mean {np.mean(e):.4f})")
     ax.set_xlabel("geodesic error / sqrt(area)")

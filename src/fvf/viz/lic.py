@@ -265,7 +265,9 @@ def _convolve_streamlines(mesh, u, faces, points, L, texel, seed):
     return X[keep], Fc[keep], num[keep] / den[keep]
 
 
-def _nearest_canvas_vertex(mesh, grid, X, faces) -> np.ndarray:
+def _nearest_canvas_vertex(
+    mesh: TriMesh, grid: np.ndarray, X: np.ndarray, faces: np.ndarray
+) -> np.ndarray:
     """The canvas vertex nearest each point, through its barycentric grid position."""
     from ..calculus import hat_gradients
 
@@ -280,7 +282,9 @@ def _nearest_canvas_vertex(mesh, grid, X, faces) -> np.ndarray:
     return grid[faces, i, j]
 
 
-def _seed_points(canvas, parent, verts):
+def _seed_points(
+    canvas: TriMesh, parent: np.ndarray, verts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """A source face and a point inside it for canvas vertices (nudged into one of their
     faces)."""
     corner_face = np.empty(canvas.n_vertices, dtype=np.int64)
@@ -297,7 +301,16 @@ def _first_per_cell(points: np.ndarray, side: float) -> np.ndarray:
     return np.sort(first)
 
 
-def _splat(mesh, u, canvas, parent, grid, L, texel, seed) -> np.ndarray:
+def _splat(
+    mesh: TriMesh,
+    u: np.ndarray,
+    canvas: TriMesh,
+    parent: np.ndarray,
+    grid: np.ndarray,
+    L: float,
+    texel: float,
+    seed: int | None,
+) -> np.ndarray:
     """T at every canvas vertex: the mean of the streamline samples nearest to it.
 
     Streamlines 4L long are seeded about three times as densely as needed to pass by every

@@ -131,7 +131,8 @@ def draw_matplotlib(
             pts, _ = project(polys_3d[ok].reshape(-1, 3))
             ax.add_collection(
                 PolyCollection(
-                    pts.reshape(k, p, 2),
+                    # matplotlib takes a (k, p, 2) array (its fast path); its stubs say Sequence
+                    pts.reshape(k, p, 2),  # type: ignore[arg-type]
                     facecolors=[color],
                     edgecolors=[color],
                     linewidths=_points(0.3),

@@ -144,7 +144,9 @@ def _pick_faces(scene, frame, centre, s, spacing, v, shift=0.0):
     return faces
 
 
-def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int]:
+def _layer_glyphs(
+    scene: Scene, layer: FieldLayer, faces: np.ndarray, scale: float, spacing_mesh: float
+) -> tuple[Glyphs, int]:
     """The glyphs of one field at the chosen faces: arrows, or N strokes per face."""
     mesh = scene.field_mesh
     c, nrm = mesh.face_centroids[faces], mesh.face_normals[faces]
@@ -158,13 +160,11 @@ def _layer_glyphs(scene, layer, faces, scale, spacing_mesh) -> tuple[Glyphs, int
     halo_w = HALO * spacing_mesh
     if layer.n == 1:
         vec = d[0] * (scale * factor)[:, None]
-        kw = dict(
-            shaft=SHAFT * spacing_mesh,
-            head_width=HEAD_WIDTH * spacing_mesh,
-            head_length=HEAD_LENGTH * spacing_mesh,
+        shaft, head_w, head_l = (x * spacing_mesh for x in (SHAFT, HEAD_WIDTH, HEAD_LENGTH))
+        poly = arrow_glyphs(c, vec, nrm, shaft=shaft, head_width=head_w, head_length=head_l)
+        halo = arrow_glyphs(
+            c, vec, nrm, shaft=shaft, head_width=head_w, head_length=head_l, outline=halo_w
         )
-        poly = arrow_glyphs(c, vec, nrm, **kw)
-        halo = arrow_glyphs(c, vec, nrm, outline=halo_w, **kw)
         tris, anchors, normals = ARROW_TRIANGLES, c, nrm
     else:  # N strokes from the centroid, each half an arrow long
         vec = (d * (0.5 * scale * factor)[None, :, None]).reshape(-1, 3)

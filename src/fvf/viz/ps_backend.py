@@ -69,7 +69,7 @@ def init_headless():
     return ps
 
 
-def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, color) -> None:
+def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, color: tuple) -> None:
     """Register flat polygons (k, p, 3), triangulated alike, as one unlit surface mesh."""
     k, p = polys.shape[:2]
     faces = (np.arange(k)[:, None, None] * p + triangles[None]).reshape(-1, 3)

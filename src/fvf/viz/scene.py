@@ -227,7 +227,7 @@ def _layers(mesh, fields, n, arrow_scale, labels, palette, avoid, arrow_color):
     return layers
 
 
-def _markers(singularities) -> tuple[np.ndarray, np.ndarray]:
+def _markers(singularities: tuple) -> tuple[np.ndarray, np.ndarray]:
     try:
         P, ind = singularities
     except (TypeError, ValueError) as exc:
