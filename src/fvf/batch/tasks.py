@@ -231,12 +231,13 @@ def match(ctx: PairContext) -> TaskOutput:
     passed, so meshes with non-manifold flaps (which :class:`fvf.TriMesh` rejects) match
     as :func:`fvf.match` documents.
     """
-    k = ctx.options.get("k")
+    k = int(ctx.options.get("k") or 200)  # fvf.match's default k
     r = fvf.match(
         (ctx.target.vertices, ctx.target.faces),
         (ctx.source.vertices, ctx.source.faces),
+        k=k,
+        k_fit=min(15, k),
         full_output=True,
-        **({"k": int(k), "k_fit": min(15, int(k))} if k is not None else {}),
     )
     figures = {f"seconds_{step}": float(t) for step, t in r.timings.items()}
     return TaskOutput({"match_p2p": r.p2p_21, "match_C": r.C_12}, figures)

@@ -547,7 +547,8 @@ def _quads(s, story):
     if not mesh.is_closed or mesh.n_components != 1:
         st.info("quad mesh", "skipped", note="needs a closed, connected mesh")
         return
-    V, Q = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    quads = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    V, Q = quads[0], quads[1]
     q = fvf.quad_quality(mesh, V, Q)
     story.picture(
         st,
