@@ -889,8 +889,6 @@ def _add_display_options(p: argparse.ArgumentParser) -> None:
 
 def parser() -> argparse.ArgumentParser:
     """The argument parser of the ``fvf`` command."""
-    from fvf.flows.dispatch import METHODS
-
     top = _Parser(
         prog="fvf",
         description="Operator-based tangent vector fields on your meshes (fvf "
@@ -901,7 +899,17 @@ def parser() -> argparse.ArgumentParser:
     )
     top.add_argument("--debug", action="store_true", help=_DEBUG)
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_mesh_commands(sub)
+    _add_field_commands(sub)
+    _add_design_commands(sub)
+    _add_correspondence_commands(sub)
+    _add_picture_commands(sub)
+    _add_batch(sub)
+    return top
 
+
+def _add_mesh_commands(sub: Any) -> None:
+    """Subcommands demo, info and repair: the mesh itself."""
     p = _add(
         sub,
         "demo",
@@ -935,6 +943,11 @@ def parser() -> argparse.ArgumentParser:
     )
     _add_output(p, "repaired mesh (.obj, .off, .ply); the maps go to <stem>.maps.npz beside it")
     p.set_defaults(run=_cmd_repair)
+
+
+def _add_field_commands(sub: Any) -> None:
+    """Subcommands flow, bracket and transport: the chapter's operators on given fields."""
+    from fvf.flows.dispatch import METHODS
 
     p = _add(
         sub,
@@ -993,6 +1006,9 @@ def parser() -> argparse.ArgumentParser:
     _add_output(p, "output .npz (key u_t (T,m,3))")
     p.set_defaults(run=_cmd_transport)
 
+
+def _add_design_commands(sub: Any) -> None:
+    """Subcommands design and quad: fields designed from the mesh, and the quad mesh along them."""
     p = _add(
         sub,
         "design",
@@ -1020,6 +1036,36 @@ def parser() -> argparse.ArgumentParser:
     _add_output(p, "output .npz (keys v, n, singularity_*)")
     p.set_defaults(run=_cmd_design)
 
+    p = _add(
+        sub,
+        "quad",
+        "quad mesh along a cross field: seamless parameterization and integer-grid "
+        "extraction (fvf.quad_mesh)",
+        "fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
+        "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
+    )
+    p.add_argument("mesh", help="closed OBJ, OFF or PLY triangle mesh")
+    p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
+    p.add_argument("--faces", type=_integer, required=True, metavar="N", help="target quads")
+    p.add_argument(
+        "--align",
+        choices=("curvature", "smooth"),
+        default="curvature",
+        help="default cross field: curvature aligned (default) or smoothest",
+    )
+    p.add_argument(
+        "--field",
+        metavar="KEY",
+        help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
+    )
+    _add_output(p, "output quad mesh (.obj or .off)")
+    p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
+    p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
+    p.set_defaults(run=_cmd_quad)
+
+
+def _add_correspondence_commands(sub: Any) -> None:
+    """Subcommands match and symmetry: maps between shapes."""
     p = _add(
         sub,
         "match",
@@ -1053,6 +1099,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--png", help="also write STEM_colors.png (the mesh and its mirror colours)")
     p.set_defaults(run=_cmd_symmetry)
 
+
+def _add_picture_commands(sub: Any) -> None:
+    """Subcommands render and view: pictures."""
     p = _add(
         sub,
         "render",
@@ -1077,42 +1126,12 @@ def parser() -> argparse.ArgumentParser:
 
     p = _add(
         sub,
-        "quad",
-        "quad mesh along a cross field: seamless parameterization and integer-grid "
-        "extraction (fvf.quad_mesh)",
-        "fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
-        "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
-    )
-    p.add_argument("mesh", help="closed OBJ, OFF or PLY triangle mesh")
-    p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
-    p.add_argument("--faces", type=_integer, required=True, metavar="N", help="target quads")
-    p.add_argument(
-        "--align",
-        choices=("curvature", "smooth"),
-        default="curvature",
-        help="default cross field: curvature aligned (default) or smoothest",
-    )
-    p.add_argument(
-        "--field",
-        metavar="KEY",
-        help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
-    )
-    _add_output(p, "output quad mesh (.obj or .off)")
-    p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
-    p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
-    p.set_defaults(run=_cmd_quad)
-
-    p = _add(
-        sub,
         "view",
         "open an interactive polyscope window (needs a display)",
         "fvf view mesh.obj flowed.npz --function f_t[2] --field v",
     )
     _add_display_options(p)
     p.set_defaults(run=_cmd_view)
-
-    _add_batch(sub)
-    return top
 
 
 def _add_batch(sub: Any) -> None:

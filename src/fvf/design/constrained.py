@@ -554,35 +554,14 @@ def design_field(
     kind = _check_kind(kind)
     n = as_direction_count(n)
     report = make_progress(progress)
-    if points is not None:
-        if faces is not None:
-            raise ConstraintError("give either faces or points, not both.")
-        faces, _ = closest_faces(mesh, points)
-    if (faces is None) != (directions is None):
-        raise ConstraintError("faces (or points) and directions must be given together.")
-    if faces is None and weights is not None:
-        raise ConstraintError("weights were given without constraints.")
-    if hard and weights is not None:
-        raise ConstraintError("weights apply to soft constraints only (hard=False).")
-    f = np.zeros(0, dtype=np.int64)
-    tau = np.zeros(0, dtype=complex)
-    if faces is not None and directions is not None:  # given together (checked above)
-        f, tau = constraint_targets(mesh, faces, directions, normalize)
+    f, tau = _given_constraints(mesh, faces, directions, points, weights, hard, normalize)
     if f.size == 0 and align is None:
         return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
     report("assemble", 0, 1)
     L = connection_laplacian(mesh, kind, n)
-    m = mesh.n_faces
     A = mesh.face_areas
-    pen = np.zeros(m)
-    rhs = np.zeros(m, dtype=complex)
-    seeds = f
-    if align is not None:
-        beta = _nonnegative(align_strength, "align_strength")
-        t_align, omega = alignment_targets(mesh, align, n, align_weights)
-        pen += beta * omega * A
-        rhs += beta * omega * A * t_align
-        seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
+    pen, rhs = _alignment_terms(mesh, n, align, align_weights, align_strength)
+    seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
     if f.size:
         w = _soft_weights(mesh, L, f, None if hard else weights)
         _, first = np.unique(f, return_index=True)
@@ -611,6 +590,60 @@ def design_field(
     report("solve", 0, 1)
     z = _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend)
     report("solve", 1, 1)
+    return _field_from_power(mesh, z, n, f, tau, hard)
+
+
+def _alignment_terms(
+    mesh: TriMesh,
+    n: int,
+    align: str | npt.ArrayLike | None,
+    align_weights: npt.ArrayLike | float | None,
+    align_strength: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The alignment term of :func:`design_field`: (penalty β ω_t A_t float64 (m,),
+    right side β ω_t A_t τ_t complex (m,)); zeros without ``align``."""
+    pen = np.zeros(mesh.n_faces)
+    rhs = np.zeros(mesh.n_faces, dtype=complex)
+    if align is not None:
+        beta = _nonnegative(align_strength, "align_strength")
+        t_align, omega = alignment_targets(mesh, align, n, align_weights)
+        pen += beta * omega * mesh.face_areas
+        rhs += pen * t_align
+    return pen, rhs
+
+
+def _given_constraints(
+    mesh: TriMesh,
+    faces: npt.ArrayLike | None,
+    directions: npt.ArrayLike | None,
+    points: npt.ArrayLike | None,
+    weights: npt.ArrayLike | float | None,
+    hard: bool,
+    normalize: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`design_field`'s constraint arguments checked together: (faces int64 (k,),
+    targets complex (k,) in the face frames, not yet raised to the N-th power)."""
+    if points is not None:
+        if faces is not None:
+            raise ConstraintError("give either faces or points, not both.")
+        faces, _ = closest_faces(mesh, points)
+    if (faces is None) != (directions is None):
+        raise ConstraintError("faces (or points) and directions must be given together.")
+    if faces is None and weights is not None:
+        raise ConstraintError("weights were given without constraints.")
+    if hard and weights is not None:
+        raise ConstraintError("weights apply to soft constraints only (hard=False).")
+    if faces is None or directions is None:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=complex)
+    return constraint_targets(mesh, faces, directions, normalize)
+
+
+def _field_from_power(
+    mesh: TriMesh, z: np.ndarray, n: int, f: np.ndarray, tau: np.ndarray, hard: bool
+) -> np.ndarray:
+    """Ambient (m, 3) field of the power representation z (complex (m,)): for n ≥ 2 the
+    N-th root, taken on each constrained face f as the root nearest to its target tau
+    (exactly the target for hard constraints)."""
     if n == 1:
         return mesh.from_complex(z)
     root = np.abs(z) * np.exp(1j * np.angle(z) / n)

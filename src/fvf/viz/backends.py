@@ -310,10 +310,23 @@ def render(
     used, fallback, images = _draw_panels(scene, overlays, pw, ph, backend)
     path = Path(path)
     compose(images, scene, path, width, height, title)
+    return _render_info(path, used, fallback, (width, height), t0, scene, overlays)
+
+
+def _render_info(
+    path: Path,
+    used: str,
+    fallback: str | None,
+    size: tuple[int, int],
+    t0: float,
+    scene: Scene,
+    overlays: list[PanelOverlay],
+) -> RenderInfo:
+    """What :func:`render` drew (the figures of its :class:`RenderInfo`)."""
     return RenderInfo(
         path=path,
         backend=used,
-        size=(width, height),
+        size=size,
         seconds=time.perf_counter() - t0,
         arrow_scale=overlays[0].arrow_scale,
         n_arrows=sum(o.n_arrows for o in overlays),
