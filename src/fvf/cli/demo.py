@@ -554,7 +554,7 @@ def _quads(s, story):
         st,
         "quads.png",
         mesh,
-        f"{Q.shape[0]} quads; irregular vertices by valence",
+        f"{Q.shape[0]} quads; irregular vertices: +1 valence 3, −1 valence 5",
         draw=functools.partial(fvf.viz.render_quads, V, Q),
         view=_both_sides(),
         wide=True,
