@@ -117,7 +117,8 @@ def _mesh_entrances() -> list[tuple[str, object]]:
             except (TypeError, ValueError):
                 continue
             params = params[1:] if inspect.isclass(obj) else params
-            if params[:1] == ["mesh"] and name != "FluidResult":  # a result, not an entrance
+            results = ("FluidResult", "LicTexture")  # results, not entrances
+            if params[:1] == ["mesh"] and name not in results:
                 out.append((f"{space.__name__}.{name}", obj))
     return out
 

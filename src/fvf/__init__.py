@@ -47,6 +47,7 @@ from .calculus import (
 from .design import (
     acap_energy_matrix,
     acap_fields,
+    cancel_close_singularities,
     closest_faces,
     comb,
     commutator_energy,
@@ -323,4 +324,5 @@ __all__ = [
     "symmetrize_cross_field",
     "quad_symmetry_error",
     *_errors_all,
+    "cancel_close_singularities",
 ]

@@ -54,6 +54,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from ..errors import CutGraphError, FieldShapeError, format_indices
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross
 from .indices import ZERO_RTOL, vertex_indices
@@ -72,6 +73,7 @@ TWO_PI = 2.0 * np.pi
 
 
 # ---------------------------------------------------------------------------- representation
+@takes_mesh
 def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     """The power representation w = |z| (z/|z|)^N of an N-field, complex128 (m,).
 
@@ -107,6 +109,7 @@ def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     return r * unit**n
 
 
+@takes_mesh
 def from_power(mesh: TriMesh, w: npt.ArrayLike, n: int) -> np.ndarray:
     """The principal representative |w| e^{i arg(w)/N} of a power field, float64 (m, 3).
 
@@ -188,6 +191,7 @@ def _check_nonzero(mesh: TriMesh, u: np.ndarray, what: str) -> None:
         )
 
 
+@takes_mesh
 def period_jumps(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     """The period jump p_e ∈ {0, …, N−1} of an N-field across every edge, int64 (E,).
 
@@ -290,6 +294,7 @@ def _prune(E: np.ndarray, active: np.ndarray, keep: np.ndarray, n_vertices: int)
     return active
 
 
+@takes_mesh
 def cut_graph(mesh: TriMesh, u: npt.ArrayLike, n: int) -> CutGraph:
     """A cut graph through the singularities that makes an N-field combable.
 
@@ -401,6 +406,7 @@ def _tree_sums(parent: np.ndarray, delta: np.ndarray) -> np.ndarray:
         ptr[live] = ptr[nxt]
 
 
+@takes_mesh
 def comb(
     mesh: TriMesh, u: npt.ArrayLike, n: int, cut: CutGraph | npt.ArrayLike | None = None
 ) -> np.ndarray:

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .convert import takes_mesh
 from .trimesh import _cross, _readonly
 
 if TYPE_CHECKING:
@@ -124,6 +125,7 @@ def _fit_shape_operators(mesh: TriMesh) -> np.ndarray:
     return S
 
 
+@takes_mesh
 def principal_curvatures(mesh: TriMesh) -> PrincipalCurvatures:
     """Principal curvatures and directions of every face (normal-variation estimator).
 

@@ -330,6 +330,7 @@ def _splat(mesh, u, canvas, parent, grid, L, texel, seed) -> np.ndarray:
     return T
 
 
+@takes_mesh
 def surface_lic(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import FvfError
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .backends import RenderInfo, render
 
@@ -58,6 +59,7 @@ def render_quads(
     return render(mesh, path, streamlines=quad_wireframe(V, Q), singularities=sing, **kwargs)
 
 
+@takes_mesh
 def render_checkerboard(
     mesh: TriMesh,
     uv: npt.ArrayLike,
