@@ -1138,7 +1138,8 @@ SPECS: dict[str, Spec] = {
     ),
     "quad_symmetry_error": Spec(
         lambda fn, mesh, c: fn(
-            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2, 3]],
+            np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
+            [[0, 1, 2, 3]],
             lambda P: P * [-1, 1, 1] + [1, 0, 0],
         ),
         lambda r, m, c: (r == (0.0, 0.0)) or pytest.fail(repr(r)),

@@ -2,14 +2,12 @@ r"""Cancelling close singularity pairs of an N-direction field.
 
 A singularity of index +1/N closer than a length r to one of index −1/N is, at the
 resolution r, no singularity at all: a quad mesh with edge length r cannot give the two
-distinct vertices without folding the quads between them. Two singularities of index
-−1/N that close are one of index −2/N at that resolution (for cross fields: two
-valence-5 vertices become one valence-6 vertex). :func:`cancel_close_singularities`
+distinct vertices without folding the quads between them. :func:`cancel_close_singularities`
 removes such pairs by editing the field's topology and re-solving its angles with the
 topology fixed (the fixed-topology step of mixed-integer field design: Ray, Vallet, Li
 & Lévy 2008, "N-symmetry direction field design"; Bommes, Zimmer & Kobbelt 2009, §3):
 
-1. pair the singularities greedily, closest first, up to distance r (3D);
+1. pair opposite singularities (±1/N) greedily, closest first, up to distance r (3D);
 2. walk a shortest edge path v₁ → v₂ between the two and change the turning δ_e of the
    field across each path edge by ∓2π/N (in the orientation of the path). That moves 1/N
    of index from v₁ to v₂ and leaves the interior of the path unchanged
@@ -26,6 +24,11 @@ topology fixed (the fixed-topology step of mixed-integer field design: Ray, Vall
 
 The edited field's singularities are measured again by :func:`fvf.singularities`; a
 cancelled pair can expose the next one, so the steps repeat a few rounds.
+
+Two close −1/N singularities are left alone: moving 1/N of index onto one of them asks
+the field to turn by 2π·2/N around one vertex, and the smooth re-solve of step 3 then
+turns it by more than π/N across some edges of that vertex's ring, so that the measured
+indices split into two −1/N singularities again.
 """
 
 from __future__ import annotations
@@ -57,9 +60,9 @@ def close_singularity_pairs(
     vertices: np.ndarray,
     steps: np.ndarray,
     radius: float,
-    merge_negative: bool = True,
 ) -> list[tuple[int, int]]:
-    """Pairs (a, b) of singular vertices closer than ``radius``, closest first.
+    """Pairs (a, b) of opposite singular vertices (±1/N) closer than ``radius``, closest
+    first.
 
     Parameters
     ----------
@@ -70,13 +73,12 @@ def close_singularity_pairs(
         N × their indices (non-zero integers).
     radius : float
         3D distance below which a pair is taken.
-    merge_negative : bool
-        Also pair two singularities of index −1/N (they merge into one of −2/N).
 
     Returns
     -------
     list of (int, int)
-        Vertex pairs, disjoint; 1/N of index moves from a to b (a's index is ±1/N).
+        Vertex pairs, disjoint; 1/N of index moves from a to b (their indices are
+        opposite, ±1/N), which cancels both.
     """
     if vertices.size < 2 or radius <= 0:
         return []
@@ -86,9 +88,7 @@ def close_singularity_pairs(
         return []
     i, j = ij[:, 0], ij[:, 1]
     ki, kj = steps[i], steps[j]
-    opposite = (ki == -kj) & (np.abs(ki) == 1)
-    negative = merge_negative & (ki == -1) & (kj == -1)
-    keep = opposite | negative
+    keep = (ki == -kj) & (np.abs(ki) == 1)
     i, j = i[keep], j[keep]
     d = np.linalg.norm(P[i] - P[j], axis=1)
     used = np.zeros(vertices.size, dtype=bool)
@@ -170,7 +170,6 @@ def cancel_close_singularities(
     n: int = 4,
     *,
     radius: float,
-    merge_negative: bool = True,
     rounds: int = 3,
     backend: Backend = "auto",
 ) -> np.ndarray:
@@ -184,11 +183,8 @@ def cancel_close_singularities(
     n : int
         Symmetry order N ≥ 1.
     radius : float
-        3D distance below which a +1/N, −1/N pair cancels (and, with
-        ``merge_negative``, two −1/N singularities merge into one −2/N). For a quad mesh
-        the target edge length.
-    merge_negative : bool
-        Merge close pairs of −1/N singularities.
+        3D distance below which a +1/N, −1/N pair cancels. For a quad mesh the target
+        edge length.
     rounds : int
         Pair, cancel and re-measure at most this many times.
     backend : {"auto", "cholmod", "cholespy", "scipy"}
@@ -219,7 +215,7 @@ def cancel_close_singularities(
     for _ in range(int(rounds)):  # a few rounds: a cancelled pair can expose the next
         ids, ind = singularities(mesh, u, n=n)
         steps = np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
-        pairs = close_singularity_pairs(mesh, ids, steps, radius, merge_negative)
+        pairs = close_singularity_pairs(mesh, ids, steps, radius)
         if not pairs:
             break
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))

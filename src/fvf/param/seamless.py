@@ -338,7 +338,7 @@ def seamless_parameterization(
         While uv triangles are flipped after rounding: rounds of local repair
         (:mod:`fvf.param.folds`).
     cone_cancel_radius : float
-        Cone pairs closer than this many edge lengths h are cancelled or merged
+        Opposite cone pairs closer than this many edge lengths h are cancelled
         (:func:`fvf.cancel_close_singularities`); 0 keeps the field's topology.
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
@@ -385,10 +385,11 @@ def seamless_parameterization(
         y, _ = repair_folds(
             mesh,
             fs.K,
-            solver.real_idx,
+            solver,
             y,
             b,
             rounds=stiffening_iterations,
+            batch=rounding_batch,
             backend=backend,
             progress=progress,
         )
