@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import fvf
-from fvf.design.cancellation import close_singularity_pairs
+from fvf.design.cancellation import SEPARATION, close_equal_pairs, close_singularity_pairs
 
 
 def dipole_field(mesh, a, b, ka, kb):
@@ -54,6 +54,24 @@ def test_two_negative_singularities_are_left_alone(disk):
     d = np.linalg.norm(np.subtract(*disk.vertices[ids]))
     v = fvf.cancel_close_singularities(disk, u, 4, radius=1.5 * d)
     np.testing.assert_allclose(v, u / np.linalg.norm(u, axis=1, keepdims=True), atol=1e-15)
+
+
+@pytest.mark.parametrize("k", [0.25, -0.25])
+def test_equal_pair_is_moved_apart(disk, k):
+    u = dipole_field(disk, A, B, k, k)
+    ids, ind = fvf.singularities(disk, u, n=4)
+    assert ind.tolist() == [k, k]
+    d = np.linalg.norm(np.subtract(*disk.vertices[ids]))
+    v = fvf.separate_close_singularities(disk, u, 4, radius=2 * d)
+    ids2, ind2 = fvf.singularities(disk, v, n=4)
+    assert ind2.tolist() == [k, k] and len(set(ids) & set(ids2)) == 1  # one stays, one moves
+    gap = np.linalg.norm(np.subtract(*disk.vertices[ids2]))
+    assert 2 * d <= gap <= (SEPARATION + 0.2) * 2 * d
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0, atol=1e-12)
+    kept = fvf.separate_close_singularities(disk, u, 4, radius=0.5 * d)
+    np.testing.assert_allclose(kept, u / np.linalg.norm(u, axis=1, keepdims=True), atol=1e-15)
+    assert close_equal_pairs(disk, ids, np.rint(4 * ind).astype(np.int64), 2 * d)
+    assert not close_equal_pairs(disk, ids2, np.rint(4 * ind2).astype(np.int64), 2 * d)
 
 
 def test_total_index_is_kept_and_close_pairs_are_gone_on_spot():

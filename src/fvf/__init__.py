@@ -68,6 +68,7 @@ from .design import (
     rescale_frame,
     rescaling_operator,
     restrict_to_tangent,
+    separate_close_singularities,
     singularities,
     singularity_positions,
     smoothest_fields,
@@ -325,4 +326,5 @@ __all__ = [
     "quad_symmetry_error",
     *_errors_all,
     "cancel_close_singularities",
+    "separate_close_singularities",
 ]

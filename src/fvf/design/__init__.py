@@ -15,7 +15,7 @@
 A new design method goes into a module of its own here and is exported below.
 """
 
-from .cancellation import cancel_close_singularities
+from .cancellation import cancel_close_singularities, separate_close_singularities
 from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
 from .connection import (
     connection_energy,
@@ -83,4 +83,5 @@ __all__ = [
     "FrameRescaling",
     "FrameReport",
     "cancel_close_singularities",
+    "separate_close_singularities",
 ]

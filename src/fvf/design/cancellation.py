@@ -24,6 +24,8 @@ topology fixed (the fixed-topology step of mixed-integer field design: Ray, Vall
 
 The edited field's singularities are measured again by :func:`fvf.singularities`; a
 cancelled pair can expose the next one, so the steps repeat a few rounds.
+:func:`separate_close_singularities` uses the same index move to push two close
+singularities of *equal* index ±1/N apart.
 
 Two close −1/N singularities are left alone: moving 1/N of index onto one of them asks
 the field to turn by 2π·2/N around one vertex, and the smooth re-solve of step 3 then
@@ -48,10 +50,20 @@ from .connection import connection_pairs
 from .indices import singularities
 from .nfields import _check_nonzero, _edge_angles
 
-__all__ = ["cancel_close_singularities", "close_singularity_pairs", "KEEP_WEIGHT"]
+__all__ = [
+    "cancel_close_singularities",
+    "separate_close_singularities",
+    "close_singularity_pairs",
+    "close_equal_pairs",
+    "KEEP_WEIGHT",
+    "SEPARATION",
+]
 
 #: Weight μ of keeping the original angles, relative to the smoothness term.
 KEEP_WEIGHT = 1e-3
+#: Distance, in units of the radius, at which :func:`separate_close_singularities` puts
+#: the moved singularity from the one it stays away from.
+SEPARATION = 1.25
 TWO_PI = 2.0 * np.pi
 
 
@@ -125,9 +137,12 @@ def _edge_paths(mesh: TriMesh, pairs: list[tuple[int, int]], limit: float) -> li
 
 
 def _edited_turnings(
-    mesh: TriMesh, u: np.ndarray, n: int, pairs: list[tuple[int, int]], steps: dict, limit: float
+    mesh: TriMesh, u: np.ndarray, n: int, moves: list[tuple[int, int, int]], limit: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Interior edges and their turnings δ_e with 1/N of index moved along each pair's path."""
+    """Interior edges and their turnings δ_e with 1/N of index moved along each move's path.
+
+    ``moves``: (a, b, s) moves s/N of index (s = ±1) from vertex a to vertex b.
+    """
     interior, phi = _edge_angles(mesh, u)
     delta = phi - (TWO_PI / n) * np.rint(n * phi / TWO_PI)
     full = np.zeros(mesh.n_edges)
@@ -135,8 +150,8 @@ def _edited_turnings(
     E = mesh.edges
     nv = mesh.n_vertices
     key = E[:, 0] * nv + E[:, 1]
-    for (a, _), path in zip(pairs, _edge_paths(mesh, pairs, limit), strict=True):
-        s = int(np.sign(steps[a]))
+    ends = [(a, b) for a, b, _ in moves]
+    for (_, _, s), path in zip(moves, _edge_paths(mesh, ends, limit), strict=True):
         x0, x1 = path[:-1], path[1:]
         e = np.searchsorted(key, np.minimum(x0, x1) * nv + np.maximum(x0, x1))
         along = np.where(E[e, 0] == x0, 1.0, -1.0)
@@ -161,6 +176,19 @@ def _reangle(
     mu = KEEP_WEIGHT * mesh.face_areas / radius**2
     H = (D.T @ sp.diags_array(w) @ D + sp.diags_array(mu)).tocsr()
     return factor_hermitian(H, backend).solve(-(D.T @ (w * delta)))
+
+
+def _checked(mesh: TriMesh, u, n, radius, rounds) -> tuple[int, float, np.ndarray]:
+    """The checked N, radius and unit field of the public entrances."""
+    n = as_direction_count(n)
+    radius = float(radius)
+    if not (np.isfinite(radius) and radius >= 0):
+        raise ParameterError(f"radius must be a finite number >= 0; got {radius!r}")
+    if int(rounds) != rounds or rounds < 0:
+        raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
+    u = as_face_field(mesh, u, "u")
+    _check_nonzero(mesh, u, "its singularities")
+    return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
 @takes_mesh
@@ -203,15 +231,7 @@ def cancel_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n = as_direction_count(n)
-    radius = float(radius)
-    if not (np.isfinite(radius) and radius >= 0):
-        raise ParameterError(f"radius must be a finite number >= 0; got {radius!r}")
-    if int(rounds) != rounds or rounds < 0:
-        raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
-    u = as_face_field(mesh, u, "u")
-    _check_nonzero(mesh, u, "its singularities")
-    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    n, radius, u = _checked(mesh, u, n, radius, rounds)
     for _ in range(int(rounds)):  # a few rounds: a cancelled pair can expose the next
         ids, ind = singularities(mesh, u, n=n)
         steps = np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
@@ -219,8 +239,128 @@ def cancel_close_singularities(
         if not pairs:
             break
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
-        interior, delta = _edited_turnings(mesh, u, n, pairs, step_of, 4.0 * radius)
-        dpsi = _reangle(mesh, interior, delta, radius, backend)
-        Ju = _cross(mesh.face_normals, u)
-        u = np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
+        moves = [(a, b, int(np.sign(step_of[a]))) for a, b in pairs]
+        u = _apply_moves(mesh, u, n, moves, radius, backend)
     return u
+
+
+def _apply_moves(
+    mesh: TriMesh,
+    u: np.ndarray,
+    n: int,
+    moves: list[tuple[int, int, int]],
+    radius: float,
+    backend: Backend,
+) -> np.ndarray:
+    """The field with each move's index moved along its path, angles re-solved (steps 2–3)."""
+    interior, delta = _edited_turnings(mesh, u, n, moves, 4.0 * radius)
+    dpsi = _reangle(mesh, interior, delta, radius, backend)
+    Ju = _cross(mesh.face_normals, u)
+    return np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
+
+
+def close_equal_pairs(
+    mesh: TriMesh, vertices: np.ndarray, steps: np.ndarray, radius: float
+) -> list[tuple[int, int]]:
+    """Disjoint pairs (a, b) of singular vertices of equal index ±1/N closer than
+    ``radius`` (3D), closest first; ``vertices`` int64 (s,), ``steps`` N × their indices."""
+    if vertices.size < 2 or radius <= 0:
+        return []
+    P = mesh.vertices[vertices]
+    ij = cKDTree(P).query_pairs(radius, output_type="ndarray")
+    if ij.size == 0:
+        return []
+    i, j = ij[:, 0], ij[:, 1]
+    keep = (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
+    i, j = i[keep], j[keep]
+    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
+    used = np.zeros(vertices.size, dtype=bool)
+    pairs = []
+    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
+        if used[a] or used[b]:
+            continue
+        used[a] = used[b] = True
+        pairs.append((int(vertices[a]), int(vertices[b])))
+    return pairs
+
+
+@takes_mesh
+def separate_close_singularities(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int = 4,
+    *,
+    radius: float,
+    rounds: int = 3,
+    backend: Backend = "auto",
+) -> np.ndarray:
+    """An N-field whose singularities of equal index ±1/N are about ``radius`` apart.
+
+    Two singularities of equal index ±1/N closer than r (3D) are separated: a of the
+    pair (a, b) moves to the vertex c nearest to a (shortest edge paths) among those at
+    least SEPARATION · r from b, by the index move of the module docstring (step 2, along
+    a shortest path a → c) and the re-solve of step 3. For a quad mesh with edge length r,
+    two such cones closer than r would have to sit on distinct integer points, which
+    folds the quads between them.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : array_like, float (m, 3)
+        One representative vector per face, non-zero on every face.
+    n : int
+        Symmetry order N ≥ 1.
+    radius : float
+        3D distance below which a pair of equal singularities is separated.
+    rounds : int
+        Pair, move and re-measure at most this many times.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+
+    Returns
+    -------
+    float64 (m, 3)
+        The edited field, one unit representative per face (u normalized when no pair is
+        closer than ``radius``).
+
+    Raises
+    ------
+    ParameterError
+        radius negative or not finite, rounds < 0.
+    FieldShapeError
+        Wrong shape, non-finite values or a zero vector on some face.
+    """
+    n, radius, u = _checked(mesh, u, n, radius, rounds)
+    for _ in range(int(rounds)):  # a few rounds: a moved singularity can meet another
+        ids, ind = singularities(mesh, u, n=n)
+        steps = np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
+        pairs = close_equal_pairs(mesh, ids, steps, radius)
+        if not pairs:
+            break
+        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
+        moves = [
+            (a, c, int(np.sign(step_of[a])))
+            for (a, _), c in zip(pairs, _separation_targets(mesh, pairs, radius), strict=True)
+            if c >= 0
+        ]
+        if not moves:
+            break
+        u = _apply_moves(mesh, u, n, moves, radius, backend)
+    return u
+
+
+def _separation_targets(mesh: TriMesh, pairs: list[tuple[int, int]], radius: float) -> list[int]:
+    """For each pair (a, b): the vertex nearest to a (along edges) among those at least
+    SEPARATION · radius from b (along edges), or −1 when none is within 4 · radius."""
+    E, X = mesh.edges, mesh.vertices
+    n = mesh.n_vertices
+    w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
+    G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+    src = np.array([v for pair in pairs for v in pair])
+    D = dijkstra(G, directed=False, indices=src, limit=4.0 * radius)
+    out = []
+    for k in range(len(pairs)):  # a few pairs
+        da, db = D[2 * k], D[2 * k + 1]
+        da = np.where(db >= SEPARATION * radius, da, np.inf)
+        c = int(np.argmin(da))
+        out.append(c if np.isfinite(da[c]) else -1)
+    return out

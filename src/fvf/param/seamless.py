@@ -3,7 +3,8 @@ r"""Seamless global parameterization aligned with a cross field (QuadCover / MIQ
 Pipeline (``docs/quads.md`` has the derivation):
 
 1. a cross field u (:func:`fvf.design_field`, curvature-aligned by default) with its
-   close singularity pairs cancelled (:func:`fvf.cancel_close_singularities`), and its
+   close singularity pairs cancelled or moved apart (:func:`fvf.cancel_close_singularities`,
+   :func:`fvf.separate_close_singularities`), and its
    frame (X, Y) = (1/h)(a u, b J u) per face, h the target edge length and a, b positive
    per-face scales (:mod:`fvf.param.frames`);
 2. combing and a cut graph through the singularities (:func:`fvf.comb`,
@@ -34,7 +35,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients
-from ..design.cancellation import cancel_close_singularities
+from ..design.cancellation import cancel_close_singularities, separate_close_singularities
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -339,7 +340,8 @@ def seamless_parameterization(
         (:mod:`fvf.param.folds`).
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
-        (:func:`fvf.cancel_close_singularities`); 0 keeps the field's topology.
+        (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
+        (:func:`fvf.separate_close_singularities`); 0 keeps the field's topology.
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : callable, optional
@@ -361,8 +363,9 @@ def seamless_parameterization(
     clock("cross field" if field is None else "reading the cross field")
     u = default_cross_field(mesh, align) if field is None else unit_cross_field(mesh, field)
     if cone_cancel_radius > 0:
-        clock("cancelling close cones")
+        clock("cancelling and separating close cones")
         u = cancel_close_singularities(mesh, u, 4, radius=cone_cancel_radius * h)
+        u = separate_close_singularities(mesh, u, 4, radius=cone_cancel_radius * h)
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
