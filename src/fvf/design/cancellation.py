@@ -298,7 +298,8 @@ def separate_close_singularities(
 
     Two singularities of equal index ±1/N closer than r (3D) are separated: a of the
     pair (a, b) moves to the vertex c nearest to a (shortest edge paths) among those at
-    least SEPARATION · r from b, by the index move of the module docstring (step 2, along
+    least SEPARATION · r from b and from every other singularity that stays, by the index
+    move of the module docstring (step 2, along
     a shortest path a → c) and the re-solve of step 3. For a quad mesh with edge length r,
     two such cones closer than r would have to sit on distinct integer points, which
     folds the quads between them.
@@ -339,7 +340,7 @@ def separate_close_singularities(
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
         moves = [
             (a, c, int(np.sign(step_of[a])))
-            for (a, _), c in zip(pairs, _separation_targets(mesh, pairs, radius), strict=True)
+            for (a, _), c in zip(pairs, _separation_targets(mesh, pairs, ids, radius), strict=True)
             if c >= 0
         ]
         if not moves:
@@ -348,19 +349,29 @@ def separate_close_singularities(
     return u
 
 
-def _separation_targets(mesh: TriMesh, pairs: list[tuple[int, int]], radius: float) -> list[int]:
+def _separation_targets(
+    mesh: TriMesh, pairs: list[tuple[int, int]], singular: np.ndarray, radius: float
+) -> list[int]:
     """For each pair (a, b): the vertex nearest to a (along edges) among those at least
-    SEPARATION · radius from b (along edges), or −1 when none is within 4 · radius."""
+    SEPARATION · radius (along edges) from every singular vertex that does not move (the
+    b's and those in no pair) and from the targets chosen before it; −1 when there is none
+    within 4 · radius of a."""
     E, X = mesh.edges, mesh.vertices
     n = mesh.n_vertices
     w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
     G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
-    src = np.array([v for pair in pairs for v in pair])
-    D = dijkstra(G, directed=False, indices=src, limit=4.0 * radius)
-    out = []
+    far = SEPARATION * radius
+    fixed = np.setdiff1d(singular, [a for a, _ in pairs])
+    clear = dijkstra(G, directed=False, indices=fixed, min_only=True, limit=far) >= far
+    clear[singular] = False
+    D = dijkstra(G, directed=False, indices=[a for a, _ in pairs], limit=4.0 * radius)
+    out: list[int] = []
     for k in range(len(pairs)):  # a few pairs
-        da, db = D[2 * k], D[2 * k + 1]
-        da = np.where(db >= SEPARATION * radius, da, np.inf)
+        chosen = [c for c in out if c >= 0]
+        ok = clear.copy()
+        if chosen:
+            ok &= np.linalg.norm(X[:, None] - X[chosen][None], axis=2).min(axis=1) >= far
+        da = np.where(ok, D[k], np.inf)
         c = int(np.argmin(da))
         out.append(c if np.isfinite(da[c]) else -1)
     return out
