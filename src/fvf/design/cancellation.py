@@ -113,15 +113,20 @@ def close_singularity_pairs(
     return pairs
 
 
+def _edge_graph(mesh: TriMesh) -> sp.csr_array:
+    """The vertex graph weighted by edge length, sparse (n, n) (upper triangle)."""
+    E, X = mesh.edges, mesh.vertices
+    n = mesh.n_vertices
+    w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
+    return sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+
+
 def _edge_paths(mesh: TriMesh, pairs: list[tuple[int, int]], limit: float) -> list[np.ndarray]:
     """Shortest vertex paths (by edge length) between the vertices of each pair.
 
     The searches stop at ``limit``; a pair not joined within it is searched again without.
     """
-    E, X = mesh.edges, mesh.vertices
-    n = mesh.n_vertices
-    w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
-    G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+    G = _edge_graph(mesh)
     src = np.array([a for a, _ in pairs])
     _, pred = dijkstra(G, directed=False, indices=src, return_predecessors=True, limit=limit)
     paths = []
@@ -356,10 +361,7 @@ def _separation_targets(
     SEPARATION · radius (along edges) from every singular vertex that does not move (the
     b's and those in no pair) and from the targets chosen before it; −1 when there is none
     within 4 · radius of a."""
-    E, X = mesh.edges, mesh.vertices
-    n = mesh.n_vertices
-    w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
-    G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+    G = _edge_graph(mesh)
     far = SEPARATION * radius
     fixed = np.setdiff1d(singular, [a for a, _ in pairs])
     clear = dijkstra(G, directed=False, indices=fixed, min_only=True, limit=far) >= far
@@ -370,7 +372,12 @@ def _separation_targets(
         chosen = [c for c in out if c >= 0]
         ok = clear.copy()
         if chosen:
-            ok &= np.linalg.norm(X[:, None] - X[chosen][None], axis=2).min(axis=1) >= far
+            ok &= (
+                np.linalg.norm(mesh.vertices[:, None] - mesh.vertices[chosen][None], axis=2).min(
+                    axis=1
+                )
+                >= far
+            )
         da = np.where(ok, D[k], np.inf)
         c = int(np.argmin(da))
         out.append(c if np.isfinite(da[c]) else -1)
