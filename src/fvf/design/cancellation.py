@@ -27,6 +27,12 @@ cancelled pair can expose the next one, so the steps repeat a few rounds.
 :func:`separate_close_singularities` uses the same index move to push two close
 singularities of *equal* index ±1/N apart.
 
+The re-solve can turn the field by more than π/N across some edge near a dense cluster of
+singularities, which the re-measure reads as other singularities than planned. An edit is
+therefore kept only if the re-measured result is better (cancelling: fewer singularities
+and none of a higher index; separating: the same indices and fewer close equal pairs); a
+round that is not is retried one move at a time (the matrix of step 3 is factored once).
+
 Two close −1/N singularities are left alone: moving 1/N of index onto one of them asks
 the field to turn by 2π·2/N around one vertex, and the smooth re-solve of step 3 then
 turns it by more than π/N across some edges of that vertex's ring, so that the measured
@@ -164,23 +170,29 @@ def _edited_turnings(
     return interior, full[interior]
 
 
-def _reangle(
-    mesh: TriMesh, interior: np.ndarray, delta: np.ndarray, radius: float, backend: Backend
-) -> np.ndarray:
-    """Δψ (m,) minimizing Σ w_e (δ_e + Δψ_s − Δψ_t)² + μ Σ A_t Δψ_t² / r² (module doc)."""
-    _, _, w = connection_pairs(mesh, "knoppel")
-    ef = mesh.edge_faces[interior]
-    m, k = mesh.n_faces, interior.size
-    D = sp.csr_array(
-        (
-            np.concatenate([np.ones(k), -np.ones(k)]),
-            (np.tile(np.arange(k), 2), np.concatenate([ef[:, 0], ef[:, 1]])),
-        ),
-        shape=(k, m),
-    )
-    mu = KEEP_WEIGHT * mesh.face_areas / radius**2
-    H = (D.T @ sp.diags_array(w) @ D + sp.diags_array(mu)).tocsr()
-    return factor_hermitian(H, backend).solve(-(D.T @ (w * delta)))
+class _Reangler:
+    """Step 3 of the module docstring with its matrix factored once: Δψ (m,) minimizing
+    Σ w_e (δ_e + Δψ_s − Δψ_t)² + μ Σ A_t Δψ_t² / r² for any turnings δ."""
+
+    def __init__(self, mesh: TriMesh, radius: float, backend: Backend) -> None:
+        _, _, w = connection_pairs(mesh, "knoppel")
+        interior = np.flatnonzero((mesh.edge_faces >= 0).all(axis=1))
+        ef = mesh.edge_faces[interior]
+        m, k = mesh.n_faces, interior.size
+        self.D = sp.csr_array(
+            (
+                np.concatenate([np.ones(k), -np.ones(k)]),
+                (np.tile(np.arange(k), 2), np.concatenate([ef[:, 0], ef[:, 1]])),
+            ),
+            shape=(k, m),
+        )
+        self.w = w
+        mu = KEEP_WEIGHT * mesh.face_areas / radius**2
+        H = (self.D.T @ sp.diags_array(w) @ self.D + sp.diags_array(mu)).tocsr()
+        self.fac = factor_hermitian(H, backend)
+
+    def __call__(self, delta: np.ndarray) -> np.ndarray:
+        return self.fac.solve(-(self.D.T @ (self.w * delta)))
 
 
 def _checked(mesh: TriMesh, u, n, radius, rounds) -> tuple[int, float, np.ndarray]:
@@ -237,16 +249,21 @@ def cancel_close_singularities(
         Wrong shape, non-finite values or a zero vector on some face.
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
-    for _ in range(int(rounds)):  # a few rounds: a cancelled pair can expose the next
-        ids, ind = singularities(mesh, u, n=n)
-        steps = np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
-        pairs = close_singularity_pairs(mesh, ids, steps, radius)
-        if not pairs:
-            break
+
+    def moves_for(ids, steps):
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
-        moves = [(a, b, int(np.sign(step_of[a]))) for a, b in pairs]
-        u = _apply_moves(mesh, u, n, moves, radius, backend)
-    return u
+        pairs = close_singularity_pairs(mesh, ids, steps, radius)
+        return [(a, b, int(np.sign(step_of[a]))) for a, b in pairs]
+
+    def better(before, after):  # fewer singularities, none of a higher index
+        return after[0].size < before[0].size and _peak(after) <= _peak(before)
+
+    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+
+
+def _peak(state: tuple[np.ndarray, np.ndarray]) -> int:
+    """The largest |N × index| of a ``_measure`` result (0 without singularities)."""
+    return int(np.abs(state[1]).max(initial=0))
 
 
 def _apply_moves(
@@ -255,13 +272,52 @@ def _apply_moves(
     n: int,
     moves: list[tuple[int, int, int]],
     radius: float,
-    backend: Backend,
+    reangle: _Reangler,
 ) -> np.ndarray:
     """The field with each move's index moved along its path, angles re-solved (steps 2–3)."""
     interior, delta = _edited_turnings(mesh, u, n, moves, 4.0 * radius)
-    dpsi = _reangle(mesh, interior, delta, radius, backend)
+    full = np.zeros(mesh.n_edges)
+    full[interior] = delta
+    dpsi = reangle(full[(mesh.edge_faces >= 0).all(axis=1)])
     Ju = _cross(mesh.face_normals, u)
     return np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
+
+
+def _measure(mesh: TriMesh, u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Singular vertices int64 (s,) and N × their indices int64 (s,)."""
+    ids, ind = singularities(mesh, u, n=n)
+    return ids, np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
+
+
+def _edit(mesh, u, n, radius, rounds, backend, moves_for, better) -> np.ndarray:
+    """Rounds of "find moves, apply them, re-measure"; a round whose result is not
+    ``better`` than its start is retried one move at a time, keeping the moves that are.
+
+    ``moves_for(ids, steps)`` → list of (a, b, s); ``better(before, after)`` compares two
+    ``_measure`` results. The re-measure guards against the re-solve turning the field by
+    more than π/N across an edge, which would make other singularities than planned.
+    """
+    reangle = None
+    state = _measure(mesh, u, n)
+    for _ in range(int(rounds)):  # a few rounds: an edit can expose the next pair
+        moves = moves_for(*state)
+        if not moves:
+            break
+        reangle = reangle or _Reangler(mesh, radius, backend)
+        trial = _apply_moves(mesh, u, n, moves, radius, reangle)
+        after = _measure(mesh, trial, n)
+        if better(state, after):
+            u, state = trial, after
+            continue
+        progress = False
+        for move in moves:  # retry one at a time: a few moves
+            trial = _apply_moves(mesh, u, n, [move], radius, reangle)
+            after = _measure(mesh, trial, n)
+            if better(state, after):
+                u, state, progress = trial, after, True
+        if not progress:
+            break
+    return u
 
 
 def close_equal_pairs(
@@ -336,22 +392,25 @@ def separate_close_singularities(
         Wrong shape, non-finite values or a zero vector on some face.
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
-    for _ in range(int(rounds)):  # a few rounds: a moved singularity can meet another
-        ids, ind = singularities(mesh, u, n=n)
-        steps = np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
+
+    def moves_for(ids, steps):
+        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
         pairs = close_equal_pairs(mesh, ids, steps, radius)
         if not pairs:
-            break
-        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
-        moves = [
+            return []
+        targets = _separation_targets(mesh, pairs, ids, radius)
+        return [
             (a, c, int(np.sign(step_of[a])))
-            for (a, _), c in zip(pairs, _separation_targets(mesh, pairs, ids, radius), strict=True)
+            for (a, _), c in zip(pairs, targets, strict=True)
             if c >= 0
         ]
-        if not moves:
-            break
-        u = _apply_moves(mesh, u, n, moves, radius, backend)
-    return u
+
+    def better(before, after):  # the same singularities, fewer close equal pairs
+        return np.array_equal(np.sort(after[1]), np.sort(before[1])) and len(
+            close_equal_pairs(mesh, *after, radius)
+        ) < len(close_equal_pairs(mesh, *before, radius))
+
+    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
 
 
 def _separation_targets(

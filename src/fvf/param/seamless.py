@@ -341,7 +341,8 @@ def seamless_parameterization(
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
         (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
-        (:func:`fvf.separate_close_singularities`); 0 keeps the field's topology.
+        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again;
+        0 keeps the field's topology.
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : callable, optional
@@ -364,8 +365,10 @@ def seamless_parameterization(
     u = default_cross_field(mesh, align) if field is None else unit_cross_field(mesh, field)
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
-        u = cancel_close_singularities(mesh, u, 4, radius=cone_cancel_radius * h)
-        u = separate_close_singularities(mesh, u, 4, radius=cone_cancel_radius * h)
+        r = cone_cancel_radius * h
+        u = cancel_close_singularities(mesh, u, 4, radius=r)
+        u = separate_close_singularities(mesh, u, 4, radius=r)
+        u = cancel_close_singularities(mesh, u, 4, radius=r)  # pairs the moves brought close
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
