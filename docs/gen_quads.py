@@ -53,7 +53,8 @@ def picture(name: str, mesh: fvf.TriMesh, target: int, view=None) -> None:
 
 
 def symmetric_pictures() -> None:
-    """A mirror-symmetric peanut: quads of the plain and of the symmetrized field."""
+    """A mirror-symmetric peanut: quads of a turned (non-symmetric) and of the symmetrized
+    field."""
     from scipy.spatial import cKDTree
 
     s = fvf.icosphere(4)
@@ -79,7 +80,8 @@ def symmetric_pictures() -> None:
             OUT / f"peanut_{name}.png",
             size=(640, 400),
             view=(0, 10),
-            title=f"{name} field: mirror error median {med:.3f}, max {worst:.3f} edges",
+            title=f"{'turned' if name == 'plain' else name} field: mirror error median "
+            f"{med:.3f}, max {worst:.3f} edges",
         )
         print("peanut", name, med, worst)
 
