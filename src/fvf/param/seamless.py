@@ -95,6 +95,10 @@ class SeamlessParameterization:
         frame that is not a gradient: its curl).
     residual : float
         The same after rounding.
+    info : dict
+        ``n_integers`` (int: integer unknowns rounded), ``n_chains`` (int: cut chains),
+        ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``seconds`` (dict:
+        wall time per stage, keyed by the stage's progress message).
     """
 
     uv: np.ndarray
@@ -457,6 +461,7 @@ class _Stages:
 
 
 def _user_scale(mesh: TriMesh, scale: npt.ArrayLike) -> np.ndarray:
+    """A user's per-face scales (a, b), checked: finite, positive, float64 (m, 2)."""
     sc = np.asarray(scale, dtype=np.float64)
     if sc.shape != (mesh.n_faces, 2) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
         raise ParameterError(
