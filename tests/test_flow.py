@@ -1,6 +1,5 @@
 """Functional flows Φ_{v,t} = exp(−t D^V_v) (§3.4–3.5): Lemmas 11–13 and growth warnings."""
 
-
 import numpy as np
 import pytest
 

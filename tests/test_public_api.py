@@ -922,6 +922,32 @@ SPECS: dict[str, Spec] = {
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
         zero=errors.FrameError,
     ),
+    "cancel_close_singularities": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4, radius=mesh.mean_edge_length),
+        lambda r, mesh, c: (
+            (
+                r.shape == (mesh.n_faces, 3)
+                and close(np.linalg.norm(r, axis=1), np.ones(mesh.n_faces), 1e-12)
+            )
+            or pytest.fail("unit field")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4, radius=1.0),
+        zero=errors.FieldShapeError,
+    ),
+    "separate_close_singularities": Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4, radius=mesh.mean_edge_length),
+        lambda r, mesh, c: (
+            (
+                r.shape == (mesh.n_faces, 3)
+                and close(np.linalg.norm(r, axis=1), np.ones(mesh.n_faces), 1e-12)
+            )
+            or pytest.fail("unit field")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4, radius=1.0),
+        zero=errors.FieldShapeError,
+    ),
     "frame_report": Spec(
         lambda fn, mesh, c: fn(mesh, c.u),
         lambda r, mesh, c: (r.bracket_energy >= 0 and r.curl_u >= 0) or pytest.fail("report"),

@@ -47,6 +47,7 @@ from .calculus import (
 from .design import (
     acap_energy_matrix,
     acap_fields,
+    cancel_close_singularities,
     closest_faces,
     comb,
     commutator_energy,
@@ -67,6 +68,7 @@ from .design import (
     rescale_frame,
     rescaling_operator,
     restrict_to_tangent,
+    separate_close_singularities,
     singularities,
     singularity_positions,
     smoothest_fields,
@@ -346,4 +348,6 @@ __all__ = [
     "symmetrize_cross_field",
     "quad_symmetry_error",
     *_errors_all,
+    "cancel_close_singularities",
+    "separate_close_singularities",
 ]

@@ -15,6 +15,7 @@
 A new design method goes into a module of its own here and is exported below.
 """
 
+from .cancellation import cancel_close_singularities, separate_close_singularities
 from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
 from .connection import (
     connection_energy,
@@ -81,4 +82,6 @@ __all__ = [
     "frame_report",
     "FrameRescaling",
     "FrameReport",
+    "cancel_close_singularities",
+    "separate_close_singularities",
 ]

@@ -46,6 +46,7 @@ import scipy.sparse as sp
 
 from ..calculus import div, face_to_vertex, rotate, stiffness, vertex_to_face
 from ..errors import FrameError, ParameterError, format_indices
+from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
@@ -168,6 +169,7 @@ def _curl_error(mesh: TriMesh, theta: np.ndarray, inner: np.ndarray) -> float:
     return float(num / np.sqrt(mesh.face_areas @ (theta * theta).sum(1)))
 
 
+@takes_mesh
 def frame_report(
     mesh: TriMesh,
     u: npt.ArrayLike,
@@ -248,6 +250,7 @@ def _frame_system(
     return sp.csr_array(K), rhs
 
 
+@takes_mesh
 def rescale_frame(
     mesh: TriMesh,
     u: npt.ArrayLike,

@@ -1,11 +1,11 @@
 """Seamless parameterization and quad meshing from cross fields.
 
-frames      cross fields as angles per face; the default curvature-aligned field
-cutgraph    combing, period jumps, cone indices, the cut graph, cut-mesh vertices
-cones       cancelling close pairs of opposite cones
+frames      the default cross field (fvf.design_field) and the frame's scaling
+cutmesh     the combed field on the cut mesh (fvf.cut_graph, fvf.comb) and its wedges
 seams       transition functions across the cut, as a linear map of free variables
 rounding    the lattice of integer unknowns and greedy mixed-integer rounding
 seamless    the Poisson fit and :func:`seamless_parameterization`
+folds       local stiffening of flipped uv triangles after rounding
 extraction  the integer grid of a parameterization as a quad mesh
 quadmesh    :func:`quad_mesh` (parameterize, then extract)
 quality     :func:`quad_quality`

@@ -13,12 +13,14 @@ re-solve of the remaining unknowns (the adaptive rounding of Bommes et al. 2009,
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 
-from ..numerics.eigen import factor_spd
+from ..numerics.cholesky import Backend, factor_hermitian
 
-__all__ = ["integer_lattice", "MixedIntegerSolver"]
+__all__ = ["integer_lattice", "MixedIntegerSolver", "greedy_round"]
 
 
 def integer_lattice(C: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarray:
@@ -113,23 +115,19 @@ def _integer_kernel(C: np.ndarray) -> np.ndarray:
     return M[k:, col:].astype(np.float64)
 
 
-#: Integer columns solved for at once when building the Schur complement (memory bound).
-SCHUR_CHUNK = 64
-#: Entries of a column of K Z below this fraction of its largest are dropped (local search).
-RESPONSE_RTOL = 1e-2
-#: Integer unknowns tried per local-search sweep: those responding most at flipped faces.
-SEARCH_CANDIDATES = 24
+#: Float64 entries of the solve block H_rr⁻¹ H_ri held at once (memory bound, 200 MB).
+SCHUR_BLOCK_ENTRIES = 25_000_000
 
 
 class MixedIntegerSolver:
     """Minimize ½ yᵀH y − gᵀy with y[integer] ∈ ℤ, for several right-hand sides g.
 
-    The real unknowns are eliminated once: one sparse factorization of their block H_rr
-    and, in chunks of :data:`SCHUR_CHUNK` columns, the solves Z = H_rr⁻¹ H_ri that give the
-    dense Schur complement S = H_ii − H_riᵀ Z of the k integer unknowns. Z itself is not
-    kept (memory O(nnz(factor) + k²)); the real unknowns of a given w cost one more solve.
-    With K given (the fit matrix, H = KᵀK), the responses K_i − K_r Z of the per-face
-    Jacobians to each integer unknown are kept sparse for :meth:`local_search`.
+    The real unknowns are eliminated once: one sparse Cholesky factorization of their
+    block H_rr (:func:`fvf.numerics.cholesky.factor_hermitian`) and, in column blocks, the
+    solves Z = H_rr⁻¹ H_ri that give the dense Schur complement S = H_ii − H_riᵀ Z of the
+    k integer unknowns (k is a few per cone: memory O(nnz(factor) + k²)). Z is not kept;
+    the real unknowns of a given integer vector cost one more solve. Greedy rounding then
+    works on the k × k system alone (:meth:`rounded`).
 
     Parameters
     ----------
@@ -137,11 +135,19 @@ class MixedIntegerSolver:
         Symmetric positive definite.
     integer : int64 (k,)
         Unknowns to round.
-    K : sparse (4m, p), optional
-        Fit matrix (rows u_x, u_y, v_x, v_y per face); enables :meth:`local_search`.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Factorization of H_rr.
+    progress : callable, optional
+        Called as ``progress(done, total)`` while the Schur complement is built.
     """
 
-    def __init__(self, H: sp.csr_array, integer: np.ndarray, K: sp.csr_array | None = None):
+    def __init__(
+        self,
+        H: sp.csr_array,
+        integer: np.ndarray,
+        backend: Backend = "auto",
+        progress: Callable[[int, int], None] | None = None,
+    ):
         H = sp.csr_array(H)
         p = H.shape[0]
         self.p = p
@@ -149,31 +155,26 @@ class MixedIntegerSolver:
         self.real_idx = np.setdiff1d(np.arange(p), self.integer)
         Hr = H[self.real_idx]
         self.Hri = sp.csc_array(Hr[:, self.integer])
-        self.fac = factor_spd(Hr[:, self.real_idx])
+        self.Hrr = sp.csr_array(Hr[:, self.real_idx])
+        self.fac = factor_hermitian(self.Hrr, backend)
         k = self.integer.size
         S = H[self.integer][:, self.integer].toarray()
-        response = []
-        Ki: sp.csc_array | None = None
-        Kr: sp.csc_array | None = None
-        if K is not None:
-            K = sp.csc_array(K)
-            Ki, Kr = K[:, self.integer], K[:, self.real_idx]
-        for lo in range(0, k, SCHUR_CHUNK):  # a few chunks of integer columns
-            cols = np.arange(lo, min(lo + SCHUR_CHUNK, k))
+        chunk = max(1, min(k, SCHUR_BLOCK_ENTRIES // max(self.real_idx.size, 1)))
+        for lo in range(0, k, chunk):  # a few blocks of integer columns
+            cols = np.arange(lo, min(lo + chunk, k))
             Zc = self.fac.solve(self.Hri[:, cols].toarray())
             S[:, cols] -= self.Hri.T @ Zc
-            if Ki is not None and Kr is not None:
-                R = Ki[:, cols].toarray() - Kr @ Zc
-                R[np.abs(R) < RESPONSE_RTOL * np.abs(R).max(axis=0, keepdims=True)] = 0.0
-                response.append(sp.csc_array(R))
+            if progress is not None:
+                progress(int(cols[-1]) + 1, k)
         self.S = 0.5 * (S + S.T)
-        self.response = sp.hstack(response).tocsc() if response else None
 
-    def _reduced(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def reduced(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(H_rr⁻¹ g_r, g_i − H_riᵀ H_rr⁻¹ g_r): the real part at w = 0, the reduced rhs."""
         yr0 = self.fac.solve(g[self.real_idx])
         return yr0, g[self.integer] - self.Hri.T @ yr0
 
-    def _assemble(self, yr0: np.ndarray, w: np.ndarray) -> np.ndarray:
+    def assemble(self, yr0: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The full y (p,) with y[integer] = w and the real unknowns minimizing for that w."""
         y = np.empty(self.p)
         y[self.integer] = w
         y[self.real_idx] = yr0 - (self.fac.solve(self.Hri @ w) if w.size else 0.0)
@@ -181,92 +182,56 @@ class MixedIntegerSolver:
 
     def real(self, g: np.ndarray) -> np.ndarray:
         """The real minimizer (no rounding), float64 (p,)."""
-        yr0, r = self._reduced(g)
+        yr0, r = self.reduced(g)
         w = np.linalg.solve(self.S, r) if self.integer.size else np.zeros(0)
-        return self._assemble(yr0, w)
-
-    def local_search(
-        self,
-        g: np.ndarray,
-        y: np.ndarray,
-        K: sp.csr_array,
-        sweeps: int = 30,
-    ) -> np.ndarray:
-        """Move single integer unknowns by ±1 while that lowers the number of flipped faces.
-
-        K (4m, p) maps y to √A_t (∇u, ∇v) per face (rows u_x, u_y, v_x, v_y); a face is
-        flipped when that Jacobian has det ≤ 0. A move of w_i re-solves the real unknowns
-        exactly, so its effect on K y is the fixed sparse column ``response[:, i]``: each
-        candidate costs an update of the faces it touches. Per sweep the best move is
-        taken (fewest flips, then lowest energy ½ wᵀS w − rᵀw); stops at zero flips or
-        when no move helps. Needs the solver built with K.
-        """
-        if self.response is None:
-            raise ValueError("local_search needs a MixedIntegerSolver built with K")
-        yr0, r = self._reduced(g)
-        w = y[self.integer].copy()
-        fit = (K @ y).reshape(-1, 4)
-        R = self.response
-
-        def det(f):
-            return f[:, 0] * f[:, 3] - f[:, 1] * f[:, 2]
-
-        flipped = ~(det(fit) > 0)
-        best = int(flipped.sum())
-        cols = [
-            (R.indices[R.indptr[i] : R.indptr[i + 1]], R.data[R.indptr[i] : R.indptr[i + 1]])
-            for i in range(R.shape[1])
-        ]
-        for _ in range(sweeps):  # a few sweeps over a few candidate unknowns
-            if best == 0:
-                break
-            bad_rows = np.flatnonzero(np.repeat(flipped, 4))
-            strength = np.abs(R[bad_rows]).max(axis=0).toarray().ravel()
-            cand = np.argsort(-strength, kind="stable")[:SEARCH_CANDIDATES]
-            choice = None
-            for i in cand[strength[cand] > 0]:
-                rows, vals = cols[i]
-                faces = np.unique(rows // 4)
-                before = int(flipped[faces].sum())
-                slots = np.searchsorted((faces[:, None] * 4 + np.arange(4)).ravel(), rows)
-                for step in (-1.0, 1.0):
-                    local = fit[faces].copy().ravel()
-                    local[slots] += step * vals
-                    after = int(np.count_nonzero(~(det(local.reshape(-1, 4)) > 0)))
-                    score = best - before + after
-                    de = step * (self.S[i] @ w - r[i]) + 0.5 * self.S[i, i]
-                    if choice is None or (score, de) < (choice[0], choice[3]):
-                        choice = (score, i, step, de)
-            if choice is None or choice[0] >= best:
-                break
-            best, i, step, _ = choice
-            w[i] += step
-            rows, vals = cols[i]
-            fit.ravel()[rows] += step * vals
-            flipped = ~(det(fit) > 0)
-        return self._assemble(yr0, w)
+        return self.assemble(yr0, w)
 
     def rounded(self, g: np.ndarray, batch: float = 0.05) -> np.ndarray:
-        """Greedy rounding (Bommes et al. 2009, §5) in batches: repeatedly fix the unknowns
-        closest to an integer (a ``batch`` fraction of those left, at least one) and
-        re-solve the others; ``batch=1`` is direct rounding. Returns y (p,), y[integer] ∈ ℤ.
+        """Greedy rounding (Bommes et al. 2009, §5): y (p,) with y[integer] ∈ ℤ.
+
+        Repeatedly fixes the unknowns closest to an integer (a ``batch`` fraction of those
+        left, at least one) and re-solves the others; ``batch=1`` is direct rounding. See
+        :func:`greedy_round` for the k × k part.
         """
-        yr0, r = self._reduced(g)
-        S = self.S
-        k = self.integer.size
-        values = np.linalg.solve(S, r) if k else np.zeros(0)
-        fixed = np.zeros(k, dtype=bool)
-        while not fixed.all():
-            left = np.flatnonzero(~fixed)
-            dist = np.abs(values[left] - np.round(values[left]))
-            count = max(1, int(np.ceil(batch * left.size)))
-            pick = left[np.argsort(dist, kind="stable")[:count]]
-            pick = np.union1d(pick, left[dist < 1e-6])
-            values[pick] = np.round(values[pick])
-            fixed[pick] = True
-            left = np.flatnonzero(~fixed)
-            if left.size:
-                done = np.flatnonzero(fixed)
-                rhs = r[left] - S[np.ix_(left, done)] @ values[done]
-                values[left] = np.linalg.solve(S[np.ix_(left, left)], rhs)
-        return self._assemble(yr0, values)
+        yr0, r = self.reduced(g)
+        return self.assemble(yr0, greedy_round(self.S, r, batch))
+
+
+def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarray:
+    """Greedy rounding of min ½ xᵀS x − rᵀx over x ∈ ℤ^k, float64 (k,) of integers.
+
+    The minimizer of the unknowns left free, given those already fixed, is the
+    conditional mean of a Gaussian with precision S: with Σ = S⁻¹, fixing a batch B to
+    values v_B moves the mean by Σ_{:B} Σ_{BB}⁻¹ (v_B − μ_B) and updates
+    Σ ← Σ − Σ_{:B} Σ_{BB}⁻¹ Σ_{B:}. Each batch costs O(k² |B|), the whole rounding
+    O(k³) once (instead of a new k × k solve per batch).
+
+    Parameters
+    ----------
+    S : float64 (k, k)
+        Symmetric positive definite.
+    r : float64 (k,)
+    batch : float in (0, 1]
+        Fraction of the unknowns left that is fixed per step (the closest to integers).
+    """
+    k = r.size
+    if k == 0:
+        return np.zeros(0)
+    cov = np.linalg.inv(S)
+    cov = 0.5 * (cov + cov.T)
+    mean = cov @ r
+    fixed = np.zeros(k, dtype=bool)
+    while not fixed.all():
+        left = np.flatnonzero(~fixed)
+        dist = np.abs(mean[left] - np.round(mean[left]))
+        count = max(1, int(np.ceil(batch * left.size)))
+        pick = left[np.argsort(dist, kind="stable")[:count]]
+        pick = np.union1d(pick, left[dist < 1e-6])
+        delta = np.round(mean[pick]) - mean[pick]
+        cB = cov[:, pick]
+        coef = np.linalg.solve(cov[np.ix_(pick, pick)], np.column_stack([delta, cB.T]))
+        mean += cB @ coef[:, 0]
+        mean[pick] = np.round(mean[pick])
+        cov -= cB @ coef[:, 1:]
+        fixed[pick] = True
+    return np.round(mean)

@@ -2,24 +2,29 @@ r"""Seamless global parameterization aligned with a cross field (QuadCover / MIQ
 
 Pipeline (``docs/quads.md`` has the derivation):
 
-1. a cross field u (curvature-aligned by default, :mod:`fvf.param.frames`) and its frame
-   (X, Y) = (s/h)(u, J u) per face, h the target edge length and s an optional positive
-   per-face scale (e.g. a commuting rescaling);
-2. combing and a cut graph through the singularities (:mod:`fvf.param.cutgraph`);
+1. a cross field u (:func:`fvf.design_field`, curvature-aligned by default) with its
+   close singularity pairs cancelled or moved apart (:func:`fvf.cancel_close_singularities`,
+   :func:`fvf.separate_close_singularities`), and its
+   frame (X, Y) = (1/h)(a u, b J u) per face, h the target edge length and a, b positive
+   per-face scales (:mod:`fvf.param.frames`);
+2. combing and a cut graph through the singularities (:func:`fvf.comb`,
+   :func:`fvf.cut_graph`; :mod:`fvf.param.cutmesh`);
 3. transition functions across the cut, uv_s = R^q uv_t + c (:mod:`fvf.param.seams`);
 4. the Poisson fit
 
    $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
 
    over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
-   normal equations (:func:`fvf.numerics.eigen.factor_spd`);
+   normal equations (:mod:`fvf.numerics.cholesky`);
 5. integer rounding of the chain translations and of the singular-vertex positions
    (:mod:`fvf.param.rounding`), so that every transition is a rotation by k·90° plus an
-   integer translation and every cone sits on an integer point.
+   integer translation and every cone sits on an integer point;
+6. local stiffening where uv triangles are flipped (:mod:`fvf.param.folds`).
 """
 
 from __future__ import annotations
 
+import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -30,6 +35,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients
+from ..design.cancellation import cancel_close_singularities, separate_close_singularities
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -38,9 +44,19 @@ from ..errors import (
 )
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from .cones import cancel_close_cones
-from .cutgraph import CutMesh, comb_and_cut
-from .frames import Alignment, cross_field_angles, default_cross_field
+from ..numerics.cholesky import Backend
+from .cutmesh import CutMesh, cut_mesh
+from .folds import flip_count as _flip_count
+from .folds import repair_folds
+from .frames import (
+    SCALINGS,
+    Alignment,
+    Scaling,
+    commuting_scale,
+    default_cross_field,
+    fitted_scale,
+    unit_cross_field,
+)
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, seam_system
 
@@ -79,6 +95,10 @@ class SeamlessParameterization:
         frame that is not a gradient: its curl).
     residual : float
         The same after rounding.
+    info : dict
+        ``n_integers`` (int: integer unknowns rounded), ``n_chains`` (int: cut chains),
+        ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``seconds`` (dict:
+        wall time per stage, keyed by the stage's progress message).
     """
 
     uv: np.ndarray
@@ -150,10 +170,8 @@ def _check_mesh(mesh: TriMesh) -> None:
         )
 
 
-def _energy_matrix(
-    mesh: TriMesh, cm: CutMesh, frame: np.ndarray
-) -> tuple[sp.csr_array, np.ndarray]:
-    """A (4m, 2W) and b (4m,): √A_t (∇u, ∇v) on face t against √A_t (X_t, Y_t) (local)."""
+def _energy_matrix(mesh: TriMesh, cm: CutMesh) -> sp.csr_array:
+    """A (4m, 2W): wedge coordinates ↦ √A_t (∇u, ∇v) on face t (local coordinates)."""
     m = mesh.n_faces
     B = mesh.face_bases
     G = np.einsum("mij,mkj->mik", hat_gradients(mesh), B)  # (m, 3 corners, 2 comps)
@@ -169,71 +187,7 @@ def _energy_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
         shape=(4 * m, 2 * cm.n_wedges),
     )
-    b = (frame * w[:, None, None]).reshape(-1)
-    return A, b
-
-
-def _energy_matrix_rhs(mesh: TriMesh, frame: np.ndarray) -> np.ndarray:
-    """b (4m,) of :func:`_energy_matrix` for a frame (m, 2, 2)."""
-    return (frame * np.sqrt(mesh.face_areas)[:, None, None]).reshape(-1)
-
-
-def _fitted_scale(
-    mesh: TriMesh, cm: CutMesh, fit: np.ndarray, h: float, sc: np.ndarray, smooth: int = 3
-) -> np.ndarray:
-    """New per-face scales (a, b): fitted gradient lengths along X̂, Ŷ, smoothed, normalized.
-
-    ``fit`` (4m,) is √A_t (∇u, ∇v) of the current real solution. The logs of a and b are
-    averaged ``smooth`` times over faces sharing an uncut edge (where the frames' labels
-    agree); the result is scaled so that Σ_t A_t a_t b_t = Σ_t A_t (same quad count).
-    """
-    A = mesh.face_areas
-    G = fit.reshape(-1, 2, 2) / np.sqrt(A)[:, None, None]
-    c, s = np.cos(cm.angles), np.sin(cm.angles)
-    a = (G[:, 0, 0] * c + G[:, 0, 1] * s) * h
-    b = (-G[:, 1, 0] * s + G[:, 1, 1] * c) * h
-    la = np.log(np.clip(a, 0.25, 4.0))
-    lb = np.log(np.clip(b, 0.25, 4.0))
-    ef = mesh.edge_faces
-    ok = (~cm.cut) & (ef >= 0).all(axis=1)
-    m = mesh.n_faces
-    W = sp.coo_array((np.ones(ok.sum()), (ef[ok, 0], ef[ok, 1])), shape=(m, m))
-    W = (W + W.T + sp.eye_array(m)).tocsr()
-    W = sp.diags_array(1.0 / W.sum(axis=1)) @ W
-    for _ in range(smooth):
-        la, lb = W @ la, W @ lb
-    new = np.exp(np.stack([la, lb], axis=1))
-    new /= np.sqrt(np.sum(A * new[:, 0] * new[:, 1]) / A.sum())
-    return new
-
-
-def _distortion(mesh: TriMesh, fit: np.ndarray, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-face distortion |σ₁ − 1| + |σ₂ − 1| of J F⁻¹ and flip flags (J = (∇u, ∇v)).
-
-    ``fit`` (4m,) is √A_t (∇u, ∇v); ``frame`` (m, 2, 2) the target rows (X, Y).
-    """
-    J = fit.reshape(-1, 2, 2) / np.sqrt(mesh.face_areas)[:, None, None]
-    M = J @ np.linalg.inv(frame)
-    sv = np.linalg.svd(M, compute_uv=False)
-    det = np.linalg.det(J)
-    return np.abs(sv - 1.0).sum(axis=1), ~(det > 0)
-
-
-def _flip_count(fit: np.ndarray) -> int:
-    """Number of faces whose fitted Jacobian (∇u, ∇v) has det ≤ 0 (fit: (4m,))."""
-    J = fit.reshape(-1, 4)
-    return int(np.count_nonzero(~(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2] > 0)))
-
-
-def _stiffen(mesh: TriMesh, w: np.ndarray, distortion: np.ndarray, flips: np.ndarray) -> np.ndarray:
-    """Bommes et al.'s update w ← w + min(distortion, 5), ×4 on flipped faces and their
-    edge neighbours."""
-    w = w + np.minimum(distortion, 5.0)
-    hot = flips.copy()
-    adj = mesh.face_adjacency[flips]
-    hot[adj[adj >= 0]] = True
-    w[hot] *= 4.0
-    return w
+    return A
 
 
 def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
@@ -297,6 +251,51 @@ def _transitions(mesh: TriMesh, uv: np.ndarray, ss: SeamSystem) -> np.ndarray:
     return out
 
 
+@dataclass
+class _FitSystem:
+    """The Poisson fit over the seamless unknowns (see :func:`_fit_system`)."""
+
+    ss: SeamSystem
+    K: sp.csr_array  # (4m, p): y ↦ √A_t (∇s, ∇t) per face (rows s_x, s_y, t_x, t_y)
+    integer: np.ndarray  # int64 (k,): the integer unknowns of y
+    lift: sp.csr_array  # (2W, p): y ↦ wedge coordinates
+
+
+def _fit_system(mesh: TriMesh, cm: CutMesh) -> _FitSystem:
+    """Transitions, the lattice of integer unknowns and the fit matrix K = A P Q."""
+    ss = seam_system(mesh, cm)
+    A = _energy_matrix(mesh, cm)
+    Q, integer, _, _ = _variables(ss, cm)
+    lift = (ss.P @ Q).tocsr()
+    return _FitSystem(ss, (A @ lift).tocsr(), integer, lift)
+
+
+def _rhs(mesh: TriMesh, frame: np.ndarray) -> np.ndarray:
+    """b (4m,): √A_t (X_t, Y_t) in local coordinates, for a frame (m, 2, 2)."""
+    return (frame * np.sqrt(mesh.face_areas)[:, None, None]).reshape(-1)
+
+
+def _frame_scale(
+    mesh: TriMesh,
+    cm: CutMesh,
+    fs: _FitSystem,
+    solver: MixedIntegerSolver,
+    h: float,
+    scaling: str,
+    iterations: int,
+) -> np.ndarray:
+    """Per-face (a, b) of the frame, float64 (m, 2), for ``scaling`` (module frames)."""
+    if scaling == "commuting":
+        return commuting_scale(mesh, cm)
+    sc = np.ones((mesh.n_faces, 2))
+    if scaling == "fitted":
+        for _ in range(iterations):
+            y = solver.real(fs.K.T @ _rhs(mesh, _local_frame(cm, h, sc)))
+            grads = (fs.K @ y).reshape(-1, 2, 2) / np.sqrt(mesh.face_areas)[:, None, None]
+            sc = fitted_scale(mesh, cm, grads, h)
+    return sc
+
+
 @takes_mesh
 def seamless_parameterization(
     mesh: TriMesh,
@@ -306,10 +305,12 @@ def seamless_parameterization(
     edge_length: float | None = None,
     align: Alignment = "curvature",
     scale: npt.ArrayLike | None = None,
+    scaling: Scaling = "fitted",
     rounding_batch: float = 0.05,
     scale_iterations: int = 3,
     stiffening_iterations: int = 8,
     cone_cancel_radius: float = 1.0,
+    backend: Backend = "auto",
     progress: Callable[[str], None] | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
@@ -328,24 +329,28 @@ def seamless_parameterization(
     align : {"curvature", "smooth"}
         Default field when ``field`` is None.
     scale : array_like (m, 2), optional
-        Positive per-face scalings (a, b) of the frame (a u, b J u) (e.g. a commuting
-        rescaling); default: adapted to the field by ``scale_iterations`` rounds of
-        fitting and rescaling (below).
+        Positive per-face scalings (a, b) of the frame (a u, b J u); overrides
+        ``scaling``.
+    scaling : {"fitted", "commuting", "none"}
+        How the frame is scaled when ``scale`` is None (:mod:`fvf.param.frames`): the
+        fitted gradient lengths (``scale_iterations`` rounds, default), the chapter's
+        commuting rescaling (:func:`fvf.rescale_frame`), or unit lengths.
     rounding_batch : float
         Fraction of the remaining integers fixed per greedy step (1 = direct rounding).
     scale_iterations : int
-        When ``scale`` is None: rounds of "fit, then rescale the frame by the fitted
-        gradient lengths" (a, b per face, smoothed over uncut neighbours), which lowers
-        the curl of the frame before rounding; 0 keeps the unit frame.
+        Rounds of fitting and rescaling for ``scaling="fitted"``.
+    stiffening_iterations : int
+        While uv triangles are flipped after rounding: rounds of local repair
+        (:mod:`fvf.param.folds`).
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
-        (:mod:`fvf.param.cones`); 0 keeps the field's topology.
+        (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
+        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again;
+        0 keeps the field's topology.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : callable, optional
         Called with a short message as each stage starts (the command prints them).
-    stiffening_iterations : int
-        While uv triangles are flipped after rounding: rounds of local stiffening (Bommes
-        et al. 2009, §6): the weight of each face grows with its distortion (flipped faces
-        and their neighbours most) and the rounded solve is repeated.
 
     Returns
     -------
@@ -355,65 +360,53 @@ def seamless_parameterization(
         :class:`fvf.FlippedParameterizationWarning` is issued when it is not empty).
     """
     _check_mesh(mesh)
-    say = progress or (lambda message: None)
+    clock = _Stages(progress)
     h = edge_length_for(mesh, target_faces, edge_length)
-    say("cross field" if field is None else "reading the cross field")
-    u = default_cross_field(mesh, align, length_scale=h) if field is None else field
-    phi = cross_field_angles(mesh, u)
-    sc = None
-    if scale is not None:
-        sc = np.asarray(scale, dtype=np.float64)
-        if sc.shape != (mesh.n_faces, 2) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
-            raise ParameterError(
-                f"scale must be a finite positive float array of shape ({mesh.n_faces}, 2)"
-            )
-    say("combing, cones and cut graph")
-    cm = comb_and_cut(mesh, phi)
+    if scaling not in SCALINGS:
+        raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
+    sc = None if scale is None else _user_scale(mesh, scale)
+    clock("cross field" if field is None else "reading the cross field")
+    u = default_cross_field(mesh, align) if field is None else unit_cross_field(mesh, field)
     if cone_cancel_radius > 0:
-        for _ in range(3):  # a cancelled pair can expose the next one
-            edited = cancel_close_cones(mesh, phi, cm, cone_cancel_radius * h, h)
-            if edited is None:
-                break
-            phi, raw = edited
-            cm = comb_and_cut(mesh, phi, raw=raw)
+        clock("cancelling and separating close cones")
+        r = cone_cancel_radius * h
+        u = cancel_close_singularities(mesh, u, 4, radius=r)
+        u = separate_close_singularities(mesh, u, 4, radius=r)
+        u = cancel_close_singularities(mesh, u, 4, radius=r)  # pairs the moves brought close
+    clock("combing and cut graph")
+    cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
-    say(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
-    ss = seam_system(mesh, cm)
-    A, _ = _energy_matrix(mesh, cm, _local_frame(cm, h, None))
-    Q, integer, _, _ = _variables(ss, cm)
-    K = (A @ ss.P @ Q).tocsr()
-    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer, K)
-    say(f"Poisson fit ({K.shape[1]} unknowns, {integer.size} integers)")
+    clock(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
+    fs = _fit_system(mesh, cm)
+    clock(f"Poisson fit ({fs.K.shape[1]} unknowns, {fs.integer.size} integers)")
+    solver = MixedIntegerSolver((fs.K.T @ fs.K).tocsr(), fs.integer, backend)
     if sc is None:
-        sc = np.ones((mesh.n_faces, 2))
-        for _ in range(scale_iterations):
-            b = _energy_matrix_rhs(mesh, _local_frame(cm, h, sc))
-            y_real = solver.real(K.T @ b)
-            sc = _fitted_scale(mesh, cm, K @ y_real, h, sc)
+        clock(f"frame scaling ({scaling})")
+        sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations)
     frame = _local_frame(cm, h, sc)
-    b = _energy_matrix_rhs(mesh, frame)
-    y_real = solver.real(K.T @ b)
-    weights = np.ones(mesh.n_faces)
-    say("integer rounding")
-    for it in range(stiffening_iterations + 1):
-        sw = np.repeat(np.sqrt(weights), 4)
-        if it:
-            Kw = sp.diags_array(sw) @ K
-            solver = MixedIntegerSolver((Kw.T @ Kw).tocsr(), integer, K)
-        gw = K.T @ (sw**2 * b)
-        y = solver.rounded(gw, batch=rounding_batch)
-        if _flip_count(K @ y):
-            y = solver.local_search(gw, y, K)
-        x = (ss.P @ (Q @ y)).reshape(-1, 2)
-        uv = x[cm.wedges]
-        distortion, flips = _distortion(mesh, K @ y, frame)
-        if not flips.any():
-            break
-        say(f"stiffening ({int(flips.sum())} flipped triangles)")
-        weights = _stiffen(mesh, weights, distortion, flips)
+    b = _rhs(mesh, frame)
+    g = fs.K.T @ b
+    y_real = solver.real(g)
+    clock("integer rounding")
+    y = solver.rounded(g, batch=rounding_batch)
+    flips = _flip_count(fs.K @ y)
+    if flips and stiffening_iterations > 0:
+        clock(f"repairing {flips} flipped triangles")
+        y, _ = repair_folds(
+            mesh,
+            fs.K,
+            solver,
+            y,
+            b,
+            rounds=stiffening_iterations,
+            batch=rounding_batch,
+            backend=backend,
+            progress=progress,
+        )
+    uv = (fs.lift @ y).reshape(-1, 2)[cm.wedges]
     bnorm = float(np.linalg.norm(b))
-    res_real = float(np.linalg.norm(K @ y_real - b)) / bnorm
-    res = float(np.linalg.norm(K @ y - b)) / bnorm
+    res_real = float(np.linalg.norm(fs.K @ y_real - b)) / bnorm
+    res = float(np.linalg.norm(fs.K @ y - b)) / bnorm
     flipped = uv_flips(uv)
     if flipped.size:
         warnings.warn(
@@ -422,17 +415,22 @@ def seamless_parameterization(
             FlippedParameterizationWarning,
             stacklevel=2,
         )
-    trans = _transitions(mesh, uv, ss)
+    trans = _transitions(mesh, uv, fs.ss)
     trans[~cm.cut] = 0.0
-    rot = np.where(cm.cut, ss.edge_q, 0)
-    info = {"n_integers": int(integer.size), "n_chains": ss.n_chains}
+    clock(None)
+    info = {
+        "n_integers": int(fs.integer.size),
+        "n_chains": fs.ss.n_chains,
+        "scale": sc,
+        "seconds": clock.seconds,
+    }
     return SeamlessParameterization(
         uv=uv,
-        field=mesh.from_complex(np.exp(1j * cm.angles)),
+        field=cm.field,
         cut=cm.cut,
-        rotation=rot,
+        rotation=np.where(cm.cut, fs.ss.edge_q, 0),
         translation=trans,
-        sides=ss.edge_sides,
+        sides=fs.ss.edge_sides,
         singular=cm.singular,
         index4=cm.index4,
         edge_length=h,
@@ -441,6 +439,35 @@ def seamless_parameterization(
         residual=res,
         info=info,
     )
+
+
+class _Stages:
+    """Stage messages for the user's ``progress`` and the wall time of each stage."""
+
+    def __init__(self, progress: Callable[[str], None] | None) -> None:
+        self.progress = progress
+        self.seconds: dict[str, float] = {}
+        self._stage: str | None = None
+        self._t0 = time.perf_counter()
+
+    def __call__(self, message: str | None) -> None:
+        now = time.perf_counter()
+        if self._stage is not None:
+            self.seconds[self._stage] = self.seconds.get(self._stage, 0.0) + now - self._t0
+        self._t0 = now
+        self._stage = None if message is None else message.split(" (")[0]
+        if message is not None and self.progress is not None:
+            self.progress(message)
+
+
+def _user_scale(mesh: TriMesh, scale: npt.ArrayLike) -> np.ndarray:
+    """A user's per-face scales (a, b), checked: finite, positive, float64 (m, 2)."""
+    sc = np.asarray(scale, dtype=np.float64)
+    if sc.shape != (mesh.n_faces, 2) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
+        raise ParameterError(
+            f"scale must be a finite positive float array of shape ({mesh.n_faces}, 2)"
+        )
+    return sc
 
 
 def _check_cones(mesh: TriMesh, cm: CutMesh) -> None:

@@ -1,6 +1,6 @@
 r"""Transition functions across the cut: which cut-mesh coordinates are tied to which.
 
-On the cut mesh (:class:`fvf.param.cutgraph.CutMesh`) every corner belongs to a *wedge*
+On the cut mesh (:class:`fvf.param.cutmesh.CutMesh`) every corner belongs to a *wedge*
 (a cut-mesh vertex) carrying coordinates uv_w ∈ ℝ². A cut edge e with faces s, t and
 period jump p_e ties the wedges of its two sides by the transition
 
@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from ..mesh.trimesh import TriMesh
-from .cutgraph import CutMesh
+from .cutmesh import CutMesh
 
 __all__ = ["SeamSystem", "ROTATIONS", "rotation_blocks", "seam_system"]
 
@@ -187,7 +187,7 @@ def seam_system(mesh: TriMesh, cm: CutMesh) -> SeamSystem:
     ----------
     mesh : TriMesh
     cm : CutMesh
-        From :func:`fvf.param.cutgraph.comb_and_cut`.
+        From :func:`fvf.param.cutmesh.cut_mesh`.
 
     Returns
     -------

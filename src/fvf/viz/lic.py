@@ -343,6 +343,7 @@ def _splat(
     return T
 
 
+@takes_mesh
 def surface_lic(
     mesh: TriMesh,
     v: npt.ArrayLike,

@@ -1,0 +1,443 @@
+r"""Cancelling close singularity pairs of an N-direction field.
+
+A singularity of index +1/N closer than a length r to one of index −1/N is, at the
+resolution r, no singularity at all: a quad mesh with edge length r cannot give the two
+distinct vertices without folding the quads between them. :func:`cancel_close_singularities`
+removes such pairs by editing the field's topology and re-solving its angles with the
+topology fixed (the fixed-topology step of mixed-integer field design: Ray, Vallet, Li
+& Lévy 2008, "N-symmetry direction field design"; Bommes, Zimmer & Kobbelt 2009, §3):
+
+1. pair opposite singularities (±1/N) greedily, closest first, up to distance r (3D);
+2. walk a shortest edge path v₁ → v₂ between the two and change the turning δ_e of the
+   field across each path edge by ∓2π/N (in the orientation of the path). That moves 1/N
+   of index from v₁ to v₂ and leaves the interior of the path unchanged
+   (:func:`fvf.vertex_indices`: each edge adds its turning to one endpoint and subtracts
+   it from the other);
+3. rotate each face's representative by Δψ_t, minimizing
+
+   $$\sum_e w_e\,(\tilde\delta_e + \Delta\psi_s - \Delta\psi_t)^2
+   + \mu \sum_t \frac{A_t}{r^2}\,\Delta\psi_t^2 ,$$
+
+   δ̃ the edited turnings and w_e the weights of the connection Laplacian
+   (:func:`fvf.design.connection.connection_pairs`): one sparse SPD solve on the dual
+   graph. The small μ fixes the constant and keeps the field where nothing changed.
+
+The edited field's singularities are measured again by :func:`fvf.singularities`; a
+cancelled pair can expose the next one, so the steps repeat a few rounds.
+:func:`separate_close_singularities` uses the same index move to push two close
+singularities of *equal* index ±1/N apart.
+
+The re-solve can turn the field by more than π/N across some edge near a dense cluster of
+singularities, which the re-measure reads as other singularities than planned. An edit is
+therefore kept only if the re-measured result is better (cancelling: fewer singularities
+and none of a higher index; separating: the same indices and fewer close equal pairs); a
+round that is not is retried one move at a time (the matrix of step 3 is factored once).
+
+Two close −1/N singularities are left alone: moving 1/N of index onto one of them asks
+the field to turn by 2π·2/N around one vertex, and the smooth re-solve of step 3 then
+turns it by more than π/N across some edges of that vertex's ring, so that the measured
+indices split into two −1/N singularities again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from ..errors import ParameterError
+from ..mesh.convert import takes_mesh
+from ..mesh.inputs import as_direction_count, as_face_field
+from ..mesh.trimesh import TriMesh, _cross
+from ..numerics.cholesky import Backend, factor_hermitian
+from .connection import connection_pairs
+from .indices import singularities
+from .nfields import _check_nonzero, _edge_angles
+
+__all__ = [
+    "cancel_close_singularities",
+    "separate_close_singularities",
+    "close_singularity_pairs",
+    "close_equal_pairs",
+    "KEEP_WEIGHT",
+    "SEPARATION",
+]
+
+#: Weight μ of keeping the original angles, relative to the smoothness term.
+KEEP_WEIGHT = 1e-3
+#: Distance, in units of the radius, at which :func:`separate_close_singularities` puts
+#: the moved singularity from the one it stays away from.
+SEPARATION = 1.25
+TWO_PI = 2.0 * np.pi
+
+
+def close_singularity_pairs(
+    mesh: TriMesh,
+    vertices: np.ndarray,
+    steps: np.ndarray,
+    radius: float,
+) -> list[tuple[int, int]]:
+    """Pairs (a, b) of opposite singular vertices (±1/N) closer than ``radius``, closest
+    first.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    vertices : int64 (s,)
+        Singular vertices.
+    steps : int64 (s,)
+        N × their indices (non-zero integers).
+    radius : float
+        3D distance below which a pair is taken.
+
+    Returns
+    -------
+    list of (int, int)
+        Vertex pairs, disjoint; 1/N of index moves from a to b (their indices are
+        opposite, ±1/N), which cancels both.
+    """
+    if vertices.size < 2 or radius <= 0:
+        return []
+    P = mesh.vertices[vertices]
+    ij = cKDTree(P).query_pairs(radius, output_type="ndarray")
+    if ij.size == 0:
+        return []
+    i, j = ij[:, 0], ij[:, 1]
+    ki, kj = steps[i], steps[j]
+    keep = (ki == -kj) & (np.abs(ki) == 1)
+    i, j = i[keep], j[keep]
+    d = np.linalg.norm(P[i] - P[j], axis=1)
+    used = np.zeros(vertices.size, dtype=bool)
+    pairs = []
+    for a, b in zip(i[np.argsort(d, kind="stable")], j[np.argsort(d, kind="stable")], strict=True):
+        if used[a] or used[b]:  # greedy matching over the few close pairs
+            continue
+        used[a] = used[b] = True
+        pairs.append((int(vertices[a]), int(vertices[b])))
+    return pairs
+
+
+def _edge_graph(mesh: TriMesh) -> sp.csr_array:
+    """The vertex graph weighted by edge length, sparse (n, n) (upper triangle)."""
+    E, X = mesh.edges, mesh.vertices
+    n = mesh.n_vertices
+    w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
+    return sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+
+
+def _edge_paths(mesh: TriMesh, pairs: list[tuple[int, int]], limit: float) -> list[np.ndarray]:
+    """Shortest vertex paths (by edge length) between the vertices of each pair.
+
+    The searches stop at ``limit``; a pair not joined within it is searched again without.
+    """
+    G = _edge_graph(mesh)
+    src = np.array([a for a, _ in pairs])
+    _, pred = dijkstra(G, directed=False, indices=src, return_predecessors=True, limit=limit)
+    paths = []
+    for row, (a, b) in enumerate(pairs):  # loop over a few singularity pairs
+        if pred[row, b] < 0:
+            _, full = dijkstra(G, directed=False, indices=[a], return_predecessors=True)
+            pred[row] = full[0]
+        path = [b]
+        while path[-1] != a and path[-1] >= 0:
+            path.append(int(pred[row, path[-1]]))
+        paths.append(np.array(path[::-1], dtype=np.int64))
+    return paths
+
+
+def _edited_turnings(
+    mesh: TriMesh, u: np.ndarray, n: int, moves: list[tuple[int, int, int]], limit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Interior edges and their turnings δ_e with 1/N of index moved along each move's path.
+
+    ``moves``: (a, b, s) moves s/N of index (s = ±1) from vertex a to vertex b.
+    """
+    interior, phi = _edge_angles(mesh, u)
+    delta = phi - (TWO_PI / n) * np.rint(n * phi / TWO_PI)
+    full = np.zeros(mesh.n_edges)
+    full[interior] = delta
+    E = mesh.edges
+    nv = mesh.n_vertices
+    key = E[:, 0] * nv + E[:, 1]
+    ends = [(a, b) for a, b, _ in moves]
+    for (_, _, s), path in zip(moves, _edge_paths(mesh, ends, limit), strict=True):
+        x0, x1 = path[:-1], path[1:]
+        e = np.searchsorted(key, np.minimum(x0, x1) * nv + np.maximum(x0, x1))
+        along = np.where(E[e, 0] == x0, 1.0, -1.0)
+        full[e] -= along * s * TWO_PI / n
+    return interior, full[interior]
+
+
+class _Reangler:
+    """Step 3 of the module docstring with its matrix factored once: Δψ (m,) minimizing
+    Σ w_e (δ_e + Δψ_s − Δψ_t)² + μ Σ A_t Δψ_t² / r² for any turnings δ."""
+
+    def __init__(self, mesh: TriMesh, radius: float, backend: Backend) -> None:
+        _, _, w = connection_pairs(mesh, "knoppel")
+        interior = np.flatnonzero((mesh.edge_faces >= 0).all(axis=1))
+        ef = mesh.edge_faces[interior]
+        m, k = mesh.n_faces, interior.size
+        self.D = sp.csr_array(
+            (
+                np.concatenate([np.ones(k), -np.ones(k)]),
+                (np.tile(np.arange(k), 2), np.concatenate([ef[:, 0], ef[:, 1]])),
+            ),
+            shape=(k, m),
+        )
+        self.w = w
+        mu = KEEP_WEIGHT * mesh.face_areas / radius**2
+        H = (self.D.T @ sp.diags_array(w) @ self.D + sp.diags_array(mu)).tocsr()
+        self.fac = factor_hermitian(H, backend)
+
+    def __call__(self, delta: np.ndarray) -> np.ndarray:
+        return self.fac.solve(-(self.D.T @ (self.w * delta)))
+
+
+def _checked(mesh: TriMesh, u, n, radius, rounds) -> tuple[int, float, np.ndarray]:
+    """The checked N, radius and unit field of the public entrances."""
+    n = as_direction_count(n)
+    radius = float(radius)
+    if not (np.isfinite(radius) and radius >= 0):
+        raise ParameterError(f"radius must be a finite number >= 0; got {radius!r}")
+    if int(rounds) != rounds or rounds < 0:
+        raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
+    u = as_face_field(mesh, u, "u")
+    _check_nonzero(mesh, u, "its singularities")
+    return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+@takes_mesh
+def cancel_close_singularities(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int = 4,
+    *,
+    radius: float,
+    rounds: int = 3,
+    backend: Backend = "auto",
+) -> np.ndarray:
+    """An N-field with the singularity pairs closer than ``radius`` removed (module doc).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : array_like, float (m, 3)
+        One representative vector per face, non-zero on every face.
+    n : int
+        Symmetry order N ≥ 1.
+    radius : float
+        3D distance below which a +1/N, −1/N pair cancels. For a quad mesh the target
+        edge length.
+    rounds : int
+        Pair, cancel and re-measure at most this many times.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        Sparse factorization of the dual-graph system.
+
+    Returns
+    -------
+    float64 (m, 3)
+        The edited field, one unit representative per face (u itself, normalized, when
+        no pair is closer than ``radius``).
+
+    Raises
+    ------
+    ParameterError
+        radius negative or not finite, rounds < 0.
+    FieldShapeError
+        Wrong shape, non-finite values or a zero vector on some face.
+    """
+    n, radius, u = _checked(mesh, u, n, radius, rounds)
+
+    def moves_for(ids, steps):
+        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
+        pairs = close_singularity_pairs(mesh, ids, steps, radius)
+        return [(a, b, int(np.sign(step_of[a]))) for a, b in pairs]
+
+    def better(before, after):  # fewer singularities, none of a higher index
+        return after[0].size < before[0].size and _peak(after) <= _peak(before)
+
+    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+
+
+def _peak(state: tuple[np.ndarray, np.ndarray]) -> int:
+    """The largest |N × index| of a ``_measure`` result (0 without singularities)."""
+    return int(np.abs(state[1]).max(initial=0))
+
+
+def _apply_moves(
+    mesh: TriMesh,
+    u: np.ndarray,
+    n: int,
+    moves: list[tuple[int, int, int]],
+    radius: float,
+    reangle: _Reangler,
+) -> np.ndarray:
+    """The field with each move's index moved along its path, angles re-solved (steps 2–3)."""
+    interior, delta = _edited_turnings(mesh, u, n, moves, 4.0 * radius)
+    full = np.zeros(mesh.n_edges)
+    full[interior] = delta
+    dpsi = reangle(full[(mesh.edge_faces >= 0).all(axis=1)])
+    Ju = _cross(mesh.face_normals, u)
+    return np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
+
+
+def _measure(mesh: TriMesh, u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Singular vertices int64 (s,) and N × their indices int64 (s,)."""
+    ids, ind = singularities(mesh, u, n=n)
+    return ids, np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
+
+
+def _edit(mesh, u, n, radius, rounds, backend, moves_for, better) -> np.ndarray:
+    """Rounds of "find moves, apply them, re-measure"; a round whose result is not
+    ``better`` than its start is retried one move at a time, keeping the moves that are.
+
+    ``moves_for(ids, steps)`` → list of (a, b, s); ``better(before, after)`` compares two
+    ``_measure`` results. The re-measure guards against the re-solve turning the field by
+    more than π/N across an edge, which would make other singularities than planned.
+    """
+    reangle = None
+    state = _measure(mesh, u, n)
+    for _ in range(int(rounds)):  # a few rounds: an edit can expose the next pair
+        moves = moves_for(*state)
+        if not moves:
+            break
+        reangle = reangle or _Reangler(mesh, radius, backend)
+        trial = _apply_moves(mesh, u, n, moves, radius, reangle)
+        after = _measure(mesh, trial, n)
+        if better(state, after):
+            u, state = trial, after
+            continue
+        progress = False
+        for move in moves:  # retry one at a time: a few moves
+            trial = _apply_moves(mesh, u, n, [move], radius, reangle)
+            after = _measure(mesh, trial, n)
+            if better(state, after):
+                u, state, progress = trial, after, True
+        if not progress:
+            break
+    return u
+
+
+def close_equal_pairs(
+    mesh: TriMesh, vertices: np.ndarray, steps: np.ndarray, radius: float
+) -> list[tuple[int, int]]:
+    """Disjoint pairs (a, b) of singular vertices of equal index ±1/N closer than
+    ``radius`` (3D), closest first; ``vertices`` int64 (s,), ``steps`` N × their indices."""
+    if vertices.size < 2 or radius <= 0:
+        return []
+    P = mesh.vertices[vertices]
+    ij = cKDTree(P).query_pairs(radius, output_type="ndarray")
+    if ij.size == 0:
+        return []
+    i, j = ij[:, 0], ij[:, 1]
+    keep = (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
+    i, j = i[keep], j[keep]
+    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
+    used = np.zeros(vertices.size, dtype=bool)
+    pairs = []
+    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
+        if used[a] or used[b]:
+            continue
+        used[a] = used[b] = True
+        pairs.append((int(vertices[a]), int(vertices[b])))
+    return pairs
+
+
+@takes_mesh
+def separate_close_singularities(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int = 4,
+    *,
+    radius: float,
+    rounds: int = 3,
+    backend: Backend = "auto",
+) -> np.ndarray:
+    """An N-field whose singularities of equal index ±1/N are about ``radius`` apart.
+
+    Two singularities of equal index ±1/N closer than r (3D) are separated: a of the
+    pair (a, b) moves to the vertex c nearest to a (shortest edge paths) among those at
+    least SEPARATION · r from b and from every other singularity that stays, by the index
+    move of the module docstring (step 2, along
+    a shortest path a → c) and the re-solve of step 3. For a quad mesh with edge length r,
+    two such cones closer than r would have to sit on distinct integer points, which
+    folds the quads between them.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : array_like, float (m, 3)
+        One representative vector per face, non-zero on every face.
+    n : int
+        Symmetry order N ≥ 1.
+    radius : float
+        3D distance below which a pair of equal singularities is separated.
+    rounds : int
+        Pair, move and re-measure at most this many times.
+    backend : {"auto", "cholmod", "cholespy", "scipy"}
+
+    Returns
+    -------
+    float64 (m, 3)
+        The edited field, one unit representative per face (u normalized when no pair is
+        closer than ``radius``).
+
+    Raises
+    ------
+    ParameterError
+        radius negative or not finite, rounds < 0.
+    FieldShapeError
+        Wrong shape, non-finite values or a zero vector on some face.
+    """
+    n, radius, u = _checked(mesh, u, n, radius, rounds)
+
+    def moves_for(ids, steps):
+        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
+        pairs = close_equal_pairs(mesh, ids, steps, radius)
+        if not pairs:
+            return []
+        targets = _separation_targets(mesh, pairs, ids, radius)
+        return [
+            (a, c, int(np.sign(step_of[a])))
+            for (a, _), c in zip(pairs, targets, strict=True)
+            if c >= 0
+        ]
+
+    def better(before, after):  # the same singularities, fewer close equal pairs
+        return np.array_equal(np.sort(after[1]), np.sort(before[1])) and len(
+            close_equal_pairs(mesh, *after, radius)
+        ) < len(close_equal_pairs(mesh, *before, radius))
+
+    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+
+
+def _separation_targets(
+    mesh: TriMesh, pairs: list[tuple[int, int]], singular: np.ndarray, radius: float
+) -> list[int]:
+    """For each pair (a, b): the vertex nearest to a (along edges) among those at least
+    SEPARATION · radius (along edges) from every singular vertex that does not move (the
+    b's and those in no pair) and from the targets chosen before it; −1 when there is none
+    within 4 · radius of a."""
+    G = _edge_graph(mesh)
+    far = SEPARATION * radius
+    fixed = np.setdiff1d(singular, [a for a, _ in pairs])
+    clear = dijkstra(G, directed=False, indices=fixed, min_only=True, limit=far) >= far
+    clear[singular] = False
+    D = dijkstra(G, directed=False, indices=[a for a, _ in pairs], limit=4.0 * radius)
+    out: list[int] = []
+    for k in range(len(pairs)):  # a few pairs
+        chosen = [c for c in out if c >= 0]
+        ok = clear.copy()
+        if chosen:
+            ok &= (
+                np.linalg.norm(mesh.vertices[:, None] - mesh.vertices[chosen][None], axis=2).min(
+                    axis=1
+                )
+                >= far
+            )
+        da = np.where(ok, D[k], np.inf)
+        c = int(np.argmin(da))
+        out.append(c if np.isfinite(da[c]) else -1)
+    return out

@@ -1,0 +1,122 @@
+"""Cancelling close singularity pairs of an N-field (fvf.cancel_close_singularities)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fvf
+from fvf.design.cancellation import SEPARATION, close_equal_pairs, close_singularity_pairs
+
+
+def dipole_field(mesh, a, b, ka, kb):
+    """The constant cross field e_x turned by ka θ_a + kb θ_b (θ_p the polar angle about p):
+    singularities of index ka at a and kb at b (for |k| = 1/4)."""
+    c = mesh.face_centroids
+
+    def angle(p):
+        return np.arctan2(c[:, 1] - p[1], c[:, 0] - p[0])
+
+    psi = ka * angle(a) + kb * angle(b)
+    u0 = mesh.project_tangent(np.tile([1.0, 0.0, 0.0], (mesh.n_faces, 1)))
+    return np.cos(psi)[:, None] * u0 + np.sin(psi)[:, None] * np.cross(mesh.face_normals, u0)
+
+
+@pytest.fixture(scope="module")
+def disk():
+    return fvf.disk(24, 8)
+
+
+A, B = np.array([0.12, 0.03]), np.array([-0.1, -0.02])
+
+
+def test_opposite_pair_cancels_and_the_field_becomes_the_constant_one(disk):
+    u = dipole_field(disk, A, B, 0.25, -0.25)
+    ids, ind = fvf.singularities(disk, u, n=4)
+    assert ind.tolist() == [0.25, -0.25]
+    d = np.linalg.norm(np.subtract(*disk.vertices[ids]))
+    kept = fvf.cancel_close_singularities(disk, u, 4, radius=0.5 * d)
+    np.testing.assert_allclose(kept, u / np.linalg.norm(u, axis=1, keepdims=True), atol=1e-15)
+    v = fvf.cancel_close_singularities(disk, u, 4, radius=1.5 * d)
+    assert fvf.singularities(disk, v, n=4)[0].size == 0
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0, atol=1e-12)
+    # with no singularity left, the smoothest field is the constant cross (up to μ's pull)
+    turn = np.angle(
+        fvf.to_power(disk, v, 4) / fvf.to_power(disk, dipole_field(disk, A, B, 0, 0), 4)
+    )
+    assert np.abs(turn - np.angle(np.exp(1j * turn).mean())).max() / 4 < 1e-2
+
+
+def test_two_negative_singularities_are_left_alone(disk):
+    u = dipole_field(disk, A, B, -0.25, -0.25)
+    ids, ind = fvf.singularities(disk, u, n=4)
+    assert ind.tolist() == [-0.25, -0.25]
+    d = np.linalg.norm(np.subtract(*disk.vertices[ids]))
+    v = fvf.cancel_close_singularities(disk, u, 4, radius=1.5 * d)
+    np.testing.assert_allclose(v, u / np.linalg.norm(u, axis=1, keepdims=True), atol=1e-15)
+
+
+@pytest.mark.parametrize("k", [0.25, -0.25])
+def test_equal_pair_is_moved_apart(disk, k):
+    u = dipole_field(disk, A, B, k, k)
+    ids, ind = fvf.singularities(disk, u, n=4)
+    assert ind.tolist() == [k, k]
+    d = np.linalg.norm(np.subtract(*disk.vertices[ids]))
+    v = fvf.separate_close_singularities(disk, u, 4, radius=2 * d)
+    ids2, ind2 = fvf.singularities(disk, v, n=4)
+    assert ind2.tolist() == [k, k] and len(set(ids) & set(ids2)) == 1  # one stays, one moves
+    gap = np.linalg.norm(np.subtract(*disk.vertices[ids2]))
+    assert 2 * d <= gap <= (SEPARATION + 0.2) * 2 * d
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0, atol=1e-12)
+    kept = fvf.separate_close_singularities(disk, u, 4, radius=0.5 * d)
+    np.testing.assert_allclose(kept, u / np.linalg.norm(u, axis=1, keepdims=True), atol=1e-15)
+    assert close_equal_pairs(disk, ids, np.rint(4 * ind).astype(np.int64), 2 * d)
+    assert not close_equal_pairs(disk, ids2, np.rint(4 * ind2).astype(np.int64), 2 * d)
+
+
+def test_total_index_is_kept_and_close_pairs_are_gone_on_spot():
+    mesh = fvf.spot()
+    u = fvf.design_field(mesh, n=4, align="curvature")
+    ids, ind = fvf.singularities(mesh, u, n=4)
+    r = 3.0 * mesh.mean_edge_length
+    steps = np.rint(4 * ind).astype(np.int64)
+    assert close_singularity_pairs(mesh, ids, steps, r)  # the case is not trivial
+    v = fvf.cancel_close_singularities(mesh, u, 4, radius=r, rounds=6)
+    ids2, ind2 = fvf.singularities(mesh, v, n=4)
+    assert ind2.sum() == pytest.approx(mesh.euler_characteristic)
+    assert ids2.size < ids.size
+    assert not close_singularity_pairs(mesh, ids2, np.rint(4 * ind2).astype(np.int64), r)
+
+
+def test_pairs_are_opposite_disjoint_and_closest_first(disk):
+    V = disk.vertices
+    ids = np.array([0, 1, 2, 3])
+    d = np.linalg.norm(V[:, None] - V[None], axis=2)[np.ix_(ids, ids)]
+    steps = np.array([1, -1, -1, 1])
+    pairs = close_singularity_pairs(disk, ids, steps, 2 * d.max())
+    candidates = sorted((d[a, b], (a, b)) for a in (0, 3) for b in (1, 2))
+    assert set(pairs[0]) == set(candidates[0][1])  # the closest opposite pair first
+    assert len(pairs) == 2 and len({v for p in pairs for v in p}) == 4
+    assert close_singularity_pairs(disk, ids, np.array([1, 1, -1, -1]), d[0, 1] / 2) == []
+    assert close_singularity_pairs(disk, ids, np.array([-1, -1, -1, -1]), 10.0) == []
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"radius": -1.0}, "radius"),
+        ({"radius": np.nan}, "radius"),
+        ({"radius": 1.0, "rounds": -1}, "rounds"),
+    ],
+)
+def test_bad_parameters(disk, kwargs, match):
+    u = dipole_field(disk, A, B, 0.25, -0.25)
+    with pytest.raises(fvf.ParameterError, match=match):
+        fvf.cancel_close_singularities(disk, u, 4, **kwargs)
+
+
+def test_zero_field_is_refused(disk):
+    u = dipole_field(disk, A, B, 0.25, -0.25)
+    u[[3, 7]] = 0.0
+    with pytest.raises(fvf.FieldShapeError, match="3, 7"):
+        fvf.cancel_close_singularities(disk, u, 4, radius=0.1)
