@@ -41,6 +41,8 @@ indices split into two −1/N singularities again.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -195,7 +197,9 @@ class _Reangler:
         return self.fac.solve(-(self.D.T @ (self.w * delta)))
 
 
-def _checked(mesh: TriMesh, u, n, radius, rounds) -> tuple[int, float, np.ndarray]:
+def _checked(
+    mesh: TriMesh, u: npt.ArrayLike, n: int, radius: float, rounds: int
+) -> tuple[int, float, np.ndarray]:
     """The checked N, radius and unit field of the public entrances."""
     n = as_direction_count(n)
     radius = float(radius)
@@ -289,7 +293,16 @@ def _measure(mesh: TriMesh, u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarr
     return ids, np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
 
 
-def _edit(mesh, u, n, radius, rounds, backend, moves_for, better) -> np.ndarray:
+def _edit(
+    mesh: TriMesh,
+    u: np.ndarray,
+    n: int,
+    radius: float,
+    rounds: int,
+    backend: Backend,
+    moves_for: Callable[[np.ndarray, np.ndarray], list],
+    better: Callable[[tuple, tuple], bool],
+) -> np.ndarray:
     """Rounds of "find moves, apply them, re-measure"; a round whose result is not
     ``better`` than its start is retried one move at a time, keeping the moves that are.
 
@@ -405,10 +418,10 @@ def separate_close_singularities(
             if c >= 0
         ]
 
-    def better(before, after):  # the same singularities, fewer close equal pairs
+    def better(before: tuple, after: tuple) -> bool:  # the same indices, fewer close pairs
         return np.array_equal(np.sort(after[1]), np.sort(before[1])) and len(
-            close_equal_pairs(mesh, *after, radius)
-        ) < len(close_equal_pairs(mesh, *before, radius))
+            close_equal_pairs(mesh, after[0], after[1], radius)
+        ) < len(close_equal_pairs(mesh, before[0], before[1], radius))
 
     return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import vertex_to_face
@@ -84,7 +85,7 @@ def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.nda
     return unit_cross_field(mesh, u)
 
 
-def unit_cross_field(mesh: TriMesh, u) -> np.ndarray:
+def unit_cross_field(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
     """A user cross field checked (:func:`fvf.as_face_field`) and normalized per face.
 
     Raises :class:`fvf.FieldValueError` naming the faces where it is zero.
@@ -117,8 +118,7 @@ def commuting_scale(mesh: TriMesh, cm: CutMesh, alpha: float | None = None) -> n
     """
     u = cm.field
     v = np.cross(mesh.face_normals, u)
-    kwargs = {} if alpha is None else {"alpha": alpha}
-    a, b = rescale_frame(mesh, u, v, **kwargs)
+    a, b = rescale_frame(mesh, u, v) if alpha is None else rescale_frame(mesh, u, v, alpha=alpha)
     P = vertex_to_face(mesh)
     return normalized_scale(mesh, 1.0 / np.stack([P @ a, P @ b], axis=1))
 
