@@ -560,3 +560,11 @@ def test_flow_that_grew_exits_6_and_names_the_cli_options(tmp_path, capsys):
     assert "--growth-limit inf" in err and "--method upwind" in err and "np.inf" not in err
     assert main([*args, "--growth-limit", "inf", "-o", str(tmp_path / "ok.npz")]) == 0
     assert main([*args, "--method", "upwind", "-o", str(tmp_path / "up.npz")]) == 0
+
+
+def test_python_dash_m_fvf_is_the_command():
+    """`python -m fvf` runs the same command as `fvf` and `python -m fvf.cli`."""
+    r = subprocess.run([sys.executable, "-m", "fvf", "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "usage: fvf" in r.stdout and "quad" in r.stdout, r.stderr
+    bad = subprocess.run([sys.executable, "-m", "fvf", "nosuch"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "invalid choice" in bad.stderr
