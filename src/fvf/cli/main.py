@@ -259,6 +259,18 @@ def _inputs(args: argparse.Namespace) -> list:
     return [*meshes, *data, *extra, *named]
 
 
+def _progress(args: argparse.Namespace) -> Any:
+    """The library's ``progress`` option for a command: bars on stderr with ``--progress``;
+    on a terminal also without it, for any stage running longer than 2 s; else None."""
+    if getattr(args, "progress", False):
+        return True
+    if sys.stderr.isatty():
+        from fvf.numerics.progress import make_progress
+
+        return make_progress(True, delay=2.0)
+    return None
+
+
 def _check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
     """Refuse, before any work, outputs that are inputs (unless --force)."""
     from fvf.io.atomic import check_not_input
@@ -433,6 +445,8 @@ def _cmd_flow(args: argparse.Namespace) -> int:
                 f"{flag} applies to --method {' or '.join(methods)}, not {args.method!r}"
             )
         options[name] = getattr(args, name)
+    if args.method in ("chapter", "skew") and _progress(args) is not None:
+        options["progress"] = _progress(args)
     f_t = fvf.flow(mesh, v, f, t, method=args.method, **options)  # (T, n) or (T, n, k)
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
     _write(args, args.output, arrays, mesh, src.paths)
@@ -484,6 +498,8 @@ def _cmd_transport(args: argparse.Namespace) -> int:
         u_t = fvf.interpolate(mesh, v, u, u1, t, **growth)
         arrays.update(u1=u1, u_t=u_t, mode=_str("interpolate"))
     else:
+        if _progress(args) is not None:
+            growth["progress"] = _progress(args)
         result = fvf.FieldTransport(mesh, v, **growth)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
     _write(args, args.output, arrays, mesh, src.paths)
@@ -519,7 +535,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     if args.soft is not None:
         kwargs["weights"] = arrays["weights"] = _array(args.soft)
     n = args.n
-    kwargs.update(n=n, progress=args.progress or None)
+    kwargs.update(n=n, progress=_progress(args))
     if args.align is not None:
         kwargs["align"] = args.align
         if args.align_strength is not None:
@@ -859,6 +875,9 @@ def _add(sub: Any, name: str, help: str, example: str) -> argparse.ArgumentParse
     return p
 
 
+_PROGRESS = "progress bars on stderr (tqdm); on a terminal shown anyway after 2 s"
+
+
 def _add_output(p: argparse.ArgumentParser, help: str) -> None:
     """``-o/--output`` and ``--force`` (allow the output to be an input)."""
     p.add_argument("-o", "--output", required=True, help=help)
@@ -968,6 +987,7 @@ def _add_field_commands(sub: Any) -> None:
         type=_real_or_inf,
         help="exit 6 above this norm growth (>= 1; default 100; inf: never)",
     )
+    p.add_argument("--progress", action="store_true", help=_PROGRESS)
     _add_output(p, "output .npz (keys f_t (T,n)|(T,n,k)), or .ply/.vtp/.vtu")
     p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
     p.set_defaults(run=_cmd_flow)
@@ -1003,6 +1023,7 @@ def _add_field_commands(sub: Any) -> None:
         type=_real_or_inf,
         help="exit 6 above this L2 growth (>= 1; default 100; inf: never)",
     )
+    p.add_argument("--progress", action="store_true", help=_PROGRESS)
     _add_output(p, "output .npz (key u_t (T,m,3))")
     p.set_defaults(run=_cmd_transport)
 
@@ -1032,7 +1053,7 @@ def _add_design_commands(sub: Any) -> None:
         "--align", choices=("curvature",), help="align to principal curvature directions (even n)"
     )
     p.add_argument("--align-strength", type=_real, metavar="B", help="alignment weight (1)")
-    p.add_argument("--progress", action="store_true", help="show a progress bar (tqdm)")
+    p.add_argument("--progress", action="store_true", help=_PROGRESS)
     _add_output(p, "output .npz (keys v, n, singularity_*)")
     p.set_defaults(run=_cmd_design)
 

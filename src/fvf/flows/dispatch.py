@@ -62,6 +62,7 @@ from ..mesh.inputs import (
 )
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, as_times, expm_action
+from ..numerics.progress import fraction_reporter, make_progress
 from ..operators.directional import directional_derivatives
 from .functional import (
     GROWTH_LIMIT,
@@ -365,7 +366,11 @@ class TransportFlow:
         elif method == "skew":
             self.operator = skew_operator(mesh, self.field, tangent="ignore")
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
-            self._expm.update({k: options[k] for k in ("max_products", "progress") if k in options})
+            if "max_products" in options:
+                self._expm["max_products"] = options["max_products"]
+            if options.get("progress") not in (None, False):
+                make_progress(options["progress"])  # a bad value fails here
+                self._expm["progress"] = fraction_reporter(options["progress"], "flow")
         elif method == "cayley":
             kind = options.get("operator", "skew")
             if kind not in ("skew", "chapter"):
@@ -650,7 +655,8 @@ def flow(
         :data:`fvf.numerics.expm.MAX_PRODUCTS`): a call estimated to take more products
         with the n x n operator is refused before it starts
         (:class:`~fvf.errors.FlowOverflowError`, naming the estimate); ``"chapter"`` and
-        ``"skew"`` take ``progress`` (a callable receiving the fraction done).
+        ``"skew"`` take ``progress`` (``True`` for a tqdm bar, or a callback
+        ``(stage, done, total)``, :mod:`fvf.numerics.progress`).
 
     Returns
     -------

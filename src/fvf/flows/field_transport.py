@@ -39,6 +39,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
+from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
 from ..operators.brackets import ad
 from .functional import GROWTH_LIMIT
 
@@ -187,6 +188,9 @@ class FieldTransport:
     growth_limit : float
         Warn (:class:`~fvf.errors.FlowGrowthWarning`) when a transported field's L2 norm
         (eq. 26) exceeds this multiple of the input's (observed, after the computation).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`; stage ``"transport"``, done of 1000).
 
     Attributes
     ----------
@@ -217,8 +221,11 @@ class FieldTransport:
         method: str = "auto",
         tol: float = 1e-10,
         growth_limit: float = GROWTH_LIMIT,
+        progress: bool | ProgressCallback | None = None,
     ):
         method, tol = check_options(method, tol)
+        make_progress(progress)  # a bad value fails here, not at the first call
+        self.progress = progress
         self.method = method
         self.tol = float(tol)
         self.growth_limit = as_growth_limit(growth_limit)
@@ -313,6 +320,7 @@ class FieldTransport:
             inner=np.repeat(self.mesh.face_areas, 3),
             skew=False,
             method=self.method,  # expm_action checks the name
+            progress=fraction_reporter(self.progress, "transport"),
             return_info=True,
         )
         raw = raw.reshape(times.size, -1)  # (T, 3m)

@@ -55,6 +55,7 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
+from ..numerics.progress import ProgressCallback, make_progress
 
 if TYPE_CHECKING:
     from ..spectral.basis import SpectralBasis
@@ -264,6 +265,7 @@ def ideal_fluid(
     tol: float = 1e-13,
     max_iterations: int = 50,
     save_every: int = 1,
+    progress: bool | ProgressCallback | None = None,
 ) -> FluidResult:
     """Evolve an ideal fluid on a surface from its vorticity (Azencot et al. 2014).
 
@@ -294,6 +296,9 @@ def ideal_fluid(
         the iterate overflows because dt is far above the Courant limit).
     save_every : int
         Keep every ``save_every``-th frame (>= 1).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`; stage ``"steps"``).
 
     Returns
     -------
@@ -331,8 +336,11 @@ def ideal_fluid(
     if not (np.isfinite(step) and step != 0.0):
         raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
     dt = step
+    report = make_progress(progress)
     if method == "spectral":
-        return _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every)
+        return _spectral_fluid(
+            mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report
+        )
 
     solve_psi = StreamFunctionSolver(mesh)
     a = mesh.vertex_areas
@@ -387,6 +395,7 @@ def ideal_fluid(
         psi = 2.0 * psi_x - psi  # ψ is linear in ω
         energy.append(0.5 * psi @ (W @ psi))
         enstrophy.append(a @ omega**2)
+        report("steps", step, steps)
         if step % save_every == 0 or step == steps:
             frames.append(omega)
             streams.append(psi)
@@ -404,7 +413,7 @@ def ideal_fluid(
     )
 
 
-def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every):
+def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report):
     from ..spectral.basis import SpectralBasis
 
     if not mesh.is_closed:
@@ -450,6 +459,7 @@ def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_
         c = 2.0 * x - c
         energy.append(0.5 * np.sum(c * c * inv_lam))
         enstrophy.append(c @ c)
+        report("steps", step, steps)
         if step % save_every == 0 or step == steps:
             coeffs.append(c)
             times.append(step * dt)

@@ -19,9 +19,7 @@ valid for every :math:`f_0`, :math:`e^{\mu t}` with :math:`\mu` the logarithmic 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
 from functools import cached_property
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +37,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, PreparedOperator, as_times, check_options, expm_action
+from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
 from ..operators.directional import D_V
 
 __all__ = ["FunctionalFlow", "GROWTH_LIMIT", "hotspots", "observed_growth"]
@@ -120,8 +119,9 @@ class FunctionalFlow:
         Refuse a call estimated to take more products than this
         (:data:`fvf.numerics.expm.MAX_PRODUCTS` by default): a typed error says what the
         work is and how to reduce it.
-    progress : callable, optional
-        Called with the fraction done (0..1) during long calls.
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`; stage ``"flow"``, done of 1000) during long calls.
 
     Attributes
     ----------
@@ -161,9 +161,10 @@ class FunctionalFlow:
         method: str = "auto",
         tol: float = 1e-10,
         max_products: float = MAX_PRODUCTS,
-        progress: Callable[[float], Any] | None = None,
+        progress: bool | ProgressCallback | None = None,
     ) -> None:
         method, tol = check_options(method, tol)
+        make_progress(progress)  # a bad value fails here, not at the first call
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = D_V(mesh, self.field, tangent="ignore")
@@ -311,7 +312,7 @@ class FunctionalFlow:
                 tol=self.tol,
                 method=self.method,
                 max_products=self.max_products,
-                progress=self.progress,
+                progress=fraction_reporter(self.progress, "flow"),
                 return_info=True,
             )
         except FlowOverflowError as exc:

@@ -110,6 +110,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     SpectralSolveError,
 )
 from .ordering import nested_dissection
+from .progress import ProgressCallback, make_progress
 
 __all__ = [
     "smallest_eigenpairs",
@@ -287,6 +288,7 @@ def smallest_eigenpairs(
     method: Method = "auto",
     maxiter: int | None = None,
     ordering: Ordering = "auto",
+    progress: bool | ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The k smallest eigenpairs of W φ = λ [M] φ.
 
@@ -313,6 +315,10 @@ def smallest_eigenpairs(
     ordering : {"auto", "mmd", "nd"}
         Fill-reducing ordering of the ``"krylov"`` method's factorization (see
         :func:`factor_spd`); "auto" uses nested dissection from :data:`ND_MIN` unknowns.
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`): ``"factor"`` (0, then 1 of 1) and ``"iterate"``
+        (eigenpairs converged of k) for the ``"krylov"`` method.
 
     Returns
     -------
@@ -335,6 +341,7 @@ def smallest_eigenpairs(
         The requested (or automatically chosen) method failed and another one was used.
     """
     W, m, k = _validate(W, mass, k, tol, method, ordering)
+    report = make_progress(progress)
     n = W.shape[0]
     if method == "auto":
         small = n <= DENSE_MAX or (3 * k >= n and n <= DENSE_K_MAX_N)
@@ -350,7 +357,10 @@ def smallest_eigenpairs(
     failures: list[str] = []
     for i, name in enumerate(chain):
         try:
-            lam, X = solvers[name](W, m, k, tol=tol, seed=seed, maxiter=maxiter, ordering=ordering)
+            options = {"report": report} if name == "krylov" else {}
+            lam, X = solvers[name](
+                W, m, k, tol=tol, seed=seed, maxiter=maxiter, ordering=ordering, **options
+            )
             lam, X, res = _finish(W, m, X)
             if not np.all(res <= tol):
                 worst = int(np.argmax(res))
@@ -565,10 +575,12 @@ class _Refined:
         return X + self.fac.solve(B - self.K @ X)
 
 
-def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto"):
+def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto", report=None):
     n = W.shape[0]
+    report = report or make_progress(None)
     sigma = default_shift(W, m)
     K = (W - sigma * sp.diags_array(m)).tocsc()
+    report("factor", 0, 1)
     lu = _fast_factor(K, seed) if ordering == "auto" else None
     if lu is not None and tol < 1e-9:
         lu = _Refined(lu, K)  # one step of iterative refinement: solves as exact as SuperLU's
@@ -578,6 +590,7 @@ def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto"):
     isq = 1.0 / sq
     nu = spectral_norm_bound(W, m)
     Khat = sp.csr_array(isq[:, None] * K.multiply(isq[None, :]))  # [M]^-½ K [M]^-½
+    report("factor", 1, 1)
 
     def apply_T(Yt: np.ndarray) -> np.ndarray:
         """(b, n) rows y -> rows of [M]^½ K⁻¹ [M]^½ y."""
@@ -603,6 +616,7 @@ def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto"):
             rng=rng,
             maxiter=60 if maxiter is None else maxiter,
             block=b,
+            report=report,
         )
         lam = sigma + 1.0 / theta
         lam_sorted = np.sort(lam)
@@ -778,6 +792,7 @@ def block_krylov_schur(
     block: int | None = None,
     max_basis: int | None = None,
     keep: int | None = None,
+    report: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Largest eigenpairs of the symmetric positive definite operator T by block Krylov–Schur.
 
@@ -799,6 +814,8 @@ def block_krylov_schur(
         Maximum number of restarts.
     block, max_basis, keep : int, optional
         Block size, basis size before a restart, Ritz vectors kept at a restart.
+    report : callable, optional
+        ``report("iterate", converged, nev)`` after each convergence check.
 
     Returns
     -------
@@ -847,6 +864,8 @@ def block_krylov_schur(
         th = np.where(pos, theta, 1.0)
         lam = np.where(pos, sigma + 1.0 / th, np.inf)
         rel = np.where(pos, rn / th, np.inf) / (np.abs(lam) + nu)
+        if report is not None:
+            report("iterate", int(np.count_nonzero(rel[:nev] <= tol_int)), nev)
         if np.all(rel[:nev] <= tol_int):
             return theta[:nev], S[:, :nev].T @ Q[:s]
         if not full:

@@ -9,12 +9,13 @@ skipped otherwise); ``None`` or ``False`` reports nothing.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
 from ..errors import ParameterError
 
-__all__ = ["ProgressCallback", "make_progress"]
+__all__ = ["ProgressCallback", "make_progress", "fraction_reporter"]
 
 ProgressCallback = Callable[[str, int, int], Any]
 
@@ -47,7 +48,9 @@ class _TqdmProgress:
         self._bar, self._stage = None, None
 
 
-def make_progress(progress: bool | ProgressCallback | None) -> ProgressCallback:
+def make_progress(
+    progress: bool | ProgressCallback | None, *, delay: float = 0.0
+) -> ProgressCallback:
     """A callable ``(stage, done, total)`` from the user's ``progress`` option.
 
     Parameters
@@ -55,6 +58,9 @@ def make_progress(progress: bool | ProgressCallback | None) -> ProgressCallback:
     progress : None, bool or callable
         ``None``/``False``: silent. ``True``: a tqdm bar per stage when tqdm imports, else
         silent. A callable: called as ``progress(stage, done, total)``.
+    delay : float
+        With ``True``: a stage's bar appears only once the stage has run this many
+        seconds (tqdm's ``delay``; the command line uses 2 s).
 
     Raises
     ------
@@ -68,9 +74,25 @@ def make_progress(progress: bool | ProgressCallback | None) -> ProgressCallback:
             from tqdm.auto import tqdm
         except ImportError:
             return _silent
-        return _TqdmProgress(tqdm)
+        return _TqdmProgress(functools.partial(tqdm, delay=delay) if delay > 0 else tqdm)
     if callable(progress):
         return progress
     raise ParameterError(
         f"progress must be None, True/False or a callable (stage, done, total); got {progress!r}"
     )
+
+
+def fraction_reporter(
+    progress: bool | ProgressCallback | None, stage: str, steps: int = 1000
+) -> Callable[[float], Any] | None:
+    """A callback taking the fraction done (0..1), as the exponential action reports it,
+    that forwards to the user's ``progress`` as ``(stage, done, steps)``; None when the
+    user asked for no progress (so that the caller does no extra work)."""
+    if progress is None or progress is False:
+        return None
+    report = make_progress(progress)
+
+    def fraction(x: float) -> None:
+        report(stage, min(int(round(steps * float(x))), steps), steps)
+
+    return fraction

@@ -27,6 +27,7 @@ from ..mesh.inputs import TangentPolicy, as_count, as_face_field, as_vertex_func
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
 from ..numerics.expm import as_times, dense_expm_action
+from ..numerics.progress import ProgressCallback
 
 __all__ = [
     "SpectralBasis",
@@ -55,6 +56,9 @@ class SpectralBasis:
     cache_dir : str or Path, optional
         If given, the eigenpairs are stored in and loaded from
         ``cache_dir/lb-<hash>.npz``, the hash covering (V, F, k, tol).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
+        (:func:`fvf.numerics.eigen.smallest_eigenpairs`: ``"factor"``, ``"iterate"``).
 
     Attributes
     ----------
@@ -81,6 +85,7 @@ class SpectralBasis:
         tol: float = 1e-8,
         seed: int = 0,
         cache_dir: str | Path | None = None,
+        progress: bool | ProgressCallback | None = None,
     ) -> None:
         self.mesh = mesh
         self.k = as_count(k, "k", 1)
@@ -91,7 +96,7 @@ class SpectralBasis:
             if self._load_cache(path):
                 return
         self.eigenvalues, self.eigenvectors = smallest_eigenpairs(
-            stiffness(mesh), mesh.vertex_areas, self.k, tol=self.tol, seed=seed
+            stiffness(mesh), mesh.vertex_areas, self.k, tol=self.tol, seed=seed, progress=progress
         )
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
