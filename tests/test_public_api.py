@@ -1139,23 +1139,27 @@ SPECS: dict[str, Spec] = {
         lambda fn, mesh, c: fn(mesh, target_faces=max(24, mesh.n_faces // 4)),
         lambda r, mesh, c: _check_seamless(r, mesh),
         error=_quad_input_error,
+        max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
         warns=(errors.FlippedParameterizationWarning,),
     ),
     "SeamlessParameterization": Spec(
         lambda fn, mesh, c: fvf.seamless_parameterization(mesh, target_faces=mesh.n_faces // 4),
         lambda r, mesh, c: _check_seamless(r, mesh),
         error=_quad_input_error,
+        max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
         warns=(errors.FlippedParameterizationWarning,),
     ),
     "quad_mesh": Spec(
         lambda fn, mesh, c: fn(mesh, target_faces=max(24, mesh.n_faces // 4)),
         lambda r, mesh, c: _check_quads(r, mesh),
         error=_quad_input_error,
+        max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
     ),
     "quad_quality": Spec(
         lambda fn, mesh, c: fn(mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))),
         lambda r, mesh, c: (r.closed and r.manifold) or pytest.fail(repr(r)),
         error=_quad_input_error,
+        max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
     ),
     "symmetrize_cross_field": Spec(
         lambda fn, mesh, c: fn(mesh, c.u, np.arange(mesh.n_vertices)),
@@ -1176,6 +1180,7 @@ SPECS: dict[str, Spec] = {
         ),
         lambda r, mesh, c: isinstance(r, fvf.QuadQuality) or pytest.fail(repr(r)),
         error=_quad_input_error,
+        max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
     ),
     # -- shape correspondence (tests/test_correspondence.py has the known answers)
     "match": Spec(
