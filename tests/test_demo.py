@@ -66,6 +66,8 @@ def test_demo_writes_every_picture_report_and_gif(small_mesh, tmp_path):  # abou
         "fig10_after",
         "fig11_acap_0",
         "fig12_strip",
+        "cross_field",
+        "quads",
     ):
         assert any(n.startswith(fig) for n in names), fig
     page = (out / "index.html").read_text()
@@ -79,7 +81,7 @@ def test_demo_writes_every_picture_report_and_gif(small_mesh, tmp_path):  # abou
     gif = Image.open(out / "fig12_interpolation.gif")
     assert gif.n_frames >= 7 and "href='fig12_interpolation.gif'" in page
     assert_report_reads(page, report)
-    assert page.count("<details>") == 9 and "fvf.acap_fields(" in page
+    assert page.count("<details>") == 11 and "fvf.acap_fields(" in page
 
 
 def assert_report_reads(page, report):

@@ -538,28 +538,37 @@ def _cross_field(s, story):
 
 def _quads(s, story):
     """Fig. 1: a seamless parameterization along the cross field, and its quad mesh."""
-    import functools
-
     import fvf
+    from fvf.errors import ParameterizationInputError, QuadExtractionError
 
     st = story.begin("A quad mesh from the cross field (Fig. 1)", _quads)
     mesh = s.mesh
     if not mesh.is_closed or mesh.n_components != 1:
         st.info("quad mesh", "skipped", note="needs a closed, connected mesh")
         return
-    quads = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    try:
+        quads = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    except (ParameterizationInputError, QuadExtractionError) as exc:
+        st.info("quad mesh", "not made", note=f"{type(exc).__name__}: {exc}"[:300])
+        return
     V, Q = quads[0], quads[1]
     q = fvf.quad_quality(mesh, V, Q)
+
+    def draw(path, **kwargs):
+        import fvf.viz
+
+        return fvf.viz.render_quads(V, Q, path, **kwargs)
+
     story.picture(
         st,
         "quads.png",
         mesh,
         f"{Q.shape[0]} quads; irregular vertices: +1 valence 3, −1 valence 5",
-        draw=functools.partial(fvf.viz.render_quads, V, Q),
+        draw=draw,
         view=_both_sides(),
         wide=True,
     )
-    st.info("quads", Q.shape[0])
+    st.info("quads", Q.shape[0], note=f"target {max(200, mesh.n_faces // 4)}")
     st.info("irregular vertex fraction", q.irregular_fraction, note="valence other than 4")
     st.check(
         "quad mesh is closed and manifold with the input's Euler characteristic",
