@@ -35,7 +35,11 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients
-from ..design.cancellation import cancel_close_singularities, separate_close_singularities
+from ..design.cancellation import (
+    cancel_close_singularities,
+    separate_close_singularities,
+    split_large_singularities,
+)
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -373,6 +377,7 @@ def seamless_parameterization(
         u = cancel_close_singularities(mesh, u, 4, radius=r)
         u = separate_close_singularities(mesh, u, 4, radius=r)
         u = cancel_close_singularities(mesh, u, 4, radius=r)  # pairs the moves brought close
+        u = split_large_singularities(mesh, u, 4, radius=r, max_step=2)  # index beyond ±1/2
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
