@@ -349,8 +349,10 @@ def seamless_parameterization(
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
         (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
-        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again;
-        0 keeps the field's topology.
+        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again,
+        then cones of index beyond ±1/2 split
+        (:func:`fvf.design.cancellation.split_large_singularities`); 0 keeps the field's
+        topology (and a cone beyond ±1/2 is refused).
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : callable, optional
