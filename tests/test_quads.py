@@ -7,6 +7,7 @@ import pytest
 
 import fvf
 from conftest import load_shared
+from fvf.design.cancellation import split_large_singularities
 from fvf.param.extraction import extract_quads
 from fvf.param.quality import quad_topology
 from fvf.param.seams import ROTATIONS
@@ -205,8 +206,8 @@ def test_non_orientable_input_is_rejected():
         fvf.quad_mesh(fvf.TriMesh(X, np.array(F)), target_faces=10)
 
 
-def test_field_with_high_index_singularity_is_rejected():
-    """A cross field turning by 3/4 of a turn around a vertex (index 3/4) is refused."""
+def _three_quarter_turn_field():
+    """A bipyramid and a cross field turning by 3/4 of a turn around its apex."""
     k = 16
     t = 2 * np.pi * np.arange(k) / k
     ring = np.stack([np.cos(t), np.sin(t), np.zeros(k)], axis=1)
@@ -218,8 +219,26 @@ def test_field_with_high_index_singularity_is_rejected():
     theta = np.arctan2(c[:, 1], c[:, 0])
     angle = np.where(c[:, 2] > 0, 0.75 * theta, 0.0)  # absolute angle 3θ/4 on the top fan
     u = mesh.project_tangent(np.stack([np.cos(angle), np.sin(angle), np.zeros_like(angle)], 1))
+    return mesh, u
+
+
+def test_field_with_high_index_singularity_is_rejected_when_kept():
+    """With the field's topology kept (no cone editing), index 3/4 is refused."""
+    mesh, u = _three_quarter_turn_field()
+    ids, ind = fvf.singularities(mesh, u, n=4)
+    assert np.abs(ind).max() > 0.5  # the case is not trivial
     with pytest.raises(fvf.ParameterizationInputError, match="index beyond"):
-        fvf.seamless_parameterization(mesh, field=u, target_faces=20)
+        fvf.seamless_parameterization(mesh, field=u, target_faces=20, cone_cancel_radius=0)
+
+
+def test_high_index_singularity_is_split():
+    """By default a cone beyond ±1/2 is split (index moved off it) before the fit."""
+    mesh, u = _three_quarter_turn_field()
+    before = np.abs(fvf.singularities(mesh, u, n=4)[1]).max()
+    v = split_large_singularities(mesh, u, 4, radius=0.5, max_step=2)
+    ids, ind = fvf.singularities(mesh, v, n=4)
+    assert before > 0.5 and np.abs(ind).max() <= 0.5
+    assert ind.sum() == pytest.approx(mesh.euler_characteristic)
 
 
 def test_target_too_coarse_for_the_topology():
@@ -254,6 +273,11 @@ FOLDED_NEXT_TO_A_CONE = pytest.mark.xfail(
     "part is folded in 3D (its two halves face opposite ways); see docs/quads.md",
     strict=False,
 )
+CONES_FORCED_BY_THE_GEOMETRY = pytest.mark.xfail(
+    reason="vertices with angle defect beyond pi/4 force clusters of cones closer than one "
+    "quad edge; rounding folds the uv triangles between them; see docs/quads.md",
+    strict=True,
+)
 SHARED_CASES = [
     ("3holes.off", 1500),
     ("bob_tri.obj", 1500),
@@ -261,6 +285,8 @@ SHARED_CASES = [
     ("fertility.off", 1500),
     ("rocker-arm.obj", 3000),
     pytest.param("armadillo.obj", 8000, marks=FOLDED_NEXT_TO_A_CONE),
+    pytest.param("faust_r_tr_reg_001.off", 2499, marks=CONES_FORCED_BY_THE_GEOMETRY),
+    pytest.param("lion-00.off", 2499, marks=CONES_FORCED_BY_THE_GEOMETRY),
 ]
 
 
@@ -274,6 +300,20 @@ def test_shared_meshes_no_flips_and_closed_quads(name, target):
     check_closed_quads(mesh, V, Q)
     check_orientation(mesh, V, Q)
     assert abs(Q.shape[0] - target) <= 0.3 * target
+
+
+@pytest.mark.slow
+def test_smoothest_field_of_a_body_scan_has_no_cone_beyond_a_half():
+    """FAUST's smoothest cross field is ~1e-10 of its maximum on some faces; the turnings
+    around one vertex sum to index -3/4 there. The cone is split, not refused."""
+    mesh = load_shared("faust_r_tr_reg_001.off")
+    ids, ind = fvf.singularities(mesh, fvf.param.default_cross_field(mesh, "smooth"), n=4)
+    assert ind.min() == -0.75  # the case is not trivial
+    with pytest.warns(fvf.FlippedParameterizationWarning):
+        p = fvf.seamless_parameterization(mesh, target_faces=2499, align="smooth")
+    assert np.abs(p.index4).max() <= 2
+    assert p.index4.sum() == 4 * mesh.euler_characteristic
+    check_seamless(mesh, p)
 
 
 # ---------------------------------------------------------------------------- symmetry

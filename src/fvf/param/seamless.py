@@ -35,7 +35,11 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients
-from ..design.cancellation import cancel_close_singularities, separate_close_singularities
+from ..design.cancellation import (
+    cancel_close_singularities,
+    separate_close_singularities,
+    split_large_singularities,
+)
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -345,8 +349,10 @@ def seamless_parameterization(
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
         (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
-        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again;
-        0 keeps the field's topology.
+        (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again,
+        then cones of index beyond ±1/2 split
+        (:func:`fvf.design.cancellation.split_large_singularities`); 0 keeps the field's
+        topology (and a cone beyond ±1/2 is refused).
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : callable, optional
@@ -373,6 +379,7 @@ def seamless_parameterization(
         u = cancel_close_singularities(mesh, u, 4, radius=r)
         u = separate_close_singularities(mesh, u, 4, radius=r)
         u = cancel_close_singularities(mesh, u, 4, radius=r)  # pairs the moves brought close
+        u = split_large_singularities(mesh, u, 4, radius=r, max_step=2)  # index beyond ±1/2
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
