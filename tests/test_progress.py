@@ -77,6 +77,17 @@ def test_true_draws_tqdm_bars_on_stderr(sphere, capsys):
     assert out == "" and "factor" in err and "flow" in err  # one bar per stage, on stderr
 
 
+def test_quads_report_each_stage_start_and_end():
+    mesh = fvf.icosphere(2)
+    seen, cb = _recorder()
+    fvf.quad_mesh(mesh, target_faces=120, progress=cb)
+    stages = [s for s, d, _ in seen if d == 0]
+    assert stages[0] == "cross field" and stages[-1] == "quad extraction", stages
+    assert any(s.startswith("Poisson fit") for s in stages)
+    for stage in stages:  # every stage that starts also ends
+        assert (stage, 1, 1) in seen, stage
+
+
 @pytest.mark.parametrize(
     "call",
     [
@@ -87,8 +98,9 @@ def test_true_draws_tqdm_bars_on_stderr(sphere, capsys):
         lambda m: fvf.FieldTransport(m, _rotation(m), progress="yes"),
         lambda m: ideal_fluid(m, m.vertices[:, 0], 0.01, 2, progress="yes"),
         lambda m: fvf.design_field(m, n=4, progress="yes"),
+        lambda m: fvf.seamless_parameterization(m, target_faces=100, progress="yes"),
     ],
-    ids=["basis", "flow", "skew", "FunctionalFlow", "FieldTransport", "fluid", "design"],
+    ids=["basis", "flow", "skew", "FunctionalFlow", "FieldTransport", "fluid", "design", "quads"],
 )
 def test_a_bad_progress_value_is_a_parameter_error(sphere, call):
     with pytest.raises(fvf.ParameterError, match="progress must be"):

@@ -567,15 +567,19 @@ def _cmd_quad(args: argparse.Namespace) -> int:
     field = _Sources(args, mesh).field(args.field) if args.field else None
     t0 = time.perf_counter()
 
-    def progress(message: str) -> None:
-        print(f"fvf quad: {time.perf_counter() - t0:6.1f}s  {message}", file=sys.stderr)
+    started: list[str] = []
+
+    def progress(message: str, done: int, total: int) -> None:  # each stage as it starts
+        if done == 0 or message not in started:  # and the fold repair's rounds
+            started.append(message)
+            print(f"fvf quad: {time.perf_counter() - t0:6.1f}s  {message}", file=sys.stderr)
 
     from fvf.param.extraction import extract_quads
 
     param = fvf.seamless_parameterization(
         mesh, target_faces=args.faces, field=field, align=args.align, progress=progress
     )
-    progress("quad extraction")
+    progress("quad extraction", 0, 1)
     qm = extract_quads(mesh, param.uv)
     V, Q = qm.vertices, qm.quads
     write_quad_mesh(args.output, V, Q)

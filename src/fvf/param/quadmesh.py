@@ -10,6 +10,7 @@ import numpy.typing as npt
 from ..errors import QuadExtractionError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.progress import make_progress
 from .extraction import extract_quads
 from .frames import Alignment
 from .seamless import SeamlessParameterization, seamless_parameterization
@@ -76,9 +77,10 @@ def quad_mesh(
         align=align,
         **options,
     )
-    if options.get("progress"):
-        options["progress"]("quad extraction")
+    report = make_progress(options.get("progress"))
+    report("quad extraction", 0, 1)
     qm = extract_quads(mesh, param.uv)
+    report("quad extraction", 1, 1)
     V = np.ascontiguousarray(qm.vertices, dtype=np.float64)
     Q = np.ascontiguousarray(qm.quads, dtype=np.int64)
     if Q.shape[0] == 0:  # pragma: no cover - extract_quads raises first

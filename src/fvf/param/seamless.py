@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
@@ -49,6 +48,7 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
+from ..numerics.progress import ProgressCallback, make_progress
 from .cutmesh import CutMesh, cut_mesh
 from .folds import flip_count as _flip_count
 from .folds import repair_folds
@@ -315,7 +315,7 @@ def seamless_parameterization(
     stiffening_iterations: int = 8,
     cone_cancel_radius: float = 1.0,
     backend: Backend = "auto",
-    progress: Callable[[str], None] | None = None,
+    progress: bool | ProgressCallback | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -355,8 +355,11 @@ def seamless_parameterization(
         topology (and a cone beyond ±1/2 is refused).
     backend : {"auto", "cholmod", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
-    progress : callable, optional
-        Called with a short message as each stage starts (the command prints them).
+    progress : None, bool or callable
+        ``True`` for a tqdm bar per stage, or a callback ``(stage, done, total)``
+        (:mod:`fvf.numerics.progress`): each stage is reported as ``(message, 0, 1)``
+        when it starts and ``(message, 1, 1)`` when it ends; the message names the stage
+        and its size (the command prints them).
 
     Returns
     -------
@@ -408,7 +411,7 @@ def seamless_parameterization(
             rounds=stiffening_iterations,
             batch=rounding_batch,
             backend=backend,
-            progress=progress,
+            progress=clock.detail,
         )
     uv = (fs.lift @ y).reshape(-1, 2)[cm.wedges]
     bnorm = float(np.linalg.norm(b))
@@ -449,22 +452,31 @@ def seamless_parameterization(
 
 
 class _Stages:
-    """Stage messages for the user's ``progress`` and the wall time of each stage."""
+    """The stages reported to the user's ``progress`` (``(message, 0, 1)`` at the start,
+    ``(message, 1, 1)`` at the end), and the wall time of each stage."""
 
-    def __init__(self, progress: Callable[[str], None] | None) -> None:
-        self.progress = progress
+    def __init__(self, progress: bool | ProgressCallback | None) -> None:
+        self.report = make_progress(progress)
         self.seconds: dict[str, float] = {}
         self._stage: str | None = None
+        self._message: str | None = None
         self._t0 = time.perf_counter()
 
     def __call__(self, message: str | None) -> None:
+        """End the running stage; start ``message`` (None: only end)."""
         now = time.perf_counter()
-        if self._stage is not None:
+        if self._stage is not None and self._message is not None:
             self.seconds[self._stage] = self.seconds.get(self._stage, 0.0) + now - self._t0
+            self.report(self._message, 1, 1)
         self._t0 = now
+        self._message = message
         self._stage = None if message is None else message.split(" (")[0]
-        if message is not None and self.progress is not None:
-            self.progress(message)
+        if message is not None:
+            self.report(message, 0, 1)
+
+    def detail(self, message: str) -> None:
+        """A message within the running stage (a round of fold repair)."""
+        self.report(message, 1, 1)
 
 
 def _user_scale(mesh: TriMesh, scale: npt.ArrayLike) -> np.ndarray:
