@@ -153,3 +153,22 @@ def test_cancelling_on_near_degenerate_triangles():
     assert ind2.sum() == pytest.approx(2.0)
     steps = np.rint(4 * ind2).astype(np.int64)
     assert len(close_singularity_pairs(mesh, ids2, steps, h)) < 10
+
+
+def test_work_is_bounded_on_a_noise_field(monkeypatch):
+    """A random cross field has singularities everywhere: the edits re-measure the field a
+    bounded number of times per round (RETRY_MAX retried moves), not once per pair."""
+    from fvf.design import cancellation
+
+    mesh = fvf.icosphere(4)
+    u = mesh.project_tangent(np.random.default_rng(1).standard_normal((mesh.n_faces, 3)))
+    radius = 2 * mesh.mean_edge_length
+    pairs = cancellation.close_equal_pairs(mesh, *cancellation._measure(mesh, u, 4), radius)
+    assert len(pairs) > cancellation.RETRY_MAX  # the cap matters here
+    calls = []
+    measure = cancellation._measure
+    monkeypatch.setattr(cancellation, "_measure", lambda *a: calls.append(1) or measure(*a))
+    rounds = 2
+    out = fvf.separate_close_singularities(mesh, u, 4, radius=radius, rounds=rounds)
+    assert len(calls) <= 1 + rounds * (1 + 2 * cancellation.RETRY_MAX)
+    assert out.shape == u.shape and np.allclose(np.linalg.norm(out, axis=1), 1.0)
