@@ -542,3 +542,16 @@ def test_cli_help_shows_an_example(command, capsys):
     assert main([command, "--help"]) == 0
     out = capsys.readouterr().out
     assert "example:" in out and f"fvf {command}" in out and "exit status" in out
+
+
+def test_geodesic_errors_equal_the_distance_rows():
+    """Hits cost nothing and are 0; misses are the distance from the true image."""
+    mesh = fvf.icosphere(2)
+    rng = np.random.default_rng(4)
+    gt = rng.permutation(mesh.n_vertices)
+    p = gt.copy()
+    miss = rng.choice(mesh.n_vertices, 40, replace=False)
+    p[miss] = rng.integers(0, mesh.n_vertices, 40)
+    D = fvf.spectral.evaluation.geodesic_distances(mesh, gt)
+    expect = D[np.arange(gt.size), p] / np.sqrt(mesh.total_area)
+    np.testing.assert_allclose(fvf.geodesic_errors(mesh, p, gt), expect, rtol=1e-12, atol=0)

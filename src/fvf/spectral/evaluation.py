@@ -228,7 +228,8 @@ def geodesic_errors(
     -------
     float64 (n_2,)
         d_1(p2p_21[j], gt_p2p_21[j]) (/ √area_1): one distance field per distinct true
-        image, evaluated at the predicted one.
+        image of a vertex mapped elsewhere, evaluated at the predicted one (exact hits are
+        0 without one, so the identity costs nothing).
 
     Raises
     ------
@@ -239,13 +240,14 @@ def geodesic_errors(
     n2 = gt.shape[0] if gt.ndim == 1 else -1
     gt = check_p2p(gt, mesh_1.n_vertices, n2)
     p = check_p2p(p2p_21, mesh_1.n_vertices, gt.size)
-    sources, inverse = np.unique(gt, return_inverse=True)
-    err = np.empty(gt.size)
+    err = np.zeros(gt.size)  # exact hits: zero, no distance field needed
+    miss = np.flatnonzero(p != gt)
+    sources, inverse = np.unique(gt[miss], return_inverse=True)
     block = 512  # distance rows kept in memory at once
     for start in range(0, sources.size, block):
         rows = geodesic_distances(mesh_1, sources[start : start + block], method=method)
         sel = (inverse >= start) & (inverse < start + block)
-        err[sel] = rows[inverse[sel] - start, p[sel]]
+        err[miss[sel]] = rows[inverse[sel] - start, p[miss[sel]]]
     if normalize:
         err /= np.sqrt(mesh_1.total_area)
     return err
