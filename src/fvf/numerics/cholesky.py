@@ -33,7 +33,14 @@ import scipy.sparse.linalg as spla
 from ..errors import MissingExtraError, ParameterError
 from .ordering import nested_dissection
 
-__all__ = ["BACKENDS", "HermitianFactor", "factor_hermitian", "available_backends", "ND_MIN"]
+__all__ = [
+    "BACKENDS",
+    "HermitianFactor",
+    "factor_hermitian",
+    "available_backends",
+    "symmetric_splu",
+    "ND_MIN",
+]
 
 Backend = Literal["auto", "cholmod", "cholespy", "scipy"]
 #: Accepted values of ``backend``.
@@ -153,10 +160,20 @@ def _cholespy(K: sp.sparray, is_complex: bool) -> HermitianFactor:
     return HermitianFactor("cholespy", solve, K.shape, True)
 
 
-def _superlu(K: sp.sparray, is_complex: bool) -> HermitianFactor:
-    n = K.shape[0]
+def symmetric_splu(
+    K: sp.sparray | sp.spmatrix, ordering: Literal["auto", "nd", "mmd"] = "auto"
+) -> tuple[spla.SuperLU, np.ndarray | None]:
+    """SuperLU of a symmetric positive definite K with diagonal pivots (symmetric mode),
+    after a fill-reducing ordering: ``"nd"`` nested dissection
+    (:func:`fvf.numerics.ordering.nested_dissection`), ``"mmd"`` SuperLU's minimum degree
+    on AᵀA + A, ``"auto"`` nested dissection from :data:`ND_MIN` unknowns on.
+
+    Returns (lu, perm): ``lu`` factors ``K[perm][:, perm]`` (K itself when perm is None).
+    """
+    if ordering == "auto":
+        ordering = "nd" if K.shape[0] >= ND_MIN else "mmd"
     perm, spec = None, "MMD_AT_PLUS_A"
-    if n >= ND_MIN:
+    if ordering == "nd":
         perm = nested_dissection(K)
         K = sp.csr_array(K)[perm][:, perm]
         spec = "NATURAL"
@@ -166,6 +183,11 @@ def _superlu(K: sp.sparray, is_complex: bool) -> HermitianFactor:
         diag_pivot_thresh=0.0,
         options=dict(SymmetricMode=True),
     )
+    return lu, perm
+
+
+def _superlu(K: sp.sparray, is_complex: bool) -> HermitianFactor:
+    lu, perm = symmetric_splu(K)
 
     def solve(B):
         if perm is None:

@@ -109,7 +109,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     SpectralInputError,
     SpectralSolveError,
 )
-from .ordering import nested_dissection
+from .cholesky import ND_MIN, available_backends, factor_hermitian, symmetric_splu
 from .progress import ProgressCallback, make_progress
 
 __all__ = [
@@ -482,28 +482,13 @@ class SPDFactor:
         return X
 
 
-#: From this size on, ``ordering="auto"`` uses nested dissection instead of minimum degree.
-ND_MIN = 30_000
-
-
 def _splu_symmetric(K: Any, ordering: Ordering = "auto") -> SPDFactor:
     """SuperLU of a symmetric K with diagonal pivots, after the requested ordering."""
     if ordering not in ORDERINGS:
         raise SpectralInputError(f"ordering must be one of {ORDERINGS}; got {ordering!r}")
-    n = K.shape[0]
     if ordering == "auto":
-        ordering = "nd" if n >= ND_MIN else "mmd"
-    perm, spec = None, "MMD_AT_PLUS_A"
-    if ordering == "nd":
-        perm = nested_dissection(K)
-        K = sp.csr_array(K)[perm][:, perm]
-        spec = "NATURAL"
-    lu = spla.splu(
-        sp.csc_matrix(K),
-        permc_spec=spec,
-        diag_pivot_thresh=0.0,
-        options=dict(SymmetricMode=True),
-    )
+        ordering = "nd" if K.shape[0] >= ND_MIN else "mmd"
+    lu, perm = symmetric_splu(K, ordering)
     return SPDFactor(lu, perm, ordering)
 
 
@@ -546,8 +531,6 @@ def _fast_factor(K: sp.csc_array, seed: int | None) -> Any:
     cholespy: about half the time and the memory of the symmetric-mode SuperLU factor), or
     None when none is installed or K proved not positive definite (a solve that misses
     its own right-hand side: CHOLMOD stops at the first non-positive pivot)."""
-    from .cholesky import available_backends, factor_hermitian
-
     fast = [b for b in available_backends() if b != "scipy"]
     if not fast:
         return None
