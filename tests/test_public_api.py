@@ -252,6 +252,23 @@ def _at_rest(mesh):
     return errors.FieldShapeError if mesh.boundary_vertices.size == mesh.n_vertices else None
 
 
+def _cone_edit_spec() -> Spec:
+    """The singularity edits (cancel, separate): a random cross field in, unit out."""
+    return Spec(
+        lambda fn, mesh, c: fn(mesh, c.u, 4, radius=mesh.mean_edge_length),
+        lambda r, mesh, c: (
+            (
+                r.shape == (mesh.n_faces, 3)
+                and close(np.linalg.norm(r, axis=1), np.ones(mesh.n_faces), 1e-12)
+            )
+            or pytest.fail("unit field")
+        ),
+        hostile="face_field",
+        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4, radius=1.0),
+        zero=errors.FieldShapeError,
+    )
+
+
 def _quad_input_error(mesh):
     """Seamless parameterization and quad meshing take closed, connected meshes only."""
     if mesh.n_components != 1 or not mesh.is_closed:
@@ -922,32 +939,8 @@ SPECS: dict[str, Spec] = {
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
         zero=errors.FrameError,
     ),
-    "cancel_close_singularities": Spec(
-        lambda fn, mesh, c: fn(mesh, c.u, 4, radius=mesh.mean_edge_length),
-        lambda r, mesh, c: (
-            (
-                r.shape == (mesh.n_faces, 3)
-                and close(np.linalg.norm(r, axis=1), np.ones(mesh.n_faces), 1e-12)
-            )
-            or pytest.fail("unit field")
-        ),
-        hostile="face_field",
-        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4, radius=1.0),
-        zero=errors.FieldShapeError,
-    ),
-    "separate_close_singularities": Spec(
-        lambda fn, mesh, c: fn(mesh, c.u, 4, radius=mesh.mean_edge_length),
-        lambda r, mesh, c: (
-            (
-                r.shape == (mesh.n_faces, 3)
-                and close(np.linalg.norm(r, axis=1), np.ones(mesh.n_faces), 1e-12)
-            )
-            or pytest.fail("unit field")
-        ),
-        hostile="face_field",
-        hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad, 4, radius=1.0),
-        zero=errors.FieldShapeError,
-    ),
+    "cancel_close_singularities": _cone_edit_spec(),
+    "separate_close_singularities": _cone_edit_spec(),
     "frame_report": Spec(
         lambda fn, mesh, c: fn(mesh, c.u),
         lambda r, mesh, c: (r.bracket_energy >= 0 and r.curl_u >= 0) or pytest.fail("report"),
