@@ -445,8 +445,9 @@ def _cmd_flow(args: argparse.Namespace) -> int:
                 f"{flag} applies to --method {' or '.join(methods)}, not {args.method!r}"
             )
         options[name] = getattr(args, name)
-    if args.method in ("chapter", "skew") and _progress(args) is not None:
-        options["progress"] = _progress(args)
+    progress = _progress(args)
+    if args.method in ("chapter", "skew") and progress is not None:
+        options["progress"] = progress
     f_t = fvf.flow(mesh, v, f, t, method=args.method, **options)  # (T, n) or (T, n, k)
     arrays = {"f": f, "v": v, "t": t, "f_t": f_t, "method": _str(args.method)}
     _write(args, args.output, arrays, mesh, src.paths)
@@ -498,8 +499,9 @@ def _cmd_transport(args: argparse.Namespace) -> int:
         u_t = fvf.interpolate(mesh, v, u, u1, t, **growth)
         arrays.update(u1=u1, u_t=u_t, mode=_str("interpolate"))
     else:
-        if _progress(args) is not None:
-            growth["progress"] = _progress(args)
+        progress = _progress(args)
+        if progress is not None:
+            growth["progress"] = progress
         result = fvf.FieldTransport(mesh, v, **growth)(u, t)  # = fvf.Ad(mesh, v, u, t), eq. 67
         arrays.update(u_t=result.fields, normal_part=result.normal_part, mode=_str("Ad"))
     _write(args, args.output, arrays, mesh, src.paths)

@@ -62,7 +62,7 @@ from ..mesh.inputs import (
 )
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, as_times, expm_action
-from ..numerics.progress import fraction_reporter, make_progress
+from ..numerics.progress import fraction_reporter
 from ..operators.directional import directional_derivatives
 from .functional import (
     GROWTH_LIMIT,
@@ -368,8 +368,7 @@ class TransportFlow:
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
             if "max_products" in options:
                 self._expm["max_products"] = options["max_products"]
-            if options.get("progress") not in (None, False):
-                make_progress(options["progress"])  # a bad value fails here
+            if options.get("progress") not in (None, False):  # a bad value fails here
                 self._expm["progress"] = fraction_reporter(options["progress"], "flow")
         elif method == "cayley":
             kind = options.get("operator", "skew")
