@@ -89,10 +89,12 @@ def local_cluster_config(retries: int) -> dict[str, Any]:
     and the nanny restarts a worker at 95 % of its memory limit. Background work that
     competes with the tasks for the worker's core is cut: no statistical profiler (it
     samples every thread's stack every 10 ms), event-loop ticks every 500 ms instead of
-    20 ms, system metrics every 2 s, no GIL monitor. Measured on the 40-mesh mixed corpus
-    (``benchmarks/bench_batch.py --only mixed``, load 2, one run each): the CPU excess of a
-    1-worker batch over the serial loop went from +79 % to +50 % without the profiler and
-    to +23 % with the rest; 2 workers from 1.08x to 1.42x the loop's speed.
+    20 ms, system metrics every 2 s, no GIL monitor. The workers get Dask's
+    ``pre-spawn-environ`` (BLAS and OpenMP on one thread) without its
+    ``MALLOC_TRIM_THRESHOLD_=65536``: that setting also turns off glibc's adaptive mmap
+    threshold, so every array above 128 KiB is a fresh mmap with its pages zero-filled on
+    first touch: the serial loop over the 40-mesh mixed corpus of
+    ``benchmarks/bench_batch.py`` takes 1.35-1.55x the CPU time with it set (same run).
     """
     return {
         "distributed.scheduler.allowed-failures": retries,
@@ -105,6 +107,7 @@ def local_cluster_config(retries: int) -> dict[str, Any]:
         "distributed.admin.tick.interval": "500ms",
         "distributed.admin.system-monitor.interval": "2s",
         "distributed.admin.system-monitor.gil.enabled": False,
+        "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,  # None unsets
     }
 
 
@@ -279,11 +282,14 @@ def _connected(
             cluster.close()
 
 
-def _warm() -> bool:
-    """Import the worker side (numpy, scipy, fvf) before the first job is timed."""
+def _warm() -> str | None:
+    """Import the worker side (numpy, scipy, fvf) before the first job is timed; the
+    worker's ``MALLOC_TRIM_THRESHOLD_`` (see :func:`local_cluster_config`)."""
+    import os
+
     import fvf.batch.runner  # noqa: F401
 
-    return True
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
 
 
 def _prepare(client: Any, note: Callable[[str], None], local: bool) -> dict | None:
@@ -297,7 +303,14 @@ def _prepare(client: Any, note: Callable[[str], None], local: bool) -> dict | No
             f"the Dask cluster has no worker after {CONNECT_TIMEOUT:g} s; start some with "
             "`dask worker SCHEDULER_ADDRESS --nthreads 1`"
         ) from exc
-    client.run(_warm)
+    trims = client.run(_warm)
+    if any(value is not None for value in trims.values()):
+        note(
+            "fvf batch: the workers run with MALLOC_TRIM_THRESHOLD_ set (Dask's nanny sets "
+            "65536 by default), which costs fvf's jobs about 40 % more CPU time; start them "
+            "with the Dask setting distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_ "
+            "removed (docs/batch.md)"
+        )
     info = client.scheduler_info()
     if "dashboard" in info.get("services", {}) and (_has_bokeh() or not local):
         note(f"fvf batch: Dask dashboard at {client.dashboard_link}")

@@ -172,12 +172,14 @@ def _run_mesh(job: MeshJob, row: dict, figures: dict) -> tuple[MeshContext, list
 
 
 def _write_mesh(job: MeshJob, ctx: MeshContext, extra: dict) -> None:
-    path = Path(job.result)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        write_data(
-            tmp, {**ctx.arrays, **extra}, mesh=ctx.mesh, mesh_path=job.path, command=job.command
-        )
+    # write_data is itself atomic (temporary file, fsync, rename): no second wrapper
+    write_data(
+        job.result,
+        {**ctx.arrays, **extra},
+        mesh=ctx.mesh,
+        mesh_path=job.path,
+        command=job.command,
+    )
 
 
 def _run_pair(job: PairJob, row: dict, figures: dict) -> PairContext:
