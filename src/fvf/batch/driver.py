@@ -443,6 +443,7 @@ def _execute(
     try:
         for future in done:
             group = futures.pop(future)
+            submit_more()  # the freed thread starts its next task while this one's rows travel
             try:
                 results = future.result()
             except Exception as exc:  # KilledWorker, a lost scheduler, ...
