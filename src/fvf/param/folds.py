@@ -78,8 +78,16 @@ def face_distortion(fit: np.ndarray, target: np.ndarray) -> np.ndarray:
     """
     J = fit.reshape(-1, 2, 2)
     F = target.reshape(-1, 2, 2)
-    sv = np.linalg.svd(J @ np.linalg.inv(F), compute_uv=False)
-    return np.abs(sv - 1.0).sum(axis=1)
+    det_f = F[:, 0, 0] * F[:, 1, 1] - F[:, 0, 1] * F[:, 1, 0]
+    adj_f = np.stack([F[:, 1, 1], -F[:, 0, 1], -F[:, 1, 0], F[:, 0, 0]], axis=1)
+    M = J @ (adj_f.reshape(-1, 2, 2) / det_f[:, None, None])  # J F⁻¹
+    # 2 × 2 singular values in closed form: σ₁ ± σ₂ = √(|M|²_F ± 2 |det M|)
+    frob = np.einsum("tij,tij->t", M, M)
+    det_m = np.abs(M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0])
+    plus = np.sqrt(frob + 2.0 * det_m)
+    minus = np.sqrt(np.maximum(frob - 2.0 * det_m, 0.0))
+    s1, s2 = 0.5 * (plus + minus), 0.5 * (plus - minus)
+    return np.abs(s1 - 1.0) + np.abs(s2 - 1.0)
 
 
 def _dilate(mesh: TriMesh, mask: np.ndarray, rings: int) -> np.ndarray:
@@ -165,21 +173,46 @@ def local_repair(
     return best_y, w
 
 
-def _responses(solver: MixedIntegerSolver, K: sp.csr_array) -> sp.csc_array:
-    """Sparse (4m, k): the change of K y per unit step of each integer unknown, with the
-    real unknowns re-solved (K_i − K_r H_rr⁻¹ H_ri), entries below RESPONSE_RTOL of the
-    column's largest dropped."""
-    Kc = sp.csc_array(K)
-    Ki, Kr = Kc[:, solver.integer], Kc[:, solver.real_idx]
-    k = solver.integer.size
-    chunk = 64
-    out = []
-    for lo in range(0, k, chunk):  # a few blocks of integer columns
-        cols = np.arange(lo, min(lo + chunk, k))
-        R = Ki[:, cols].toarray() - Kr @ solver.fac.solve(solver.Hri[:, cols].toarray())
-        R[np.abs(R) < RESPONSE_RTOL * np.abs(R).max(axis=0, keepdims=True)] = 0.0
-        out.append(sp.csc_array(R))
-    return sp.hstack(out).tocsc()
+class _Responses:
+    """Entries of R = K_i − K_r H_rr⁻¹ H_ri (4m, k), computed when first asked and kept.
+
+    Column i is the change of K y per unit step of integer unknown i with the real
+    unknowns re-solved. A few rows of R (those of the flipped faces) cost one solve per
+    row, H_rr⁻¹ K_rᵀ (H_rr is symmetric); a column costs one solve, H_rr⁻¹ H_ri. Only the
+    rows at flipped faces and the columns of the candidates tried are ever needed, so this
+    is far cheaper than all k columns when k is hundreds (a solve per integer unknown).
+    """
+
+    def __init__(self, solver: MixedIntegerSolver, K: sp.csr_array):
+        Kc = sp.csc_array(K)
+        self.solver = solver
+        self.Ki = Kc[:, solver.integer]
+        self.Kr = Kc[:, solver.real_idx]
+        self._Ki_rows = sp.csr_array(self.Ki)
+        self._Kr_rows = sp.csr_array(self.Kr)
+        self._rows: dict[int, np.ndarray] = {}
+        self._cols: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def rows(self, idx: np.ndarray) -> np.ndarray:
+        """float64 (len(idx), k): R at the rows ``idx``."""
+        new = np.array([r for r in idx.tolist() if r not in self._rows], dtype=np.int64)
+        if new.size:
+            X = self.solver.fac.solve(self._Kr_rows[new].T.toarray())
+            values = self._Ki_rows[new].toarray() - (self.solver.Hri.T @ X).T
+            self._rows.update(zip(new.tolist(), values, strict=True))
+        return np.array([self._rows[r] for r in idx.tolist()]).reshape(idx.size, -1)
+
+    def columns(self, cols: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(rows, values) of each column in ``cols``, entries below :data:`RESPONSE_RTOL` of
+        the column's largest dropped."""
+        new = np.array([c for c in cols.tolist() if c not in self._cols], dtype=np.int64)
+        if new.size:
+            Z = self.solver.fac.solve(self.solver.Hri[:, new].toarray())
+            R = self.Ki[:, new].toarray() - self.Kr @ Z
+            for c, col in zip(new.tolist(), R.T, strict=True):
+                keep = np.flatnonzero(np.abs(col) >= RESPONSE_RTOL * np.abs(col).max())
+                self._cols[c] = (keep, col[keep])
+        return [self._cols[c] for c in cols.tolist()]
 
 
 def integer_moves(
@@ -210,27 +243,23 @@ def integer_moves(
     yr0, r = solver.reduced(g)
     w = y[solver.integer].copy()
     fit = (K @ y).reshape(-1, 4)
-    R = _responses(solver, K)
+    R = _Responses(solver, K)
 
     def det(f):
         return f[:, 0] * f[:, 3] - f[:, 1] * f[:, 2]
 
     flipped = ~(det(fit) > 0)
     best = int(flipped.sum())
-    cols = [
-        (R.indices[R.indptr[i] : R.indptr[i + 1]], R.data[R.indptr[i] : R.indptr[i + 1]])
-        for i in range(R.shape[1])
-    ]
     S = solver.S
     for _ in range(sweeps):  # a few sweeps over a few candidate unknowns
         if best == 0:
             break
         bad_rows = np.flatnonzero(np.repeat(flipped, 4))
-        strength = np.abs(R[bad_rows]).max(axis=0).toarray().ravel()
+        strength = np.abs(R.rows(bad_rows)).max(axis=0)
         cand = np.argsort(-strength, kind="stable")[:SEARCH_CANDIDATES]
+        cand = cand[strength[cand] > 0]
         choice = None
-        for i in cand[strength[cand] > 0]:
-            rows, vals = cols[i]
+        for i, (rows, vals) in zip(cand.tolist(), R.columns(cand), strict=True):
             faces = np.unique(rows // 4)
             before = int(flipped[faces].sum())
             slots = np.searchsorted((faces[:, None] * 4 + np.arange(4)).ravel(), rows)
@@ -246,7 +275,7 @@ def integer_moves(
             break
         best, i, step, _ = choice
         w[i] += step
-        rows, vals = cols[i]
+        rows, vals = R.columns(np.array([i]))[0]
         fit.ravel()[rows] += step * vals
         flipped = ~(det(fit) > 0)
     return solver.assemble(yr0, w)

@@ -1,0 +1,50 @@
+"""Pieces of the fold repair after integer rounding (fvf.param.folds), against dense
+references."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from fvf.param.folds import _Responses, face_distortion
+from fvf.param.rounding import MixedIntegerSolver
+
+
+def test_face_distortion_is_the_singular_values_of_j_f_inverse():
+    rng = np.random.default_rng(7)
+    J = rng.standard_normal((500, 2, 2))
+    F = rng.standard_normal((500, 2, 2))
+    J[0] = F[0]  # no distortion
+    J[1] = 2.0 * F[1]  # both singular values 2
+    J[2] = np.array([[0.0, 1.0], [1.0, 0.0]]) @ F[2]  # a reflection: isometric, flipped
+    sv = np.linalg.svd(J @ np.linalg.inv(F), compute_uv=False)
+    expected = np.abs(sv - 1.0).sum(axis=1)
+    got = face_distortion(J.ravel(), F.ravel())
+    np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(got[:3], [0.0, 2.0, 0.0], atol=1e-12)
+
+
+def test_responses_rows_and_columns_equal_the_dense_response_matrix():
+    """R = K_i − K_r H_rr⁻¹ H_ri with H = KᵀK: rows (adjoint solves) and columns (direct
+    solves, small entries dropped) both equal the dense matrix."""
+    rng = np.random.default_rng(11)
+    rows, p = 120, 40
+    K = sp.random_array((rows, p), density=0.15, rng=rng, format="csr") + sp.eye_array(
+        rows, p, format="csr"
+    )
+    K = sp.csr_array(K)
+    integer = np.array([3, 9, 17, 30])
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer, backend="scipy")
+    Kd = K.toarray()
+    real = solver.real_idx
+    H = Kd.T @ Kd
+    R = Kd[:, integer] - Kd[:, real] @ np.linalg.solve(
+        H[np.ix_(real, real)], H[np.ix_(real, integer)]
+    )
+    resp = _Responses(solver, K)
+    picked = np.array([5, 77, 5, 119])
+    np.testing.assert_allclose(resp.rows(picked), R[picked], atol=1e-10)
+    for c, (idx, vals) in zip([2, 0], resp.columns(np.array([2, 0])), strict=True):
+        kept = np.abs(R[:, c]) >= 1e-2 * np.abs(R[:, c]).max()
+        np.testing.assert_array_equal(idx, np.flatnonzero(kept))
+        np.testing.assert_allclose(vals, R[kept, c], atol=1e-10)
