@@ -250,8 +250,10 @@ def untangle_quads(
     Returns
     -------
     FoldRepair
-        When the repair leaves more quads folded than it found, the input positions are
-        returned unchanged (with the folds found on entry).
+        When quads stay folded after ``max_steps``, the input positions are returned
+        unchanged with the folds found on entry (relaxing a growing region can unfold some
+        quads by crushing others: a torus with its quads wound backwards ends with a third
+        of them "unfolded" and the rest still folded).
     """
     V0 = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
@@ -280,7 +282,7 @@ def untangle_quads(
                 break
             free = np.unique(Q[watched])  # one more ring of quads
     after = np.flatnonzero(mask)
-    if after.size > before.size:
+    if after.size:  # all or nothing: a partial untangling may have smeared a whole region
         V, vf, after = V0.copy(), vf0.copy(), before
     disp = np.linalg.norm(V - V0, axis=1)
     moved = np.flatnonzero(disp > 0).astype(np.int64)
