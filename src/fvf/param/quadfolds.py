@@ -24,10 +24,13 @@ grows by one ring of quads when that is not enough): each step moves a free vert
 fraction :data:`RELAX_STEP` toward the mean of its neighbours along quad edges, with the
 component along the input normal removed (tangential Laplacian relaxation), and puts it
 back on the input surface at the closest point. The connectivity is unchanged; the moved
-vertices leave their integer uv points.
+vertices leave their integer uv points. All or nothing: if quads stay folded, the input
+positions are kept (and :func:`warn_folded` names the quads).
 
 Closest points are searched among the :data:`CANDIDATES` input triangles whose centroids
-are nearest the query point (exact for triangles of comparable size around the point).
+are nearest the query point: the exact closest point whenever its triangle is one of them
+(checked against brute force in ``tests/test_quad_folds.py``); a result always lies on the
+surface.
 """
 
 from __future__ import annotations
