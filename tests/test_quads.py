@@ -268,11 +268,6 @@ def test_zero_field_is_rejected():
 
 
 # ---------------------------------------------------------------------------- shared meshes
-FOLDED_NEXT_TO_A_CONE = pytest.mark.xfail(
-    reason="no uv triangle is flipped, but one quad next to a cone on a strongly curved "
-    "part is folded in 3D (its two halves face opposite ways); see docs/quads.md",
-    strict=False,
-)
 CONES_FORCED_BY_THE_GEOMETRY = pytest.mark.xfail(
     reason="vertices with angle defect beyond pi/4 force clusters of cones closer than one "
     "quad edge; rounding folds the uv triangles between them; see docs/quads.md",
@@ -281,10 +276,10 @@ CONES_FORCED_BY_THE_GEOMETRY = pytest.mark.xfail(
 SHARED_CASES = [
     ("3holes.off", 1500),
     ("bob_tri.obj", 1500),
-    pytest.param("spot.obj", 1500, marks=FOLDED_NEXT_TO_A_CONE),
+    ("spot.obj", 1500),
     ("fertility.off", 1500),
     ("rocker-arm.obj", 3000),
-    pytest.param("armadillo.obj", 8000, marks=FOLDED_NEXT_TO_A_CONE),
+    ("armadillo.obj", 8000),
     pytest.param("faust_r_tr_reg_001.off", 2499, marks=CONES_FORCED_BY_THE_GEOMETRY),
     pytest.param("lion-00.off", 2499, marks=CONES_FORCED_BY_THE_GEOMETRY),
 ]

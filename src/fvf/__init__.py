@@ -141,6 +141,7 @@ from .operators import (
 from .param import (
     QuadQuality,
     SeamlessParameterization,
+    folded_quads,
     quad_mesh,
     quad_quality,
     quad_symmetry_error,
@@ -347,6 +348,7 @@ __all__ = [
     "QuadQuality",
     "symmetrize_cross_field",
     "quad_symmetry_error",
+    "folded_quads",
     *_errors_all,
     "cancel_close_singularities",
     "separate_close_singularities",

@@ -70,6 +70,7 @@ __all__ = [
     "BasisSizeError",
     "DisconnectedMeshError",
     "NotEnoughEigenpairsError",
+    "FoldedQuadWarning",
     "format_indices",
 ]
 
@@ -362,6 +363,12 @@ class FlippedParameterizationWarning(FvfWarning):
 class QuadExtractionError(FvfError, RuntimeError):
     """Quad extraction met a parameterization it cannot turn into a valid quad mesh
     (flipped or degenerate uv triangles, a target too coarse for the topology)."""
+
+
+# ---------------------------------------------------------------------------- folded quads
+class FoldedQuadWarning(FvfWarning):
+    """Quads of a quad mesh stay folded in 3D (normal against the input surface's) after
+    the untangling on the surface; the message names them."""
 
 
 def format_indices(idx: object, limit: int = 8) -> str:

@@ -9,10 +9,12 @@ folds       local stiffening of flipped uv triangles after rounding
 extraction  the integer grid of a parameterization as a quad mesh
 quadmesh    :func:`quad_mesh` (parameterize, then extract)
 quality     :func:`quad_quality`
+quadfolds   quads folded in 3D: :func:`folded_quads`, untangling on the surface
 """
 
 from .extraction import QuadMesh, edge_transitions, extract_quads
 from .frames import default_cross_field
+from .quadfolds import folded_quads
 from .quadmesh import quad_mesh
 from .quality import QuadQuality, quad_quality
 from .seamless import SeamlessParameterization, seamless_parameterization
@@ -25,6 +27,7 @@ __all__ = [
     "default_cross_field",
     "edge_transitions",
     "extract_quads",
+    "folded_quads",
     "quad_mesh",
     "quad_quality",
     "seamless_parameterization",

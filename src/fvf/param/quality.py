@@ -12,7 +12,9 @@ Measures (all vectorized):
 - **one-sided Hausdorff distances** (as fractions of the input's bounding-box diagonal):
   input → quads and quads → input, measured between dense samples of both surfaces
   (vertices, edge points and face points; exact to the sampling step);
-- **topology**: closed, manifold, Euler characteristic.
+- **topology**: closed, manifold, Euler characteristic;
+- **folded quads**: quads whose normal faces away from the input surface
+  (:func:`fvf.param.quadfolds.folded_quads`).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from .quadfolds import folded_quads
 from .seamless import SeamlessParameterization
 
 __all__ = ["QuadQuality", "quad_quality", "quad_topology"]
@@ -51,6 +54,7 @@ class QuadQuality:
     closed: bool
     manifold: bool
     euler_characteristic: int
+    n_folded: int
     flipped_uv: int | None = None
     curl_residual: float | None = None
     rounded_residual: float | None = None
@@ -159,6 +163,8 @@ def quad_quality(
     Returns
     -------
     QuadQuality
+        ``n_folded`` counts the quads folded in 3D (normal against the input surface's at
+        the quad; :func:`fvf.param.quadfolds.folded_quads`).
     """
     V = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
@@ -207,6 +213,7 @@ def quad_quality(
         closed=closed,
         manifold=manifold,
         euler_characteristic=chi,
+        n_folded=int(folded_quads(mesh, V, Q).size),
         flipped_uv=None if p is None else int(p.n_flipped),
         curl_residual=None if p is None else float(p.residual_real),
         rounded_residual=None if p is None else float(p.residual),

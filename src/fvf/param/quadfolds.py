@@ -1,0 +1,312 @@
+r"""Quads folded in 3D: detection, and untangling on the input surface.
+
+The extracted quads sit at integer uv points placed on the input surface. With no uv
+triangle flipped, a quad can still be folded in 3D where the surface turns by nearly
+90° or more within one quad (next to a cone on a strongly curved part): its two halves
+face opposite ways.
+
+**Definition.** Quad :math:`q` with corners :math:`p_0, \dots, p_3` has the normal
+
+.. math::
+
+    n_q = (p_2 - p_0) \times (p_3 - p_1)
+
+(twice its vector area; the sum of the normals of its two halves, split along either
+diagonal). Its reference normal :math:`N_q` is the unit normal of the input triangle
+holding the point of the surface closest to its centroid :math:`c_q = \tfrac14 \sum_k p_k`.
+The quad is **folded** when :math:`n_q \cdot N_q \le 0`. (The normals of the triangles
+holding the corners are not used: on a scanned surface they vary at the scale of the
+input triangles, and on armadillo at 7724 quads 37 quads have a corner whose triangle
+faces away from :math:`n_q` while one quad is folded by the definition above.)
+
+**Repair** (:func:`untangle_quads`). Only the corners of folded quads move (the region
+grows by one ring of quads when that is not enough): each step moves a free vertex a
+fraction :data:`RELAX_STEP` toward the mean of its neighbours along quad edges, with the
+component along the input normal removed (tangential Laplacian relaxation), and puts it
+back on the input surface at the closest point. The connectivity is unchanged; the moved
+vertices leave their integer uv points. All or nothing: if quads stay folded, the input
+positions are kept (and :func:`warn_folded` names the quads).
+
+Closest points are searched among the :data:`CANDIDATES` input triangles whose centroids
+are nearest the query point: the exact closest point whenever its triangle is one of them
+(checked against brute force in ``tests/test_quad_folds.py``); a result always lies on the
+surface.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
+from ..mesh.trimesh import TriMesh
+
+__all__ = [
+    "FoldRepair",
+    "closest_surface_points",
+    "folded_quads",
+    "quad_normals",
+    "untangle_quads",
+    "warn_folded",
+]
+
+#: Input triangles (nearest centroids) searched for the closest point on the surface.
+CANDIDATES = 32
+#: Fraction of the way to the mean of its quad neighbours a free vertex moves per step.
+RELAX_STEP = 0.5
+#: Relaxation steps per region before the region grows by one ring of quads.
+STEPS_PER_RING = 10
+#: Rings of quads the free region may grow by around the folded quads.
+MAX_RINGS = 3
+
+
+def closest_surface_points(
+    mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest points of the input surface, among the triangles with the nearest centroids.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    points : array_like, float (k, 3)
+    tree : cKDTree, optional
+        A tree of ``mesh.face_centroids`` (built when not given).
+
+    Returns
+    -------
+    faces : int64 (k,)
+        The input triangle holding each closest point.
+    closest : float64 (k, 3)
+        The closest point on that triangle; searched among the ``min(CANDIDATES, m)``
+        triangles whose centroids are nearest each query point.
+    """
+    x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if tree is None:
+        tree = cKDTree(mesh.face_centroids)
+    c = min(CANDIDATES, mesh.n_faces)
+    cand = tree.query(x, k=c)[1].reshape(x.shape[0], c)  # (k, c)
+    T = mesh.vertices[mesh.faces[cand]]  # (k, c, 3, 3)
+    best = _closest_on_triangles(T, np.broadcast_to(x[:, None, :], T.shape[:2] + (3,)))
+    d2 = np.einsum("kcd,kcd->kc", best - x[:, None, :], best - x[:, None, :])
+    j = np.argmin(d2, axis=1)
+    rows = np.arange(x.shape[0])
+    return cand[rows, j].astype(np.int64), best[rows, j]
+
+
+def _closest_on_triangles(T: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Closest point of each triangle T[...] (..., 3 corners, 3) to x (..., 3)."""
+    a, b, c = T[..., 0, :], T[..., 1, :], T[..., 2, :]
+    e1, e2 = b - a, c - a
+    r = x - a
+    d11 = np.einsum("...d,...d->...", e1, e1)
+    d12 = np.einsum("...d,...d->...", e1, e2)
+    d22 = np.einsum("...d,...d->...", e2, e2)
+    r1 = np.einsum("...d,...d->...", r, e1)
+    r2 = np.einsum("...d,...d->...", r, e2)
+    det = np.maximum(d11 * d22 - d12 * d12, 1e-300)
+    s = (d22 * r1 - d12 * r2) / det
+    t = (d11 * r2 - d12 * r1) / det
+    inside = (s >= 0) & (t >= 0) & (s + t <= 1)
+    best = a + s[..., None] * e1 + t[..., None] * e2
+    dist = np.where(inside, 0.0, np.inf)  # distances compared only off the plane region
+    for p, q in ((a, b), (b, c), (c, a)):  # the three edges
+        e = q - p
+        u = np.einsum("...d,...d->...", x - p, e) / np.maximum(
+            np.einsum("...d,...d->...", e, e), 1e-300
+        )
+        y = p + np.clip(u, 0.0, 1.0)[..., None] * e
+        dy = np.einsum("...d,...d->...", x - y, x - y)
+        take = ~inside & (dy < dist)
+        best = np.where(take[..., None], y, best)
+        dist = np.where(take, dy, dist)
+    return best
+
+
+def quad_normals(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """n_q = (p_2 − p_0) × (p_3 − p_1), float64 (q, 3): twice each quad's vector area."""
+    V, Q = vertices, quads
+    return np.cross(V[Q[:, 2]] - V[Q[:, 0]], V[Q[:, 3]] - V[Q[:, 1]])
+
+
+def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """bool (len(Q),): n_q · N ≤ 0, N the normal of the input triangle nearest the centroid."""
+    face, _ = closest_surface_points(mesh, V[Q].mean(axis=1), tree)
+    return np.einsum("qd,qd->q", quad_normals(V, Q), mesh.face_normals[face]) <= 0
+
+
+def folded_quads(mesh: TriMesh, vertices: npt.ArrayLike, quads: npt.ArrayLike) -> np.ndarray:
+    """The quads folded in 3D against the input surface (module docstring).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+        The input triangle mesh (outward-oriented).
+    vertices : array_like, float (k, 3)
+        Quad vertices, on or near the input surface.
+    quads : array_like, int (q, 4)
+        Counter-clockwise about the input's outward normal.
+
+    Returns
+    -------
+    int64 (f,)
+        Sorted indices of the quads whose normal
+        :math:`n_q = (p_2 - p_0) \\times (p_3 - p_1)` has a non-positive dot product with
+        the normal of the input triangle holding the surface point closest to the quad's
+        centroid (:func:`closest_surface_points`).
+    """
+    V = np.asarray(vertices, dtype=np.float64)
+    Q = np.asarray(quads, dtype=np.int64)
+    mask = _fold_mask(mesh, V, Q, cKDTree(mesh.face_centroids))
+    return np.flatnonzero(mask).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class FoldRepair:
+    """The result of :func:`untangle_quads`.
+
+    Attributes
+    ----------
+    vertices : float64 (k, 3)
+        Quad vertices; those in ``moved`` relaxed and put back on the input surface.
+    vertex_face : int64 (k,)
+        Input triangle holding each vertex.
+    folded_before : int64 (f0,)
+        Quads folded on entry (:func:`folded_quads`).
+    folded : int64 (f,)
+        Quads still folded (empty when the repair succeeded).
+    moved : int64 (r,)
+        Vertices that moved.
+    displacement : float64 (r,)
+        How far each moved vertex went (3D distance from its extracted position).
+    steps : int
+        Relaxation steps taken.
+    """
+
+    vertices: np.ndarray
+    vertex_face: np.ndarray
+    folded_before: np.ndarray
+    folded: np.ndarray
+    moved: np.ndarray
+    displacement: np.ndarray
+    steps: int
+
+
+def _quad_edge_adjacency(n_vertices: int, Q: np.ndarray) -> sp.csr_matrix:
+    """Vertex adjacency along quad edges: symmetric 0/1 csr (k, k)."""
+    i = Q.ravel()
+    j = np.roll(Q, -1, axis=1).ravel()
+    A = sp.coo_matrix((np.ones(2 * i.size), (np.r_[i, j], np.r_[j, i])), (n_vertices,) * 2)
+    A = A.tocsr()
+    A.data[:] = 1.0
+    return A
+
+
+def _relax_step(
+    mesh: TriMesh,
+    V: np.ndarray,
+    vf: np.ndarray,
+    A: sp.csr_matrix,
+    free: np.ndarray,
+    tree: cKDTree,
+) -> None:
+    """One tangential Laplacian step of the free vertices, projected onto the surface."""
+    Af = A[free]
+    mean = (Af @ V) / np.asarray(Af.sum(axis=1)).reshape(-1, 1)
+    d = mean - V[free]
+    N = mesh.face_normals[vf[free]]
+    d -= np.einsum("kd,kd->k", d, N)[:, None] * N
+    f, p = closest_surface_points(mesh, V[free] + RELAX_STEP * d, tree)
+    V[free] = p
+    vf[free] = f
+
+
+def untangle_quads(
+    mesh: TriMesh,
+    vertices: npt.ArrayLike,
+    quads: npt.ArrayLike,
+    vertex_face: npt.ArrayLike,
+    *,
+    max_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
+) -> FoldRepair:
+    """Unfold folded quads by relaxing their corners on the input surface (module docstring).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+        The input triangle mesh.
+    vertices : array_like, float (k, 3)
+        Quad vertices on the input surface (not modified).
+    quads : array_like, int (q, 4)
+        Counter-clockwise about the input's outward normal; unchanged by the repair.
+    vertex_face : array_like, int (k,)
+        Input triangle holding each vertex (:attr:`fvf.QuadMesh.vertex_face`).
+    max_steps : int
+        Relaxation steps at most (0: detect only). The free region starts at the corners
+        of the folded quads and grows by one ring of quads every :data:`STEPS_PER_RING`
+        steps, at most :data:`MAX_RINGS` times.
+
+    Returns
+    -------
+    FoldRepair
+        When quads stay folded after ``max_steps``, the input positions are returned
+        unchanged with the folds found on entry (relaxing a growing region can unfold some
+        quads by crushing others: a torus with its quads wound backwards ends with a third
+        of them "unfolded" and the rest still folded).
+    """
+    V0 = np.asarray(vertices, dtype=np.float64)
+    Q = np.asarray(quads, dtype=np.int64)
+    vf0 = np.asarray(vertex_face, dtype=np.int64)
+    tree = cKDTree(mesh.face_centroids)
+    mask = _fold_mask(mesh, V0, Q, tree)
+    before = np.flatnonzero(mask)
+    V, vf = V0.copy(), vf0.copy()
+    steps = 0
+    if before.size and max_steps > 0:
+        A = _quad_edge_adjacency(V.shape[0], Q)
+        inc = sp.csr_matrix(
+            (np.ones(Q.size), (Q.ravel(), np.repeat(np.arange(Q.shape[0]), 4))),
+            shape=(V.shape[0], Q.shape[0]),
+        )
+        free = np.unique(Q[before])
+        for ring in range(MAX_RINGS + 1):
+            watched = np.unique(inc[free].indices)
+            for _ in range(STEPS_PER_RING):
+                if steps >= max_steps or not mask.any():
+                    break
+                _relax_step(mesh, V, vf, A, free, tree)
+                mask[watched] = _fold_mask(mesh, V, Q[watched], tree)
+                steps += 1
+            if steps >= max_steps or not mask.any() or ring == MAX_RINGS:
+                break
+            free = np.unique(Q[watched])  # one more ring of quads
+    after = np.flatnonzero(mask)
+    if after.size:  # all or nothing: a partial untangling may have smeared a whole region
+        V, vf, after = V0.copy(), vf0.copy(), before
+    disp = np.linalg.norm(V - V0, axis=1)
+    moved = np.flatnonzero(disp > 0).astype(np.int64)
+    return FoldRepair(V, vf, before, after, moved, disp[moved], steps)
+
+
+def warn_folded(repair: FoldRepair) -> None:
+    """Warn with :class:`fvf.FoldedQuadWarning` naming the quads still folded, if any.
+
+    Parameters
+    ----------
+    repair : FoldRepair
+        The result of :func:`untangle_quads`.
+    """
+    if repair.folded.size:
+        warnings.warn(
+            FoldedQuadWarning(
+                f"quads {format_indices(repair.folded)} are folded in 3D (their normal faces "
+                "away from the input surface) after untangling on the surface; ask for more "
+                "quads (a larger target_faces or a smaller edge_length) so that the surface "
+                "turns less within one quad"
+            ),
+            stacklevel=user_stacklevel(),
+        )

@@ -1,0 +1,144 @@
+"""Quads folded in 3D: detection, untangling on the input surface, the warning."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import fvf
+from conftest import load_shared
+from fvf.design.constrained import closest_faces
+from fvf.param.extraction import extract_quads
+from fvf.param.quadfolds import (
+    closest_surface_points,
+    folded_quads,
+    untangle_quads,
+    warn_folded,
+)
+from test_quads import check_closed_quads, check_orientation, torus_uv
+
+
+def distance_to_surface(mesh, X):
+    """Exact distance of each point to the triangle mesh (brute force over all faces)."""
+    f, b = closest_faces(mesh, X)
+    return np.linalg.norm(np.einsum("ki,kid->kd", b, mesh.vertices[mesh.faces[f]]) - X, axis=1)
+
+
+@pytest.fixture(scope="module")
+def torus_grid():
+    """A regular 12 × 6 quad mesh on a torus, extracted from the analytic parameterization."""
+    mesh = fvf.torus(48, 24)
+    return mesh, extract_quads(mesh, torus_uv(mesh, 12, 6, (0.3, 0.2)))
+
+
+def fold_one_quad(mesh, qm, q=10, beyond=0.25):
+    """Push corner 0 of quad q across its opposite corner (on the surface): q folds."""
+    p = qm.vertices[qm.quads[q]]
+    f, x = closest_surface_points(mesh, p[2] + beyond * (p[2] - p[0]))
+    V, vf = qm.vertices.copy(), qm.vertex_face.copy()
+    V[qm.quads[q, 0]], vf[qm.quads[q, 0]] = x[0], f[0]
+    return V, vf
+
+
+def test_closest_surface_points_match_brute_force():
+    mesh = fvf.torus(48, 24)
+    rng = np.random.default_rng(3)
+    X = mesh.vertices[rng.integers(mesh.n_vertices, size=200)] + 0.05 * rng.normal(size=(200, 3))
+    f, p = closest_surface_points(mesh, X)
+    d = np.linalg.norm(p - X, axis=1)
+    assert np.allclose(d, distance_to_surface(mesh, X), rtol=0, atol=1e-12)
+    g, b = closest_faces(mesh, X)
+    assert np.mean(f == g) > 0.95  # ties on shared edges may pick the other face
+
+
+def test_regular_grid_has_no_folded_quad(torus_grid):
+    mesh, qm = torus_grid
+    assert folded_quads(mesh, qm.vertices, qm.quads).size == 0
+    r = untangle_quads(mesh, qm.vertices, qm.quads, qm.vertex_face)
+    assert r.folded_before.size == 0 and r.moved.size == 0 and r.steps == 0
+    assert np.array_equal(r.vertices, qm.vertices)
+
+
+def test_a_folded_quad_is_found_and_untangled_on_the_surface(torus_grid):
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    assert np.array_equal(folded_quads(mesh, V, qm.quads), [10])
+    assert fvf.quad_quality(mesh, V, qm.quads).n_folded == 1
+    with pytest.raises(AssertionError):
+        check_orientation(mesh, V, qm.quads)  # the independent check sees it too
+    r = untangle_quads(mesh, V, qm.quads, vf)
+    assert np.array_equal(r.folded_before, [10]) and r.folded.size == 0
+    assert folded_quads(mesh, r.vertices, qm.quads).size == 0
+    check_orientation(mesh, r.vertices, qm.quads)
+    check_closed_quads(mesh, r.vertices, qm.quads)
+    # only the folded quad's corners moved, and they stay on the input surface
+    assert set(r.moved) <= set(qm.quads[10]) and r.moved.size > 0
+    assert distance_to_surface(mesh, r.vertices[r.moved]).max() < 1e-12
+    assert np.allclose(r.displacement, np.linalg.norm(r.vertices[r.moved] - V[r.moved], axis=1))
+    untouched = np.setdiff1d(np.arange(V.shape[0]), r.moved)
+    assert np.array_equal(r.vertices[untouched], V[untouched])
+    assert fvf.quad_quality(mesh, r.vertices, qm.quads).n_folded == 0
+
+
+def test_folds_left_are_named_in_a_warning(torus_grid):
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    r = untangle_quads(mesh, V, qm.quads, vf, max_steps=0)
+    assert np.array_equal(r.folded, [10]) and r.moved.size == 0
+    with pytest.warns(fvf.FoldedQuadWarning, match=r"quads \[10\] \(1 in all\).*more quads"):
+        warn_folded(r)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_folded(untangle_quads(mesh, V, qm.quads, vf))  # repaired: silent
+
+
+def test_a_mirrored_quad_is_untangled(torus_grid):
+    """Two opposite corners swapped: the quad is mirrored, its neighbours are not."""
+    mesh, qm = torus_grid
+    c = qm.quads[10]
+    V, vf = qm.vertices.copy(), qm.vertex_face.copy()
+    V[c[[1, 3]]], vf[c[[1, 3]]] = V[c[[3, 1]]], vf[c[[3, 1]]]
+    assert np.array_equal(folded_quads(mesh, V, qm.quads), [10])
+    r = untangle_quads(mesh, V, qm.quads, vf)
+    assert r.folded.size == 0 and set(r.moved) <= set(c)
+    check_orientation(mesh, r.vertices, qm.quads)
+    assert distance_to_surface(mesh, r.vertices[r.moved]).max() < 1e-12
+
+
+def test_reversed_quads_cannot_be_untangled_and_are_named(torus_grid):
+    """Quads wound clockwise about the outward normal all face inwards; moving vertices on
+    the surface cannot turn them: all stay folded, the input is returned unchanged, and
+    the warning names them."""
+    mesh, qm = torus_grid
+    Q = qm.quads[:, ::-1].copy()
+    assert np.array_equal(folded_quads(mesh, qm.vertices, Q), np.arange(Q.shape[0]))
+    r = untangle_quads(mesh, qm.vertices, Q, qm.vertex_face)
+    assert r.folded.size == Q.shape[0] and np.array_equal(r.vertices, qm.vertices)
+    with pytest.warns(fvf.FoldedQuadWarning, match=rf"\({Q.shape[0]} in all\)"):
+        warn_folded(r)
+
+
+@pytest.mark.parametrize("steps", [-1, 1.5, True])
+def test_bad_fold_repair_steps(steps):
+    with pytest.raises(fvf.ParameterError, match="fold_repair_steps"):
+        fvf.quad_mesh(fvf.torus(24, 12), target_faces=50, fold_repair_steps=steps)
+
+
+@pytest.mark.slow
+def test_spot_fold_is_warned_without_repair_and_untangled_with_it():
+    """On spot at 1500 quads one quad next to a cone is folded as extracted."""
+    mesh = load_shared("spot.obj")
+    with pytest.warns(fvf.FoldedQuadWarning, match=r"\(1 in all\)"):
+        V0, Q0 = fvf.quad_mesh(mesh, target_faces=1500, fold_repair_steps=0)
+    assert fvf.quad_quality(mesh, V0, Q0).n_folded == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fvf.FoldedQuadWarning)
+        V, Q = fvf.quad_mesh(mesh, target_faces=1500)
+    assert np.array_equal(Q, Q0) and fvf.quad_quality(mesh, V, Q).n_folded == 0
+    moved = np.flatnonzero(np.linalg.norm(V - V0, axis=1) > 0)
+    assert 0 < moved.size <= 16
+    assert distance_to_surface(mesh, V[moved]).max() < 1e-12
+    h = np.median(np.linalg.norm(V0[Q0] - V0[np.roll(Q0, -1, axis=1)], axis=2))
+    assert np.linalg.norm(V[moved] - V0[moved], axis=1).max() < h
