@@ -44,6 +44,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
+from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 
 __all__ = [
@@ -139,6 +140,7 @@ def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np
     return np.einsum("qd,qd->q", quad_normals(V, Q), mesh.face_normals[face]) <= 0
 
 
+@takes_mesh
 def folded_quads(mesh: TriMesh, vertices: npt.ArrayLike, quads: npt.ArrayLike) -> np.ndarray:
     """The quads folded in 3D against the input surface (module docstring).
 
