@@ -105,7 +105,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..calculus import _freeze, face_rows_csr
-from ..errors import FieldShapeError, FvfError, SpectralFallbackWarning, SpectralSolveError
+from ..errors import (
+    FieldShapeError,
+    FvfError,
+    ParameterError,
+    SpectralFallbackWarning,
+    SpectralSolveError,
+)
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross, _readonly
@@ -332,7 +338,11 @@ def connection_pairs(
 
 @takes_mesh
 def connection_laplacian(
-    mesh: TriMesh, kind: ConnectionKind = "knoppel", n: int = 1
+    mesh: TriMesh,
+    kind: ConnectionKind = "knoppel",
+    n: int = 1,
+    *,
+    curvature_smoothing: float | None = None,
 ) -> sp.csr_array:
     """The face connection Laplacian L: complex Hermitian PSD, sparse (m, m).
 
@@ -354,6 +364,13 @@ def connection_laplacian(
         coupling).
     n : int
         Symmetry order N >= 1 of the fields it acts on (default 1: vector fields).
+    curvature_smoothing : float, optional
+        A length ℓ > 0: turn each transport by the angle of
+        :func:`fvf.design.holonomy.holonomy_rotations`, r_e ↦ r_e e^{i x_e}, so that the
+        connection's holonomy around each vertex is the angle defect smoothed over ℓ
+        instead of the angle defect (``"knoppel"`` only; closed meshes). Fields smooth for
+        it have their cones where the smoothed curvature gathers a 1/N turn, not on every
+        vertex with a large angle defect (:mod:`fvf.design.holonomy`).
 
     Returns
     -------
@@ -376,9 +393,21 @@ def connection_laplacian(
     """
     kind = _check_kind(kind)
     n = as_direction_count(n)
+    if curvature_smoothing is not None:
+        from .holonomy import smoothing_length
+
+        curvature_smoothing = smoothing_length(curvature_smoothing)
+        if kind != "knoppel":
+            raise ParameterError(
+                f"curvature_smoothing turns the edge transports of kind='knoppel'; got {kind!r}"
+            )
 
     def build():
         pairs, r, w = connection_pairs(mesh, kind)
+        if curvature_smoothing is not None:
+            from .holonomy import holonomy_rotations
+
+            r = r * np.exp(1j * holonomy_rotations(mesh, curvature_smoothing))
         if n != 1:
             r = r**n
         m = mesh.n_faces
@@ -392,6 +421,8 @@ def connection_laplacian(
         return _freeze(L)
 
     key = f"connection_laplacian:{kind}" if n == 1 else f"connection_laplacian:{kind}:{n}"
+    if curvature_smoothing is not None:
+        key += f":holonomy smoothed over {curvature_smoothing!r}"
     return mesh.cached(key, build)
 
 
@@ -578,6 +609,7 @@ def smoothest_fields(
     solver: EigenSolver = "auto",
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
+    curvature_smoothing: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` smoothest fields: lowest eigenfields of L_n z = λ [A_F] z.
 
@@ -611,6 +643,11 @@ def smoothest_fields(
     progress : None, bool or callable
         ``True`` for a tqdm bar, or a callback ``(stage, done, total)``
         (:mod:`fvf.numerics.progress`).
+    curvature_smoothing : float, optional
+        A length ℓ > 0 (mesh units): use the connection whose holonomy is the angle defect
+        smoothed over ℓ (:mod:`fvf.design.holonomy`), so that vertices with a large angle
+        defect (spikes, pinches, valence-4 vertices of remeshed scans) do not each force
+        a cone. Closed meshes, ``kind="knoppel"``. Default: the Levi-Civita connection.
 
     Returns
     -------
@@ -659,7 +696,7 @@ def smoothest_fields(
     if not 1 <= count <= m:
         raise FvfError(f"count must be in [1, {m}] (the number of faces); got {count}.")
     report("assemble", 0, 1)
-    L = connection_laplacian(mesh, kind, n)
+    L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     report("assemble", 1, 1)
     area = mesh.face_areas
     auto = solver == "auto"

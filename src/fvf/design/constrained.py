@@ -447,6 +447,7 @@ def design_field(
     align_strength: float = ALIGN_STRENGTH,
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
+    curvature_smoothing: float | None = None,
 ) -> np.ndarray:
     """The smoothest tangent N-field meeting direction constraints (Knöppel et al. 2013).
 
@@ -502,6 +503,11 @@ def design_field(
         Sparse factorization (:mod:`fvf.numerics.cholesky`).
     progress : None, bool or callable
         ``True`` for a tqdm bar, or a callback ``(stage, done, total)``.
+    curvature_smoothing : float, optional
+        A length ℓ > 0 (mesh units): use the connection whose holonomy is the angle defect
+        smoothed over ℓ (:mod:`fvf.design.holonomy`), so that vertices with a large angle
+        defect (spikes, pinches, valence-4 vertices of remeshed scans) do not each force
+        a cone. Closed meshes, ``kind="knoppel"``. Default: the Levi-Civita connection.
 
     Returns
     -------
@@ -556,9 +562,17 @@ def design_field(
     report = make_progress(progress)
     f, tau = _given_constraints(mesh, faces, directions, points, weights, hard, normalize)
     if f.size == 0 and align is None:
-        return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
+        return smoothest_fields(
+            mesh,
+            1,
+            kind,
+            n=n,
+            backend=backend,
+            progress=progress,
+            curvature_smoothing=curvature_smoothing,
+        )[1][0]
     report("assemble", 0, 1)
-    L = connection_laplacian(mesh, kind, n)
+    L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     A = mesh.face_areas
     pen, rhs = _alignment_terms(mesh, n, align, align_weights, align_strength)
     seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
@@ -579,7 +593,15 @@ def design_field(
             UnconstrainedComponentWarning,
             stacklevel=2,
         )
-        return smoothest_fields(mesh, 1, kind, n=n, backend=backend, progress=progress)[1][0]
+        return smoothest_fields(
+            mesh,
+            1,
+            kind,
+            n=n,
+            backend=backend,
+            progress=progress,
+            curvature_smoothing=curvature_smoothing,
+        )[1][0]
     active = _active_faces(L, seeds)
     if hard:
         fixed, tau_fixed = f, tau_n
