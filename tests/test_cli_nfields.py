@@ -41,6 +41,29 @@ def test_design_smoothest_cross_on_sphere_and_vector_default(tmp_path):
         assert d["singularity_indices"].sum() == 2
 
 
+def test_design_with_curvature_smoothing(tmp_path, capsys):
+    """--curvature-smoothing L is design_field(..., curvature_smoothing=L); on a flat-faced
+    icosahedron it turns the 16 cones pinned to the 12 corners into a sphere's 8."""
+    from fvf.mesh.shapes import _icosahedron, midpoint_subdivision
+
+    X, F = _icosahedron()
+    for _ in range(3):
+        X, F = midpoint_subdivision(X, F)
+    mesh = fvf.TriMesh(X, F)
+    path = tmp_path / "ico.obj"
+    fvf.write_mesh(path, mesh.vertices, mesh.faces)
+    ell = 3 * mesh.mean_edge_length
+    out = tmp_path / "c.npz"
+    args = ["design", str(path), "--n", "4", "--curvature-smoothing", repr(ell), "-o", str(out)]
+    assert main(args) == 0
+    with np.load(out) as d:
+        np.testing.assert_array_equal(d["singularity_indices"], np.full(8, 0.25))
+        expected = fvf.design_field(fvf.TriMesh(*fvf.read_mesh(path)), n=4, curvature_smoothing=ell)
+        np.testing.assert_allclose(d["v"], expected, atol=1e-12)
+    bad = ["design", str(path), "--n", "4", "--curvature-smoothing", "-1", "-o", str(out)]
+    assert main(bad) != 0 and "curvature_smoothing" in capsys.readouterr().err
+
+
 def test_design_bad_n_exits_with_input_error(torus_file, tmp_path, capsys):
     _, path = torus_file
     code = main(["design", str(path), "--n", "0", "-o", str(tmp_path / "x.npz")])

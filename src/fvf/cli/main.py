@@ -537,7 +537,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     if args.soft is not None:
         kwargs["weights"] = arrays["weights"] = _array(args.soft)
     n = args.n
-    kwargs.update(n=n, progress=_progress(args))
+    kwargs.update(n=n, progress=_progress(args), curvature_smoothing=args.curvature_smoothing)
     if args.align is not None:
         kwargs["align"] = args.align
         if args.align_strength is not None:
@@ -1059,6 +1059,13 @@ def _add_design_commands(sub: Any) -> None:
         "--align", choices=("curvature",), help="align to principal curvature directions (even n)"
     )
     p.add_argument("--align-strength", type=_real, metavar="B", help="alignment weight (1)")
+    p.add_argument(
+        "--curvature-smoothing",
+        type=_real,
+        metavar="L",
+        help="design with the angle defect smoothed over length L (mesh units), so that "
+        "spikes of a scan do not each force a cone (closed meshes)",
+    )
     p.add_argument("--progress", action="store_true", help=_PROGRESS)
     _add_output(p, "output .npz (keys v, n, singularity_*)")
     p.set_defaults(run=_cmd_design)
