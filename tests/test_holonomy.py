@@ -50,6 +50,23 @@ def test_rotations_give_the_smoothed_holonomy_exactly():
     assert connection_laplacian(mesh, n=4) is not L  # cached apart from the plain one
 
 
+def test_each_component_keeps_its_own_total():
+    """Two disjoint spheres: the heat step and the rotations work per component (one
+    grounded vertex each), so each keeps 4π and the identity holds on both."""
+    a, b = fvf.jittered_sphere(2, seed=1), fvf.icosphere(2)
+    X = np.vstack([a.vertices, b.vertices + [3.0, 0.0, 0.0]])
+    F = np.vstack([a.faces, b.faces + a.n_vertices])
+    mesh = fvf.TriMesh(X, F)
+    ell = 2 * mesh.mean_edge_length
+    Kt = smoothed_angle_defects(mesh, ell)
+    assert Kt[: a.n_vertices].sum() == pytest.approx(4 * np.pi, abs=1e-10)
+    assert Kt[a.n_vertices :].sum() == pytest.approx(4 * np.pi, abs=1e-10)
+    x = holonomy_rotations(mesh, ell)
+    E = mesh.edges
+    div = np.bincount(E[:, 1], x, mesh.n_vertices) - np.bincount(E[:, 0], x, mesh.n_vertices)
+    np.testing.assert_allclose(div, _angle_defects(mesh) - Kt, atol=1e-10)
+
+
 def test_smoothing_frees_the_cones_of_a_flat_icosahedron():
     """Plain connection: the smoothest cross field has a cone on each of the 12 spikes
     (12 × +1/4 and 4 × −1/4 elsewhere). Smoothed over three edges: the 8 × +1/4 of a
