@@ -561,7 +561,8 @@ def design_field(
     n = as_direction_count(n)
     report = make_progress(progress)
     f, tau = _given_constraints(mesh, faces, directions, points, weights, hard, normalize)
-    if f.size == 0 and align is None:
+
+    def smoothest() -> np.ndarray:  # nothing to meet: the smoothest N-field
         return smoothest_fields(
             mesh,
             1,
@@ -571,6 +572,9 @@ def design_field(
             progress=progress,
             curvature_smoothing=curvature_smoothing,
         )[1][0]
+
+    if f.size == 0 and align is None:
+        return smoothest()
     report("assemble", 0, 1)
     L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     A = mesh.face_areas
@@ -593,15 +597,7 @@ def design_field(
             UnconstrainedComponentWarning,
             stacklevel=2,
         )
-        return smoothest_fields(
-            mesh,
-            1,
-            kind,
-            n=n,
-            backend=backend,
-            progress=progress,
-            curvature_smoothing=curvature_smoothing,
-        )[1][0]
+        return smoothest()
     active = _active_faces(L, seeds)
     if hard:
         fixed, tau_fixed = f, tau_n
