@@ -39,10 +39,9 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from ..calculus import stiffness, vertex_areas
-from ..errors import ParameterError
+from ..errors import ParameterError, format_indices
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import factor_hermitian
 from .indices import _angle_defects
@@ -62,12 +61,11 @@ def smoothing_length(length: float) -> float:
 
 
 def _require_closed(mesh: TriMesh) -> None:
-    boundary = np.flatnonzero((mesh.edge_faces < 0).any(axis=1))
-    if boundary.size:
+    if not mesh.is_closed:
         raise ParameterError(
-            f"curvature smoothing needs a closed mesh; edges {boundary[:8].tolist()} "
-            f"({boundary.size} in all) are on a boundary. Fix: fill the holes, or design "
-            "without curvature_smoothing"
+            f"curvature smoothing needs a closed mesh; edges "
+            f"{format_indices(mesh.boundary_edges)} are on a boundary. Fix: fill the holes, "
+            "or design without curvature_smoothing"
         )
 
 
@@ -90,9 +88,11 @@ def smoothed_angle_defects(mesh: TriMesh, length: float) -> np.ndarray:
     ell = smoothing_length(length)
     _require_closed(mesh)
     K = _angle_defects(mesh)
-    M = sp.diags_array(vertex_areas(mesh))
-    u = factor_hermitian(sp.csr_array(M + ell**2 * stiffness(mesh)), "auto").solve(K)
-    return vertex_areas(mesh) * u
+    A = vertex_areas(mesh)
+    u = factor_hermitian(sp.csr_array(sp.diags_array(A) + ell**2 * stiffness(mesh)), "auto").solve(
+        K
+    )
+    return A * u
 
 
 def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
@@ -123,10 +123,8 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
         (np.concatenate([np.ones(ne), -np.ones(ne)]), (rows, np.concatenate([E[:, 1], E[:, 0]]))),
         shape=(ne, n),
     )
-    graph = sp.csr_array((np.ones(ne), (E[:, 0], E[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
     keep = np.ones(n, dtype=bool)
-    keep[np.unique(label, return_index=True)[1]] = False  # one grounded vertex per component
+    keep[np.unique(mesh.vertex_components, return_index=True)[1]] = False  # one per component
     Gk = G[:, np.flatnonzero(keep)]
     phi = np.zeros(n)
     phi[keep] = factor_hermitian(sp.csr_array(Gk.T @ Gk), "auto").solve((K - target)[keep])
