@@ -27,7 +27,7 @@ from conftest import SHARED_MESHES, shared_mesh_path
 from fvf.batch import driver as batch_driver
 from fvf.batch.inputs import find_meshes, plan_inputs, read_pairs, unique_names
 from fvf.batch.registry import resolve_tasks
-from fvf.batch.runner import MeshJob, run_job
+from fvf.batch.runner import MeshJob, run_job, run_jobs
 from fvf.batch.store import options_text, output_lock, write_summary
 from fvf.cli.main import EXIT_BAD_INPUT, EXIT_OK, EXIT_PROBLEMS, EXIT_UNAVAILABLE, main
 
@@ -299,6 +299,46 @@ def test_run_job_failures_are_rows(tmp_path):
         assert not Path(job.result).exists()
     assert rows["nonmanifold"]["info_problems"] == 1  # a failed row keeps what was found
     assert "fvf info" in rows["nonmanifold"]["error"]
+
+
+def test_run_jobs_flushes_the_group_once_and_fails_it_on_a_disk_error(tmp_path, monkeypatch):
+    """A group of jobs: results renamed into place as they finish, flushed together at the
+    end; if that flush fails, the group's new results are removed and their rows failed."""
+    import errno
+
+    import fvf.io.atomic as atomic
+
+    tasks, opts = ("info", "basis"), {"k": K}
+    paths = [_write(tmp_path / f"m{i}.off", fvf.icosphere(1 + i % 2)) for i in range(3)]
+    jobs = [
+        MeshJob(
+            p.stem,
+            str(p),
+            str(tmp_path / "out" / f"{p.stem}.npz"),
+            tasks,
+            opts,
+            options_text(tasks, opts),
+            "t",
+        )  # fmt: skip
+        for p in paths
+    ]
+    flushed, real = [], atomic._fsync_file
+    monkeypatch.setattr(atomic, "_fsync_file", lambda p: (flushed.append(Path(p)), real(p)))
+    rows = run_jobs(jobs)
+    assert [r["status"] for r in rows] == ["ok"] * 3
+    assert flushed == [Path(j.result) for j in jobs]  # the finals, after the group: no temps
+    flushed.clear()
+    assert [r["status"] for r in run_jobs(jobs)] == ["skipped"] * 3 and flushed == []
+
+    def broken(path):
+        raise OSError(errno.EIO, "Input/output error")
+
+    Path(jobs[1].result).unlink()
+    monkeypatch.setattr(atomic, "_fsync_file", broken)
+    rows = run_jobs(jobs)
+    assert [r["status"] for r in rows] == ["skipped", "failed", "skipped"]
+    assert rows[1]["error"].startswith("OutputWriteError") and "m1.npz" in rows[1]["error"]
+    assert not Path(jobs[1].result).exists()  # removed: the rerun recomputes it
 
 
 def test_output_lock(tmp_path):

@@ -30,7 +30,13 @@ from fvf.cli.main import (
     main,
 )
 from fvf.errors import InputOverwriteError, OutputWriteError
-from fvf.io.atomic import atomic_path, atomic_write_text, check_not_input, same_file
+from fvf.io.atomic import (
+    atomic_path,
+    atomic_write_text,
+    check_not_input,
+    deferred_fsync,
+    same_file,
+)
 from fvf.io.datafile import read_data, write_data
 
 SRC = str(Path(fvf.__file__).resolve().parents[1])
@@ -69,6 +75,70 @@ def test_atomic_path_replaces_whole_or_not_at_all(tmp_path):
             tmp.write_bytes(b"half")
             raise exc
         assert out.read_bytes() == before and temporaries(tmp_path) == []
+
+
+def _count_fsyncs(monkeypatch) -> list[str]:
+    """Record what os.fsync flushes (file or folder name), calling the real one."""
+    flushed, real = [], os.fsync
+
+    def fsync(fd):
+        flushed.append(os.path.basename(os.readlink(f"/proc/self/fd/{fd}")))
+        real(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    return flushed
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+def test_deferred_fsync_renames_at_once_and_flushes_at_the_end(tmp_path, monkeypatch):
+    (tmp_path / "sub").mkdir()
+    flushed = _count_fsyncs(monkeypatch)
+    atomic_write_text(tmp_path / "alone.txt", "x")
+    assert len(flushed) == 2 and flushed[1] == tmp_path.name  # the file, then its folder
+    assert flushed[0].startswith(".alone.txt.")  # the temporary file, before its rename
+    flushed.clear()
+    names = ["a.txt", "b.txt", "sub/c.txt", "a.txt"]
+    with deferred_fsync() as pending:
+        for i, name in enumerate(names):
+            atomic_write_text(tmp_path / name, f"v{i}")
+            assert (tmp_path / name).read_text() == f"v{i}"  # whole and in place already
+        assert flushed == [] and temporaries(tmp_path) == []
+        assert pending == [tmp_path / n for n in names]
+    # each file once (a.txt was written twice), then each folder once
+    assert flushed == ["a.txt", "b.txt", "c.txt", tmp_path.name, "sub"]
+    assert (tmp_path / "a.txt").read_text() == "v3"
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+def test_deferred_fsync_is_per_thread_and_skipped_on_errors(tmp_path, monkeypatch):
+    import threading
+
+    flushed = _count_fsyncs(monkeypatch)
+    with deferred_fsync():
+        other = threading.Thread(target=atomic_write_text, args=(tmp_path / "t.txt", "t"))
+        other.start()
+        other.join()
+        assert len(flushed) == 2  # the other thread is outside the block: flushed at once
+        atomic_write_text(tmp_path / "mine.txt", "m")
+        assert len(flushed) == 2
+    assert flushed[2:] == ["mine.txt", tmp_path.name]
+    flushed.clear()
+    with pytest.raises(RuntimeError), deferred_fsync():
+        atomic_write_text(tmp_path / "late.txt", "l")
+        raise RuntimeError("boom")
+    assert flushed == [] and (tmp_path / "late.txt").read_text() == "l"  # renamed, whole
+
+
+def test_deferred_fsync_failure_names_the_file(tmp_path, monkeypatch):
+    import errno
+
+    def broken(fd):
+        raise OSError(errno.EIO, "Input/output error")
+
+    with pytest.raises(OutputWriteError, match=r"x\.txt.*Input/output error"):
+        with deferred_fsync():
+            atomic_write_text(tmp_path / "x.txt", "x")
+            monkeypatch.setattr(os, "fsync", broken)
 
 
 def test_atomic_path_keeps_the_mode_and_replaces_links(tmp_path):

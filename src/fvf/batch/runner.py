@@ -27,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from ..io.atomic import atomic_path
+from ..errors import OutputWriteError
+from ..io.atomic import atomic_path, deferred_fsync
 from ..io.datafile import write_data
 from ..io.meshfile import read_mesh
 from . import tasks as _builtin  # noqa: F401 (registers the built-in tasks)
@@ -273,5 +274,22 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
 
 def run_jobs(jobs: Sequence[MeshJob | PairJob]) -> list[dict[str, Any]]:
     """:func:`run_job` for several jobs, one after the other (what one Dask task runs: a
-    large mesh alone, or a group of small ones); their rows, in order."""
-    return [run_job(job) for job in jobs]
+    large mesh alone, or a group of small ones); their rows, in order.
+
+    The result files are flushed to disk together when the last job is done
+    (:func:`fvf.io.atomic.deferred_fsync`), before the rows are returned: a row that
+    reaches the driver as ``ok`` is on disk. Should that flush fail (a disk I/O error), the
+    group's new result files are removed and their rows are ``failed`` with the error, so
+    a rerun recomputes them.
+    """
+    rows: list[dict[str, Any]] = []
+    try:
+        with deferred_fsync():
+            rows.extend(run_job(job) for job in jobs)
+    except OutputWriteError as exc:
+        for row in rows:
+            if row["status"] == "ok":
+                with contextlib.suppress(OSError):
+                    Path(row["result"]).unlink()
+                row.update(status="failed", error=_one_line(exc))
+    return rows
