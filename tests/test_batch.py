@@ -606,6 +606,28 @@ def _corpus_files(folder: Path, count: int, level: int = 3) -> list[Path]:
     ]
 
 
+def _held(ctx):
+    """A task reporting how many tasks its worker holds (running or waiting to run)."""
+    state = distributed.get_worker().state
+    time.sleep(0.05)  # long enough for the scheduler to hand out whatever it would
+    return fvf.batch.TaskOutput(figures={"tasks": len(state.executing) + len(state.ready)})
+
+
+def test_workers_hold_only_the_task_they_run(client, tmp_path):
+    """No worker holds a task waiting behind the one it runs, so a dying worker takes only
+    its own task down (Dask's scheduler would send a worker every task submitted for it:
+    it queues only large groups of like tasks, and these are not)."""
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    files = _corpus_files(tmp_path / "in", 12, level=1)
+    held = fvf.batch.Task("held", _held)
+    rows = fvf.batch.run(files, tmp_path / "out", tasks=[held], client=client, progress=False,
+                         as_frame=False)  # fmt: skip
+    assert [r["status"] for r in rows] == ["ok"] * 12
+    assert {r["held_tasks"] for r in rows} == {1}
+
+
 @pytest.mark.slow
 def test_killed_worker_job_is_retried_and_a_killer_mesh_fails(tmp_path):
     """SIGKILL of a busy worker: its job reruns elsewhere and the batch completes; a mesh
