@@ -15,6 +15,8 @@ Two corpora, written to a temporary folder (the shared meshes are read from
   spheres, jittered spheres, tori and disks of 80 to 23k faces: 40 meshes in all;
 - **small**: 40 generated meshes of 80 to 1,300 faces (42 to 650 vertices), where the
   per-mesh cost of the batch machinery (scheduling, hashing, the result file) shows most.
+  The loop and a 1-worker batch also run over 40 and 80 such meshes: the slope is the
+  cost of one more mesh, the intercept the per-run cost.
 
 Each mesh runs the default tasks (``info, basis, fields, singularities``, ``k``
 eigenpairs). The **serial loop** calls the same library functions in this process, one
@@ -98,11 +100,11 @@ def mixed_corpus(folder: Path, quick: bool) -> list[Path]:
     return files
 
 
-def small_corpus(folder: Path, quick: bool) -> list[Path]:
-    """40 generated meshes of 80 to ~1,300 faces."""
+def small_corpus(folder: Path, quick: bool, count: int = 40) -> list[Path]:
+    """``count`` generated meshes of 80 to ~1,300 faces (the first 40 are always the same)."""
     folder.mkdir(parents=True, exist_ok=True)
     files = []
-    for i in range(40 if not quick else 8):
+    for i in range(count if not quick else 8):
         kind = i % 4
         if kind == 0:
             mesh = fvf.jittered_sphere(1 + i % 3, 0.3, seed=i)
@@ -257,6 +259,33 @@ def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, t
     return wall, cpu
 
 
+def marginal(files: list[Path], k: int, repeats: int, client, tmp: Path) -> None:
+    """Cost of one more small mesh: the loop and a 1-worker batch over the first half and
+    over all of ``files``, interleaved; the slope between the two sizes is the per-mesh
+    cost, the intercept the per-run cost (for the batch: planning, the lock, the first and
+    last round trip, summary.csv)."""
+    half = len(files) // 2
+    runs: dict[str, dict[int, list[float]]] = {"loop": {}, "batch": {}}
+    for r in range(repeats):
+        for size in (half, len(files)):
+            out = tmp / f"marginal-{r}-{size}"
+            runs["loop"].setdefault(size, []).append(serial_loop(files[:size], out / "l", k)[0])
+            runs["batch"].setdefault(size, []).append(batch(files[:size], out / "b", k, client)[0])
+            shutil.rmtree(out)
+    slope, fixed = {}, {}
+    for label, by_size in runs.items():
+        small, large = (statistics.median(by_size[s]) for s in (half, len(files)))
+        slope[label] = (large - small) / (len(files) - half)
+        fixed[label] = small - half * slope[label]
+    extra = slope["batch"] / slope["loop"] - 1
+    print(
+        f"\nOne more small mesh ({half} -> {len(files)} meshes, medians of {repeats}): loop "
+        f"{1e3 * slope['loop']:.1f} ms, batch on 1 worker {1e3 * slope['batch']:.1f} ms "
+        f"({100 * extra:+.1f} %, goal <= +10 %: {'PASS' if extra <= 0.10 else 'MISS'}); per "
+        f"run: loop {1e3 * fixed['loop']:.0f} ms, batch {1e3 * fixed['batch']:.0f} ms"
+    )
+
+
 def report(name: str, files: list[Path], wall: dict, cpu: dict, startup: dict) -> None:
     n = len(files)
     faces = [fvf.read_mesh(f)[1].shape[0] for f in files]
@@ -322,6 +351,9 @@ def main() -> None:
                 continue
             wall, cpu = measure(name, files, args.k, repeats, clients, tmp)
             report(name, files, wall, cpu, startup)
+            if name == "small":
+                more = small_corpus(tmp / "small", args.quick, count=2 * len(files))
+                marginal(more, args.k, repeats, clients[1], tmp)
         print(f"\nload average after: {os.getloadavg()}")
     finally:
         for cluster, client in clusters.values():

@@ -87,8 +87,8 @@ def deferred_fsync() -> Iterator[list[Path]]:
     once. Several small files flushed together cost a fraction of flushing each on its
     own (16 result files of a batch: about 0.6 ms each instead of 1.3-2.7 ms, on ext4).
     What a power cut (not a killed process) can then cost is the files written since the
-    block began: they may be missing or empty, never half of a new file renamed over
-    the old one.
+    block began: they may be missing, empty or damaged on disk, so use it where such a
+    file is detected and recomputed (a batch's results carry their key and are reloaded).
 
     Yields
     ------
