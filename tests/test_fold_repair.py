@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from fvf.param.folds import _Responses, face_distortion
+from fvf.param.folds import _Responses, face_distortion, flip_count, integer_moves
 from fvf.param.rounding import MixedIntegerSolver
 
 
@@ -48,3 +48,31 @@ def test_responses_rows_and_columns_equal_the_dense_response_matrix():
         kept = np.abs(R[:, c]) >= 1e-2 * np.abs(R[:, c]).max()
         np.testing.assert_array_equal(idx, np.flatnonzero(kept))
         np.testing.assert_allclose(vals, R[kept, c], atol=1e-10)
+
+
+def test_integer_moves_keep_the_real_unknowns_they_were_given():
+    """Moves are chosen on the fit K y + R Δw of the y given (which need not minimize the
+    solver's fit, e.g. after a local repair); the y returned has exactly that fit, its
+    integers moved by Δw and its real unknowns changed by −H_rr⁻¹ H_ri Δw."""
+    rng = np.random.default_rng(5)
+    rows, p = 160, 48  # 40 faces of 4 rows
+    K = sp.csr_array(
+        sp.random_array((rows, p), density=0.2, rng=rng, format="csr")
+        + sp.eye_array(rows, p, format="csr")
+    )
+    integer = np.array([2, 7, 11, 19, 23, 31])
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), integer, backend="scipy")
+    b = rng.standard_normal(rows)
+    g = K.T @ b
+    y = solver.rounded(g, batch=0.05)
+    y[solver.real_idx] += 0.3 * rng.standard_normal(solver.real_idx.size)  # not a minimizer
+    out = integer_moves(solver, K, g, y)
+    step = out[integer] - y[integer]
+    assert np.count_nonzero(step) > 0 and np.array_equal(step, np.round(step))
+    Kd, real = K.toarray(), solver.real_idx
+    H = Kd.T @ Kd
+    Z = np.linalg.solve(H[np.ix_(real, real)], H[np.ix_(real, integer)])
+    np.testing.assert_allclose(out[real], y[real] - Z @ step, atol=1e-10)
+    R = Kd[:, integer] - Kd[:, real] @ Z
+    np.testing.assert_allclose(K @ out, K @ y + R @ step, atol=1e-10)
+    assert flip_count(K @ out) < flip_count(K @ y)

@@ -128,14 +128,14 @@ def test_bad_fold_repair_steps(steps):
 
 @pytest.mark.slow
 def test_spot_fold_is_warned_without_repair_and_untangled_with_it():
-    """On spot at 1500 quads one quad next to a cone is folded as extracted."""
+    """On spot at 1200 quads two quads next to cones are folded as extracted."""
     mesh = load_shared("spot.obj")
-    with pytest.warns(fvf.FoldedQuadWarning, match=r"\(1 in all\)"):
-        V0, Q0 = fvf.quad_mesh(mesh, target_faces=1500, fold_repair_steps=0)
-    assert fvf.quad_quality(mesh, V0, Q0).n_folded == 1
+    with pytest.warns(fvf.FoldedQuadWarning, match=r"\(2 in all\)"):
+        V0, Q0 = fvf.quad_mesh(mesh, target_faces=1200, fold_repair_steps=0)
+    assert fvf.quad_quality(mesh, V0, Q0).n_folded == 2
     with warnings.catch_warnings():
         warnings.simplefilter("error", fvf.FoldedQuadWarning)
-        V, Q = fvf.quad_mesh(mesh, target_faces=1500)
+        V, Q = fvf.quad_mesh(mesh, target_faces=1200)
     assert np.array_equal(Q, Q0) and fvf.quad_quality(mesh, V, Q).n_folded == 0
     moved = np.flatnonzero(np.linalg.norm(V - V0, axis=1) > 0)
     assert 0 < moved.size <= 16

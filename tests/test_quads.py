@@ -44,12 +44,15 @@ def check_closed_quads(mesh, V, Q):
 
 
 def check_orientation(mesh, V, Q):
-    """Every quad's normal (cross of its diagonals) agrees with the nearest input face."""
+    """Every quad's normal (cross of its diagonals) agrees with the input's normal there:
+    the area-weighted normal of the 8 input faces with the nearest centroids (one nearest
+    face alone can stand across a crease, at right angles to the quad)."""
     from scipy.spatial import cKDTree
 
     n = np.cross(V[Q[:, 2]] - V[Q[:, 0]], V[Q[:, 3]] - V[Q[:, 1]])
-    _, f = cKDTree(mesh.face_centroids).query(V[Q].mean(axis=1))
-    assert np.all(np.einsum("qd,qd->q", n, mesh.face_normals[f]) > 0)
+    _, f = cKDTree(mesh.face_centroids).query(V[Q].mean(axis=1), k=8)
+    local = (mesh.face_areas[f][..., None] * mesh.face_normals[f]).sum(axis=1)
+    assert np.all(np.einsum("qd,qd->q", n, local) > 0)
 
 
 def check_seamless(mesh, r, tol=1e-9):

@@ -166,7 +166,8 @@ def local_repair(
         rhs_rows = b[touched] - (K[touched] @ y - Kf @ y[free])
         H = Kf.T @ sp.diags_array(sw) @ Kf
         y = y.copy()
-        y[free] = factor_hermitian(sp.csr_array(H), backend).solve(Kf.T @ (sw * rhs_rows))
+        fac = factor_hermitian(sp.csr_array(H), backend, solves="few")
+        y[free] = fac.solve(Kf.T @ (sw * rhs_rows))
         count = flip_count(K @ y)
         if count < best:
             best, best_y = count, y
@@ -238,9 +239,12 @@ def integer_moves(
     Returns
     -------
     float64 (p,)
-        The moved solution, real unknowns re-solved.
+        ``y`` with the moved integers, and its real unknowns changed as re-solving
+        changes them: y_r − H_rr⁻¹ H_ri Δw for the integer steps Δw (the fit is then
+        K y + R Δw, exactly what the moves were chosen on; ``y`` need not be the
+        minimizer of ``solver``'s fit, e.g. after :func:`local_repair`).
     """
-    yr0, r = solver.reduced(g)
+    _, r = solver.reduced(g)
     w = y[solver.integer].copy()
     fit = (K @ y).reshape(-1, 4)
     R = _Responses(solver, K)
@@ -278,7 +282,12 @@ def integer_moves(
         rows, vals = R.columns(np.array([i]))[0]
         fit.ravel()[rows] += step * vals
         flipped = ~(det(fit) > 0)
-    return solver.assemble(yr0, w)
+    step_w = w - y[solver.integer]
+    out = y.copy()
+    out[solver.integer] = w
+    if step_w.any():
+        out[solver.real_idx] -= solver.fac.solve(solver.Hri @ step_w)
+    return out
 
 
 def repair_folds(
@@ -311,7 +320,7 @@ def repair_folds(
         and rounding of the stiffened fit while flips remain).
     batch : float
         Greedy rounding batch (:meth:`MixedIntegerSolver.rounded`).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
     progress : callable, optional
         Called with a message per round.
 
@@ -341,8 +350,14 @@ def repair_folds(
         y, w = local_repair(mesh, K, solver.real_idx, y, b, w, backend=backend)
         if keep(y) == 0:
             break
-        y = integer_moves(solver, K, g, y)
-        if keep(y) == 0 or it == rounds - 1:
+        moved = integer_moves(solver, K, g, y)
+        if keep(moved) == 0:
+            break
+        if not np.array_equal(moved, y):  # the moves may let a local repair finish
+            y, w = local_repair(mesh, K, solver.real_idx, moved, b, w, backend=backend)
+            if keep(y) == 0:
+                break
+        if it == rounds - 1:
             break
         w = stiffen(mesh, w, K @ y, b)
         sw = np.repeat(np.sqrt(w), 4)
