@@ -172,3 +172,29 @@ def test_work_is_bounded_on_a_noise_field(monkeypatch):
     out = fvf.separate_close_singularities(mesh, u, 4, radius=radius, rounds=rounds)
     assert len(calls) <= 1 + rounds * (1 + 2 * cancellation.RETRY_MAX)
     assert out.shape == u.shape and np.allclose(np.linalg.norm(out, axis=1), 1.0)
+
+
+def test_tidy_equals_the_four_edits_with_one_factorization(monkeypatch):
+    """tidy_close_singularities is cancel, separate, cancel, split one after the other, with
+    the dual-graph matrix factored once (each of the four calls factors its own)."""
+    from fvf.design import cancellation
+    from fvf.design.cancellation import split_large_singularities, tidy_close_singularities
+
+    mesh = fvf.spot()
+    u = fvf.design_field(mesh, n=4, align="curvature")
+    r = 3.0 * mesh.mean_edge_length
+    factored = []
+    real = cancellation.factor_hermitian
+    monkeypatch.setattr(
+        cancellation, "factor_hermitian", lambda *a, **k: factored.append(1) or real(*a, **k)
+    )
+    v = fvf.cancel_close_singularities(mesh, u, 4, radius=r)
+    v = fvf.separate_close_singularities(mesh, v, 4, radius=r)
+    v = fvf.cancel_close_singularities(mesh, v, 4, radius=r)
+    v = split_large_singularities(mesh, v, 4, radius=r, max_step=2)
+    separately = len(factored)
+    factored.clear()
+    w = tidy_close_singularities(mesh, u, 4, radius=r, max_step=2)
+    np.testing.assert_allclose(w, v, atol=1e-12)  # each call normalizes again: rounding
+    assert separately >= 2 and len(factored) == 1  # the uniform matrix is not needed here
+    assert fvf.singularities(mesh, w, n=4)[0].size < fvf.singularities(mesh, u, n=4)[0].size

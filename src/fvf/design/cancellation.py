@@ -69,6 +69,7 @@ from .nfields import _check_nonzero, _edge_angles
 __all__ = [
     "cancel_close_singularities",
     "separate_close_singularities",
+    "tidy_close_singularities",
     "close_singularity_pairs",
     "close_equal_pairs",
     "KEEP_WEIGHT",
@@ -209,10 +210,25 @@ class _Reangler:
         self.w = w
         mu = KEEP_WEIGHT * mesh.face_areas / radius**2
         H = (self.D.T @ sp.diags_array(w) @ self.D + sp.diags_array(mu)).tocsr()
-        self.fac = factor_hermitian(H, backend)
+        self.fac = factor_hermitian(H, backend, solves="few")
 
     def __call__(self, delta: np.ndarray) -> np.ndarray:
         return self.fac.solve(-(self.D.T @ (self.w * delta)))
+
+
+class _Reanglers:
+    """The weighted and the uniform :class:`_Reangler` of one mesh and radius, each
+    factored when first used; shared by consecutive edits of the same field
+    (:func:`tidy_close_singularities`), so that the dual-graph matrix is factored once."""
+
+    def __init__(self, mesh: TriMesh, radius: float, backend: Backend) -> None:
+        self._args = (mesh, radius, backend)
+        self._built: dict[bool, _Reangler] = {}
+
+    def __call__(self, uniform: bool = False) -> _Reangler:
+        if uniform not in self._built:
+            self._built[uniform] = _Reangler(*self._args, uniform=uniform)
+        return self._built[uniform]
 
 
 def _checked(
@@ -254,7 +270,7 @@ def cancel_close_singularities(
         edge length.
     rounds : int
         Pair, cancel and re-measure at most this many times.
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Sparse factorization of the dual-graph system.
 
     Returns
@@ -271,6 +287,12 @@ def cancel_close_singularities(
         Wrong shape, non-finite values or a zero vector on some face.
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
+    reanglers = _Reanglers(mesh, radius, backend)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius))
+
+
+def _cancelling(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
+    """``moves_for`` and ``better`` of :func:`cancel_close_singularities` (see _edit)."""
 
     def moves_for(ids, steps):
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
@@ -280,7 +302,7 @@ def cancel_close_singularities(
     def better(before, after):  # a lower total |index|, none of a higher index
         return _total(after) < _total(before) and _peak(after) <= _peak(before)
 
-    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+    return moves_for, better
 
 
 def _total(state: tuple[np.ndarray, np.ndarray]) -> int:
@@ -322,7 +344,7 @@ def _edit(
     n: int,
     radius: float,
     rounds: int,
-    backend: Backend,
+    reanglers: _Reanglers,
     moves_for: Callable[[np.ndarray, np.ndarray], list],
     better: Callable[[tuple, tuple], bool],
 ) -> np.ndarray:
@@ -334,14 +356,12 @@ def _edit(
     ``_measure`` results. The re-measure guards against the re-solve turning the field by
     more than π/N across an edge, which would make other singularities than planned.
     """
-    reangle: _Reangler | None = None
-    uniform: _Reangler | None = None
     state = _measure(mesh, u, n)
     for _ in range(int(rounds)):  # a few rounds: an edit can expose the next pair
         moves = moves_for(*state)
         if not moves:
             break
-        reangle = reangle or _Reangler(mesh, radius, backend)
+        reangle = reanglers()
         trial = _apply_moves(mesh, u, n, moves, radius, reangle)
         after = _measure(mesh, trial, n)
         if better(state, after):
@@ -352,8 +372,7 @@ def _edit(
             trial = _apply_moves(mesh, u, n, [move], radius, reangle)
             after = _measure(mesh, trial, n)
             if not better(state, after):  # the uniform-weight re-solve (module docstring)
-                uniform = uniform or _Reangler(mesh, radius, backend, uniform=True)
-                trial = _apply_moves(mesh, u, n, [move], radius, uniform)
+                trial = _apply_moves(mesh, u, n, [move], radius, reanglers(uniform=True))
                 after = _measure(mesh, trial, n)
             if better(state, after):
                 u, state, progress = trial, after, True
@@ -418,7 +437,7 @@ def separate_close_singularities(
         3D distance below which a pair of equal singularities is separated.
     rounds : int
         Pair, move and re-measure at most this many times.
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
 
     Returns
     -------
@@ -434,6 +453,12 @@ def separate_close_singularities(
         Wrong shape, non-finite values or a zero vector on some face.
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
+    reanglers = _Reanglers(mesh, radius, backend)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius))
+
+
+def _separating(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
+    """``moves_for`` and ``better`` of :func:`separate_close_singularities`."""
 
     def moves_for(ids, steps):
         step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
@@ -452,7 +477,7 @@ def separate_close_singularities(
             close_equal_pairs(mesh, after[0], after[1], radius)
         ) < len(close_equal_pairs(mesh, before[0], before[1], radius))
 
-    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+    return moves_for, better
 
 
 def _separation_targets(
@@ -504,6 +529,12 @@ def split_large_singularities(
     and their sum can reach a measured index of −3/4. ``u``: unit representatives
     float64 (m, 3), checked by the caller; returns the edited field, float64 (m, 3).
     """
+    reanglers = _Reanglers(mesh, radius, backend)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *_splitting(mesh, radius, max_step))
+
+
+def _splitting(mesh: TriMesh, radius: float, max_step: int) -> tuple[Callable, Callable]:
+    """``moves_for`` and ``better`` of :func:`split_large_singularities`."""
 
     def excess(state: tuple[np.ndarray, np.ndarray]) -> int:
         return int(np.maximum(np.abs(state[1]) - max_step, 0).sum())
@@ -524,4 +555,62 @@ def split_large_singularities(
     def better(before: tuple, after: tuple) -> bool:
         return excess(after) < excess(before) and _peak(after) <= _peak(before)
 
-    return _edit(mesh, u, n, radius, rounds, backend, moves_for, better)
+    return moves_for, better
+
+
+def tidy_close_singularities(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int = 4,
+    *,
+    radius: float,
+    max_step: int = 2,
+    rounds: int = 3,
+    backend: Backend = "auto",
+) -> np.ndarray:
+    """The edits a quad mesh of edge length ``radius`` needs, in order, on one factored
+    matrix: opposite pairs cancelled (:func:`cancel_close_singularities`), equal pairs
+    moved apart (:func:`separate_close_singularities`), the opposite pairs those moves
+    brought close cancelled, singularities beyond ``max_step``/N split
+    (:func:`split_large_singularities`).
+
+    The same as the four calls one after the other, with the dual-graph matrix of step 3
+    (module docstring) factored once for all of them instead of once per call.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : array_like, float (m, 3)
+        One representative vector per face, non-zero on every face.
+    n : int
+        Symmetry order N ≥ 1.
+    radius : float
+        3D distance at which singularities count as close.
+    max_step : int
+        Largest |N × index| left alone.
+    rounds : int
+        Rounds of each edit at most.
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
+
+    Returns
+    -------
+    float64 (m, 3)
+        The edited field, one unit representative per face.
+
+    Raises
+    ------
+    ParameterError
+        radius negative or not finite, rounds < 0.
+    FieldShapeError
+        Wrong shape, non-finite values or a zero vector on some face.
+    """
+    n, radius, u = _checked(mesh, u, n, radius, rounds)
+    reanglers = _Reanglers(mesh, radius, backend)
+    for rules in (
+        _cancelling(mesh, radius),
+        _separating(mesh, radius),
+        _cancelling(mesh, radius),  # pairs the moves brought close
+        _splitting(mesh, radius, max_step),  # index beyond max_step / N
+    ):
+        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules)
+    return u

@@ -34,11 +34,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients
-from ..design.cancellation import (
-    cancel_close_singularities,
-    separate_close_singularities,
-    split_large_singularities,
-)
+from ..design.cancellation import tidy_close_singularities
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -351,9 +347,10 @@ def seamless_parameterization(
         (:func:`fvf.cancel_close_singularities`), then equal ones moved apart
         (:func:`fvf.separate_close_singularities`), then opposite ones cancelled again,
         then cones of index beyond ±1/2 split
-        (:func:`fvf.design.cancellation.split_large_singularities`); 0 keeps the field's
-        topology (and a cone beyond ±1/2 is refused).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+        (:func:`fvf.design.cancellation.split_large_singularities`), all on one factored
+        matrix (:func:`fvf.design.cancellation.tidy_close_singularities`); 0 keeps the
+        field's topology (and a cone beyond ±1/2 is refused).
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Sparse Cholesky backend (:mod:`fvf.numerics.cholesky`).
     progress : None, bool or callable
         ``True`` for a tqdm bar per stage, or a callback ``(stage, done, total)``
@@ -379,10 +376,7 @@ def seamless_parameterization(
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
-        u = cancel_close_singularities(mesh, u, 4, radius=r)
-        u = separate_close_singularities(mesh, u, 4, radius=r)
-        u = cancel_close_singularities(mesh, u, 4, radius=r)  # pairs the moves brought close
-        u = split_large_singularities(mesh, u, 4, radius=r, max_step=2)  # index beyond ±1/2
+        u = tidy_close_singularities(mesh, u, 4, radius=r, max_step=2, backend=backend)
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u)
     _check_cones(mesh, cm)
