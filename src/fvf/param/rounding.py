@@ -48,23 +48,29 @@ def integer_lattice(C: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarr
     k, p = A.shape
     pref = np.ones(p, dtype=bool) if prefer is None else np.asarray(prefer, dtype=bool)
     active = np.ones(k, dtype=bool)
+    # per row: non-zero count, first unit column among ``prefer`` and anywhere (-1: none);
+    # updated only for the rows an elimination step changes
+    nnz = np.zeros(k, dtype=np.int64)
+    first_pref = np.full(k, -1, dtype=np.int64)
+    first_unit = np.full(k, -1, dtype=np.int64)
+
+    def refresh(rows: np.ndarray) -> None:
+        sub = A[rows]
+        nnz[rows] = (np.abs(sub) > 0.5).sum(axis=1)
+        unit = np.abs(np.abs(sub) - 1.0) < 1e-9
+        for first, mask in ((first_pref, unit & pref[None, :]), (first_unit, unit)):
+            first[rows] = np.where(mask.any(axis=1), mask.argmax(axis=1), -1)
+
+    refresh(np.arange(k))
     pivots: list[tuple[int, int]] = []
     while True:
-        rows = np.flatnonzero(active)
-        if rows.size == 0:
-            break
-        sub = A[rows]
-        nz = np.abs(sub) > 0.5
-        nnz = nz.sum(axis=1)
-        active[rows[nnz == 0]] = False
-        unit = np.abs(np.abs(sub) - 1.0) < 1e-9
+        active &= nnz > 0
         r = c = -1
-        for mask in (unit & pref[None, :], unit):
-            has = mask.any(axis=1)
-            if has.any():
-                cand = np.flatnonzero(has)
-                i = cand[np.argmin(nnz[cand])]
-                r, c = int(rows[i]), int(np.flatnonzero(mask[i])[0])
+        for first in (first_pref, first_unit):
+            cand = np.flatnonzero(active & (first >= 0))
+            if cand.size:
+                r = int(cand[np.argmin(nnz[cand])])  # the sparsest; ties: the first row
+                c = int(first[r])
                 break
         if r < 0:
             break
@@ -74,6 +80,7 @@ def integer_lattice(C: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarr
         A[others] -= A[others, c][:, None] * A[r][None, :]
         pivots.append((r, c))
         active[r] = False
+        refresh(others)
     pcols = np.array([c for _, c in pivots], dtype=np.int64)
     free = np.setdiff1d(np.arange(p), pcols)
     N = np.zeros((p, free.size))
@@ -135,7 +142,7 @@ class MixedIntegerSolver:
         Symmetric positive definite.
     integer : int64 (k,)
         Unknowns to round.
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Factorization of H_rr.
     progress : callable, optional
         Called as ``progress(done, total)`` while the Schur complement is built.
