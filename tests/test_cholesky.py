@@ -37,11 +37,24 @@ def test_backend_errors():
     _, K = _system()
     with pytest.raises(fvf.ParameterError, match="backend"):
         factor_hermitian(K, "bogus")
-    for name in ("cholmod", "cholespy"):
+    for name in ("cholmod", "cvxopt", "cholespy"):
         if name not in available_backends():
             with pytest.raises(fvf.MissingExtraError, match="fast"):
                 factor_hermitian(K, name)
     assert available_backends()[-1] == "scipy"
+    with pytest.raises(fvf.ParameterError, match="solves"):
+        factor_hermitian(K, "auto", solves="some")
+
+
+def test_auto_backend_follows_the_number_of_solves():
+    """A factor for a few right-hand sides prefers the fastest factorization (cvxopt's
+    supernodal CHOLMOD), one for many the fastest solves (cholespy's blocked solves)."""
+    _, K = _system()
+    order = available_backends()
+    many = factor_hermitian(K, "auto", solves="many").backend
+    few = factor_hermitian(K, "auto", solves="few").backend
+    assert many == order[0]
+    assert few == ("cvxopt" if "cvxopt" in order and order[0] != "cholmod" else order[0])
 
 
 def test_lobpcg_on_one_factorization_matches_dense():

@@ -637,7 +637,7 @@ def smoothest_fields(
         600 faces, ARPACK below :data:`LOBPCG_MIN_FACES` (20k) faces, LOBPCG above
         (falling back to ARPACK with a :class:`fvf.SpectralFallbackWarning` if it does not
         converge).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Factorization of the LOBPCG preconditioner (:mod:`fvf.numerics.cholesky`; the fast
         ones need the ``[fast]`` extra).
     progress : None, bool or callable

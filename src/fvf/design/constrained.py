@@ -426,7 +426,7 @@ def _solve_design(
         Lr = L[rest]
         S = Lr[:, rest] + sp.diags_array(pen[rest])
         b = rhs[rest] - Lr[:, fixed] @ tau_fixed if fixed.size else rhs[rest]
-        z[rest] = factor_hermitian(S, backend).solve(b.astype(complex))
+        z[rest] = factor_hermitian(S, backend, solves="few").solve(b.astype(complex))
     return z
 
 
@@ -499,7 +499,7 @@ def design_field(
         ω_t ≥ 0 per face (1/length²); see :mod:`fvf.design.alignment` for the defaults.
     align_strength : float
         β ≥ 0 (default 1).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Sparse factorization (:mod:`fvf.numerics.cholesky`).
     progress : None, bool or callable
         ``True`` for a tqdm bar, or a callback ``(stage, done, total)``.

@@ -270,7 +270,7 @@ def rescale_frame(
         jumps; the bracket there is what no scaling removes.
     alpha : float
         Dimensionless smoothness weight α ≥ 0 of log a and log b (module docstring).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Sparse factorization of the (2n, 2n) normal equations.
 
     Returns
@@ -301,7 +301,7 @@ def rescale_frame(
         raise ParameterError(f"alpha must be a finite number >= 0; got {alpha!r}")
     u, v = _check_frame(mesh, u, v)
     K, rhs = _frame_system(mesh, u, v, alpha)
-    st = factor_hermitian(K, backend).solve(rhs)
+    st = factor_hermitian(K, backend, solves="few").solve(rhs)
     n = mesh.n_vertices
     A = mesh.vertex_areas
     s, t = st[:n], st[n:]

@@ -89,9 +89,8 @@ def smoothed_angle_defects(mesh: TriMesh, length: float) -> np.ndarray:
     _require_closed(mesh)
     K = _angle_defects(mesh)
     A = vertex_areas(mesh)
-    u = factor_hermitian(sp.csr_array(sp.diags_array(A) + ell**2 * stiffness(mesh)), "auto").solve(
-        K
-    )
+    heat = sp.csr_array(sp.diags_array(A) + ell**2 * stiffness(mesh))
+    u = factor_hermitian(heat, "auto", "few").solve(K)
     return A * u
 
 
@@ -127,5 +126,5 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
     keep[np.unique(mesh.vertex_components, return_index=True)[1]] = False  # one per component
     Gk = G[:, np.flatnonzero(keep)]
     phi = np.zeros(n)
-    phi[keep] = factor_hermitian(sp.csr_array(Gk.T @ Gk), "auto").solve((K - target)[keep])
+    phi[keep] = factor_hermitian(sp.csr_array(Gk.T @ Gk), "auto", "few").solve((K - target)[keep])
     return G @ phi

@@ -7,6 +7,10 @@ One entrance, :func:`factor_hermitian`, factors a sparse Hermitian (complex) or 
 ``"cholmod"``
     CHOLMOD's supernodal Cholesky through scikit-sparse (``sksparse.cholmod``), complex
     arithmetic, CHOLMOD's own fill-reducing ordering. Optional extra ``[fast]``.
+``"cvxopt"``
+    CHOLMOD's supernodal Cholesky bundled in the ``cvxopt`` wheel (``cvxopt.cholmod``),
+    real or complex arithmetic, CHOLMOD's AMD ordering. Optional extra ``[fast]``; CVXOPT
+    is GPL-3.0 licensed (fvf does not ship it: installing the extra is your choice).
 ``"cholespy"``
     CHOLMOD bundled in the ``cholespy`` wheel (real arithmetic only): a complex K is
     factored through its real (2n, 2n) form ``[[Re, −Im], [Im, Re]]`` on interleaved
@@ -17,8 +21,14 @@ One entrance, :func:`factor_hermitian`, factors a sparse Hermitian (complex) or 
     :data:`ND_MIN` unknowns on (minimum degree below). Always available; stores both L and
     U, so it needs about twice the memory of a Cholesky factor.
 
-``backend="auto"`` takes the first of ``"cholmod"``, ``"cholespy"``, ``"scipy"`` that
-imports. Which is fastest here is measured by ``benchmarks/bench_nfields.py``.
+``backend="auto"`` takes the first of ``"cholmod"``, ``"cholespy"``, ``"cvxopt"``,
+``"scipy"`` that imports, except for a factor used for a few right-hand sides only
+(``solves="few"``), where cvxopt comes before cholespy. Measured
+(``python benchmarks/bench_cholesky.py``, one BLAS thread): on the dual-graph Laplacians
+of the shared meshes (6k–86k unknowns) cvxopt factors 3–8× faster than cholespy (whose
+simplicial factorization after a METIS ordering costs about 5 µs per unknown), but
+cvxopt solves one right-hand side at a time, 2.5 ms each at 20k unknowns against
+cholespy's 0.6–1.0 ms in blocks.
 """
 
 from __future__ import annotations
@@ -42,9 +52,9 @@ __all__ = [
     "ND_MIN",
 ]
 
-Backend = Literal["auto", "cholmod", "cholespy", "scipy"]
+Backend = Literal["auto", "cholmod", "cvxopt", "cholespy", "scipy"]
 #: Accepted values of ``backend``.
-BACKENDS: tuple[str, ...] = ("auto", "cholmod", "cholespy", "scipy")
+BACKENDS: tuple[str, ...] = ("auto", "cholmod", "cvxopt", "cholespy", "scipy")
 #: The scipy backend orders by nested dissection from this many unknowns on.
 ND_MIN = 30_000
 
@@ -58,13 +68,24 @@ def _has(module: str) -> bool:
 
 
 def available_backends() -> tuple[Backend, ...]:
-    """The backends that import here, fastest first (``"scipy"`` always last)."""
+    """The backends that import here, fastest first for a factor solved many times
+    (``"scipy"`` always last)."""
     out: list[Backend] = []
     if _has("sksparse.cholmod"):
         out.append("cholmod")
     if _has("cholespy"):
         out.append("cholespy")
+    if _has("cvxopt.cholmod"):
+        out.append("cvxopt")
     return (*out, "scipy")
+
+
+def _auto(solves: Literal["few", "many"]) -> Backend:
+    """The backend ``"auto"`` means: the fastest available for ``solves``."""
+    order = available_backends()
+    if solves == "few" and "cvxopt" in order and order[0] != "cholmod":
+        return "cvxopt"
+    return order[0]
 
 
 def _lower(K: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,6 +151,32 @@ def _cholmod(K: sp.sparray, is_complex: bool) -> HermitianFactor:
         return np.asarray(fac(B))
 
     return HermitianFactor("cholmod", solve, K.shape, is_complex)
+
+
+def _cvxopt(K: sp.sparray, is_complex: bool) -> HermitianFactor:
+    import cvxopt
+    from cvxopt import cholmod
+
+    dtype = np.complex128 if is_complex else np.float64
+    L = sp.coo_array(sp.tril(K))
+    A = cvxopt.spmatrix(
+        cvxopt.matrix(np.ascontiguousarray(L.data, dtype)),
+        cvxopt.matrix(L.row.astype(np.int64)),
+        cvxopt.matrix(L.col.astype(np.int64)),
+        size=K.shape,
+        tc="z" if is_complex else "d",
+    )
+    del L
+    fac = cholmod.symbolic(A, uplo="L")
+    cholmod.numeric(A, fac)  # ArithmeticError when K is not positive definite
+    del A
+
+    def solve(B):
+        X = cvxopt.matrix(np.asfortranarray(B.reshape(B.shape[0], -1)))
+        cholmod.solve(fac, X)
+        return np.array(X, dtype=dtype).reshape(B.shape)
+
+    return HermitianFactor("cvxopt", solve, K.shape, is_complex)
 
 
 def _cholespy(K: sp.sparray, is_complex: bool) -> HermitianFactor:
@@ -199,18 +246,25 @@ def _superlu(K: sp.sparray, is_complex: bool) -> HermitianFactor:
     return HermitianFactor("scipy", solve, K.shape, is_complex)
 
 
-_BUILDERS = {"cholmod": _cholmod, "cholespy": _cholespy, "scipy": _superlu}
+_BUILDERS = {"cholmod": _cholmod, "cvxopt": _cvxopt, "cholespy": _cholespy, "scipy": _superlu}
 
 
-def factor_hermitian(K: sp.sparray | sp.spmatrix, backend: Backend = "auto") -> HermitianFactor:
+def factor_hermitian(
+    K: sp.sparray | sp.spmatrix,
+    backend: Backend = "auto",
+    solves: Literal["few", "many"] = "many",
+) -> HermitianFactor:
     """Factor a sparse Hermitian (or real symmetric) positive definite matrix once.
 
     Parameters
     ----------
     K : sparse (n, n), complex128 or float64
         Hermitian positive definite (only its values are used; it is not checked).
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
-        See the module docstring; ``"auto"`` takes the first one that imports.
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
+        See the module docstring; ``"auto"`` takes the fastest one that imports.
+    solves : {"few", "many"}
+        How the factor will be used: a few right-hand sides (then ``"auto"`` favours the
+        fastest factorization) or many (the fastest solves).
 
     Returns
     -------
@@ -225,10 +279,12 @@ def factor_hermitian(K: sp.sparray | sp.spmatrix, backend: Backend = "auto") -> 
     """
     if backend not in BACKENDS:
         raise ParameterError(f"backend must be one of {BACKENDS}; got {backend!r}")
+    if solves not in ("few", "many"):
+        raise ParameterError(f"solves must be 'few' or 'many'; got {solves!r}")
     if backend == "auto":
-        backend = available_backends()[0]
+        backend = _auto(solves)
     elif backend != "scipy" and backend not in available_backends():
-        package = "scikit-sparse" if backend == "cholmod" else "cholespy"
+        package = {"cholmod": "scikit-sparse"}.get(backend, backend)
         raise MissingExtraError(
             f"backend={backend!r} needs {package}: pip install 'fvf[fast]' (or pip install "
             f"{package}), or use backend='scipy'."

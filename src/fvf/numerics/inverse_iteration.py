@@ -60,7 +60,7 @@ def inverse_iteration(
     tol : float
         Residual bound of every wanted pair (mass rescaled to mean 1; see module).
     maxiter : int
-    backend : {"auto", "cholmod", "cholespy", "scipy"}
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Factorization (:func:`fvf.numerics.cholesky.factor_hermitian`).
     seed : int
         Seed of the random start block.
