@@ -22,13 +22,15 @@ One entrance, :func:`factor_hermitian`, factors a sparse Hermitian (complex) or 
     U, so it needs about twice the memory of a Cholesky factor.
 
 ``backend="auto"`` takes the first of ``"cholmod"``, ``"cholespy"``, ``"cvxopt"``,
-``"scipy"`` that imports, except for a factor used for a few right-hand sides only
-(``solves="few"``), where cvxopt comes before cholespy. Measured
-(``python benchmarks/bench_cholesky.py``, one BLAS thread): on the dual-graph Laplacians
-of the shared meshes (6k–86k unknowns) cvxopt factors 3–8× faster than cholespy (whose
-simplicial factorization after a METIS ordering costs about 5 µs per unknown), but
-cvxopt solves one right-hand side at a time, 2.5 ms each at 20k unknowns against
-cholespy's 0.6–1.0 ms in blocks.
+``"scipy"`` that imports, except that cvxopt comes before cholespy for a complex K and
+for a factor used for a few right-hand sides only (``solves="few"``). Measured
+(``python benchmarks/bench_cholesky.py``, one BLAS thread): on the real dual-graph
+Laplacians of the shared meshes (6k–86k unknowns) cvxopt factors 2.5–3.3× faster than
+cholespy (whose simplicial factorization after a METIS ordering costs about 5 µs per
+unknown), but solves one right-hand side at a time, 4 ms each at 20k unknowns against
+cholespy's 0.7 ms in blocks; on the complex connection Laplacians cvxopt factors 7–9×
+faster and its solves cost 0.7–1.5× cholespy's (which solves the real form of twice the
+size).
 """
 
 from __future__ import annotations
@@ -80,10 +82,12 @@ def available_backends() -> tuple[Backend, ...]:
     return (*out, "scipy")
 
 
-def _auto(solves: Literal["few", "many"]) -> Backend:
-    """The backend ``"auto"`` means: the fastest available for ``solves``."""
+def _auto(solves: Literal["few", "many"], is_complex: bool = False) -> Backend:
+    """The backend ``"auto"`` means: the fastest available for ``solves`` on a complex or
+    real K. cholespy factors a complex K through its real form of twice the size, so for
+    a complex K cvxopt is faster whatever the number of solves (module docstring)."""
     order = available_backends()
-    if solves == "few" and "cvxopt" in order and order[0] != "cholmod":
+    if "cvxopt" in order and order[0] != "cholmod" and (solves == "few" or is_complex):
         return "cvxopt"
     return order[0]
 
@@ -264,7 +268,8 @@ def factor_hermitian(
         See the module docstring; ``"auto"`` takes the fastest one that imports.
     solves : {"few", "many"}
         How the factor will be used: a few right-hand sides (then ``"auto"`` favours the
-        fastest factorization) or many (the fastest solves).
+        fastest factorization) or many (the fastest solves of a real K; for a complex K the
+        fastest factorization wins either way).
 
     Returns
     -------
@@ -281,13 +286,13 @@ def factor_hermitian(
         raise ParameterError(f"backend must be one of {BACKENDS}; got {backend!r}")
     if solves not in ("few", "many"):
         raise ParameterError(f"solves must be 'few' or 'many'; got {solves!r}")
+    is_complex = np.iscomplexobj(K.data) if sp.issparse(K) else np.iscomplexobj(K)
     if backend == "auto":
-        backend = _auto(solves)
+        backend = _auto(solves, bool(is_complex))
     elif backend != "scipy" and backend not in available_backends():
         package = {"cholmod": "scikit-sparse"}.get(backend, backend)
         raise MissingExtraError(
             f"backend={backend!r} needs {package}: pip install 'fvf[fast]' (or pip install "
             f"{package}), or use backend='scipy'."
         )
-    is_complex = np.iscomplexobj(K.data) if sp.issparse(K) else np.iscomplexobj(K)
     return _BUILDERS[backend](sp.csr_array(K), bool(is_complex))
