@@ -1,5 +1,5 @@
-"""Pieces of the fold repair after integer rounding (fvf.param.folds), against dense
-references."""
+"""Pieces of the integer rounding (fvf.param.rounding) and of the fold repair after it
+(fvf.param.folds), against dense references."""
 
 from __future__ import annotations
 
@@ -76,3 +76,77 @@ def test_integer_moves_keep_the_real_unknowns_they_were_given():
     R = Kd[:, integer] - Kd[:, real] @ Z
     np.testing.assert_allclose(K @ out, K @ y + R @ step, atol=1e-10)
     assert flip_count(K @ out) < flip_count(K @ y)
+
+
+def _lattice_reference(C, prefer):
+    """integer_lattice's pivoting as first written: every statistic recomputed over all
+    active rows at every step (dense, O(k² p)); the same choices, ties and arithmetic."""
+    from fvf.param.rounding import _integer_kernel
+
+    A = np.array(C, dtype=np.float64)
+    k, p = A.shape
+    pref = np.asarray(prefer, dtype=bool)
+    active = np.ones(k, dtype=bool)
+    pivots = []
+    while True:
+        rows = np.flatnonzero(active)
+        if rows.size == 0:
+            break
+        sub = A[rows]
+        nnz = (np.abs(sub) > 0.5).sum(axis=1)
+        active[rows[nnz == 0]] = False
+        unit = np.abs(np.abs(sub) - 1.0) < 1e-9
+        r = c = -1
+        for mask in (unit & pref[None, :], unit):
+            has = mask.any(axis=1) & (nnz > 0)
+            if has.any():
+                cand = np.flatnonzero(has)
+                i = cand[np.argmin(nnz[cand])]
+                r, c = int(rows[i]), int(np.flatnonzero(mask[i])[0])
+                break
+        if r < 0:
+            break
+        A[r] /= A[r, c]
+        others = np.flatnonzero(np.abs(A[:, c]) > 0.5)
+        others = others[others != r]
+        A[others] -= A[others, c][:, None] * A[r][None, :]
+        pivots.append((r, c))
+        active[r] = False
+    free = np.setdiff1d(np.arange(p), [c for _, c in pivots])
+    N = np.zeros((p, free.size))
+    N[free, np.arange(free.size)] = 1.0
+    for r, c in pivots:
+        N[c] = -A[r, free]
+    left = np.flatnonzero(active)
+    if left.size:
+        N = N @ _integer_kernel(np.round(A[left][:, free]).astype(np.int64))
+    return np.round(N)
+
+
+def test_integer_lattice_equals_the_dense_reference_and_spans_the_kernel():
+    """Sparse constraint rows like the seams' (±1 entries, some rows with a 2: the parity
+    conditions at ±1/4 cones): the same basis as the dense reference, C N = 0, N integer,
+    and every small integer kernel vector is an integer combination of N's columns."""
+    import itertools
+
+    from fvf.param.rounding import integer_lattice
+
+    rng = np.random.default_rng(3)
+    for trial in range(40):
+        k, p = (3, 6) if trial < 20 else (30, 48)
+        C = np.zeros((k, p))
+        for row in C:
+            cols = rng.choice(p, size=rng.integers(2, 5), replace=False)
+            row[cols] = rng.choice([-1.0, 1.0], size=cols.size)
+            if rng.random() < 0.3:
+                row[cols[0]] = 2.0 * np.sign(row[cols[0]])
+        prefer = rng.random(p) < 0.5
+        N = integer_lattice(C, prefer)
+        np.testing.assert_array_equal(N, _lattice_reference(C, prefer))
+        assert np.abs(C @ N).max() == 0 and np.array_equal(N, np.round(N))
+        if p == 6:  # completeness, by enumeration of small kernel vectors
+            for z in itertools.product(range(-2, 3), repeat=p):
+                z = np.array(z, dtype=float)
+                if np.abs(C @ z).max() == 0:
+                    w = np.linalg.lstsq(N, z, rcond=None)[0]
+                    assert np.allclose(N @ w, z) and np.allclose(w, np.round(w))
