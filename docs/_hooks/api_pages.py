@@ -3,8 +3,9 @@
 Every public module ``src/fvf/<package>/<name>.py`` gets a page ``api/<package>.<name>.md``
 containing ``::: fvf.<package>.<name>`` (rendered by mkdocstrings from the docstrings),
 listed in the navigation under "API reference" by layer (``GROUPS``); a module added
-later appears under "More modules" without editing anything. Pages listed in ``OPTIONAL`` are added to the navigation only when their file
-exists, so the strict build tolerates pages that other work has not written yet.
+later appears under "More modules" without editing anything. Pages listed in ``OPTIONAL``
+are added to the navigation only when their file exists, so the strict build tolerates
+pages not written yet.
 
 Docstrings write the chapter's matrices in brackets, ``[A_V][div v]`` or ``K[perm][:, perm]``,
 which Markdown reads as a reference link ``[text][target]``; mkdocs-autorefs then warns that

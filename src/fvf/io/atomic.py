@@ -23,6 +23,7 @@ import secrets
 import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 from ..errors import InputOverwriteError, OutputWriteError
 
@@ -69,6 +70,7 @@ _PENDING: contextvars.ContextVar[list[Path] | None] = contextvars.ContextVar(
 
 
 def _fsync_file(path: Path) -> None:
+    fh: BinaryIO
     try:
         fh = open(path, "rb+")  # Windows flushes only handles open for writing
     except PermissionError:  # a read-only file (its mode copied from the one it replaces)
