@@ -667,7 +667,12 @@ def test_killed_worker_job_is_retried_and_a_killer_mesh_fails(tmp_path):
             )
             killer_thread.join(timeout=60)
             assert killed and killed[0] not in c.run(os.getpid).values()  # a new process
-            assert len(rows) == 10 and all(r["status"] == "ok" for r in rows.values()), rows
+            # a job whose worker died after its result file was renamed into place finds
+            # that whole file on the retry: "skipped", with the stored figures
+            statuses = [(r["mesh"], r["status"], r["error"]) for r in rows.values()]
+            assert len(rows) == 10, statuses
+            assert all(r["status"] in ("ok", "skipped") for r in rows.values()), statuses
+            assert sum(r["status"] == "ok" for r in rows.values()) >= 9, statuses  # one kill
             tiny = [_write(tmp_path / "tiny" / f"t{i}.off", fvf.icosphere(1)) for i in range(5)]
             sizes = [os.path.getsize(p) for p in [killer, *tiny, *files[:2]]]
             assert any(0 in g and len(g) > 1 for g in batch_driver.chunks(sizes, 2))
