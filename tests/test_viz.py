@@ -598,3 +598,22 @@ def test_render_face_function_on_a_mesh_with_boundary(tmp_path, backend):
     assert info.n_arrows > 20 and info.clim == (f.min(), f.max())
     busy, hues = content(picture(info.path))
     assert 0.1 < busy < 0.9 and hues >= 3
+
+
+def test_a_long_title_is_never_cut_off(sphere, tmp_path):
+    """A title wider than the panels is centred on the whole picture, and one wider than
+    the picture gets a smaller font: the edge columns of the title band stay blank."""
+    from PIL import Image
+
+    from fvf.viz.compose import TITLE_HEIGHT
+
+    for words in (8, 30):
+        path = tmp_path / f"title{words}.png"
+        title = " ".join(["mirror error"] * words)
+        viz.render(
+            sphere, path, field=rotation_field(sphere), title=title, backend="matplotlib",
+            size=(320, 240),
+        )  # fmt: skip
+        band = np.asarray(Image.open(path).convert("L"))[:TITLE_HEIGHT]
+        ink = np.flatnonzero((band < 200).any(axis=0))
+        assert ink.size and ink[0] > 0 and ink[-1] < band.shape[1] - 1, (words, ink[[0, -1]])

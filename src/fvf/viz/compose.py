@@ -115,18 +115,29 @@ def compose(
         if i:  # a thin rule between panels
             strip[int(0.1 * h) : int(0.9 * h), x - lay.gap // 2] = 215
     fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100, facecolor="white")
-    FigureCanvasAgg(fig)
+    canvas = FigureCanvasAgg(fig)
     fig.figimage(strip, xo=0, yo=0, origin="upper", zorder=0)
     small = width < 600
     if title:
-        fig.text(
+        fontsize = 10.0 if small else 12.0
+        text = fig.text(
             0.5 * lay.scene_width / width,
             1.0 - 0.5 * TITLE_HEIGHT / height,
             title,
             ha="center",
             va="center",
-            fontsize=10 if small else 12,
+            fontsize=fontsize,
         )
+        renderer = canvas.get_renderer()
+        wide = text.get_window_extent(renderer).width
+        if wide > lay.scene_width - 8:  # wider than the panels: centred on the picture
+            text.set_x(0.5)
+        for _ in range(4):  # wider than the picture: smaller fonts (glyphs scale unevenly)
+            if wide <= width - 8:
+                break
+            fontsize *= 0.97 * (width - 8) / wide
+            text.set_fontsize(fontsize)
+            wide = text.get_window_extent(renderer).width
     x0 = (lay.scene_width + 10) / width
     sh = lay.scene_height / height
     if scene.colorbar is not None:
