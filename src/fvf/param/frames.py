@@ -1,7 +1,11 @@
 r"""The frame a parameterization fits: a cross field and the scaling of its two directions.
 
 The cross field is designed by :func:`fvf.design_field` (n = 4): curvature-aligned by
-default, or the smoothest one (:mod:`fvf.design.nfields`). Its combed representative u and
+default, or the smoothest one (:mod:`fvf.design.nfields`). The curvature-aligned default
+is designed with the holonomy smoothed over the target edge length h
+(``curvature_smoothing=h``, :mod:`fvf.design.holonomy`), so that curvature concentrated at
+a scale below one quad edge (spikes, pinches) does not force cones that no integer grid
+of edge h can separate. Its combed representative u and
 v = J u (:mod:`fvf.param.cutmesh`) are then scaled per face, X = (a/h) u, Y = (b/h) v, h
 the target edge length. Two scalings are offered:
 
@@ -53,7 +57,9 @@ SCALINGS = ("commuting", "fitted", "none")
 
 
 @takes_mesh
-def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.ndarray:
+def default_cross_field(
+    mesh: TriMesh, align: Alignment = "curvature", curvature_smoothing: float | None = None
+) -> np.ndarray:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
     Parameters
@@ -63,6 +69,13 @@ def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.nda
         ``"curvature"``: :func:`fvf.design_field` with ``n=4, align="curvature"`` (smooth,
         aligned with the principal directions where the surface is anisotropic);
         ``"smooth"``: the smoothest cross field (``fvf.design_field(mesh, n=4)``).
+    curvature_smoothing : float, optional
+        With ``align="curvature"``: the length over which the connection's holonomy
+        is smoothed (:func:`fvf.design.holonomy.smoothed_angle_defects`); vertices whose
+        angle defect is concentrated below that scale then carry no cone.
+        :func:`fvf.seamless_parameterization` passes the target edge length h. Ignored
+        with ``align="smooth"`` (the smoothest field of a smoothed connection leaves a
+        flipped triangle on fertility: ``benchmarks/bench_quads.py --smooth-h``).
 
     Returns
     -------
@@ -76,7 +89,7 @@ def default_cross_field(mesh: TriMesh, align: Alignment = "curvature") -> np.nda
     if align == "smooth":
         u = design_field(mesh, n=4)
     else:
-        u = design_field(mesh, n=4, align="curvature")
+        u = design_field(mesh, n=4, align="curvature", curvature_smoothing=curvature_smoothing)
     # a cone at a face's centroid (e.g. by symmetry) makes the power exactly 0 there: any
     # direction is as good as another, take the face's first basis vector
     length = np.linalg.norm(u, axis=1)

@@ -321,7 +321,8 @@ def seamless_parameterization(
         Closed, one component (else :class:`fvf.ParameterizationInputError`).
     field : array_like (m, 3), optional
         Cross field as one representative tangent vector per face (any of the four
-        directions). Default: :func:`fvf.param.frames.default_cross_field` with ``align``.
+        directions). Default: :func:`fvf.param.frames.default_cross_field` with ``align``
+        (curvature-aligned with ``curvature_smoothing=h``).
     target_faces : int, optional
         Approximate number of quads: h = √(area / target_faces). Default m / 10.
     edge_length : float, optional
@@ -372,7 +373,10 @@ def seamless_parameterization(
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
     clock("cross field" if field is None else "reading the cross field")
-    u = default_cross_field(mesh, align) if field is None else unit_cross_field(mesh, field)
+    if field is None:
+        u = default_cross_field(mesh, align, curvature_smoothing=h)
+    else:
+        u = unit_cross_field(mesh, field)
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
