@@ -92,3 +92,105 @@ def test_smoothing_needs_a_closed_mesh_and_edge_transports():
         fvf.design_field(fvf.disk(), n=4, curvature_smoothing=0.1)
     with pytest.raises(fvf.ParameterError, match="knoppel"):
         fvf.smoothest_fields(fvf.icosphere(2), 1, "singer_wu", n=4, curvature_smoothing=0.1)
+
+
+# ------------------------------------------------------- measuring against the turned connection
+def random_cross_field(mesh: fvf.TriMesh, seed: int) -> np.ndarray:
+    g = np.random.default_rng(seed).standard_normal((mesh.n_faces, 3))
+    return mesh.project_tangent(g)
+
+
+def test_zero_rotations_are_the_levi_civita_connection():
+    mesh = fvf.jittered_sphere(2, seed=3)
+    u = random_cross_field(mesh, 0)
+    zero = np.zeros(mesh.n_edges)
+    np.testing.assert_array_equal(
+        fvf.vertex_indices(mesh, u, n=4, connection_rotations=zero),
+        fvf.vertex_indices(mesh, u, n=4),
+    )
+    np.testing.assert_array_equal(
+        fvf.period_jumps(mesh, u, 4, connection_rotations=zero), fvf.period_jumps(mesh, u, 4)
+    )
+    cut = fvf.cut_graph(mesh, u, 4, connection_rotations=zero)
+    np.testing.assert_array_equal(cut.mask, fvf.cut_graph(mesh, u, 4).mask)
+    np.testing.assert_array_equal(
+        fvf.comb(mesh, u, 4, cut, connection_rotations=zero), fvf.comb(mesh, u, 4, cut)
+    )
+
+
+def test_turned_indices_sum_to_chi_and_change_only_where_the_matching_does():
+    """Any rotations: the indices still sum to χ (the turnings cancel in pairs and the
+    turned holonomy sums to 2πχ). A vertex's index changes only if the nearest matching
+    rint(N(φ_e − x_e)/2π) changed on one of its edges."""
+    mesh = fvf.jittered_sphere(3, seed=5)
+    u = random_cross_field(mesh, 1)
+    x = np.random.default_rng(2).uniform(-0.6, 0.6, mesh.n_edges)
+    plain = fvf.vertex_indices(mesh, u, n=4)
+    turned = fvf.vertex_indices(mesh, u, n=4, connection_rotations=x)
+    assert turned.sum() == pytest.approx(mesh.euler_characteristic, abs=1e-12)
+    changed = np.flatnonzero(
+        fvf.period_jumps(mesh, u, 4) != fvf.period_jumps(mesh, u, 4, connection_rotations=x)
+    )
+    assert changed.size > 0 and np.any(turned != plain)  # the case is not trivial
+    assert set(np.flatnonzero(turned != plain)) <= set(mesh.edges[changed].ravel())
+
+
+def test_a_field_combed_for_the_turned_connection_has_no_jump_off_the_cut():
+    mesh = fvf.jittered_sphere(3, seed=6)
+    ell = 2 * mesh.mean_edge_length
+    x = holonomy_rotations(mesh, ell)
+    u = fvf.design_field(mesh, n=4, align="curvature", curvature_smoothing=ell)
+    cut = fvf.cut_graph(mesh, u, 4, connection_rotations=x)
+    combed = fvf.comb(mesh, u, 4, cut, connection_rotations=x)[0]
+    jumps = fvf.period_jumps(mesh, combed, 4, connection_rotations=x)
+    interior = (mesh.edge_faces >= 0).all(axis=1)
+    assert not jumps[interior & ~cut.mask].any()
+    ids = fvf.singularities(mesh, u, n=4, connection_rotations=x)[0]
+    assert set(ids) <= set(cut.edges.ravel())  # the cut runs through every cone
+
+
+@pytest.mark.parametrize("bad", [np.zeros(5), np.full(30, np.nan)])
+def test_bad_connection_rotations(bad):
+    mesh = fvf.icosphere(1)
+    u = random_cross_field(mesh, 0)
+    if bad.size == 30:
+        bad = np.full(mesh.n_edges, np.nan)
+    with pytest.raises(fvf.ParameterError, match="connection_rotations"):
+        fvf.vertex_indices(mesh, u, n=4, connection_rotations=bad)
+    with pytest.raises(fvf.ParameterError, match="connection_rotations"):
+        fvf.period_jumps(mesh, u, 4, connection_rotations=bad)
+    with pytest.raises(fvf.ParameterError, match="connection_rotations"):
+        fvf.cancel_close_singularities(mesh, u, 4, radius=0.1, connection_rotations=bad)
+
+
+# ------------------------------------------------------- the alignment target diffused over ℓ
+def noisy_ellipsoid() -> fvf.TriMesh:
+    s = fvf.icosphere(4)
+    X = s.vertices * [1.6, 1.0, 0.7]
+    return fvf.TriMesh(X + 0.01 * np.random.default_rng(0).standard_normal(X.shape), s.faces)
+
+
+def test_align_smoothing_averages_out_the_directions_of_noise():
+    """Curvature alignment on a noisy ellipsoid follows the noise: 20 cones (Σ|I| = 5).
+    Diffused over one edge length the target keeps the ellipsoid's directions only: the
+    8 cones of a sphere's cross field. ℓ → 0 gives back the plain design."""
+    mesh = noisy_ellipsoid()
+    e = mesh.mean_edge_length
+    plain = fvf.design_field(mesh, n=4, align="curvature")
+    assert fvf.singularities(mesh, plain, n=4)[0].size == 20
+    smoothed = fvf.design_field(mesh, n=4, align="curvature", align_smoothing=e)
+    ids, ind = fvf.singularities(mesh, smoothed, n=4)
+    np.testing.assert_array_equal(ind, np.full(8, 0.25))
+    tiny = fvf.design_field(mesh, n=4, align="curvature", align_smoothing=1e-6 * e)
+    np.testing.assert_allclose(tiny, plain, atol=1e-9)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), "wide"])
+def test_bad_align_smoothing(bad):
+    with pytest.raises(fvf.ParameterError, match="align_smoothing"):
+        fvf.design_field(fvf.icosphere(2), n=4, align="curvature", align_smoothing=bad)
+
+
+def test_align_smoothing_needs_an_alignment():
+    with pytest.raises(fvf.ParameterError, match="align="):
+        fvf.design_field(fvf.icosphere(2), n=4, align_smoothing=0.1)

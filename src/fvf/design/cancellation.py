@@ -63,7 +63,7 @@ from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross
 from ..numerics.cholesky import Backend, factor_hermitian
 from .connection import connection_pairs
-from .indices import singularities
+from .indices import _rotations, singularities
 from .nfields import _check_nonzero, _edge_angles
 
 __all__ = [
@@ -165,13 +165,19 @@ def _edge_paths(mesh: TriMesh, pairs: list[tuple[int, int]], limit: float) -> li
 
 
 def _edited_turnings(
-    mesh: TriMesh, u: np.ndarray, n: int, moves: list[tuple[int, int, int]], limit: float
+    mesh: TriMesh,
+    u: np.ndarray,
+    n: int,
+    moves: list[tuple[int, int, int]],
+    limit: float,
+    rotations: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Interior edges and their turnings δ_e with 1/N of index moved along each move's path.
+    """Interior edges and their turnings δ_e (relative to the connection turned by
+    ``rotations``) with 1/N of index moved along each move's path.
 
     ``moves``: (a, b, s) moves s/N of index (s = ±1) from vertex a to vertex b.
     """
-    interior, phi = _edge_angles(mesh, u)
+    interior, phi = _edge_angles(mesh, u, rotations)
     delta = phi - (TWO_PI / n) * np.rint(n * phi / TWO_PI)
     full = np.zeros(mesh.n_edges)
     full[interior] = delta
@@ -246,6 +252,11 @@ def _checked(
     return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
+def _checked_rotations(mesh: TriMesh, rotations: npt.ArrayLike | None) -> np.ndarray | None:
+    """``connection_rotations`` as float64 (E,) (:func:`fvf.vertex_indices`), or None."""
+    return None if rotations is None else _rotations(mesh, rotations)
+
+
 @takes_mesh
 def cancel_close_singularities(
     mesh: TriMesh,
@@ -255,6 +266,7 @@ def cancel_close_singularities(
     radius: float,
     rounds: int = 3,
     backend: Backend = "auto",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """An N-field with the singularity pairs closer than ``radius`` removed (module doc).
 
@@ -272,6 +284,9 @@ def cancel_close_singularities(
         Pair, cancel and re-measure at most this many times.
     backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
         Sparse factorization of the dual-graph system.
+    connection_rotations : float (E,), optional
+        Measure and edit the field against the Levi-Civita connection turned by these
+        angles (:func:`fvf.vertex_indices`); default none.
 
     Returns
     -------
@@ -288,7 +303,8 @@ def cancel_close_singularities(
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
     reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius))
+    rot = _checked_rotations(mesh, connection_rotations)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius), rot)
 
 
 def _cancelling(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -322,9 +338,10 @@ def _apply_moves(
     moves: list[tuple[int, int, int]],
     radius: float,
     reangle: _Reangler,
+    rotations: np.ndarray | None,
 ) -> np.ndarray:
     """The field with each move's index moved along its path, angles re-solved (steps 2–3)."""
-    interior, delta = _edited_turnings(mesh, u, n, moves, 4.0 * radius)
+    interior, delta = _edited_turnings(mesh, u, n, moves, 4.0 * radius, rotations)
     full = np.zeros(mesh.n_edges)
     full[interior] = delta
     dpsi = reangle(full[(mesh.edge_faces >= 0).all(axis=1)])
@@ -332,9 +349,11 @@ def _apply_moves(
     return np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
 
 
-def _measure(mesh: TriMesh, u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+def _measure(
+    mesh: TriMesh, u: np.ndarray, n: int, rotations: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Singular vertices int64 (s,) and N × their indices int64 (s,)."""
-    ids, ind = singularities(mesh, u, n=n)
+    ids, ind = singularities(mesh, u, n=n, connection_rotations=rotations)
     return ids, np.rint(n * np.asarray(ind, dtype=float)).astype(np.int64)
 
 
@@ -347,6 +366,7 @@ def _edit(
     reanglers: _Reanglers,
     moves_for: Callable[[np.ndarray, np.ndarray], list],
     better: Callable[[tuple, tuple], bool],
+    rotations: np.ndarray | None = None,
 ) -> np.ndarray:
     """Rounds of "find moves, apply them, re-measure"; a round whose result is not
     ``better`` than its start is retried one move at a time (the first
@@ -356,24 +376,24 @@ def _edit(
     ``_measure`` results. The re-measure guards against the re-solve turning the field by
     more than π/N across an edge, which would make other singularities than planned.
     """
-    state = _measure(mesh, u, n)
+    state = _measure(mesh, u, n, rotations)
     for _ in range(int(rounds)):  # a few rounds: an edit can expose the next pair
         moves = moves_for(*state)
         if not moves:
             break
         reangle = reanglers()
-        trial = _apply_moves(mesh, u, n, moves, radius, reangle)
-        after = _measure(mesh, trial, n)
+        trial = _apply_moves(mesh, u, n, moves, radius, reangle, rotations)
+        after = _measure(mesh, trial, n, rotations)
         if better(state, after):
             u, state = trial, after
             continue
         progress = False
         for move in moves[:RETRY_MAX]:  # retry one at a time, closest pairs first
-            trial = _apply_moves(mesh, u, n, [move], radius, reangle)
-            after = _measure(mesh, trial, n)
+            trial = _apply_moves(mesh, u, n, [move], radius, reangle, rotations)
+            after = _measure(mesh, trial, n, rotations)
             if not better(state, after):  # the uniform-weight re-solve (module docstring)
-                trial = _apply_moves(mesh, u, n, [move], radius, reanglers(uniform=True))
-                after = _measure(mesh, trial, n)
+                trial = _apply_moves(mesh, u, n, [move], radius, reanglers(uniform=True), rotations)
+                after = _measure(mesh, trial, n, rotations)
             if better(state, after):
                 u, state, progress = trial, after, True
         if not progress:
@@ -415,6 +435,7 @@ def separate_close_singularities(
     radius: float,
     rounds: int = 3,
     backend: Backend = "auto",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """An N-field whose singularities of equal index ±1/N are about ``radius`` apart.
 
@@ -438,6 +459,8 @@ def separate_close_singularities(
     rounds : int
         Pair, move and re-measure at most this many times.
     backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
+    connection_rotations : float (E,), optional
+        As in :func:`cancel_close_singularities`.
 
     Returns
     -------
@@ -454,7 +477,8 @@ def separate_close_singularities(
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
     reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius))
+    rot = _checked_rotations(mesh, connection_rotations)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius), rot)
 
 
 def _separating(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -516,6 +540,7 @@ def split_large_singularities(
     max_step: int,
     rounds: int = 3,
     backend: Backend = "auto",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """The N-field with each singularity of |N × index| > ``max_step`` split: 1/N of its
     index moves (step 2 of the module docstring, then the re-solve of step 3) to the
@@ -530,7 +555,9 @@ def split_large_singularities(
     float64 (m, 3), checked by the caller; returns the edited field, float64 (m, 3).
     """
     reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_splitting(mesh, radius, max_step))
+    rot = _checked_rotations(mesh, connection_rotations)
+    rules = _splitting(mesh, radius, max_step)
+    return _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
 
 
 def _splitting(mesh: TriMesh, radius: float, max_step: int) -> tuple[Callable, Callable]:
@@ -567,6 +594,7 @@ def tidy_close_singularities(
     max_step: int = 2,
     rounds: int = 3,
     backend: Backend = "auto",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """The edits a quad mesh of edge length ``radius`` needs, in order, on one factored
     matrix: opposite pairs cancelled (:func:`cancel_close_singularities`), equal pairs
@@ -591,6 +619,8 @@ def tidy_close_singularities(
     rounds : int
         Rounds of each edit at most.
     backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
+    connection_rotations : float (E,), optional
+        As in :func:`cancel_close_singularities`.
 
     Returns
     -------
@@ -606,11 +636,12 @@ def tidy_close_singularities(
     """
     n, radius, u = _checked(mesh, u, n, radius, rounds)
     reanglers = _Reanglers(mesh, radius, backend)
+    rot = _checked_rotations(mesh, connection_rotations)
     for rules in (
         _cancelling(mesh, radius),
         _separating(mesh, radius),
         _cancelling(mesh, radius),  # pairs the moves brought close
         _splitting(mesh, radius, max_step),  # index beyond max_step / N
     ):
-        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules)
+        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
     return u

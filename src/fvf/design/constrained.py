@@ -46,6 +46,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     FvfError,
     FvfWarning,
     NormalDirectionError,
+    ParameterError,
     PointLocationError,
     UnconstrainedComponentWarning,
     ZeroDirectionError,
@@ -58,6 +59,7 @@ from ..numerics.cholesky import Backend, factor_hermitian
 from ..numerics.progress import ProgressCallback, make_progress
 from .alignment import ALIGN_STRENGTH, alignment_targets
 from .connection import ConnectionKind, _check_kind, connection_laplacian, smoothest_fields
+from .holonomy import smoothing_length
 
 __all__ = [
     "design_field",
@@ -448,6 +450,7 @@ def design_field(
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
     curvature_smoothing: float | None = None,
+    align_smoothing: float | None = None,
 ) -> np.ndarray:
     """The smoothest tangent N-field meeting direction constraints (Knöppel et al. 2013).
 
@@ -508,6 +511,13 @@ def design_field(
         smoothed over ℓ (:mod:`fvf.design.holonomy`), so that vertices with a large angle
         defect (spikes, pinches, valence-4 vertices of remeshed scans) do not each force
         a cone. Closed meshes, ``kind="knoppel"``. Default: the Levi-Civita connection.
+    align_smoothing : float, optional
+        A length ℓ > 0 (mesh units): the alignment target is diffused over ℓ before the
+        design, by one implicit heat step of the field's own connection Laplacian,
+        (M + ℓ² L_N) ζ̃ = M ζ with ζ_t = β ω_t τ_t complex (m,) and M the face areas; the
+        term then reads Σ_t |ζ̃_t| A_t |z_t − ζ̃_t/|ζ̃_t||². Directions that only hold on a
+        scale below ℓ (the principal directions of a noisy scan) average out, and their
+        weight with them. Default: no smoothing.
 
     Returns
     -------
@@ -561,6 +571,10 @@ def design_field(
     n = as_direction_count(n)
     report = make_progress(progress)
     f, tau = _given_constraints(mesh, faces, directions, points, weights, hard, normalize)
+    if align_smoothing is not None and align is None:
+        raise ParameterError(
+            "align_smoothing diffuses an alignment target: pass align= too, or drop it"
+        )
 
     def smoothest() -> np.ndarray:  # nothing to meet: the smoothest N-field
         return smoothest_fields(
@@ -579,6 +593,8 @@ def design_field(
     L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     A = mesh.face_areas
     pen, rhs = _alignment_terms(mesh, n, align, align_weights, align_strength)
+    if align_smoothing is not None:
+        pen, rhs = _smoothed_alignment(mesh, L, pen, rhs, align_smoothing, backend)
     seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
     if f.size:
         w = _soft_weights(mesh, L, f, None if hard else weights)
@@ -628,6 +644,23 @@ def _alignment_terms(
         pen += beta * omega * mesh.face_areas
         rhs += pen * t_align
     return pen, rhs
+
+
+def _smoothed_alignment(
+    mesh: TriMesh,
+    L: sp.csr_array,
+    pen: np.ndarray,
+    rhs: np.ndarray,
+    length: float,
+    backend: Backend,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The alignment term of :func:`design_field` diffused over ``length``
+    (``align_smoothing``): ζ̃ = (M + ℓ² L)⁻¹ M ζ, ζ = rhs / A; returns (|ζ̃| A, ζ̃ A)."""
+    ell = smoothing_length(length, "align_smoothing")
+    A = mesh.face_areas
+    M = sp.diags_array(A.astype(complex))
+    zeta = factor_hermitian(sp.csr_array(M + ell**2 * L), backend, "few").solve(M @ (rhs / A))
+    return np.abs(zeta) * A, zeta * A
 
 
 def _given_constraints(

@@ -49,14 +49,14 @@ from .indices import _angle_defects
 __all__ = ["smoothed_angle_defects", "holonomy_rotations"]
 
 
-def smoothing_length(length: float) -> float:
-    """``length`` as a float > 0, else :class:`fvf.ParameterError`."""
+def smoothing_length(length: float, name: str = "curvature_smoothing") -> float:
+    """``length`` as a float > 0, else :class:`fvf.ParameterError` naming ``name``."""
     try:
         value = float(length)
     except (TypeError, ValueError):
         value = float("nan")
     if not np.isfinite(value) or value <= 0.0:
-        raise ParameterError(f"curvature_smoothing must be a length > 0; got {length!r}")
+        raise ParameterError(f"{name} must be a length > 0; got {length!r}")
     return value
 
 

@@ -113,6 +113,18 @@ def _angle_defects(mesh: TriMesh) -> np.ndarray:
     return TWO_PI - total
 
 
+def _rotations(mesh: TriMesh, rotations: npt.ArrayLike) -> np.ndarray:
+    """``connection_rotations`` checked: float64 (E,), finite."""
+    x = np.asarray(rotations, dtype=float)
+    if x.shape != (mesh.n_edges,) or not np.isfinite(x).all():
+        raise ParameterError(
+            f"connection_rotations must be finite, one angle per edge, shape "
+            f"({mesh.n_edges},); got shape {x.shape}. Fix: use "
+            "fvf.design.holonomy.holonomy_rotations(mesh, length)"
+        )
+    return x
+
+
 @takes_mesh
 def vertex_indices(
     mesh: TriMesh,
@@ -122,6 +134,7 @@ def vertex_indices(
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     r"""Index of a per-face tangent field around every vertex.
 
@@ -175,6 +188,15 @@ def vertex_indices(
         Relative threshold for a zero vector, default :data:`ZERO_RTOL`.
     tangent : {"project", "raise", "ignore"}
         Normal-component policy of :func:`fvf.mesh.inputs.as_face_field`.
+    connection_rotations : float (E,), optional
+        Angles x_e added to the transport across each edge (``mesh.edges`` order;
+        :func:`fvf.design.holonomy.holonomy_rotations`). The turning across e is then
+        taken as the shortest rotation relative to the turned transport,
+        δ_e = x_e + wrap(φ_e − x_e) (reduced modulo 2π/N), and the index is
+        (Σ ±δ_e + K_v)/2π as above. A field that is nearly parallel for the turned
+        connection gets its singularities where that connection's holonomy
+        K_v − (Gᵀx)_v accumulates, not at every vertex with a large angle defect. The
+        indices still sum to chi. Default: none (x = 0).
 
     Returns
     -------
@@ -232,9 +254,14 @@ def vertex_indices(
     # (in s0 = (a, b, c) the edge a->b is the first edge at corner a); walking around
     # b the same edge is crossed from s0 into s1.
     z = complex_angle(s0) * np.conj(complex_angle(s1))
+    x = np.zeros(interior.size)
+    if connection_rotations is not None:
+        x = _rotations(mesh, connection_rotations)[interior]
+        z = z * np.exp(-1j * x)
     delta = _wrap(np.arctan2(z.imag, z.real))
     if order != 1:  # shortest rotation between the two N-direction sets
         delta = delta - (TWO_PI / order) * np.rint(order * delta / TWO_PI)
+    delta = delta + x
     turning = np.bincount(a, weights=delta, minlength=n) - np.bincount(
         b, weights=delta, minlength=n
     )
@@ -269,6 +296,7 @@ def singularities(
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Vertices around which a per-face field has a non-zero index.
 
@@ -279,7 +307,7 @@ def singularities(
         One tangent vector per face (one representative per face for n ≥ 2).
     n : int
         Symmetry order N ≥ 1 (1 vector, 2 line, 4 cross, …).
-    zero, zero_rtol, tangent
+    zero, zero_rtol, tangent, connection_rotations
         As in :func:`vertex_indices`.
 
     Returns
@@ -301,7 +329,15 @@ def singularities(
     >>> ids.tolist(), ind.tolist()
     ([0], [1])
     """
-    index = vertex_indices(mesh, u, n=n, zero=zero, zero_rtol=zero_rtol, tangent=tangent)
+    index = vertex_indices(
+        mesh,
+        u,
+        n=n,
+        zero=zero,
+        zero_rtol=zero_rtol,
+        tangent=tangent,
+        connection_rotations=connection_rotations,
+    )
     ids = np.flatnonzero(index).astype(np.int64)
     return ids, index[ids]
 

@@ -57,7 +57,7 @@ from ..errors import CutGraphError, FieldShapeError, format_indices
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh, _cross
-from .indices import ZERO_RTOL, vertex_indices
+from .indices import ZERO_RTOL, _rotations, vertex_indices
 
 __all__ = [
     "to_power",
@@ -163,8 +163,12 @@ def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- matching
-def _edge_angles(mesh: TriMesh, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Interior edges and φ_e: the angle from t's unfolded representative to s's, (k,)."""
+def _edge_angles(
+    mesh: TriMesh, u: np.ndarray, rotations: npt.ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Interior edges and φ_e: the angle from t's unfolded representative to s's, (k,),
+    in (−π, π]; with ``rotations`` (E,) the transport of edge e is turned by x_e and
+    φ_e − x_e (wrapped) is returned (see :func:`period_jumps`)."""
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
     length = np.linalg.norm(u, axis=1)
     u = u / np.where(length > 0, length, 1.0)[:, None]  # huge fields: no overflow below
@@ -176,6 +180,8 @@ def _edge_angles(mesh: TriMesh, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.einsum("ij,ij->i", ev, u[f]) + 1j * np.einsum("ij,ij->i", _cross(N[f], ev), u[f])
 
     z = rel(s) * np.conj(rel(t))
+    if rotations is not None:
+        z = z * np.exp(-1j * _rotations(mesh, rotations)[interior])
     return interior, np.arctan2(z.imag, z.real)
 
 
@@ -192,7 +198,13 @@ def _check_nonzero(mesh: TriMesh, u: np.ndarray, what: str) -> None:
 
 
 @takes_mesh
-def period_jumps(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
+def period_jumps(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    *,
+    connection_rotations: npt.ArrayLike | None = None,
+) -> np.ndarray:
     """The period jump p_e ∈ {0, …, N−1} of an N-field across every edge, int64 (E,).
 
     Parameters
@@ -202,6 +214,10 @@ def period_jumps(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
         One representative vector per face.
     n : int
         Symmetry order N ≥ 1.
+    connection_rotations : float (E,), optional
+        Angles x_e added to the Levi-Civita transport across each edge (``mesh.edges``
+        order; :func:`fvf.design.holonomy.holonomy_rotations`): the field is measured
+        against that connection, whose holonomy around v is K_v − (Gᵀx)_v. Default: none.
 
     Returns
     -------
@@ -222,7 +238,7 @@ def period_jumps(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     u = as_face_field(mesh, u, "u")
     _check_nonzero(mesh, u, "the period jumps of its edges")
     out = np.zeros(mesh.n_edges, dtype=np.int64)
-    interior, phi = _edge_angles(mesh, u)
+    interior, phi = _edge_angles(mesh, u, connection_rotations)
     out[interior] = np.mod(np.rint(n * phi / TWO_PI).astype(np.int64), n)
     return out
 
@@ -295,7 +311,13 @@ def _prune(E: np.ndarray, active: np.ndarray, keep: np.ndarray, n_vertices: int)
 
 
 @takes_mesh
-def cut_graph(mesh: TriMesh, u: npt.ArrayLike, n: int) -> CutGraph:
+def cut_graph(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    *,
+    connection_rotations: npt.ArrayLike | None = None,
+) -> CutGraph:
     """A cut graph through the singularities that makes an N-field combable.
 
     Parameters
@@ -305,6 +327,8 @@ def cut_graph(mesh: TriMesh, u: npt.ArrayLike, n: int) -> CutGraph:
         One representative vector per face, non-zero on every face.
     n : int
         Symmetry order N ≥ 1.
+    connection_rotations : float (E,), optional
+        As in :func:`period_jumps`: the singularities are measured against that connection.
 
     Returns
     -------
@@ -347,7 +371,9 @@ def cut_graph(mesh: TriMesh, u: npt.ArrayLike, n: int) -> CutGraph:
     in_tree = np.zeros(mesh.n_edges, dtype=bool)
     in_tree[via[via >= 0]] = True
     candidate = interior[~in_tree[interior]]
-    index = np.asarray(vertex_indices(mesh, u, n=n), dtype=float)
+    index = np.asarray(
+        vertex_indices(mesh, u, n=n, connection_rotations=connection_rotations), dtype=float
+    )
     keep = index != 0
     keep[mesh.boundary_vertices] = True
     cut = _prune(E, candidate, keep, mesh.n_vertices)
@@ -408,7 +434,12 @@ def _tree_sums(parent: np.ndarray, delta: np.ndarray) -> np.ndarray:
 
 @takes_mesh
 def comb(
-    mesh: TriMesh, u: npt.ArrayLike, n: int, cut: CutGraph | npt.ArrayLike | None = None
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    cut: CutGraph | npt.ArrayLike | None = None,
+    *,
+    connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """The N combed fields of an N-field: smooth (zero period jump) on every uncut edge.
 
@@ -422,6 +453,9 @@ def comb(
     cut : CutGraph, bool (E,) or int (k, 2), optional
         The cut: a :func:`cut_graph` result, a mask over ``mesh.edges`` or vertex pairs.
         Default: ``cut_graph(mesh, u, n)``. Boundary edges are never crossed.
+    connection_rotations : float (E,), optional
+        As in :func:`period_jumps`: the combed field has zero period jump relative to
+        that connection on every uncut edge.
 
     Returns
     -------
@@ -452,11 +486,16 @@ def comb(
     n = as_direction_count(n)
     u = as_face_field(mesh, u, "u")
     _check_nonzero(mesh, u, "its combing")
-    mask = cut_graph(mesh, u, n).mask if cut is None else _as_cut_mask(mesh, cut)
+    rot = connection_rotations
+    mask = (
+        cut_graph(mesh, u, n, connection_rotations=rot).mask
+        if cut is None
+        else _as_cut_mask(mesh, cut)
+    )
     EF = mesh.edge_faces
     interior = np.flatnonzero((EF >= 0).all(axis=1))
     uncut = interior[~mask[interior]]
-    jumps = period_jumps(mesh, u, n)
+    jumps = period_jumps(mesh, u, n, connection_rotations=rot)
     parent, via = _bfs_forest(mesh, uncut)
     # rotation k_f (steps of 2π/N): jump' = p_e + k_s − k_t must vanish on tree edges
     child = np.flatnonzero(parent >= 0)
@@ -468,7 +507,7 @@ def comb(
     ang = TWO_PI * k / n
     Ju = _cross(mesh.face_normals, u)
     combed = np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * Ju
-    new = period_jumps(mesh, combed, n)
+    new = period_jumps(mesh, combed, n, connection_rotations=rot)
     bad = uncut[new[uncut] != 0]
     if bad.size:
         raise CutGraphError(

@@ -82,7 +82,7 @@ def wedges(mesh: TriMesh, cut: np.ndarray) -> tuple[np.ndarray, int]:
     return labels.reshape(-1, 3).astype(np.int64), int(count)
 
 
-def cut_mesh(mesh: TriMesh, u: np.ndarray) -> CutMesh:
+def cut_mesh(mesh: TriMesh, u: np.ndarray, rotations: np.ndarray | None = None) -> CutMesh:
     """Comb a cross field and cut the mesh to a disk through its cones.
 
     Parameters
@@ -91,17 +91,21 @@ def cut_mesh(mesh: TriMesh, u: np.ndarray) -> CutMesh:
         One component.
     u : float64 (m, 3)
         One representative tangent vector per face, non-zero on every face.
+    rotations : float64 (E,), optional
+        ``connection_rotations`` of :func:`fvf.vertex_indices`: cones, period jumps and
+        combing relative to that connection (default: Levi-Civita).
 
     Returns
     -------
     CutMesh
     """
-    cg = cut_graph(mesh, u, 4)
-    combed = comb(mesh, u, 4, cg)[0]
+    cg = cut_graph(mesh, u, 4, connection_rotations=rotations)
+    combed = comb(mesh, u, 4, cg, connection_rotations=rotations)[0]
     combed = combed / np.linalg.norm(combed, axis=1, keepdims=True)
-    jumps = period_jumps(mesh, combed, 4)
+    jumps = period_jumps(mesh, combed, 4, connection_rotations=rotations)
     jumps[~cg.mask] = 0
-    index4 = np.rint(4.0 * np.asarray(vertex_indices(mesh, u, n=4), dtype=float)).astype(np.int64)
+    index = vertex_indices(mesh, u, n=4, connection_rotations=rotations)
+    index4 = np.rint(4.0 * np.asarray(index, dtype=float)).astype(np.int64)
     w, count = wedges(mesh, cg.mask)
     return CutMesh(
         field=combed,

@@ -2,10 +2,13 @@ r"""The frame a parameterization fits: a cross field and the scaling of its two 
 
 The cross field is designed by :func:`fvf.design_field` (n = 4): curvature-aligned by
 default, or the smoothest one (:mod:`fvf.design.nfields`). The curvature-aligned default
-is designed with the holonomy smoothed over the target edge length h
-(``curvature_smoothing=h``, :mod:`fvf.design.holonomy`), so that curvature concentrated at
-a scale below one quad edge (spikes, pinches) does not force cones that no integer grid
-of edge h can separate. Its combed representative u and
+is designed at the scale of the quads: on the connection whose holonomy is the angle
+defect smoothed over the target edge length h (``curvature_smoothing=h``,
+:mod:`fvf.design.holonomy`), with the principal directions diffused over
+:data:`ALIGN_SMOOTHING` · h (``align_smoothing``), so that curvature concentrated below
+one quad edge (spikes, pinches, the principal directions of scan noise) forces no cone
+that no integer grid of edge h could place. Its cones are then measured against the same
+turned connection (:func:`default_connection_rotations`). Its combed representative u and
 v = J u (:mod:`fvf.param.cutmesh`) are then scaled per face, X = (a/h) u, Y = (b/h) v, h
 the target edge length. Two scalings are offered:
 
@@ -34,6 +37,7 @@ import scipy.sparse as sp
 from ..calculus import vertex_to_face
 from ..design.constrained import design_field
 from ..design.frames import rescale_frame
+from ..design.holonomy import holonomy_rotations
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
@@ -42,6 +46,8 @@ from .cutmesh import CutMesh
 
 __all__ = [
     "ALIGNMENTS",
+    "ALIGN_SMOOTHING",
+    "default_connection_rotations",
     "SCALINGS",
     "default_cross_field",
     "unit_cross_field",
@@ -54,11 +60,15 @@ Alignment = Literal["curvature", "smooth"]
 ALIGNMENTS = ("curvature", "smooth")
 Scaling = Literal["commuting", "fitted", "none"]
 SCALINGS = ("commuting", "fitted", "none")
+#: The curvature-aligned default field diffuses its alignment target over this many
+#: target edge lengths (spot's irregular vertices 4.20 % at 0, 3.86 % at 1, 3.29 % at 2;
+#: ``benchmarks/bench_quads.py``).
+ALIGN_SMOOTHING = 2.0
 
 
 @takes_mesh
 def default_cross_field(
-    mesh: TriMesh, align: Alignment = "curvature", curvature_smoothing: float | None = None
+    mesh: TriMesh, align: Alignment = "curvature", edge_length: float | None = None
 ) -> np.ndarray:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
@@ -69,13 +79,12 @@ def default_cross_field(
         ``"curvature"``: :func:`fvf.design_field` with ``n=4, align="curvature"`` (smooth,
         aligned with the principal directions where the surface is anisotropic);
         ``"smooth"``: the smoothest cross field (``fvf.design_field(mesh, n=4)``).
-    curvature_smoothing : float, optional
-        With ``align="curvature"``: the length over which the connection's holonomy
-        is smoothed (:func:`fvf.design.holonomy.smoothed_angle_defects`); vertices whose
-        angle defect is concentrated below that scale then carry no cone.
-        :func:`fvf.seamless_parameterization` passes the target edge length h. Ignored
-        with ``align="smooth"`` (the smoothest field of a smoothed connection leaves a
-        flipped triangle on fertility: ``benchmarks/bench_quads.py --smooth-h``).
+    edge_length : float, optional
+        With ``align="curvature"``: the target edge length h. The field is then designed
+        with ``curvature_smoothing=h`` and ``align_smoothing=ALIGN_SMOOTHING * h``
+        (module docstring), and its singularities should be measured with
+        :func:`default_connection_rotations`. :func:`fvf.seamless_parameterization`
+        passes its h. Ignored with ``align="smooth"``.
 
     Returns
     -------
@@ -89,13 +98,29 @@ def default_cross_field(
     if align == "smooth":
         u = design_field(mesh, n=4)
     else:
-        u = design_field(mesh, n=4, align="curvature", curvature_smoothing=curvature_smoothing)
+        h = edge_length
+        u = design_field(
+            mesh,
+            n=4,
+            align="curvature",
+            curvature_smoothing=h,
+            align_smoothing=None if h is None else ALIGN_SMOOTHING * h,
+        )
     # a cone at a face's centroid (e.g. by symmetry) makes the power exactly 0 there: any
     # direction is as good as another, take the face's first basis vector
     length = np.linalg.norm(u, axis=1)
     zero = length <= 1e-9 * float(length.max(initial=0.0))
     u[zero] = mesh.face_bases[zero, 0]
     return unit_cross_field(mesh, u)
+
+
+def default_connection_rotations(
+    mesh: TriMesh, align: Alignment, edge_length: float
+) -> np.ndarray | None:
+    """The connection the default field of ``align`` is measured against: float64 (E,)
+    rotations of the transports (:func:`fvf.design.holonomy.holonomy_rotations` over the
+    target edge length) for ``"curvature"``, None (Levi-Civita) for ``"smooth"``."""
+    return holonomy_rotations(mesh, edge_length) if align == "curvature" else None
 
 
 def unit_cross_field(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:

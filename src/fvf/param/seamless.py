@@ -53,6 +53,7 @@ from .frames import (
     Alignment,
     Scaling,
     commuting_scale,
+    default_connection_rotations,
     default_cross_field,
     fitted_scale,
     unit_cross_field,
@@ -322,7 +323,8 @@ def seamless_parameterization(
     field : array_like (m, 3), optional
         Cross field as one representative tangent vector per face (any of the four
         directions). Default: :func:`fvf.param.frames.default_cross_field` with ``align``
-        (curvature-aligned with ``curvature_smoothing=h``).
+        (curvature-aligned at the scale h, its cones measured against the connection of
+        :func:`fvf.param.frames.default_connection_rotations`).
     target_faces : int, optional
         Approximate number of quads: h = √(area / target_faces). Default m / 10.
     edge_length : float, optional
@@ -373,16 +375,20 @@ def seamless_parameterization(
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
     clock("cross field" if field is None else "reading the cross field")
+    rot = None
     if field is None:
-        u = default_cross_field(mesh, align, curvature_smoothing=h)
+        u = default_cross_field(mesh, align, edge_length=h)
+        rot = default_connection_rotations(mesh, align, h)
     else:
         u = unit_cross_field(mesh, field)
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
-        u = tidy_close_singularities(mesh, u, 4, radius=r, max_step=2, backend=backend)
+        u = tidy_close_singularities(
+            mesh, u, 4, radius=r, max_step=2, backend=backend, connection_rotations=rot
+        )
     clock("combing and cut graph")
-    cm = cut_mesh(mesh, u)
+    cm = cut_mesh(mesh, u, rot)
     _check_cones(mesh, cm)
     clock(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
     fs = _fit_system(mesh, cm)
