@@ -6,7 +6,6 @@ peer, and the shared meshes in ``../shared/meshes`` or ``$FVF_SHARED_MESHES``)::
     .venv/bin/python benchmarks/bench_quads.py                 # the five meshes below
     .venv/bin/python benchmarks/bench_quads.py --meshes spot.obj --ratio 0.25
     .venv/bin/python benchmarks/bench_quads.py --scaling       # fvf alone, 86k..750k faces
-    .venv/bin/python benchmarks/bench_quads.py --smooth-h      # fvf with another cross field
 
 Per mesh, fvf runs first with a target of ``ratio × input faces`` quads; Instant Meshes
 (``pynanoinstantmeshes.remesh``, pure quads: it subdivides its quad-dominant mesh 1-to-4,
@@ -53,14 +52,8 @@ def _child(method: str, mesh_path: str, target: int, out: str) -> None:
     extra = {}
     if method.startswith("fvf"):
         mesh = fvf.TriMesh(V, F)
-        field = None
-        if method == "fvf-smooth-h":  # the smoothest field, holonomy smoothed over one quad
-            h = fvf.param.seamless.edge_length_for(mesh, target, None)
-            field = fvf.design_field(mesh, n=4, curvature_smoothing=h)
         try:
-            Vq, Q, p = fvf.quad_mesh(
-                mesh, target_faces=target, field=field, return_parameterization=True
-            )
+            Vq, Q, p = fvf.quad_mesh(mesh, target_faces=target, return_parameterization=True)
             extra = {"flips": p.n_flipped, "cones": int(p.singular.size)}
         except fvf.FvfError as exc:
             Vq, Q = np.zeros((0, 3)), np.zeros((0, 4), np.int64)
@@ -122,7 +115,7 @@ def fmt(q, seconds, rss, mesh, extra=None):
     )
 
 
-def compare(names: list[str], ratio: float, tmp: Path, field: str = "fvf") -> None:
+def compare(names: list[str], ratio: float, tmp: Path) -> None:
     import fvf
 
     head = (
@@ -134,12 +127,12 @@ def compare(names: list[str], ratio: float, tmp: Path, field: str = "fvf") -> No
         path = SHARED / name
         mesh = fvf.TriMesh(*fvf.read_mesh(path))
         target = max(int(ratio * mesh.n_faces), 100)
-        Vf, Qf, tf, rf, ef = run_child(field, path, target, tmp)
+        Vf, Qf, tf, rf, ef = run_child("fvf", path, target, tmp)
         qf = measure(mesh, Vf, Qf)
         final = Qf.shape[0] if Qf.shape[0] else target
         Vi, Qi, ti, ri, _ = run_child("im", path, final, tmp)
         qi = measure(mesh, Vi, Qi)
-        print(f"{name:15s} {field[:8]:8s} {fmt(qf, tf, rf, mesh, ef)}")
+        print(f"{name:15s} {'fvf':8s} {fmt(qf, tf, rf, mesh, ef)}")
         print(f"{'':15s} {'instant':8s} {fmt(qi, ti, ri, mesh)}")
         goals = []
         if qf is not None and qi is not None:
@@ -192,12 +185,6 @@ def main() -> None:
     ap.add_argument("--meshes", nargs="+", default=MESHES)
     ap.add_argument("--ratio", type=float, default=0.25, help="target quads per input face")
     ap.add_argument("--scaling", action="store_true", help="fvf alone on 86k..750k faces")
-    ap.add_argument(
-        "--smooth-h",
-        action="store_true",
-        help="fvf with the smoothest cross field whose holonomy is smoothed over one quad "
-        "edge (design_field(n=4, curvature_smoothing=h)) instead of the default field",
-    )
     args = ap.parse_args()
     import tempfile
 
@@ -205,7 +192,7 @@ def main() -> None:
         if args.scaling:
             scaling(args.ratio, Path(d))
         else:
-            compare(args.meshes, args.ratio, Path(d), "fvf-smooth-h" if args.smooth_h else "fvf")
+            compare(args.meshes, args.ratio, Path(d))
 
 
 if __name__ == "__main__":
