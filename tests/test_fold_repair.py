@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from fvf.param.folds import _Responses, face_distortion, flip_count, integer_moves
@@ -24,9 +25,15 @@ def test_face_distortion_is_the_singular_values_of_j_f_inverse():
     np.testing.assert_allclose(got[:3], [0.0, 2.0, 0.0], atol=1e-12)
 
 
-def test_responses_rows_and_columns_equal_the_dense_response_matrix():
+@pytest.mark.parametrize("block", [None, 80])
+def test_responses_rows_and_columns_equal_the_dense_response_matrix(block, monkeypatch):
     """R = K_i − K_r H_rr⁻¹ H_ri with H = KᵀK: rows (adjoint solves) and columns (direct
-    solves, small entries dropped) both equal the dense matrix."""
+    solves, small entries dropped) both equal the dense matrix, also when the solves go in
+    blocks of bounded memory (block=80 entries: two right-hand sides of 36 unknowns)."""
+    from fvf.param import folds
+
+    if block is not None:
+        monkeypatch.setattr(folds, "SCHUR_BLOCK_ENTRIES", block)
     rng = np.random.default_rng(11)
     rows, p = 120, 40
     K = sp.random_array((rows, p), density=0.15, rng=rng, format="csr") + sp.eye_array(
@@ -150,3 +157,18 @@ def test_integer_lattice_equals_the_dense_reference_and_spans_the_kernel():
                 if np.abs(C @ z).max() == 0:
                     w = np.linalg.lstsq(N, z, rcond=None)[0]
                     assert np.allclose(N @ w, z) and np.allclose(w, np.round(w))
+
+
+def test_a_released_solver_keeps_its_integers_and_cannot_solve():
+    rng = np.random.default_rng(3)
+    K = sp.csr_array(
+        sp.random_array((80, 30), density=0.2, rng=rng, format="csr")
+        + sp.eye_array(80, 30, format="csr")
+    )
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), np.array([4, 12]), backend="scipy")
+    S = solver.S.copy()
+    solver.release()
+    np.testing.assert_array_equal(solver.integer, [4, 12])
+    np.testing.assert_array_equal(solver.S, S)
+    with pytest.raises(AttributeError):
+        solver.real(K.T @ rng.standard_normal(80))

@@ -318,13 +318,16 @@ def test_fold_repair_stops_when_the_weights_run_away(monkeypatch):
     from fvf.param import folds
 
     mesh = load_shared("faust_r_tr_reg_001.off")
-    solvers = []
+    solvers, released = [], []
     real = folds.MixedIntegerSolver
     monkeypatch.setattr(folds, "MixedIntegerSolver", lambda *a: solvers.append(1) or real(*a))
+    release = real.release
+    monkeypatch.setattr(real, "release", lambda self: released.append(1) or release(self))
     with pytest.raises(fvf.QuadExtractionError, match=r"\(121 in all\)"):
         with pytest.warns(fvf.FlippedParameterizationWarning):
             fvf.quad_mesh(mesh, target_faces=2499)
     assert len(solvers) == 3  # of 7 possible re-roundings
+    assert len(released) == 3  # each factorization freed before the next is made
 
 
 @pytest.mark.slow

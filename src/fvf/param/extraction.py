@@ -444,8 +444,10 @@ def _check_uv(mesh: TriMesh, uv: np.ndarray) -> None:
     if flipped.size:
         raise QuadExtractionError(
             f"{flipped.size} uv triangles are flipped or degenerate (triangles "
-            f"{format_indices(flipped)}); the integer grid cannot be pulled back there: "
-            "use a larger edge length (fewer faces) or a smoother cross field"
+            f"{format_indices(flipped)}); the integer grid cannot be pulled back there "
+            "(cones closer than one quad edge, or features narrower than one): try another "
+            "target — more quads resolve small features, fewer let close cones cancel — or "
+            "a smoother cross field (align='smooth')"
         )
 
 

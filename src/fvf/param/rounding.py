@@ -175,6 +175,11 @@ class MixedIntegerSolver:
                 progress(int(cols[-1]) + 1, k)
         self.S = 0.5 * (S + S.T)
 
+    def release(self) -> None:
+        """Free the factorization and the matrices; the solver cannot solve afterwards
+        (``integer``, ``real_idx`` and ``S`` stay)."""
+        del self.fac, self.Hrr, self.Hri
+
     def reduced(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(H_rr⁻¹ g_r, g_i − H_riᵀ H_rr⁻¹ g_r): the real part at w = 0, the reduced rhs."""
         yr0 = self.fac.solve(g[self.real_idx])

@@ -416,6 +416,7 @@ def seamless_parameterization(
             batch=rounding_batch,
             backend=backend,
             progress=clock.detail,
+            release_solver=True,
         )
     uv = (fs.lift @ y).reshape(-1, 2)[cm.wedges]
     bnorm = float(np.linalg.norm(b))
@@ -425,7 +426,8 @@ def seamless_parameterization(
     if flipped.size:
         warnings.warn(
             f"{flipped.size} uv triangles are flipped or degenerate (faces "
-            f"{format_indices(flipped)}); use a larger edge length or a smoother field",
+            f"{format_indices(flipped)}); try another target (more quads resolve features "
+            "narrower than a quad edge, fewer let close cones cancel) or a smoother field",
             FlippedParameterizationWarning,
             stacklevel=2,
         )
