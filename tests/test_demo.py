@@ -67,6 +67,7 @@ def test_demo_writes_every_picture_report_and_gif(small_mesh, tmp_path):  # abou
         "fig11_acap_0",
         "fig12_strip",
         "cross_field",
+        "quads_checker",
         "quads",
     ):
         assert any(n.startswith(fig) for n in names), fig
@@ -144,6 +145,39 @@ def test_demo_numbers_carry_expected_values_and_marks(tmp_path):
     assert fig12["expect"] == "[1, 1, 3]" and fig12["tol"] == "exact"
     lemma9 = [c for c in checks if "Lemma 9" in c["label"]][0]
     assert lemma9["expect"] == "0" and lemma9["tol"].startswith("≤")
+
+
+@pytest.mark.parametrize("peer", [False, True])
+def test_demo_quad_section_compares_with_instant_meshes_when_installed(peer, tmp_path):
+    """The quad section reports fvf's metrics, and Instant Meshes' beside them when
+    pynanoinstantmeshes is installed (else a row says how to get it)."""
+    from fvf.cli import demo as demo_module
+    from fvf.param import peer as peer_module
+
+    if peer and not peer_module.has_instant_meshes():
+        pytest.skip("pynanoinstantmeshes is not installed (bench/test-only peer)")
+    if not peer:  # as on a machine without it
+        import unittest.mock
+
+        patch = unittest.mock.patch.object(peer_module, "has_instant_meshes", lambda: False)
+        patch.start()
+    try:
+        mesh = fvf.torus(40, 20)
+        path = tmp_path / "torus.obj"
+        fvf.write_mesh(path, mesh.vertices, mesh.faces)
+        stages = (demo_module._cross_field, demo_module._quads)
+        report = demo_module.demo(str(path), tmp_path / "o", pictures=False, stages=stages)
+    finally:
+        if not peer:
+            patch.stop()
+    assert report["checks_failed"] == 0
+    labels = {c["label"]: c for c in report["checks"]}
+    assert labels["flipped uv triangles"]["ok"] is True
+    assert labels["fvf: irregular vertex fraction"]["value"] == 0  # a torus: all regular
+    if peer:
+        assert labels["Instant Meshes: irregular vertex fraction"]["value"] >= 0
+    else:
+        assert labels["Instant Meshes"]["value"] == "not installed"
 
 
 def test_report_model_marks_failures_and_keeps_the_older_api(tmp_path):

@@ -17,13 +17,14 @@ presence means the run finished.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -31,6 +32,7 @@ from .report import Story, fmt, render_html
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh  # noqa: F401
+    from ..param.seamless import SeamlessParameterization  # noqa: F401
 from ..io.atomic import atomic_path, atomic_write_text
 
 __all__ = ["demo"]
@@ -537,43 +539,82 @@ def _cross_field(s, story):
 
 
 def _quads(s, story):
-    """Fig. 1: a seamless parameterization along the cross field, and its quad mesh."""
+    """Fig. 1: a seamless parameterization along a cross field, and its quad mesh; beside
+    Instant Meshes at the same quad count when it is installed."""
     import fvf
     from fvf.errors import ParameterizationInputError, QuadExtractionError
+    from fvf.param.peer import has_instant_meshes, instant_meshes
 
-    st = story.begin("A quad mesh from the cross field (Fig. 1)", _quads)
+    st = story.begin("A quad mesh from a cross field (Fig. 1)", _quads)
     mesh = s.mesh
     if not mesh.is_closed or mesh.n_components != 1:
         st.info("quad mesh", "skipped", note="needs a closed, connected mesh")
         return
-    try:
-        quads = fvf.quad_mesh(mesh, field=s.cross, target_faces=max(200, mesh.n_faces // 4))
+    target = max(200, mesh.n_faces // 4)
+    try:  # its own cross field: curvature-aligned at the scale of the quads
+        made = fvf.quad_mesh(mesh, target_faces=target, return_parameterization=True)
     except (ParameterizationInputError, QuadExtractionError) as exc:
         st.info("quad mesh", "not made", note=f"{type(exc).__name__}: {exc}"[:300])
         return
-    V, Q = quads[0], quads[1]
-    q = fvf.quad_quality(mesh, V, Q)
-
-    def draw(path, **kwargs):
-        import fvf.viz
-
-        return fvf.viz.render_quads(V, Q, path, **kwargs)
-
+    V, Q, p = cast("tuple[np.ndarray, np.ndarray, SeamlessParameterization]", made)
+    q = fvf.quad_quality(mesh, V, Q, parameterization=p)
+    story.picture(
+        st,
+        "quads_checker.png",
+        mesh,
+        f"seamless parameterization: {p.singular.size} cones on integer points",
+        draw=functools.partial(_checkerboard, mesh, p.uv),
+        view=_both_sides(),
+        wide=True,
+    )
     story.picture(
         st,
         "quads.png",
         mesh,
         f"{Q.shape[0]} quads; irregular vertices: +1 valence 3, −1 valence 5",
-        draw=draw,
+        draw=functools.partial(_quad_picture, V, Q),
         view=_both_sides(),
         wide=True,
     )
-    st.info("quads", Q.shape[0], note=f"target {max(200, mesh.n_faces // 4)}")
-    st.info("irregular vertex fraction", q.irregular_fraction, note="valence other than 4")
+    st.info("quads", Q.shape[0], note=f"target {target}")
+    st.check("flipped uv triangles", p.n_flipped, equals=0)
     st.check(
         "quad mesh is closed and manifold with the input's Euler characteristic",
         [q.closed, q.manifold, q.euler_characteristic],
         equals=[True, True, mesh.euler_characteristic],
+    )
+    _quad_metrics(st, "fvf", q)
+    if not has_instant_meshes():
+        st.info("Instant Meshes", "not installed", note="pip install pynanoinstantmeshes")
+        return
+    Vi, Qi = instant_meshes(mesh, Q.shape[0])
+    st.info("Instant Meshes: quads", Qi.shape[0], note="asked for as many as fvf made")
+    _quad_metrics(st, "Instant Meshes", fvf.quad_quality(mesh, Vi, Qi))
+
+
+def _checkerboard(mesh, uv, path, **kwargs):
+    import fvf.viz
+
+    return fvf.viz.render_checkerboard(mesh, uv, path, **kwargs)
+
+
+def _quad_picture(V, Q, path, **kwargs):
+    import fvf.viz
+
+    return fvf.viz.render_quads(V, Q, path, **kwargs)
+
+
+def _quad_metrics(st: Any, who: str, q: Any) -> None:
+    """The literature's quad-mesh metrics of one remesher, as rows of the report's table."""
+    st.info(f"{who}: irregular vertex fraction", q.irregular_fraction, note="valence not 4")
+    st.info(
+        f"{who}: corner angle |θ − 90°| median, p95 (deg)",
+        [q.angle_deviation_median, q.angle_deviation_p95],
+    )
+    st.info(f"{who}: quad area std / mean", q.area_cv)
+    st.info(
+        f"{who}: Hausdorff to / from the input (bbox diagonal)",
+        [q.hausdorff_to_input, q.hausdorff_from_input],
     )
 
 

@@ -10,6 +10,7 @@ extraction  the integer grid of a parameterization as a quad mesh
 quadmesh    :func:`quad_mesh` (parameterize, then extract)
 quality     :func:`quad_quality`
 quadfolds   quads folded in 3D: :func:`folded_quads`, untangling on the surface
+peer        Instant Meshes (when installed) at a quad count, for comparisons
 """
 
 from .extraction import QuadMesh, edge_transitions, extract_quads
