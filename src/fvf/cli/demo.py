@@ -610,11 +610,13 @@ def _quad_metrics(st: Any, who: str, q: Any) -> None:
     st.info(
         f"{who}: corner angle |θ − 90°| median, p95 (deg)",
         [q.angle_deviation_median, q.angle_deviation_p95],
+        note="how square the quads are",
     )
-    st.info(f"{who}: quad area std / mean", q.area_cv)
+    st.info(f"{who}: quad area std / mean", q.area_cv, note="how even their sizes are")
     st.info(
         f"{who}: Hausdorff to / from the input (bbox diagonal)",
         [q.hausdorff_to_input, q.hausdorff_from_input],
+        note="one-sided distances between the surfaces",
     )
 
 
