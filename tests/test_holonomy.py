@@ -50,6 +50,16 @@ def test_rotations_give_the_smoothed_holonomy_exactly():
     assert connection_laplacian(mesh, n=4) is not L  # cached apart from the plain one
 
 
+def test_rotations_are_computed_once_per_mesh_and_length():
+    """The quad pipeline designs with them and measures cones with them: one computation,
+    shared read-only (a new length is a new one)."""
+    mesh = fvf.jittered_sphere(2, seed=2)
+    ell = 2 * mesh.mean_edge_length
+    x = holonomy_rotations(mesh, ell)
+    assert holonomy_rotations(mesh, ell) is x and not x.flags.writeable
+    assert holonomy_rotations(mesh, 2 * ell) is not x
+
+
 def test_each_component_keeps_its_own_total():
     """Two disjoint spheres: the heat step and the rotations work per component (one
     grounded vertex each), so each keeps 4π and the identity holds on both."""

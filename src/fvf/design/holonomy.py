@@ -107,12 +107,19 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
 
     Returns
     -------
-    float64 (E,)
+    float64 (E,), read-only
         One angle per edge (``mesh.edges`` order), least norm with
         $G^\top x = K - \tilde K$; multiply the transport of the pair across edge e
         (:func:`fvf.design.connection.connection_pairs`, ``"knoppel"``) by
-        $e^{i x_e}$.
+        $e^{i x_e}$. Cached on the mesh per length: the design of a field and the
+        measurement of its cones (:mod:`fvf.param`) share one computation.
     """
+    ell = smoothing_length(length)
+    return mesh.cached(f"holonomy_rotations:{ell!r}", lambda: _rotations_for(mesh, ell))
+
+
+def _rotations_for(mesh: TriMesh, length: float) -> np.ndarray:
+    """The uncached :func:`holonomy_rotations`, made read-only."""
     target = smoothed_angle_defects(mesh, length)
     K = _angle_defects(mesh)
     E = mesh.edges
@@ -127,4 +134,6 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
     Gk = G[:, np.flatnonzero(keep)]
     phi = np.zeros(n)
     phi[keep] = factor_hermitian(sp.csr_array(Gk.T @ Gk), "auto", "few").solve((K - target)[keep])
-    return G @ phi
+    x = G @ phi
+    x.setflags(write=False)
+    return x
