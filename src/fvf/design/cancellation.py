@@ -238,9 +238,15 @@ class _Reanglers:
 
 
 def _checked(
-    mesh: TriMesh, u: npt.ArrayLike, n: int, radius: float, rounds: int
-) -> tuple[int, float, np.ndarray]:
-    """The checked N, radius and unit field of the public entrances."""
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    radius: float,
+    rounds: int,
+    rotations: npt.ArrayLike | None,
+) -> tuple[int, float, np.ndarray, np.ndarray | None]:
+    """The checked N, radius, unit field and ``connection_rotations`` (float64 (E,) or
+    None) of the public entrances."""
     n = as_direction_count(n)
     radius = float(radius)
     if not (np.isfinite(radius) and radius >= 0):
@@ -249,12 +255,8 @@ def _checked(
         raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
     u = as_face_field(mesh, u, "u")
     _check_nonzero(mesh, u, "its singularities")
-    return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True)
-
-
-def _checked_rotations(mesh: TriMesh, rotations: npt.ArrayLike | None) -> np.ndarray | None:
-    """``connection_rotations`` as float64 (E,) (:func:`fvf.vertex_indices`), or None."""
-    return None if rotations is None else _rotations(mesh, rotations)
+    rot = None if rotations is None else _rotations(mesh, rotations)
+    return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True), rot
 
 
 @takes_mesh
@@ -301,9 +303,8 @@ def cancel_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u = _checked(mesh, u, n, radius, rounds)
+    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = _checked_rotations(mesh, connection_rotations)
     return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius), rot)
 
 
@@ -475,9 +476,8 @@ def separate_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u = _checked(mesh, u, n, radius, rounds)
+    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = _checked_rotations(mesh, connection_rotations)
     return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius), rot)
 
 
@@ -555,7 +555,7 @@ def split_large_singularities(
     float64 (m, 3), checked by the caller; returns the edited field, float64 (m, 3).
     """
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = _checked_rotations(mesh, connection_rotations)
+    rot = None if connection_rotations is None else _rotations(mesh, connection_rotations)
     rules = _splitting(mesh, radius, max_step)
     return _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
 
@@ -634,9 +634,8 @@ def tidy_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u = _checked(mesh, u, n, radius, rounds)
+    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = _checked_rotations(mesh, connection_rotations)
     for rules in (
         _cancelling(mesh, radius),
         _separating(mesh, radius),
