@@ -199,13 +199,14 @@ class _Responses:
         self._Kr_rows = sp.csr_array(self.Kr)
         self._rows: dict[int, np.ndarray] = {}
         self._cols: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # right-hand sides per solve, so that a block holds SCHUR_BLOCK_ENTRIES at most
+        self._block = max(1, SCHUR_BLOCK_ENTRIES // max(solver.real_idx.size, 1))
 
     def rows(self, idx: np.ndarray) -> np.ndarray:
         """float64 (len(idx), k): R at the rows ``idx``."""
         new = np.array([r for r in idx.tolist() if r not in self._rows], dtype=np.int64)
-        chunk = max(1, SCHUR_BLOCK_ENTRIES // max(self.solver.real_idx.size, 1))
-        for lo in range(0, new.size, chunk):  # solve blocks of bounded memory
-            part = new[lo : lo + chunk]
+        for lo in range(0, new.size, self._block):  # solve blocks of bounded memory
+            part = new[lo : lo + self._block]
             X = self.solver.fac.solve(self._Kr_rows[part].T.toarray())
             values = self._Ki_rows[part].toarray() - (self.solver.Hri.T @ X).T
             self._rows.update(zip(part.tolist(), values, strict=True))
@@ -215,9 +216,8 @@ class _Responses:
         """(rows, values) of each column in ``cols``, entries below :data:`RESPONSE_RTOL` of
         the column's largest dropped."""
         new = np.array([c for c in cols.tolist() if c not in self._cols], dtype=np.int64)
-        chunk = max(1, SCHUR_BLOCK_ENTRIES // max(self.solver.real_idx.size, 1))
-        for lo in range(0, new.size, chunk):  # solve blocks of bounded memory
-            part = new[lo : lo + chunk]
+        for lo in range(0, new.size, self._block):  # solve blocks of bounded memory
+            part = new[lo : lo + self._block]
             Z = self.solver.fac.solve(self.solver.Hri[:, part].toarray())
             R = self.Ki[:, part].toarray() - self.Kr @ Z
             for c, col in zip(part.tolist(), R.T, strict=True):
