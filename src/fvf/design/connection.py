@@ -672,12 +672,13 @@ def smoothest_fields(
     Notes
     -----
     LOBPCG factors L_n + τ[A_F] once (τ = 1e-8 max L_tt/A_t makes it definite on meshes
-    with a parallel field) and iterates on a block of count + 1 vectors until every
-    residual is below 1e-6 (mass rescaled to mean 1), then a Rayleigh–Ritz step in their
-    span. ARPACK runs in complex arithmetic in shift-invert mode (σ just below 0) for
-    count + 2 vectors, then the same Rayleigh–Ritz step. Within a degenerate eigenspace
-    (e.g. the sphere's λ = 1 for n = 1, complex multiplicity 3; λ = 4 for n = 4,
-    multiplicity 9) the basis returned is arbitrary.
+    with a parallel field) and iterates on a block of count vectors, on the standard form
+    [A_F]^(-1/2) L_n [A_F]^(-1/2), until every residual is below 1e-6 (mass rescaled to
+    mean 1), then a Rayleigh–Ritz step in their span. ARPACK runs in complex arithmetic
+    in shift-invert mode (σ just below 0) for count + 2 vectors, then the same
+    Rayleigh–Ritz step. Within a degenerate eigenspace (e.g. the sphere's λ = 1 for n = 1,
+    complex multiplicity 3; λ = 4 for n = 4, multiplicity 9) the basis returned is
+    arbitrary.
 
     On shapes whose curvature varies strongly, the smoothest N-fields for N ≥ 2 localise:
     the N-fold transport acts like a magnetic field N·K, and the lowest eigenfields
