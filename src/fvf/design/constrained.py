@@ -424,11 +424,11 @@ def _solve_design(
     free[fixed] = False
     rest = np.flatnonzero(free)
     if rest.size:
-        L = sp.csr_array(L)
-        Lr = L[rest]
-        S = Lr[:, rest] + sp.diags_array(pen[rest])
-        b = rhs[rest] - Lr[:, fixed] @ tau_fixed if fixed.size else rhs[rest]
-        z[rest] = factor_hermitian(S, backend, solves="few").solve(b.astype(complex))
+        # (L z)[rest] with z zero off ``fixed`` is L[rest, fixed] τ_fixed: one product
+        # instead of a copy of L's rows that would stay alive through the factorization
+        b = (rhs[rest] - (L @ z)[rest]).astype(complex)
+        S = sp.csr_array(L)[rest][:, rest] + sp.diags_array(pen[rest])
+        z[rest] = factor_hermitian(S, backend, solves="few").solve(b)
     return z
 
 
