@@ -221,3 +221,22 @@ def test_line_field_alignment_and_odd_n_rejected():
     for n in (1, 3):
         with pytest.raises(fvf.DirectionCountError, match="even n"):
             fvf.design_field(mesh, n=n, align="curvature")
+
+
+def test_transient_estimate_equals_the_cached_one_and_is_not_stored():
+    from fvf.mesh.curvature import CACHE_KEY, principal_curvatures_transient
+
+    mesh = fvf.mesh.builtin.spot()
+    fresh = principal_curvatures_transient(mesh)
+    assert CACHE_KEY not in mesh._cache  # a one-shot design keeps no copy
+    cached = fvf.principal_curvatures(mesh)
+    for name in ("k1", "k2", "d1", "d2", "shape_operator"):
+        assert np.array_equal(getattr(fresh, name), getattr(cached, name))
+    assert principal_curvatures_transient(mesh) is cached  # the cache when it is there
+
+
+def test_curvature_aligned_design_keeps_no_curvature_on_the_mesh():
+    mesh = fvf.mesh.builtin.spot()
+    u = fvf.design_field(mesh, n=4, align="curvature")
+    assert "principal_curvatures" not in mesh._cache
+    assert np.isfinite(u).all()

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import ConstraintError, DirectionCountError, format_indices
-from ..mesh.curvature import principal_curvatures
+from ..mesh.curvature import principal_curvatures_transient
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 
@@ -107,7 +107,7 @@ def alignment_targets(
                 f"align='curvature' needs an even n (principal directions are defined up to "
                 f"sign: n=2 lines, n=4 crosses); got n={n}."
             )
-        pc = principal_curvatures(mesh)
+        pc = principal_curvatures_transient(mesh)  # not kept through the design's solve
         tau = _unit_power(mesh.to_complex(pc.d1), n)
         w = pc.anisotropy**2
         if align_weights is not None:

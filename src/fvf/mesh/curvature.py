@@ -148,20 +148,32 @@ def principal_curvatures(mesh: TriMesh) -> PrincipalCurvatures:
     True
     """
 
-    def build():
-        S = _fit_shape_operators(mesh)
-        a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-        mean, half = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
-        theta = 0.5 * np.arctan2(2.0 * b, a - c)  # angle of the κ_1 eigenvector
-        B = mesh.face_bases
-        d1 = np.cos(theta)[:, None] * B[:, 0] + np.sin(theta)[:, None] * B[:, 1]
-        d2 = _cross(mesh.face_normals, d1)
-        return PrincipalCurvatures(
-            _readonly(mean + half),
-            _readonly(mean - half),
-            _readonly(d1),
-            _readonly(d2),
-            _readonly(S),
-        )
+    return mesh.cached(CACHE_KEY, lambda: _estimate(mesh))
 
-    return mesh.cached("principal_curvatures", build)
+
+#: Key of :func:`principal_curvatures` in the mesh's cache.
+CACHE_KEY = "principal_curvatures"
+
+
+def _estimate(mesh: TriMesh) -> PrincipalCurvatures:
+    """:func:`principal_curvatures` computed afresh (not cached)."""
+    S = _fit_shape_operators(mesh)
+    a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    mean, half = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+    theta = 0.5 * np.arctan2(2.0 * b, a - c)  # angle of the κ_1 eigenvector
+    B = mesh.face_bases
+    d1 = np.cos(theta)[:, None] * B[:, 0] + np.sin(theta)[:, None] * B[:, 1]
+    d2 = _cross(mesh.face_normals, d1)
+    return PrincipalCurvatures(
+        _readonly(mean + half),
+        _readonly(mean - half),
+        _readonly(d1),
+        _readonly(d2),
+        _readonly(S),
+    )
+
+
+def principal_curvatures_transient(mesh: TriMesh) -> PrincipalCurvatures:
+    """:func:`principal_curvatures` from the mesh's cache when there, else computed without
+    storing it: for one-shot users on big meshes (0.07 GB at 750k faces)."""
+    return mesh._cache.get(CACHE_KEY) or _estimate(mesh)
