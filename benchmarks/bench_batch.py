@@ -15,8 +15,9 @@ Two corpora, written to a temporary folder (the shared meshes are read from
   spheres, jittered spheres, tori and disks of 80 to 23k faces: 40 meshes in all;
 - **small**: 40 generated meshes of 80 to 1,300 faces (42 to 650 vertices), where the
   per-mesh cost of the batch machinery (scheduling, hashing, the result file) shows most.
-  The loop and a 1-worker batch also run over 40 and 80 such meshes: the slope is the
-  cost of one more mesh, the intercept the per-run cost.
+  The loop and a 1-worker batch also run over 40, 120 and 200 such meshes: the slope of
+  a line fitted through all runs is the cost of one more mesh, the intercept the per-run
+  cost.
 
 Each mesh runs the default tasks (``info, basis, fields, singularities``, ``k``
 eigenpairs). The **serial loop** calls the same library functions in this process, one
@@ -26,9 +27,11 @@ writes one result file per mesh too, and fsyncs it). The **run_job loop** calls
 without Dask: the batch's own per-mesh work (hashing the file, looking for a stored
 result, the atomic result file, the row). The **batch** runs
 ``fvf.batch.run`` on a local cluster of 1 or 2 single-threaded worker processes started
-before the timer (its start-up, the same for every batch, is timed separately); each
-repeat writes into a fresh folder, so nothing is skipped. Before the timed runs, the loop
-and each cluster process two meshes untimed (first calls: lazy imports and caches). BLAS
+before the timer (its start-up, the same for every batch, is timed separately) and closed
+after it, so that only one cluster runs at a time, as under ``fvf batch`` (an idle second
+cluster in this process made the batches about 15 % slower per small mesh); each repeat
+writes into a fresh folder, so nothing is skipped. Before the timed runs, the loop and
+each cluster process two meshes untimed (first calls: lazy imports and caches). BLAS
 runs on one thread everywhere: threadpoolctl in this process (after numpy and scipy are
 loaded), ``OMP/OPENBLAS/MKL_NUM_THREADS=1`` in the workers (Dask's nanny sets them).
 
@@ -42,6 +45,7 @@ they show the batch machinery's own cost.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
 import shutil
@@ -74,6 +78,10 @@ SHARED_MIXED = [
     "faust_r_tr_reg_001.off",
     "lion-00.off",
 ]
+
+
+#: Batch sizes of the per-mesh cost (``marginal``).
+MARGINAL_SIZES = (40, 120, 200)
 
 
 def _write(folder: Path, name: str, mesh) -> Path:
@@ -168,8 +176,14 @@ def _cpu() -> float:
     return time.process_time()
 
 
-def start_cluster(workers: int):
-    """A local cluster as fvf.batch starts it; (cluster, client, seconds to start)."""
+@contextlib.contextmanager
+def running_cluster(workers: int, startup: dict[int, float]):
+    """A local cluster as fvf.batch starts it, closed at the end of the block; its client.
+
+    Only one cluster runs at a time: a LocalCluster's scheduler and client live in this
+    process, and an idle second one (its heartbeats, its event loop) made the other's
+    batches about 15 % slower per small mesh here. The start-up time is recorded in
+    ``startup`` (first start per worker count)."""
     import dask
     import distributed
 
@@ -186,9 +200,14 @@ def start_cluster(workers: int):
             silence_logs=logging.CRITICAL,
         )
         client = distributed.Client(cluster)
+    try:
         client.wait_for_workers(workers)
         client.run(_warm)
-    return cluster, client, time.perf_counter() - start
+        startup.setdefault(workers, time.perf_counter() - start)
+        yield client
+    finally:
+        client.close()
+        cluster.close()
 
 
 def batch(files: list[Path], out: Path, k: int, client) -> tuple[float, float]:
@@ -228,14 +247,12 @@ def in_worker(files: list[Path], k: int, repeats: int, client, tmp: Path) -> Non
         )
 
 
-def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, tmp: Path):
+def measure(name: str, files: list[Path], k: int, repeats: int, startup: dict, tmp: Path):
     labels = ("serial loop", "run_job loop, no Dask", "batch, 1 worker", "batch, 2 workers")
     wall: dict[str, list[float]] = {label: [] for label in labels}
     cpu: dict[str, list[float]] = {label: [] for label in labels}
     warm = files[-2:]  # first calls (lazy imports, caches) outside the timer, everywhere
     serial_loop(warm, tmp / "warm-serial", k)
-    for workers, client in clients.items():
-        batch(warm, tmp / f"warm-{workers}", k, client)
     for r in range(repeats):
         out = tmp / f"{name}-serial-{r}"
         w, c = serial_loop(files, out, k)
@@ -247,10 +264,12 @@ def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, t
         wall["run_job loop, no Dask"].append(w)
         cpu["run_job loop, no Dask"].append(c)
         shutil.rmtree(out)
-        for workers, client in clients.items():
+        for workers in (1, 2):
             label = f"batch, {workers} worker{'s' if workers > 1 else ''}"
-            out = tmp / f"{name}-batch{workers}-{r}"
-            w, c = batch(files, out, k, client)
+            with running_cluster(workers, startup) as client:
+                batch(warm, tmp / f"warm-{workers}-{r}", k, client)
+                out = tmp / f"{name}-batch{workers}-{r}"
+                w, c = batch(files, out, k, client)
             wall[label].append(w)
             cpu[label].append(c)
             shutil.rmtree(out)
@@ -259,30 +278,50 @@ def measure(name: str, files: list[Path], k: int, repeats: int, clients: dict, t
     return wall, cpu
 
 
-def marginal(files: list[Path], k: int, repeats: int, client, tmp: Path) -> None:
-    """Cost of one more small mesh: the loop and a 1-worker batch over the first half and
-    over all of ``files``, interleaved; the slope between the two sizes is the per-mesh
-    cost, the intercept the per-run cost (for the batch: planning, the lock, the first and
-    last round trip, summary.csv)."""
-    half = len(files) // 2
-    runs: dict[str, dict[int, list[float]]] = {"loop": {}, "batch": {}}
+def _line_fit(points: list[tuple[int, float]]) -> tuple[float, float, tuple[float, float]]:
+    """Least-squares t = slope * meshes + intercept over every run, and a 90 % bootstrap
+    interval of the slope (500 resamples of the runs, seeded)."""
+    x = np.array([n for n, _ in points], dtype=float)
+    y = np.array([t for _, t in points])
+    A = np.stack([x, np.ones_like(x)], axis=1)
+    slope, intercept = np.linalg.lstsq(A, y, rcond=None)[0]
+    rng = np.random.default_rng(0)
+    boots = []
+    for _ in range(500):
+        i = rng.integers(0, x.size, x.size)
+        if np.ptp(x[i]) > 0:
+            boots.append(np.linalg.lstsq(A[i], y[i], rcond=None)[0][0])
+    low, high = np.percentile(boots, [5, 95])
+    return float(slope), float(intercept), (float(low), float(high))
+
+
+def marginal(
+    files: list[Path], k: int, repeats: int, client, tmp: Path, sizes: tuple[int, ...]
+) -> None:
+    """Cost of one more small mesh: the loop and a 1-worker batch over ``sizes``
+    meshes (interleaved, ``repeats`` times); a line fitted through all runs gives the
+    per-mesh cost (slope) and the per-run cost (intercept: planning, the lock, the first
+    and last round trip, summary.csv). Sizes from 40 to 200 meshes, because the
+    difference is a few per cent of a run and a run varies by a few per cent between
+    repeats: the slope between 40 and 80 meshes alone moved from +9 % to +23 % between
+    two runs on this machine."""
+    runs: dict[str, list[tuple[int, float]]] = {"loop": [], "batch": []}
     for r in range(repeats):
-        for size in (half, len(files)):
+        for size in sizes:
             out = tmp / f"marginal-{r}-{size}"
-            runs["loop"].setdefault(size, []).append(serial_loop(files[:size], out / "l", k)[0])
-            runs["batch"].setdefault(size, []).append(batch(files[:size], out / "b", k, client)[0])
+            runs["loop"].append((size, serial_loop(files[:size], out / "l", k)[0]))
+            runs["batch"].append((size, batch(files[:size], out / "b", k, client)[0]))
             shutil.rmtree(out)
-    slope, fixed = {}, {}
-    for label, by_size in runs.items():
-        small, large = (statistics.median(by_size[s]) for s in (half, len(files)))
-        slope[label] = (large - small) / (len(files) - half)
-        fixed[label] = small - half * slope[label]
-    extra = slope["batch"] / slope["loop"] - 1
+    fit = {label: _line_fit(points) for label, points in runs.items()}
+    (loop, loop_fixed, loop_ci), (one, one_fixed, one_ci) = fit["loop"], fit["batch"]
+    extra = one / loop - 1
+    counts = ", ".join(map(str, sizes))
     print(
-        f"\nOne more small mesh ({half} -> {len(files)} meshes, medians of {repeats}): loop "
-        f"{1e3 * slope['loop']:.1f} ms, batch on 1 worker {1e3 * slope['batch']:.1f} ms "
-        f"({100 * extra:+.1f} %, goal <= +10 %: {'PASS' if extra <= 0.10 else 'MISS'}); per "
-        f"run: loop {1e3 * fixed['loop']:.0f} ms, batch {1e3 * fixed['batch']:.0f} ms"
+        f"\nOne more small mesh ({counts} meshes, {repeats} repeats, least squares): loop "
+        f"{1e3 * loop:.1f} ms (90 % {1e3 * loop_ci[0]:.1f}-{1e3 * loop_ci[1]:.1f}), batch on "
+        f"1 worker {1e3 * one:.1f} ms ({1e3 * one_ci[0]:.1f}-{1e3 * one_ci[1]:.1f}): "
+        f"{100 * extra:+.1f} % (goal <= +10 %: {'PASS' if extra <= 0.10 else 'MISS'}); per "
+        f"run: loop {1e3 * loop_fixed:.0f} ms, batch {1e3 * one_fixed:.0f} ms"
     )
 
 
@@ -333,32 +372,27 @@ def main() -> None:
         flush=True,
     )
     tmp = Path(tempfile.mkdtemp(prefix="fvf-bench-batch-"))
-    clusters = {}
+    startup: dict[int, float] = {}
     try:
-        startup = {}
-        for workers in (1, 2):
-            cluster, client, seconds = start_cluster(workers)
-            clusters[workers] = (cluster, client)
-            startup[workers] = seconds
-        clients = {w: c for w, (_, c) in clusters.items()}
         corpora = {"mixed": mixed_corpus, "small": small_corpus}
         for name, make in corpora.items():
             if args.only and name != args.only:
                 continue
             files = make(tmp / name, args.quick)
             if args.in_worker:
-                in_worker(files, args.k, repeats, clients[1], tmp)
+                with running_cluster(1, startup) as client:
+                    in_worker(files, args.k, repeats, client, tmp)
                 continue
-            wall, cpu = measure(name, files, args.k, repeats, clients, tmp)
+            wall, cpu = measure(name, files, args.k, repeats, startup, tmp)
             report(name, files, wall, cpu, startup)
             if name == "small":
-                more = small_corpus(tmp / "small", args.quick, count=2 * len(files))
-                marginal(more, args.k, repeats, clients[1], tmp)
+                sizes = MARGINAL_SIZES if not args.quick else (4, 8)
+                more = small_corpus(tmp / "small", args.quick, count=sizes[-1])
+                with running_cluster(1, startup) as client:
+                    batch(more[-2:], tmp / "warm-marginal", args.k, client)
+                    marginal(more, args.k, repeats, client, tmp, sizes)
         print(f"\nload average after: {os.getloadavg()}")
     finally:
-        for cluster, client in clusters.values():
-            client.close()
-            cluster.close()
         shutil.rmtree(tmp, ignore_errors=True)
 
 
