@@ -72,6 +72,23 @@ def test_lobpcg_on_one_factorization_matches_dense():
         inverse_iteration(L, A, 3, backend="scipy", maxiter=2, tol=1e-14)
 
 
+def test_lobpcg_real_pencil_and_block_sizes_agree_with_dense():
+    """float64 L (the cotan stiffness W = [A_V] L, lumped mass): default block k and a
+    block of k + 2 give the dense pencil's lowest eigenvalues and [m]-orthonormal vectors."""
+    mesh = fvf.jittered_sphere(3, 0.3, seed=1)
+    m = mesh.vertex_areas
+    L = sp.csr_array(sp.diags_array(m) @ fvf.laplacian(mesh))  # symmetric, real
+    L = sp.csr_array(0.5 * (L + L.T))
+    s = 1.0 / np.sqrt(m)
+    dense = np.linalg.eigvalsh(s[:, None] * L.toarray() * s[None, :])[:4]
+    for block in (None, 6):
+        lam, X = inverse_iteration(L, m, 4, block=block, backend="scipy")
+        assert X.dtype == np.float64
+        np.testing.assert_allclose(lam, dense, rtol=1e-7, atol=1e-9)
+        np.testing.assert_allclose(X.T @ (m[:, None] * X), np.eye(4), atol=1e-8)
+        np.testing.assert_allclose(X.T @ (L @ X), np.diag(lam), atol=1e-8 * lam.max())
+
+
 def test_progress_options():
     seen = []
     cb = make_progress(lambda s, d, t: seen.append((s, d, t)))
