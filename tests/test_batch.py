@@ -286,6 +286,30 @@ def test_run_job_without_dask_resumes_by_content_hash(tmp_path):
     assert run_job(job(K + 1))["n"] == 42
 
 
+def test_quad_task_is_fvf_quad_with_its_figures(tmp_path):
+    """The quad task makes the quads fvf.quad_mesh makes by default (not from the fields
+    task's field), stores them by name and puts fvf.quad_quality's scalars in the row."""
+    mesh = fvf.mesh.builtin.spot()
+    path = _write(tmp_path / "spot.off", mesh)
+    V, Q = fvf.quad_mesh(fvf.TriMesh(*fvf.read_mesh(path)))
+
+    def job(tasks, n):
+        opts = {"n": n}
+        result = str(tmp_path / "out" / f"{'-'.join(tasks)}.npz")
+        return MeshJob("spot", str(path), result, tasks, opts, options_text(tasks, opts), "t")
+
+    for tasks, n in ((("quad",), None), (("fields", "quad"), 4)):
+        j = job(tasks, n)
+        row = run_job(j)
+        assert row["status"] == "ok", row
+        with np.load(j.result) as data:
+            np.testing.assert_array_equal(data["quad_quads"], Q)
+            np.testing.assert_allclose(data["quad_vertices"], V, rtol=0, atol=1e-12)
+        assert row["quad_n_quads"] == Q.shape[0] and row["quad_closed"] is True
+        assert row["quad_n_folded"] == 0 and 0 <= row["quad_irregular_fraction"] < 0.1
+        assert row["quad_euler_characteristic"] == 2
+
+
 def test_run_job_failures_are_rows(tmp_path):
     corpus, rows = make_corpus(tmp_path, shared=False), {}
     for name, item in corpus.items():

@@ -243,10 +243,16 @@ def match(ctx: PairContext) -> TaskOutput:
     return TaskOutput({"match_p2p": r.p2p_21, "match_C": r.C_12}, figures)
 
 
-if hasattr(fvf, "quad_mesh"):
+@register_task("quad", description="quad mesh, as `fvf quad MESH` makes it (fvf.quad_mesh)")
+def quad(ctx: MeshContext) -> TaskOutput:
+    """The quad mesh :func:`fvf.quad_mesh` makes with its own default cross field (curvature
+    aligned at the scale of the quads, m / 10 quads), as ``fvf quad MESH`` does; the
+    ``fields`` task's field is not used (a smoothest N-field has no quad-scale alignment).
 
-    @register_task("quad", options=("n",), description="fvf.quad_mesh(mesh)")
-    def quad(ctx: MeshContext) -> TaskOutput:
-        """The quad mesh fvf.quad_mesh extracts (with the field of ``fields`` if it ran)."""
-        optional = {"field": ctx.arrays.get("v")} if "v" in ctx.arrays else {}
-        return output_of(_call(fvf.quad_mesh, ctx.mesh, **optional), "quad")
+    ``quad_vertices`` float64 (k, 3), ``quad_quads`` int64 (q, 4); figures: the scalars of
+    :func:`fvf.quad_quality` (``n_quads``, ``irregular_fraction``, angle deviations,
+    ``n_folded``, ``closed``, ``manifold``, ...).
+    """
+    V, Q, param = fvf.quad_mesh(ctx.mesh, return_parameterization=True)
+    quality = fvf.quad_quality(ctx.mesh, V, Q, parameterization=param)
+    return TaskOutput({"quad_vertices": V, "quad_quads": Q}, output_of(quality, "quad").figures)
