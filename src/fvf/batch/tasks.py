@@ -210,11 +210,6 @@ def output_of(result: Any, prefix: str) -> TaskOutput:
     return TaskOutput(arrays, figures)
 
 
-def _call(func, *args, **optional):
-    """``func(*args, **kw)`` with the optional keywords ``func`` accepts."""
-    return func(*args, **{k: v for k, v in optional.items() if v is not None and accepts(func, k)})
-
-
 @register_task(
     "match",
     kind="pair",

@@ -337,8 +337,9 @@ def repair_folds(
         Called with a message per round.
     release_solver : bool
         Release ``solver``'s factorization (:meth:`MixedIntegerSolver.release`) before the
-        first new factorization, so that two are never held at once (on 750k faces the
-        peak memory falls from 5.7 to 3.2 GB). For callers that do not solve with it again.
+        first new factorization, so that two are never held at once (with the blocked
+        response solves, ``fvf.quad_mesh`` on 750k faces peaks at 4.0 GB instead of 5.7 GB;
+        docs/quads.md). For callers that do not solve with it again.
 
     Returns
     -------
