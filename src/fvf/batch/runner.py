@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import OutputWriteError
 from ..io.atomic import atomic_path, deferred_fsync
 from ..io.datafile import write_data
@@ -192,8 +193,6 @@ def _run_pair(job: PairJob, row: dict, figures: dict) -> PairContext:
 
 
 def _write_pair(job: PairJob, ctx: PairContext, extra: dict) -> None:
-    from .. import __version__
-
     path = Path(job.result)
     path.parent.mkdir(parents=True, exist_ok=True)
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")

@@ -93,7 +93,7 @@ _MERGE = (
 
 
 def _version() -> str:
-    from fvf import __version__
+    from fvf._version import __version__
 
     return __version__
 
@@ -634,7 +634,7 @@ def _read_landmarks(path: str) -> np.ndarray:
 def _save_npz(path: str, arrays: dict) -> str:
     import numpy as np
 
-    from fvf import __version__
+    from fvf._version import __version__
     from fvf.io.atomic import atomic_path
 
     out = Path(path)
