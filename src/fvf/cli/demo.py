@@ -420,7 +420,7 @@ def _fig12(s, story):
     mesh = fvf.icosphere(4)  # the scene needs a surface where the flow line is known
     X = mesh.vertices
     theta = 2.4
-    u0, u1, v = fvf.mesh.builtin.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
+    u0, u1, v = fvf.examples.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
     ts = np.linspace(0.0, 1.0, 7)
     us = fvf.interpolate(mesh, v, u0, u1, ts)  # (7, m, 3)
     average = 0.5 * (u0 + u1)
