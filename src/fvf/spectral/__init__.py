@@ -2,8 +2,11 @@
 functional maps between shapes (:mod:`.fmaps`), and shape correspondence: descriptors
 (:mod:`.descriptors`), the functional-map fit with the orientation term (:mod:`.fmap_fit`),
 conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`)
-and map evaluation (:mod:`.evaluation`)."""
+and map evaluation (:mod:`.evaluation`). The spectral methods of :func:`fvf.flow` and
+:func:`fvf.ideal_fluid` (:mod:`.reduced_flows`) register themselves with their dispatchers
+in :mod:`fvf.flows` when this package is imported."""
 
+from . import reduced_flows as _reduced_flows  # noqa: F401 (registers the spectral flow methods)
 from .basis import SpectralBasis, gradient_field_basis, laplace_basis
 from .correspondence import (
     MatchResult,
