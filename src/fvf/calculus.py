@@ -48,6 +48,18 @@ __all__ = [
     "face_to_vertex_values",
 ]
 
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.calculus.name``; ``fvf.diag`` and the others still resolve, with a
+#: DeprecationWarning); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "diag",
+        "field_inner",
+        "field_product",
+        "hat_gradients",
+    }
+)
+
 
 def _freeze(A: sp.sparray) -> sp.csr_array:
     A = sp.csr_array(A)

@@ -74,6 +74,9 @@ __all__ = [
     "format_indices",
 ]
 
+#: Every name of ``__all__`` is also ``fvf.name`` (the flat namespace leaves none out).
+NOT_FLAT: frozenset[str] = frozenset()
+
 
 # ---------------------------------------------------------------------------- base classes
 class FvfError(ValueError):

@@ -85,3 +85,16 @@ __all__ = [
     "cancel_close_singularities",
     "separate_close_singularities",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.design.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "CutGraph",
+        "FrameReport",
+        "FrameRescaling",
+        "all_directions",
+        "consistency_residual",
+        "map_consistent_field",
+    }
+)

@@ -34,3 +34,6 @@ __all__ = [
     "fluid_time_step",
     "FluidResult",
 ]
+
+#: Every name of ``__all__`` is also ``fvf.name`` (the flat namespace leaves none out).
+NOT_FLAT: frozenset[str] = frozenset()

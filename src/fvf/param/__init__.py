@@ -35,3 +35,14 @@ __all__ = [
     "quad_symmetry_error",
     "symmetrize_cross_field",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.param.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "QuadMesh",
+        "default_cross_field",
+        "edge_transitions",
+        "extract_quads",
+    }
+)

@@ -71,3 +71,23 @@ __all__ = [
     "cumulative_error_curve",
     "orientation_agreement",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.spectral.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "FunctionalMapEnergy",
+        "as_prepared_mesh",
+        "cumulative_error_curve",
+        "descriptor_operators",
+        "farthest_point_samples",
+        "geodesic_distances",
+        "hks_times",
+        "laplacian_mask",
+        "matching_descriptors",
+        "nearest_rows",
+        "orientation_agreement",
+        "orientation_operators",
+        "wks_energies",
+    }
+)
