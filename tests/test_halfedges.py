@@ -132,7 +132,7 @@ def test_sorted_pass_matches_unique(name):
     edges, face_edges, counts, corners = reference_edges(F, n)
     np.testing.assert_array_equal(mesh.edges, edges)
     np.testing.assert_array_equal(mesh.face_edges, face_edges)
-    np.testing.assert_array_equal(mesh._edge_corners, corners)
+    np.testing.assert_array_equal(mesh.edge_corners, corners)
     np.testing.assert_array_equal(mesh.boundary_edges, np.flatnonzero(counts == 1))
     ef = np.where(corners >= 0, corners // 3, -1)
     np.testing.assert_array_equal(mesh.edge_faces, ef)
@@ -180,7 +180,7 @@ def test_sort_fallbacks_give_the_same_pass(name, path, monkeypatch):
 def test_twin_map_is_an_involution_on_interior_halfedges(name):
     mesh = get_mesh(name)
     F = np.asarray(mesh.faces).ravel()
-    c = mesh._edge_corners
+    c = mesh.edge_corners
     interior = (c >= 0).all(axis=1)
     twin = np.full(F.size, -1)
     twin[c[interior, 0]] = c[interior, 1]
