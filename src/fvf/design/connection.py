@@ -421,10 +421,10 @@ def connection_laplacian(
         L.sort_indices()
         return readonly_csr(L)
 
-    key = f"connection_laplacian:{kind}" if n == 1 else f"connection_laplacian:{kind}:{n}"
+    variant = kind if n == 1 else f"{kind}:{n}"
     if curvature_smoothing is not None:
-        key += f":holonomy smoothed over {curvature_smoothing!r}"
-    return mesh.cached(key, build)
+        variant += f":holonomy smoothed over {curvature_smoothing!r}"
+    return mesh.cached(f"connection_laplacian:{variant}", build)
 
 
 @takes_mesh

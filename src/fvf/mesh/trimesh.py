@@ -128,7 +128,9 @@ class TriMesh:
     unreferenced vertex (:class:`UnreferencedVertexError`). Derived quantities are cached
     on first use; every array returned is read-only, and cached sparse operators share
     read-only buffers, so an accidental in-place change raises instead of corrupting the
-    cache.
+    cache. The operators and tables cached for the layers above are declared in
+    :mod:`fvf.mesh.cache`; :meth:`cache_info` lists those a mesh holds with their size,
+    :meth:`clear_cache` frees them.
 
     Examples
     --------
