@@ -236,6 +236,31 @@ def test_fans_count_every_vertex_on_a_chain_of_bow_ties():
         fvf.TriMesh(V2, F2)
 
 
+@pytest.mark.parametrize("name", [*CORPUS[:4], *HOSTILE])
+def test_corner_fans_match_vertex_fans_in_any_orientation(name):
+    """The repairs' fans (any orientation) are the validated mesh's fans, whatever faces
+    are flipped; edge_pairs flags exactly the edges whose faces were flipped apart."""
+    if name in HOSTILE:
+        V, F = HOSTILE[name][0]
+    else:
+        mesh = get_mesh(name)
+        V, F = mesh.vertices, mesh.faces
+    V, F = np.asarray(V), np.array(F)
+    expected = fans_of(V, F)
+    flip = np.random.default_rng(5).random(len(F)) < 0.3
+    F[flip] = F[flip][:, ::-1]
+    runs = halfedges.sort_halfedges(F, len(V))
+    count, labels = halfedges.corner_fans(F, runs)
+    vertex_of_fan = np.empty(count, dtype=np.int64)
+    vertex_of_fan[labels] = F.ravel()
+    np.testing.assert_array_equal(np.bincount(vertex_of_fan, minlength=len(V)), expected)
+    first, second, same = halfedges.edge_pairs(runs)
+    np.testing.assert_array_equal(same, flip[first // 3] != flip[second // 3])
+    np.testing.assert_array_equal(
+        halfedges.misoriented_edges(runs), np.flatnonzero(runs.counts == 2)[same]
+    )
+
+
 @pytest.mark.parametrize("name", CORPUS)
 def test_one_ring_pattern_and_slots_match_coo(name, rng):
     mesh = get_mesh(name)
