@@ -25,6 +25,7 @@ __all__ = [
     "PolygonTriangulatedWarning",
     "MeshScaleError",
     "DuplicateVertexWarning",
+    "UndeclaredCacheKeyError",
     "FieldError",
     "FieldShapeError",
     "FieldValueError",
@@ -137,6 +138,11 @@ class DuplicateVertexWarning(FvfWarning):
     """Many vertices sit at the position of another vertex and the mesh falls apart into
     pieces along them (a triangle soup, or a mesh split at UV seams); weld them with
     :func:`fvf.remove_duplicate_vertices`."""
+
+
+class UndeclaredCacheKeyError(FvfError):
+    """A value cached on a TriMesh under a name not declared in
+    :data:`fvf.mesh.cache.CACHED_QUANTITIES` (a mistake in fvf or in an extension)."""
 
 
 # ---------------------------------------------------------------------------- functions and fields
