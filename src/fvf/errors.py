@@ -40,6 +40,8 @@ __all__ = [
     "SpectralInputError",
     "SpectralSolveError",
     "SpectralFallbackWarning",
+    "FactorizationError",
+    "FactorizationFallbackWarning",
     "ConstraintError",
     "ConstraintIndexError",
     "ZeroDirectionError",
@@ -206,11 +208,23 @@ class SpectralInputError(FvfError):
 
 
 class SpectralSolveError(FvfError, RuntimeError):
-    """Every method of the fallback chain failed to compute the eigenpairs."""
+    """An eigensolver failed to compute the eigenpairs (for :func:`fvf.smallest_eigenpairs`:
+    every method of its fallback chain failed)."""
 
 
 class SpectralFallbackWarning(FvfWarning):
     """The requested eigensolver failed; another one was used (the message says which)."""
+
+
+class FactorizationError(SpectralSolveError):
+    """A sparse factorization (:mod:`fvf.numerics.cholesky`) failed: the matrix is singular
+    or not positive definite, or the backend gave up (the message names the backend and
+    its reason). A :class:`SpectralSolveError`, so also a :class:`RuntimeError`."""
+
+
+class FactorizationFallbackWarning(FvfWarning):
+    """A factorization backend chosen by ``backend="auto"`` failed; the next one was used
+    (the message says which and why)."""
 
 
 # ---------------------------------------------------------------------------- design

@@ -1,6 +1,7 @@
 """Numerical kernels that know nothing about meshes: the action of the matrix exponential
-(:mod:`.expm`), symmetric eigensolvers (:mod:`.eigen`, :mod:`.multilevel`) and
-fill-reducing orderings (:mod:`.ordering`). Reusable and testable alone."""
+(:mod:`.expm`), symmetric eigensolvers (:mod:`.eigen`, :mod:`.multilevel`), sparse
+positive definite factorizations (:mod:`.cholesky`) and fill-reducing orderings
+(:mod:`.ordering`). Reusable and testable alone."""
 
 from .eigen import eigen_residuals, smallest_eigenpairs
 from .expm import expm_action
