@@ -152,7 +152,7 @@ def test_demo_quad_section_compares_with_instant_meshes_when_installed(peer, tmp
     """The quad section reports fvf's metrics, and Instant Meshes' beside them when
     pynanoinstantmeshes is installed (else a row says how to get it)."""
     from fvf.cli import demo as demo_module
-    from fvf.param import peer as peer_module
+    from fvf import peers as peer_module
 
     if peer and not peer_module.has_instant_meshes():
         pytest.skip("pynanoinstantmeshes is not installed (bench/test-only peer)")
