@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fvf.param.uv_folds import _Responses, face_distortion, flip_count, integer_moves
 from fvf.param.rounding import MixedIntegerSolver
+from fvf.param.uv_folds import _Responses, face_distortion, flip_count, integer_moves
 
 
 def test_face_distortion_is_the_singular_values_of_j_f_inverse():

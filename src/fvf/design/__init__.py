@@ -17,6 +17,7 @@ A new design method goes into a module of its own here and is exported below.
 
 from .cancellation import cancel_close_singularities, separate_close_singularities
 from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
+from .commuting_frames import FrameReport, FrameRescaling, frame_report, rescale_frame
 from .connection import (
     connection_energy,
     connection_laplacian,
@@ -27,7 +28,6 @@ from .connection import (
     tangent_basis_matrix,
 )
 from .constrained import closest_faces, design_field, locate_points
-from .commuting_frames import FrameReport, FrameRescaling, frame_report, rescale_frame
 from .indices import (
     face_indices,
     face_singularities,

@@ -46,8 +46,6 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
 from .cutmesh import CutMesh, cut_mesh
-from .uv_folds import flip_count as _flip_count
-from .uv_folds import repair_folds
 from .frame_field import (
     SCALINGS,
     Alignment,
@@ -60,6 +58,8 @@ from .frame_field import (
 )
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, seam_system
+from .uv_folds import flip_count as _flip_count
+from .uv_folds import repair_folds
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
 
