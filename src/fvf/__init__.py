@@ -161,6 +161,7 @@ from .spectral import (
     laplace_basis,
     map_quality,
     match,
+    match_result,
     mean_geodesic_error,
     p2p_from_functional_map,
     symmetry_map,
@@ -290,6 +291,7 @@ __all__ = [
     "map_quality",
     # shape correspondence
     "match",
+    "match_result",
     "symmetry_map",
     "MatchResult",
     "heat_kernel_signature",

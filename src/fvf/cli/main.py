@@ -671,13 +671,8 @@ def _cmd_match(args: argparse.Namespace) -> int:
 
     _check_outputs(args, _data_output(args), ("--png", args.png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
-    result = fvf.match(
-        args.mesh_1,
-        args.mesh_2,
-        k=args.k,
-        k_fit=args.k_fit,
-        landmarks=landmarks,
-        full_output=True,
+    result = fvf.match_result(
+        args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
     )
     arrays = {
         "p2p_21": result.p2p_21,

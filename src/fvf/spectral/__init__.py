@@ -1,7 +1,8 @@
 """Spectral tools: Laplace–Beltrami bases and operators reduced to them (:mod:`.basis`),
 functional maps between shapes (:mod:`.fmaps`), and shape correspondence: descriptors
 (:mod:`.descriptors`), the functional-map fit with the orientation term (:mod:`.fmap_fit`),
-conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`)
+conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`:
+:func:`match`, :func:`match_result`, :func:`symmetry_map`)
 and map evaluation (:mod:`.evaluation`)."""
 
 from .basis import SpectralBasis, gradient_field_basis, laplace_basis
@@ -9,6 +10,7 @@ from .correspondence import (
     MatchResult,
     as_prepared_mesh,
     match,
+    match_result,
     matching_descriptors,
     symmetry_map,
 )
@@ -59,6 +61,7 @@ __all__ = [
     "zoomout",
     "MatchResult",
     "match",
+    "match_result",
     "symmetry_map",
     "as_prepared_mesh",
     "matching_descriptors",
