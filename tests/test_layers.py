@@ -17,7 +17,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "fvf"
-FRONT = ("fvf.cli", "fvf.viz", "fvf.batch", "fvf.__main__")  # the layers users run
+FRONT = ("fvf.cli", "fvf.viz", "fvf.batch", "fvf.peers", "fvf.__main__")  # the layers users run
 
 #: The layers, bottom first: each is the set of top-level names (subpackage or module of
 #: ``fvf``; ``""`` is the package root, fvf/__init__.py) that sit at that height. A module
@@ -36,7 +36,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("param",),
     ("chapter", "examples"),  # names and scenes for readers of the chapter
     ("",),  # the root hands the names of the layers below on, and never imports above
-    ("batch", "viz"),
+    ("batch", "viz", "peers"),
     ("cli",),  # the command runs the batches and draws the pictures
     ("__main__",),
 )
@@ -169,7 +169,7 @@ def test_the_architecture_page_draws_the_layers_in_this_order():
 
 @pytest.mark.parametrize("path", _core_files(), ids=lambda p: _module_name(p))
 def test_core_never_imports_the_command_line_or_the_pictures(path):
-    bad = sorted(m for m in _imports(path) if m.startswith(("fvf.cli", "fvf.viz")))
+    bad = sorted(m for m in _imports(path) if m.startswith(("fvf.cli", "fvf.viz", "fvf.peers")))
     assert not bad, f"{_module_name(path)} imports {bad}"
 
 
@@ -187,6 +187,7 @@ def test_the_import_reader_sees_relative_and_lazy_imports(tmp_path):
     demo = SRC / "cli" / "demo.py"
     assert "fvf.cli.report" in _imports(demo)  # from .report import ...
     assert "fvf.io.atomic" in _imports(demo)  # from ..io.atomic import ...
+    assert "fvf.peers" in _imports(demo)  # from fvf.peers import ... (inside a function)
     assert any(m.startswith("fvf.viz") for m in _imports(SRC / "cli" / "report.py"))
     assert "fvf.examples" in _imports(SRC / "mesh" / "builtin.py")  # lazy, in __getattr__
 

@@ -1188,6 +1188,16 @@ SPECS: dict[str, Spec] = {
         error=_match_error,
         max_faces=30_000,
     ),
+    "match_result": Spec(
+        lambda fn, mesh, c: fn(mesh, mesh, k=8, k_fit=4, zoomout_samples=None),
+        lambda r, mesh, c: (
+            _check_p2p(r.p2p_21, mesh),
+            np.array_equal(np.asarray(r), r.p2p_21) or pytest.fail("np.asarray(result)"),
+            r.C_12.shape == (8, 8) or pytest.fail("C_12"),
+        ),
+        error=_match_error,
+        max_faces=30_000,
+    ),
     "symmetry_map": Spec(
         lambda fn, mesh, c: fn(mesh, k=8, k_fit=4, zoomout_samples=None),
         lambda r, mesh, c: (_check_p2p(r.p2p, mesh), r.C.shape == (8, 8) or pytest.fail("C")),

@@ -5,6 +5,13 @@ functions on faces, shape (m,); PC vector fields are (m, 3) arrays, flattened fa
 (entry ``3t + k`` is component k of face t). Every operator here depends on the mesh
 only, is assembled once from per-face formulas (no Python loop over faces) and cached on
 the :class:`~fvf.TriMesh`; the returned sparse arrays share read-only buffers.
+
+A function named for an operator returns its matrix (:func:`grad`, :func:`div`,
+:func:`rotation`, :func:`vertex_to_face`, :func:`face_to_vertex`); applying it to an
+array has a name of its own, for the result or the action (:func:`gradient`,
+:func:`divergence`, :func:`rotate`, :func:`vertex_to_face_values`,
+:func:`face_to_vertex_values`), and returns the matrix times the array
+(``docs/conventions.md``, "Names").
 """
 
 from __future__ import annotations

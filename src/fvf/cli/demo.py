@@ -548,7 +548,7 @@ def _quads(s, story):
     Instant Meshes at the same quad count when it is installed."""
     import fvf
     from fvf.errors import ParameterizationInputError, QuadExtractionError
-    from fvf.param.peer import has_instant_meshes, instant_meshes
+    from fvf.peers import has_instant_meshes, instant_meshes
 
     st = story.begin("A quad mesh from a cross field (Fig. 1)", _quads)
     mesh = s.mesh

@@ -12,8 +12,8 @@ from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import make_progress
 from .extraction import extract_quads
-from .frames import Alignment
-from .quadfolds import MAX_RINGS, STEPS_PER_RING, untangle_quads, warn_folded
+from .frame_field import Alignment
+from .quad_folds import MAX_RINGS, STEPS_PER_RING, untangle_quads, warn_folded
 from .seamless import SeamlessParameterization, seamless_parameterization
 
 __all__ = ["quad_mesh"]
@@ -36,8 +36,8 @@ def quad_mesh(
     Runs :func:`fvf.seamless_parameterization` and pulls back its integer grid
     (:func:`fvf.param.extraction.extract_quads`): quad vertices at integer points, quad
     edges along integer iso-lines. Quads folded in 3D (normal against the input surface's
-    at the quad; :func:`fvf.param.quadfolds.folded_quads`) are then untangled on the
-    surface (:func:`fvf.param.quadfolds.untangle_quads`): the corners of the folded quads,
+    at the quad; :func:`fvf.param.quad_folds.folded_quads`) are then untangled on the
+    surface (:func:`fvf.param.quad_folds.untangle_quads`): the corners of the folded quads,
     and a few rings around them when needed, are relaxed tangentially and put back on the
     input surface. Those vertices leave their integer uv points (on spot at 1500 quads and
     armadillo at 8000, four vertices each, by up to 0.57 of the median quad edge); the

@@ -1,8 +1,9 @@
 """Spectral tools: Laplace–Beltrami bases and operators reduced to them (:mod:`.basis`),
 functional maps between shapes (:mod:`.fmaps`), and shape correspondence: descriptors
 (:mod:`.descriptors`), the functional-map fit with the orientation term (:mod:`.fmap_fit`),
-conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`)
-and map evaluation (:mod:`.evaluation`). The spectral methods of :func:`fvf.flow` and
+conversions and ZoomOut (:mod:`.zoomout`), the one-call pipeline (:mod:`.correspondence`:
+:func:`match`, :func:`match_result`, :func:`symmetry_map`) and map evaluation
+(:mod:`.evaluation`). The spectral methods of :func:`fvf.flow` and
 :func:`fvf.ideal_fluid` (:mod:`.reduced_flows`) register themselves with their dispatchers
 in :mod:`fvf.flows` when this package is imported."""
 
@@ -12,6 +13,7 @@ from .correspondence import (
     MatchResult,
     as_prepared_mesh,
     match,
+    match_result,
     matching_descriptors,
     symmetry_map,
 )
@@ -62,6 +64,7 @@ __all__ = [
     "zoomout",
     "MatchResult",
     "match",
+    "match_result",
     "symmetry_map",
     "as_prepared_mesh",
     "matching_descriptors",

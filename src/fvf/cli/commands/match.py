@@ -66,13 +66,8 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(args, data_output(args), ("--png", args.png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
-    result = fvf.match(
-        args.mesh_1,
-        args.mesh_2,
-        k=args.k,
-        k_fit=args.k_fit,
-        landmarks=landmarks,
-        full_output=True,
+    result = fvf.match_result(
+        args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
     )
     arrays = {
         "p2p_21": result.p2p_21,
