@@ -562,9 +562,10 @@ def _cmd_quad(args: argparse.Namespace) -> int:
     import time
 
     import fvf
-    from fvf.io.meshfile import write_quad_mesh, write_uv_mesh
+    from fvf.io.meshfile import check_writable, write_uv_mesh
 
     _check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
+    check_writable(args.output, face_size=4)  # a format that holds quads, before the work
     mesh = _load_mesh(args.mesh)
     field = _Sources(args, mesh).field(args.field) if args.field else None
     t0 = time.perf_counter()
@@ -584,7 +585,7 @@ def _cmd_quad(args: argparse.Namespace) -> int:
     progress("quad extraction", 0, 1)
     qm = extract_quads(mesh, param.uv)
     V, Q = qm.vertices, qm.quads
-    write_quad_mesh(args.output, V, Q)
+    fvf.write_mesh(args.output, V, Q)
     q = fvf.quad_quality(mesh, V, Q, parameterization=param)
     print(
         f"wrote {args.output}: {Q.shape[0]} quads, {V.shape[0]} vertices, "
@@ -1092,7 +1093,7 @@ def _add_design_commands(sub: Any) -> None:
         metavar="KEY",
         help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
     )
-    _add_output(p, "output quad mesh (.obj or .off)")
+    _add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
     p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
     p.set_defaults(run=_cmd_quad)
