@@ -78,7 +78,8 @@ def read(path: Path, data: bytes) -> Polygons:
             text += f"; {repeats} facets now repeat a vertex (zero area): fvf repair removes them"
         notes = ((VerticesWeldedWarning, text),)
     counts = np.full(m, 3, dtype=np.int64)
-    return Polygons(V, counts, flat, flat, lambda i: f"facet {i} (0-based)", f"0..{len(V) - 1}", notes)
+    where, valid = (lambda i: f"facet {i} (0-based)"), f"0..{len(V) - 1}"
+    return Polygons(V, counts, flat, flat, where, valid, notes)
 
 
 def _is_binary(path: Path, data: bytes) -> bool:
@@ -174,14 +175,14 @@ def _without_solid_lines(path: Path, text: str) -> str:
 def _bad_facet(path: Path, body: str, tokens: list[str], i: int) -> None:
     """Raise the error for facet ``i``, the first not laid out as ascii STL says."""
     row = tokens[21 * i : 21 * i + 21]
-    for col in range(21):
-        want = _KEYWORDS.get(col)
-        if col >= len(row):
-            raise MeshReadError(
-                f"{path}: line {_line_of_token(body, len(tokens) - 1)}: facet {i} (0-based) is "
-                "incomplete (the file ends inside it): it is truncated; re-export the mesh"
-            )
-        if want is not None and row[col] != want:
+    if len(row) < 21:  # the last facet, cut short
+        raise MeshReadError(
+            f"{path}: line {_line_of_token(body, len(tokens) - 1)}: facet {i} (0-based) is "
+            f"incomplete: {len(row)} of its 21 words before the end of the file (it is "
+            "truncated, or a value is missing); re-export the mesh"
+        )
+    for col, want in _KEYWORDS.items():
+        if row[col] != want:
             raise MeshReadError(
                 f"{path}: line {_line_of_token(body, 21 * i + col)}: facet {i} (0-based) has "
                 f"{row[col][:30]!r} where {want!r} belongs; an ascii STL facet is 'facet "
