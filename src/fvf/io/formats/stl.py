@@ -98,9 +98,8 @@ def _is_binary(path: Path, data: bytes) -> bool:
             "and triangle count, and is not ascii STL text ('solid' ...): it is truncated or "
             "not an STL file"
         )
-    like = "begins with 'solid' like an ascii STL but holds NUL bytes, so it is binary: " * (
-        says_solid
-    )
+    like = "begins with 'solid' like an ascii STL but holds NUL bytes, so it is binary: "
+    like = like if says_solid else ""
     complete = (size - HEADER_BYTES) // RECORD.itemsize
     if size < expected:
         what = f"ends early after {complete} complete triangles: the file is truncated"
