@@ -39,6 +39,7 @@ NOT_FLAT: frozenset[str] = frozenset(
     {
         "DataFile",
         "atomic_path",
+        "check_writable",
         "read_data",
         "read_ply_properties",
         "read_quad_mesh",
