@@ -62,7 +62,8 @@ def _stage_printer() -> Callable[[str, int, int], None]:
     help="quad mesh along a cross field: seamless parameterization and integer-grid "
     "extraction (fvf.quad_mesh)",
     example="fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
-    "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
+    "  fvf quad spot.obj --faces 2000 --field cross.npz:v -o spot_quads.obj\n"
+    "  (cross.npz: the v of `fvf design spot.obj --n 4 -o cross.npz`)",
     arguments=_arguments,
 )
 def run(args: argparse.Namespace) -> int:
