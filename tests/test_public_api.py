@@ -1204,6 +1204,11 @@ SPECS: dict[str, Spec] = {
         error=_match_error,
         max_faces=30_000,
     ),
+    "MeshLike": Spec(
+        lambda fn, mesh, c: fvf.as_mesh(fvf.mesh.spot_path()),  # a path is a MeshLike
+        lambda r, mesh, c: (r.n_vertices == 2930) or pytest.fail(repr(r)),
+        meshless=True,
+    ),
     "map_consistent_field": Spec(
         lambda fn, mesh, c: fn(c.basis, np.eye(8)),  # C = I: every field commutes with it
         lambda r, mesh, c: (

@@ -265,7 +265,7 @@ class _ClosedPipeQuiet:
     def __enter__(self):
         self.previous = sys.stdout
         if self.previous is not None:
-            sys.stdout = _PipeWriter(self.previous)  # type: ignore[assignment]
+            sys.stdout = _PipeWriter(self.previous)
         return self
 
     def __exit__(self, *exc):
