@@ -41,7 +41,7 @@ from ..errors import (
     format_indices,
 )
 from ..io.meshfile import read_mesh
-from ..mesh.convert import as_mesh
+from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
 from .basis import SpectralBasis
@@ -61,8 +61,6 @@ __all__ = [
 
 #: Dimensionless weights of the fit used by :func:`match` (see :mod:`.fmap_fit`).
 DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0, "w_orth": 1.0}
-
-MeshLike = TriMesh | tuple | str | os.PathLike
 
 
 @dataclass(frozen=True, eq=False)
