@@ -45,6 +45,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
+from ..numerics.summary import short_repr
 from .cutmesh import CutMesh, cut_mesh
 from .frame_field import (
     SCALINGS,
@@ -101,6 +102,8 @@ class SeamlessParameterization:
         ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``seconds`` (dict:
         wall time per stage, keyed by the stage's progress message).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     uv: np.ndarray
     field: np.ndarray

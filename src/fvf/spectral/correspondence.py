@@ -44,6 +44,7 @@ from ..io.meshfile import read_mesh
 from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .basis import SpectralBasis
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
@@ -91,6 +92,8 @@ class MatchResult:
     timings : dict
         Seconds per step.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     p2p_21: np.ndarray
     C_12: np.ndarray
