@@ -208,3 +208,32 @@ def test_crosses_are_unit_and_dense_wireframes_thin():
         s = fvf.viz.scene.build_scene(dense, streamlines=lines)
         widths.append(panel_overlay(s, s.frame, 1.0, 400, 400).line_width)
     assert widths[1] < 0.6 * widths[0]
+
+
+def test_demo_pictures_take_up_size_and_dpi(tmp_path):
+    from fvf.cli.main import parser
+    from fvf.cli.report import Story
+
+    story = Story(tmp_path, True, (200, 150), options={"up": "x", "dpi": 150})
+    st = story.begin("a section")
+    story.picture(st, "b.png", body("y"), "body", backend="matplotlib")
+    img = Image.open(tmp_path / "b.png")
+    assert img.size == (200, 150) and round(img.info["dpi"][0]) == 150
+    w, h = extent(picture(tmp_path / "b.png"))
+    assert w > h  # lying on its side: x is up
+    args = parser().parse_args(["demo", "--size", "300", "200", "--up", "z", "--dpi", "72"])
+    assert (args.size, args.up, args.dpi) == ([300, 200], "z", 72)
+
+
+def test_examples_write_to_a_temporary_folder_by_default(monkeypatch):
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    monkeypatch.syspath_prepend(str(root / "examples"))
+    import _common
+
+    monkeypatch.setattr(sys, "argv", ["fig03_flow.py"])
+    out = Path(_common.parse_args("x").out)
+    assert out.is_dir() and root not in out.resolve().parents
+    out.rmdir()
