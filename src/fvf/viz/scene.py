@@ -183,6 +183,10 @@ def _surface(mesh, function, texture, cmap, clim, colorbar_label, mpl):
             )
         colors = cm(np.clip((np.nan_to_num(f) - lo) / (hi - lo), 0.0, 1.0))[:, :3]
         colors[np.isnan(f)] = NO_DATA_COLOR
+        if on == "vertices" and np.isnan(f).any():  # no grey blended into the colormap:
+            F = drawn.faces  # a face touching a vertex without data is drawn without data
+            colors = np.where(np.isnan(f)[F].any(1)[:, None], NO_DATA_COLOR, colors[F].mean(1))
+            on = "faces"
         extend = {(False, False): "neither", (True, False): "min", (False, True): "max"}
         colorbar = {
             "cmap": cmap,
