@@ -83,7 +83,7 @@ def render_checkerboard(
     mesh : TriMesh
     uv : array_like (m, 3, 2)
     path : str or Path
-        Output PNG.
+        Output picture (PNG, PDF or SVG by the suffix).
     subdivisions : int
         Each triangle is split into 4^subdivisions for the texture.
     **kwargs
