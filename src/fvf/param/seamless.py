@@ -12,10 +12,10 @@ Pipeline (``docs/quads.md`` has the derivation):
 3. transition functions across the cut, uv_s = R^q uv_t + c (:mod:`fvf.param.seams`);
 4. the Poisson fit
 
-   $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
+    $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
 
-   over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
-   normal equations (:mod:`fvf.numerics.cholesky`);
+    over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
+    normal equations (:mod:`fvf.numerics.cholesky`);
 5. integer rounding of the chain translations and of the singular-vertex positions
    (:mod:`fvf.param.rounding`), so that every transition is a rotation by k·90° plus an
    integer translation and every cone sits on an integer point;

@@ -7,15 +7,18 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 from ..common import (
     EXIT_OK,
     Sources,
     add_output,
+    add_picture_options,
     check_outputs,
     integer,
     load_mesh,
     load_viz,
+    picture_options,
     unavailable,
 )
 from ..registry import register_command
@@ -38,7 +41,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
-    p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
+    p.add_argument("--png", help="also render the quad mesh (fvf.viz): .png, .pdf or .svg")
+    add_picture_options(p)
 
 
 def _stage_printer() -> Callable[[str, int, int], None]:
@@ -98,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
     if args.png:
         viz = load_viz()
         try:
-            info = viz.render_quads(V, Q, args.png, title=f"{Q.shape[0]} quads")
+            title = f"{Path(args.mesh).name}: {Q.shape[0]} quads"
+            info = viz.render_quads(V, Q, args.png, title=title, **picture_options(args))
         except ImportError as exc:
             raise unavailable(exc) from exc
         print(f"wrote {info.path}")
