@@ -44,10 +44,12 @@ from ..io.meshfile import read_mesh
 from ..mesh.convert import as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.progress import ProgressCallback, make_progress
 from .basis import SpectralBasis
+from .candidates import MapCandidate, score_candidates
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
-from .zoomout import zoomout
+from .zoomout import functional_map_from_p2p, zoomout
 
 __all__ = [
     "MatchResult",
@@ -63,6 +65,9 @@ __all__ = [
 DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0, "w_orth": 1.0}
 
 MeshLike = TriMesh | tuple | str | os.PathLike
+
+#: Eigenpairs at which :func:`match` scores its candidate maps (:mod:`.candidates`).
+K_SCORE = 30
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,6 +97,16 @@ class MatchResult:
         The map between the prepared meshes.
     timings : dict
         Seconds per step.
+    confidence : float
+        How sure :func:`match` is of its choice between the fitted map and the fitted
+        map composed with mesh 1's left-right symmetry (:mod:`fvf.spectral.candidates`):
+        1 − E_chosen / E_other in [0, 1], E the candidates' distortion-plus-orientation
+        energy. Near 0 the two candidates are about as good (an exactly symmetric pair,
+        or both refined to the same map); NaN when no choice was made
+        (``check_symmetry=False``, :func:`symmetry_map`).
+    alternatives : tuple of MapCandidate
+        Every candidate scored (name, energy, distortion, orientation agreement,
+        chosen), lowest energy first; empty when no choice was made.
     """
 
     p2p_21: np.ndarray
@@ -103,6 +118,8 @@ class MatchResult:
     prepared_2: PreparedMesh
     p2p_21_prepared: np.ndarray
     timings: dict = field(default_factory=dict)
+    confidence: float = float("nan")
+    alternatives: tuple[MapCandidate, ...] = ()
 
     @property
     def C(self) -> np.ndarray:
@@ -296,31 +313,78 @@ def _correspond(
     weights: dict,
     zoomout_step: int,
     zoomout_samples: int | None,
+    check_symmetry: bool = False,
+    progress: Any = None,
 ) -> MatchResult:
     """The pipeline of the module docstring; p2 None means a self-map of p1."""
+    report = make_progress(progress)
+    stages = 5 if check_symmetry and p2 is not None else 4
     timings = {}
     t = time.perf_counter()
+    report("match", 0, stages)
     unit_1, basis_1 = _unit_area_basis(p1.mesh, k, "mesh_1")
     unit_2, basis_2 = (unit_1, basis_1) if p2 is None else _unit_area_basis(p2.mesh, k, "mesh_2")
     timings["bases"] = time.perf_counter() - t
+    report("match", 1, stages)
     t = time.perf_counter()
     d1, d2 = matching_descriptors(unit_1, unit_2, n_descriptors=n_descriptors, landmarks=landmarks)
     timings["descriptors"] = time.perf_counter() - t
+    report("match", 2, stages)
     t = time.perf_counter()
     C_fit = fit_functional_map(unit_1, unit_2, d1, d2, k=k_fit, orientation=orientation, **weights)
     timings["fit"] = time.perf_counter() - t
-    t = time.perf_counter()
+    report("match", 3, stages)
     n_min = min(unit_1.mesh.n_vertices, unit_2.mesh.n_vertices)
     samples = zoomout_samples if zoomout_samples and zoomout_samples < n_min else None
     if samples is not None and samples <= k:
         raise ParameterError(
             f"zoomout_samples = {samples} must exceed k = {k} (or be None for all vertices)"
         )
-    C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
+    confidence, alternatives = float("nan"), ()
+    t = time.perf_counter()
+    if stages == 5:
+        starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, samples)
+        timings["symmetry"] = time.perf_counter() - t
+        report("match", 4, stages)
+        t = time.perf_counter()
+        sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+        C, p2p, alternatives, confidence = score_candidates(
+            starts,
+            unit_1,
+            unit_2,
+            k_final=k,
+            k_score=K_SCORE,
+            step=zoomout_step,
+            samples=samples,
+            sign=sign,
+        )
+    else:
+        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
     timings["zoomout"] = time.perf_counter() - t
+    report("match", stages, stages)
     q2 = p1 if p2 is None else p2
     p2p_input = p1.mesh_to_input[p2p[q2.input_to_mesh]]
-    return MatchResult(p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings)
+    return MatchResult(
+        p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings, confidence, alternatives
+    )
+
+
+def _candidate_starts(
+    C_fit: np.ndarray,
+    unit_1: SpectralBasis,
+    d1: np.ndarray,
+    weights: dict,
+    step: int,
+    samples: int | None,
+) -> dict[str, np.ndarray]:
+    """C_fit and C_fit C_σ, σ the orientation-reversing self-map of mesh 1 (the fit of
+    :func:`symmetry_map`, ZoomOut to ``K_SCORE``), both (k_fit, k_fit)."""
+    k_fit = C_fit.shape[1]
+    k_sym = max(min(K_SCORE, unit_1.k), k_fit)
+    C_sym = fit_functional_map(unit_1, unit_1, d1, d1, k=k_fit, orientation="reversing", **weights)
+    _, p_sym = zoomout(C_sym, unit_1, unit_1, k_sym, step=step, samples=samples)
+    C_sigma = functional_map_from_p2p(p_sym, unit_1, unit_1, k_fit)
+    return {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
 
 
 @overload
@@ -336,6 +400,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: Literal[False] | None = ...,
 ) -> np.ndarray: ...
 
@@ -353,6 +419,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: Literal[True],
 ) -> MatchResult: ...
 
@@ -370,6 +438,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: bool,
 ) -> np.ndarray | MatchResult: ...
 
@@ -386,6 +456,8 @@ def match(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    check_symmetry: bool = True,
+    progress: bool | ProgressCallback | None = None,
     full_output: bool | None = None,
 ) -> np.ndarray | MatchResult:
     """A vertex-to-vertex correspondence between two near-isometric shapes.
@@ -416,6 +488,14 @@ def match(
     zoomout_samples : int or None
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
+    check_symmetry : bool
+        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
+        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
+        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
+        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+    progress : bool or callable, optional
+        ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
+        after each step (bases, descriptors, fit, candidates, ZoomOut).
     full_output : bool, optional
         Deprecated: ``full_output=True`` returns :func:`match_result`'s
         :class:`MatchResult`, with a ``DeprecationWarning``; call :func:`match_result`.
@@ -464,6 +544,8 @@ def match(
         weights=weights,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        check_symmetry=check_symmetry,
+        progress=progress,
     )
     return result if full_output else result.p2p_21
 
@@ -480,6 +562,8 @@ def match_result(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    check_symmetry: bool = True,
+    progress: bool | ProgressCallback | None = None,
 ) -> MatchResult:
     """Everything :func:`match` computes: the vertex map, functional maps, bases, timings.
 
@@ -509,6 +593,14 @@ def match_result(
     zoomout_samples : int or None
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
+    check_symmetry : bool
+        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
+        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
+        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
+        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+    progress : bool or callable, optional
+        ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
+        after each step (bases, descriptors, fit, candidates, ZoomOut).
 
     Returns
     -------
@@ -552,6 +644,8 @@ def match_result(
         weights=w,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        check_symmetry=check_symmetry,
+        progress=progress,
     )
 
 
@@ -564,6 +658,7 @@ def symmetry_map(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    progress: bool | ProgressCallback | None = None,
 ) -> MatchResult:
     """The orientation-reversing intrinsic self-map (left-right symmetry) of a shape.
 
@@ -574,8 +669,8 @@ def symmetry_map(
     Parameters
     ----------
     mesh : TriMesh, (vertices, faces) or path
-    k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples
-        As for :func:`match`.
+    k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples, progress
+        As for :func:`match` (progress reports the steps as ``"match"``).
 
     Returns
     -------
@@ -603,4 +698,5 @@ def symmetry_map(
         weights=w,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        progress=progress,
     )
