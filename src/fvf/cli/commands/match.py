@@ -16,6 +16,7 @@ from ..common import (
     load_viz,
     match_pictures,
     png_stem,
+    progress_option,
     save_npz,
 )
 from ..registry import register_command
@@ -67,7 +68,12 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, data_output(args), ("--png", args.png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
     result = fvf.match_result(
-        args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
+        args.mesh_1,
+        args.mesh_2,
+        k=args.k,
+        k_fit=args.k_fit,
+        landmarks=landmarks,
+        progress=progress_option(args),
     )
     arrays = {
         "p2p_21": result.p2p_21,
