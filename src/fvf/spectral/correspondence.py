@@ -340,7 +340,8 @@ def _correspond(
         raise ParameterError(
             f"zoomout_samples = {samples} must exceed k = {k} (or be None for all vertices)"
         )
-    confidence, alternatives = float("nan"), ()
+    confidence = float("nan")
+    alternatives: tuple[MapCandidate, ...] = ()
     t = time.perf_counter()
     if stages == 5:
         starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, samples)
