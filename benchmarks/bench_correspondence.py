@@ -153,10 +153,11 @@ def planted() -> int:
                     lambda S=S, T=T, c=check, kw=kw: fvf.match_result(S, T, check_symmetry=c, **kw)
                 )
                 e = fvf.geodesic_errors(S, res.p2p_21, ident)
+                conf = "" if res.confidence is None else f"{res.confidence:.2f}"
                 a = fvf.spectral.orientation_agreement(S, T, res.p2p_21)
                 print(
                     f"| {name} | {pair} | {'on' if check else 'off'} | {e.mean():.4f} | "
-                    f"{e.max():.4f} | {a:+.2f} | {res.confidence:.2f} | {wall:.0f} |",
+                    f"{e.max():.4f} | {a:+.2f} | {conf} | {wall:.0f} |",
                     flush=True,
                 )
     return 0

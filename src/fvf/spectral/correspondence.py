@@ -17,7 +17,9 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
    term must fix the signs of the few eigenfunctions that distinguish left from right,
    and in a small basis no other term can outweigh it.
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
-   on all vertices.
+   on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
+   and its composition with mesh 1's left-right symmetry, keeping the one nearer to an
+   isometry of the requested orientation (:mod:`.candidates`).
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -97,12 +99,12 @@ class MatchResult:
         The map between the prepared meshes.
     timings : dict
         Seconds per step.
-    confidence : float
+    confidence : float or None
         How sure :func:`match` is of its choice between the fitted map and the fitted
         map composed with mesh 1's left-right symmetry (:mod:`fvf.spectral.candidates`):
         1 − E_chosen / E_other in [0, 1], E the candidates' distortion-plus-orientation
         energy. Near 0 the two candidates are about as good (an exactly symmetric pair,
-        or both refined to the same map); NaN when no choice was made
+        or both refined to the same map); None when no choice was made
         (``check_symmetry=False``, :func:`symmetry_map`).
     alternatives : tuple of MapCandidate
         Every candidate scored (name, energy, distortion, orientation agreement,
@@ -118,7 +120,7 @@ class MatchResult:
     prepared_2: PreparedMesh
     p2p_21_prepared: np.ndarray
     timings: dict = field(default_factory=dict)
-    confidence: float = float("nan")
+    confidence: float | None = None
     alternatives: tuple[MapCandidate, ...] = ()
 
     @property
@@ -340,7 +342,7 @@ def _correspond(
         raise ParameterError(
             f"zoomout_samples = {samples} must exceed k = {k} (or be None for all vertices)"
         )
-    confidence = float("nan")
+    confidence: float | None = None
     alternatives: tuple[MapCandidate, ...] = ()
     t = time.perf_counter()
     if stages == 5:
