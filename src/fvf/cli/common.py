@@ -49,6 +49,8 @@ __all__ = [
     "check_outputs",
     "data_output",
     "png_stem",
+    "png_outputs",
+    "derived_outputs",
     "write_results",
     "render_picture",
     "save_npz",
@@ -295,6 +297,21 @@ def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) ->
     for option, path in outputs:
         if path is not None:
             check_not_input(path, inputs(args), force=args.force, option=option)
+
+
+def derived_outputs(option: str, paths: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
+    """``(option, path)`` for every file one option makes (``--png t.png`` writes
+    ``t_colors.png`` and ``t_errors.png``): pass them all to :func:`check_outputs`, so
+    that no derived name replaces an input."""
+    return [(option, p) for p in paths]
+
+
+def png_outputs(png: str | None, *kinds: str) -> list[tuple[str, str]]:
+    """The pictures of ``--png PNG``: ``PNG`` itself and ``STEM_<kind>.png`` for each
+    kind (see :func:`png_stem`), as ``("--png", path)`` pairs for :func:`check_outputs`."""
+    if png is None:
+        return []
+    return derived_outputs("--png", [png, *(f"{png_stem(png)}_{kind}.png" for kind in kinds)])
 
 
 def data_output(args: argparse.Namespace) -> tuple[str, str]:

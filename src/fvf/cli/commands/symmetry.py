@@ -12,6 +12,7 @@ from ..common import (
     check_outputs,
     data_output,
     match_pictures,
+    png_outputs,
     png_stem,
     save_npz,
 )
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     import fvf
 
-    check_outputs(args, data_output(args), ("--png", args.png))
+    check_outputs(args, data_output(args), *png_outputs(args.png, "colors"))
     result = fvf.symmetry_map(args.mesh, k=args.k, k_fit=args.k_fit)
     p = result.prepared_1
     arrays = {
