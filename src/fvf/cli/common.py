@@ -47,6 +47,7 @@ __all__ = [
     "inputs",
     "progress_option",
     "check_outputs",
+    "check_output_places",
     "data_output",
     "png_stem",
     "png_outputs",
@@ -297,6 +298,36 @@ def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) ->
     for option, path in outputs:
         if path is not None:
             check_not_input(path, inputs(args), force=args.force, option=option)
+
+
+def check_output_places(*paths: str | Path) -> None:
+    """Refuse, before any work, outputs that cannot be written: a folder at the path, or
+    a parent that is not a writable folder. A command writing several files calls it for
+    all of them, so that none is written when another one could not be.
+
+    Raises
+    ------
+    OutputWriteError
+        The first such path, named with the reason.
+    """
+    import os
+
+    from fvf.errors import OutputWriteError
+
+    for path in map(Path, paths):
+        parent = path.parent if str(path.parent) else Path(".")
+        reason = None
+        if path.is_dir():
+            reason = "it is a folder"
+        elif parent.exists() and not parent.is_dir():
+            reason = f"{parent} is not a folder"
+        elif parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
+            reason = f"the folder {parent} is not writable"
+        if reason is not None:
+            raise OutputWriteError(
+                f"{path}: cannot write the output ({reason}); nothing was written. Fix: "
+                "write somewhere else"
+            )
 
 
 def derived_outputs(option: str, paths: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
