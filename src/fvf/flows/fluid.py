@@ -403,7 +403,9 @@ def ideal_fluid(
     if not (np.isfinite(step) and step != 0.0):
         raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
     dt = step
-    _check_work(mesh.n_vertices if method == "midpoint" else _basis_size(basis, k), steps, save_every)
+    _check_work(
+        mesh.n_vertices if method == "midpoint" else _basis_size(basis, k), steps, save_every
+    )
     report = make_progress(progress)
     if method != "midpoint":  # registered from a layer above: "spectral"
         run = _REGISTERED.get(method)

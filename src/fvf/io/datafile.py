@@ -674,7 +674,9 @@ def element_of(key: str, kinds: Mapping[str, str] | None = None) -> str:
     key with a time or function index, ``v_3``, is the key before it)."""
     if kinds is not None and key in kinds:
         if kinds[key] not in ("vertex", "face"):
-            raise DataFileError(f"the kind of {key!r} must be 'vertex' or 'face', not {kinds[key]!r}")
+            raise DataFileError(
+                f"the kind of {key!r} must be 'vertex' or 'face', not {kinds[key]!r}"
+            )
         return kinds[key]
     base = re.sub(r"(_\d+)+$", "", key)
     return "face" if base in FACE_KEYS or base.endswith("_face") else "vertex"
@@ -694,7 +696,9 @@ def mesh_properties(
     Returns (vertex properties, face properties, keys left out).
     """
     n, m = mesh.n_vertices, mesh.n_faces
-    vertex, face, left = {}, {}, []
+    vertex: dict[str, np.ndarray] = {}
+    face: dict[str, np.ndarray] = {}
+    left: list[str] = []
 
     def put(name: str, a: np.ndarray) -> bool:
         if a.dtype.kind not in "biuf":

@@ -37,6 +37,8 @@ def _read_landmarks(path: str) -> np.ndarray:
 def _read_truth(args: argparse.Namespace) -> np.ndarray | None:
     """The ground truth of ``--truth``, checked against the meshes before the match:
     int64 (n_2,) of vertices of mesh 1 (or ``--truth-missing``)."""
+    import numpy as np
+
     import fvf
     from fvf.errors import CorrespondenceError
     from fvf.io.inputfile import read_index_table

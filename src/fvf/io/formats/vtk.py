@@ -12,6 +12,7 @@ import importlib.util
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +78,7 @@ def write(
         _verify(path, tmp, len(V), len(F))
 
 
-def _vtk_xml(grid, suffix: str, path: Path) -> bytes:
+def _vtk_xml(grid: Any, suffix: str, path: Path) -> bytes:
     """The VTK XML file of ``grid`` (binary data, base64 inline), made in memory.
 
     VTK's own file output aborts the process on a full disk (``free(): invalid
