@@ -51,6 +51,10 @@ MESH_RESOURCE = "MESH"
 #: Seconds between two rewrites of ``summary.csv`` while a batch runs.
 SUMMARY_INTERVAL = 10.0
 
+#: The most local worker processes per core a batch starts (more is refused: each is a
+#: Python process with its own memory limit, and the machine would only thrash).
+WORKERS_PER_CORE = 4
+
 #: Input bytes that make one Dask task: smaller files are grouped up to this size.
 CHUNK_BYTES = 256 * 1024
 
@@ -132,6 +136,15 @@ def _check_options(
         )
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers must be an integer >= 1, not {workers!r}")
+    cores = os.cpu_count() or 1
+    if workers is not None and client is None and scheduler is None:
+        if workers > WORKERS_PER_CORE * cores:
+            raise ParameterError(
+                f"workers={workers} is more than this machine can run: at most "
+                f"{WORKERS_PER_CORE} worker processes per core ({WORKERS_PER_CORE * cores} "
+                f"here, {cores} cores). Fix: --workers {cores} (one per core, the default), "
+                "or --scheduler ADDRESS for a larger cluster"
+            )
     if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
         raise ParameterError(f"retries must be an integer >= 0, not {retries!r}")
     if isinstance(memory_limit, str) and memory_limit != "auto":
@@ -219,6 +232,46 @@ def _jobs(
                     )
                 )
     return jobs
+
+
+def _identity(path: str | os.PathLike) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def _check_not_inputs(
+    out: Path, jobs: Sequence[MeshJob | PairJob], pairs: str | os.PathLike | None
+) -> None:
+    """Refuse a batch whose outputs (``summary.csv``, the lock, a result file) would
+    replace one of its inputs (a mesh, a map or the pairs file), before anything runs.
+
+    One ``stat`` per file: inputs and outputs are compared by device and inode (a hard
+    link, a path through linked folders) and by resolved path (a symbolic link).
+    """
+    from ..errors import InputOverwriteError
+    from ..io.atomic import same_file
+
+    inputs: list[str] = [os.fspath(pairs)] if pairs is not None else []
+    for job in jobs:
+        if isinstance(job, MeshJob):
+            inputs.append(job.path)
+        else:
+            inputs += [job.source, job.target] + ([job.map] if job.map else [])
+    ids = {i: p for p in inputs if (i := _identity(p)) is not None}
+    real = {os.path.realpath(p): p for p in inputs}
+    outputs = [out / "summary.csv", out / ".fvf-batch.lock", *(Path(j.result) for j in jobs)]
+    for output in outputs:
+        hit = ids.get(_identity(output)) or real.get(os.path.realpath(output))  # type: ignore[arg-type]
+        if hit is not None:
+            how = same_file(output, hit) or f"the input {hit}"
+            raise InputOverwriteError(
+                f"the batch output {output} is {how}: writing it would replace an input. "
+                "Fix: give -o a folder that holds none of the inputs' output names (a "
+                "fresh folder), or move the input."
+            )
 
 
 def _size(job: MeshJob | PairJob) -> int:
@@ -560,8 +613,12 @@ def run(
         Missing inputs, a bad pairs file, an unreachable scheduler.
     BatchOutputError
         ``out`` is a file, or another batch is writing into it.
+    InputOverwriteError
+        An output (``summary.csv``, a result file) would replace an input (a mesh, a map,
+        the pairs file); checked before anything runs.
     ParameterError
-        Unknown tasks or invalid options.
+        Unknown tasks or invalid options (``workers`` beyond
+        :data:`WORKERS_PER_CORE` per core of this machine).
     """
     _require_dask()
     _check_options(k, n, workers, memory_limit, retries, client, scheduler)
@@ -572,6 +629,7 @@ def run(
     if command is None:
         command = f"fvf.batch.run({len(meshes)} meshes, {len(pair_inputs)} pairs)"
     jobs = _jobs(out, meshes, pair_inputs, mesh_tasks, pair_tasks, options, command)
+    _check_not_inputs(out, jobs, pairs)
     summary_path = out / "summary.csv"
     rows: dict[int, dict] = {}
     show = Progress(len(jobs), enabled=progress)

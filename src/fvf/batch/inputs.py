@@ -9,6 +9,7 @@ batch over thousands of large scans starts at once. The workers read the files t
 from __future__ import annotations
 
 import csv
+import fnmatch
 import glob
 import hashlib
 import os
@@ -20,6 +21,7 @@ from pathlib import Path
 
 from ..errors import BatchInputError
 from ..io.formats import readable_suffixes
+from ..io.inputfile import describe_mode, read_bytes
 
 __all__ = ["MeshInput", "PairInput", "find_meshes", "unique_names", "read_pairs"]
 
@@ -78,6 +80,37 @@ def _meshes_in(folder: Path) -> list[Path]:
     return found
 
 
+def _match_parts(pattern: Sequence[str], parts: Sequence[str]) -> bool:
+    """Whether the path components ``parts`` match the pattern components (``**`` matches
+    any number of components, others :func:`fnmatch.fnmatchcase` one each)."""
+    if not pattern:
+        return not parts
+    head, rest = pattern[0], pattern[1:]
+    if head == "**":
+        return any(_match_parts(rest, parts[i:]) for i in range(len(parts) + 1))
+    return bool(parts) and fnmatch.fnmatchcase(parts[0], head) and _match_parts(rest, parts[1:])
+
+
+def _glob(pattern: str) -> list[str]:
+    """The paths a glob pattern matches. Without ``**`` this is :func:`glob.glob`; with it
+    the folder before the first wildcard is walked without following symbolic links to
+    folders (hidden folders skipped), so the walk visits each folder once."""
+    if "**" not in pattern:
+        return glob.glob(pattern)
+    parts = Path(pattern).parts
+    first = next(i for i, part in enumerate(parts) if glob.has_magic(part))
+    root = Path(*parts[:first]) if first else Path(".")
+    want = [p for p in parts[first:] if p]
+    found = []
+    for folder, dirs, files in os.walk(root):  # followlinks=False: no loops
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        rel = Path(folder).relative_to(root).parts
+        for name in [*dirs, *files]:
+            if not name.startswith(".") and _match_parts(want, [*rel, name]):
+                found.append(str(Path(folder) / name))
+    return found
+
+
 def find_meshes(inputs: Iterable[str | os.PathLike]) -> list[Path]:
     """The mesh files named by files, folders and glob patterns, in order, without repeats.
 
@@ -88,7 +121,8 @@ def find_meshes(inputs: Iterable[str | os.PathLike]) -> list[Path]:
         ``failed`` row of the batch). A folder contributes every OBJ, OFF and PLY file
         under it (recursively, sorted, hidden files and folders skipped). A glob pattern
         (``*``, ``?``, ``[...]``, ``**`` recursive) contributes the mesh files it matches
-        and the mesh files under the folders it matches.
+        and the mesh files under the folders it matches; ``**`` does not enter symbolic
+        links to folders (a link loop cannot make it endless), nor hidden folders.
 
     Returns
     -------
@@ -102,17 +136,22 @@ def find_meshes(inputs: Iterable[str | os.PathLike]) -> list[Path]:
         of them are named).
     """
     found: list[Path] = []
-    missing, empty = [], []
+    missing: list[str] = []
+    empty: list[str] = []
+    special: list[str] = []
     for item in inputs:
         text = os.fspath(item)
         path = Path(text).expanduser()
         if path.is_dir():
             hits = _meshes_in(path)
         elif path.exists():
+            if not path.is_file():  # a FIFO or a device (/dev/zero) would never end
+                special.append(f"{text} ({describe_mode(path.stat().st_mode)})")
+                continue
             hits = [path]
         elif glob.has_magic(text):
             hits = []
-            for match in sorted(glob.glob(os.path.expanduser(text), recursive=True)):
+            for match in sorted(_glob(os.path.expanduser(text))):
                 m = Path(match)
                 hits += _meshes_in(m) if m.is_dir() else [m] if _is_mesh_file(m) else []
         else:
@@ -121,6 +160,11 @@ def find_meshes(inputs: Iterable[str | os.PathLike]) -> list[Path]:
         if not hits:
             empty.append(text)
         found += hits
+    if special:
+        raise BatchInputError(
+            f"not regular files: {', '.join(special)}; fvf reads only regular files (a FIFO "
+            "or a device never ends). Fix: save the meshes to files and give their paths"
+        )
     if missing or empty:
         parts = []
         if missing:
@@ -220,9 +264,11 @@ def read_pairs(path: str | os.PathLike) -> list[tuple[Path, Path, Path | None]]:
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        text = read_bytes(path, BatchInputError).decode("utf-8-sig")
     except OSError as exc:
         raise BatchInputError(f"cannot read the pairs file {path}: {exc.strerror}") from exc
+    except UnicodeDecodeError as exc:
+        raise BatchInputError(f"the pairs file {path} is not UTF-8 text ({exc})") from None
     base, rows, bad, missing = path.resolve().parent, [], [], []
     for lineno, cells in enumerate(csv.reader(text.splitlines()), 1):
         cells = [c.strip() for c in cells]

@@ -287,8 +287,11 @@ class PairContext:
         ------
         FieldShapeError
             No map file and different vertex counts, or a map of the wrong shape or range.
+        BatchInputError
+            The map file is not a regular file (a FIFO, a device).
         """
-        from ..errors import FieldShapeError
+        from ..errors import BatchInputError, FieldShapeError
+        from ..io.inputfile import regular_file
         from ..spectral.fmaps import check_p2p
 
         n_s, n_t = self.source.mesh.n_vertices, self.target.mesh.n_vertices
@@ -300,6 +303,7 @@ class PairContext:
                     "third column of the pairs file"
                 )
             return np.arange(n_s)
+        regular_file(self.map_path, BatchInputError)  # a FIFO or /dev/zero would never end
         if self.map_path.suffix.lower() == ".npy":
             raw = np.load(self.map_path, allow_pickle=False)
         else:

@@ -21,7 +21,9 @@ import hashlib
 import json
 import math
 import os
+import re
 import socket
+import zipfile
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -98,28 +100,54 @@ def result_key(file_hashes: Sequence[str], options_json: str) -> str:
     return hashlib.sha256("\n".join([*file_hashes, options_json]).encode()).hexdigest()
 
 
+def _intact(path: str | os.PathLike) -> bool:
+    """Whether every member of the ``.npz`` at ``path`` matches its stored CRC-32.
+
+    ``numpy.load`` reads a member only when it is asked for, so a result damaged after it
+    was written (a zeroed block inside one array) would otherwise look complete.
+    """
+    with zipfile.ZipFile(path) as archive:
+        return archive.testzip() is None
+
+
 def stored_row(path: str | os.PathLike, key: str) -> dict | None:
     """The summary row stored in the result ``path`` when its key is ``key``, else None.
 
-    A missing, unreadable or stale (other key) result gives None: the mesh is recomputed.
+    A missing, unreadable, damaged (a member whose checksum does not match) or stale
+    (other key) result gives None: the mesh is recomputed.
     """
     try:
+        if not _intact(path):
+            return None
         with np.load(path, allow_pickle=False) as data:
             if KEY_FIELD not in data.files or str(data[KEY_FIELD]) != key:
                 return None
             return json.loads(str(data["batch_summary"]))
     except (OSError, ValueError, KeyError, EOFError):
         return None
-    except Exception:  # a damaged zip raises zipfile.BadZipFile and others
+    except Exception:  # a damaged zip raises zipfile.BadZipFile, zlib.error and others
         return None
 
 
+#: First characters that make a spreadsheet read a text cell as a formula.
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
 def _cell(value: Any) -> str:
+    """The CSV text of a summary value: floats in shortest round-trip form, NaN and None
+    empty; a text cell starting with ``= + - @`` (or a tab, a carriage return) gets a
+    leading ``'`` so that a spreadsheet shows it as text instead of running it as a
+    formula (numbers, even negative ones, are written as they are)."""
     if value is None:
         return ""
     if isinstance(value, float):
         return "" if math.isnan(value) else repr(value)
-    return str(value)
+    if isinstance(value, (bool, int, np.integer, np.floating)):
+        return str(value)
+    text = str(value)
+    if text.startswith(_FORMULA_START):
+        return "'" + text
+    return text
 
 
 def columns_of(rows: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -142,25 +170,29 @@ def write_summary(path: str | os.PathLike, rows: Sequence[Mapping[str, Any]]) ->
     return columns
 
 
+#: Names :func:`fvf.io.atomic.atomic_path` gives the temporary files of a batch's outputs:
+#: ``.<name>.npz.<hex digits>.npz`` and ``.summary.csv.<hex digits>.csv``.
+_TEMPORARY = re.compile(r"\.(?:.+\.npz\.[0-9a-f]+\.npz|summary\.csv\.[0-9a-f]+\.csv)")
+
+
 def remove_temporaries(folder: str | os.PathLike) -> int:
     """Delete the temporary files that interrupted atomic writes left in ``folder``.
 
-    :func:`fvf.io.atomic.atomic_path` names them ``.<target>.<random><suffix>``; a worker
-    killed while writing leaves one behind (its target is untouched). Returns the count.
+    :func:`fvf.io.atomic.atomic_path` names them ``.<target>.<hex digits><suffix>``; a worker
+    killed while writing leaves one behind (its target is untouched). Only names of
+    exactly that form are removed (in ``folder``, ``meshes/`` and ``pairs/``): a user's
+    own dot-file there (``.summary.csv.swp``, ``.res.npz.bak``) is kept. Returns the count.
     """
     count = 0
     for sub in ("meshes", "pairs", "."):
         d = Path(folder) / sub
         if not d.is_dir():
             continue
-        for p in d.glob(".*.npz.*"):
-            with contextlib.suppress(OSError):
-                p.unlink()
-                count += 1
-        for p in d.glob(".summary.csv.*"):
-            with contextlib.suppress(OSError):
-                p.unlink()
-                count += 1
+        for p in d.glob(".*"):
+            if _TEMPORARY.fullmatch(p.name) and p.is_file() and not p.is_symlink():
+                with contextlib.suppress(OSError):
+                    p.unlink()
+                    count += 1
     return count
 
 

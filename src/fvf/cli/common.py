@@ -47,8 +47,8 @@ __all__ = [
     "inputs",
     "progress_option",
     "check_outputs",
+    "check_output_places",
     "data_output",
-    "png_stem",
     "derived_picture",
     "add_picture_options",
     "picture_options",
@@ -300,16 +300,41 @@ def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) ->
             check_not_input(path, inputs(args), force=args.force, option=option)
 
 
+def check_output_places(*paths: str | Path) -> None:
+    """Refuse, before any work, outputs that cannot be written: a folder at the path, or
+    a parent that is not a writable folder. A command writing several files calls it for
+    all of them, so that none is written when another one could not be.
+
+    Raises
+    ------
+    OutputWriteError
+        The first such path, named with the reason.
+    """
+    import os
+
+    from fvf.errors import OutputWriteError
+
+    for path in map(Path, paths):
+        parent = path.parent if str(path.parent) else Path(".")
+        reason = None
+        if path.is_dir():
+            reason = "it is a folder"
+        elif parent.exists() and not parent.is_dir():
+            reason = f"{parent} is not a folder"
+        elif parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
+            reason = f"the folder {parent} is not writable"
+        if reason is not None:
+            raise OutputWriteError(
+                f"{path}: cannot write the output ({reason}); nothing was written. Fix: "
+                "write somewhere else"
+            )
+
+
 def data_output(args: argparse.Namespace) -> tuple[str, str]:
     """``("-o", path)`` of a data file output (``.npz`` added when no data suffix)."""
     from fvf.io.datafile import data_path
 
     return "-o", str(data_path(args.output))
-
-
-def png_stem(path: str) -> str:
-    """The stem of a picture name: ``map.png`` -> ``map``."""
-    return str(Path(path).with_suffix(""))
 
 
 def derived_picture(path: str, what: str) -> str:

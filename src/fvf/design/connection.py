@@ -118,7 +118,7 @@ from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.inverse_iteration import inverse_iteration
-from ..numerics.progress import ProgressCallback, make_progress
+from ..numerics.progress import ProgressCallback, make_progress, raised_by_callback
 
 __all__ = [
     "ConnectionKind",
@@ -712,7 +712,7 @@ def smoothest_fields(
             lam, Z = inverse_iteration(L, area, count, backend=backend, progress=report)
             lam, Z = _complex_ritz(L, area, Z, count)
         except SpectralSolveError as exc:
-            if not auto:
+            if not auto or raised_by_callback(exc):
                 raise
             warnings.warn(
                 f"smoothest_fields: {exc} Using ARPACK instead.",

@@ -240,6 +240,15 @@ class FluidResult:
 #: The methods of :func:`ideal_fluid`, the full mesh's first (the default).
 METHODS = ("midpoint", "spectral")
 
+#: The most work one :func:`ideal_fluid` call accepts: steps × unknowns (vertices for
+#: ``"midpoint"``, basis functions for ``"spectral"``). 10¹¹ is about a day of midpoint
+#: steps; longer runs are made in pieces, each starting from the last frame of the
+#: previous one.
+MAX_FLUID_WORK = 10**11
+
+#: The most memory the kept frames of one :func:`ideal_fluid` call may take (bytes).
+MAX_FLUID_FRAME_BYTES = 2**34
+
 #: The methods of :data:`METHODS` implemented in a layer above this one (a layer never
 #: imports upward, docs/architecture.md), by name: a function
 #: ``run(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report)`` of
@@ -290,6 +299,25 @@ def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) 
             "no Courant step exists: the fluid is at rest. Fix: pass any dt to ideal_fluid."
         )
     return courant * mesh.mean_edge_length / speed
+
+
+def _basis_size(basis: Any, k: int) -> int:
+    size = getattr(basis, "k", None)
+    return int(size) if isinstance(size, numbers.Integral) else int(k)
+
+
+def _check_work(unknowns: int, steps: int, save_every: int) -> None:
+    """Refuse a run beyond :data:`MAX_FLUID_WORK` or :data:`MAX_FLUID_FRAME_BYTES`
+    before it starts (``ideal_fluid(steps=10**9)`` would otherwise run for years)."""
+    frames = (steps // save_every + 1) * unknowns * 8
+    if steps * unknowns > MAX_FLUID_WORK or frames > MAX_FLUID_FRAME_BYTES:
+        raise ParameterError(
+            f"steps={steps} on {unknowns} unknowns is {steps * unknowns:.3g} step-unknowns "
+            f"and {frames / 2**30:.3g} GiB of frames, beyond what one call runs "
+            f"(MAX_FLUID_WORK = {MAX_FLUID_WORK:.0e}, MAX_FLUID_FRAME_BYTES = "
+            f"{MAX_FLUID_FRAME_BYTES / 2**30:.0f} GiB). Fix: fewer steps, a larger "
+            "save_every, or run in pieces, each from the last frame of the one before"
+        )
 
 
 @takes_mesh
@@ -349,7 +377,9 @@ def ideal_fluid(
     ------
     ParameterError
         A non-integer or negative ``steps``, ``save_every`` or ``max_iterations`` < 1,
-        ``tol`` not a positive number, ``dt`` zero or not finite, an unknown method.
+        ``tol`` not a positive number, ``dt`` zero or not finite, an unknown method; a
+        run beyond :data:`MAX_FLUID_WORK` (steps × vertices, or × basis size) or whose
+        frames exceed :data:`MAX_FLUID_FRAME_BYTES`, refused before it starts.
     FluidSolveError
         A step did not converge in ``max_iterations`` iterations.
         Measured drift over 200 steps is below 1e-11 relative for both (``docs/flows.md``).
@@ -376,6 +406,9 @@ def ideal_fluid(
     if not (np.isfinite(step) and step != 0.0):
         raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
     dt = step
+    _check_work(
+        mesh.n_vertices if method == "midpoint" else _basis_size(basis, k), steps, save_every
+    )
     report = make_progress(progress)
     if method != "midpoint":  # registered from a layer above: "spectral"
         run = _REGISTERED.get(method)

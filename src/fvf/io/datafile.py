@@ -103,6 +103,8 @@ __all__ = [
     "write_data",
     "data_path",
     "mesh_properties",
+    "element_of",
+    "FACE_KEYS",
     "MESH_MATCH_RTOL",
     "MESH_DATA_SUFFIXES",
 ]
@@ -578,6 +580,7 @@ def write_data(
     command: str,
     inputs: Iterable[str | os.PathLike] = (),
     overwrite_inputs: bool = False,
+    kinds: Mapping[str, str] | None = None,
 ) -> Path:
     """Write results as an ``.npz`` data file, with a mesh copy and their provenance.
 
@@ -601,6 +604,9 @@ def write_data(
         Data files read, stored (absolute) as the string array ``inputs`` (j,).
     overwrite_inputs : bool
         Allow ``path`` to be ``mesh_path`` or one of ``inputs`` (default: refuse).
+    kinds : mapping of str to {"vertex", "face"}, optional
+        For a mesh file output (PLY, VTK) of a mesh with as many vertices as faces: the
+        element each key belongs to (default :func:`element_of`).
 
     Returns
     -------
@@ -627,7 +633,7 @@ def write_data(
         created_utc=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     )
     if path.suffix.lower() != ".npz":
-        return _write_mesh_data(path, out, mesh, provenance)
+        return _write_mesh_data(path, out, mesh, provenance, kinds)
     out.update(
         vertices=np.asarray(mesh.vertices, dtype=np.float64),
         faces=np.asarray(mesh.faces, dtype=np.int64),
@@ -656,8 +662,28 @@ def data_path(path: str | os.PathLike) -> Path:
     return path.with_name(path.name + ".npz")
 
 
+#: Keys of fvf's results that hold one value per face (tangent fields ``v``, ``u``,
+#: ``w``, ``field``, and any key ending ``_face``): the element they are written to when a
+#: mesh has as many vertices as faces, so that their length cannot tell.
+FACE_KEYS = frozenset({"v", "u", "w", "field", "fields"})
+
+
+def element_of(key: str, kinds: Mapping[str, str] | None = None) -> str:
+    """``"vertex"`` or ``"face"``: where the array ``key`` belongs when its length does not
+    tell (``kinds[key]`` when given, else :data:`FACE_KEYS` and the ``_face`` suffix; a
+    key with a time or function index, ``v_3``, is the key before it)."""
+    if kinds is not None and key in kinds:
+        if kinds[key] not in ("vertex", "face"):
+            raise DataFileError(
+                f"the kind of {key!r} must be 'vertex' or 'face', not {kinds[key]!r}"
+            )
+        return kinds[key]
+    base = re.sub(r"(_\d+)+$", "", key)
+    return "face" if base in FACE_KEYS or base.endswith("_face") else "vertex"
+
+
 def mesh_properties(
-    arrays: Mapping[str, np.ndarray], mesh: TriMesh
+    arrays: Mapping[str, np.ndarray], mesh: TriMesh, kinds: Mapping[str, str] | None = None
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list[str]]:
     """Per-vertex and per-face arrays among a command's results, as mesh properties.
 
@@ -665,15 +691,21 @@ def mesh_properties(
     3-vector ``p`` is ``px py pz``); arrays with a leading time (and function) axis are
     split into ``key_<i>`` (``key_<i>_<j>``); ``singularity_vertices`` with
     ``singularity_indices`` become the vertex property ``singularity_index`` (0 elsewhere).
+    When n = m the length cannot tell: the element is :func:`element_of` the key (``kinds``,
+    else the per-face keys :data:`FACE_KEYS` and ``*_face``; every other key per vertex).
     Returns (vertex properties, face properties, keys left out).
     """
     n, m = mesh.n_vertices, mesh.n_faces
-    vertex, face, left = {}, {}, []
+    vertex: dict[str, np.ndarray] = {}
+    face: dict[str, np.ndarray] = {}
+    left: list[str] = []
 
     def put(name: str, a: np.ndarray) -> bool:
         if a.dtype.kind not in "biuf":
             return False
-        if a.shape in ((n,), (n, 3)):
+        if a.shape in ((n,), (n, 3)) and a.shape in ((m,), (m, 3)):  # n = m
+            (face if element_of(name, kinds) == "face" else vertex)[name] = a
+        elif a.shape in ((n,), (n, 3)):
             vertex[name] = a
         elif a.shape in ((m,), (m, 3)):
             face[name] = a
@@ -698,11 +730,13 @@ def mesh_properties(
     return vertex, face, left
 
 
-def _write_mesh_data(path: Path, arrays: dict, mesh: TriMesh, provenance: dict) -> Path:
+def _write_mesh_data(
+    path: Path, arrays: dict, mesh: TriMesh, provenance: dict, kinds: Mapping[str, str] | None
+) -> Path:
     """The results as properties of the mesh (PLY, VTK), provenance as PLY comments."""
     from .meshfile import write_mesh
 
-    vertex, face, left = mesh_properties(arrays, mesh)
+    vertex, face, left = mesh_properties(arrays, mesh, kinds)
     comments = [f"fvf {k}: {v}" for k, v in provenance.items()]
     if left:
         comments.append(f"fvf keys not stored (no value per vertex or face): {', '.join(left)}")

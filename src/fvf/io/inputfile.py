@@ -13,9 +13,11 @@ from __future__ import annotations
 import os
 import stat
 
+import numpy as np
+
 from ..errors import FvfError
 
-__all__ = ["regular_file", "read_bytes", "describe_mode"]
+__all__ = ["regular_file", "read_bytes", "read_index_table", "describe_mode", "MAX_TABLE_BYTES"]
 
 
 def describe_mode(mode: int) -> str:
@@ -85,3 +87,55 @@ def read_bytes(path: str | os.PathLike, error: type[FvfError], head: int = 0) ->
             "nothing is writing it"
         )
     return data
+
+
+#: Largest small text input (landmarks, ground truth, vertex map) read into memory.
+MAX_TABLE_BYTES = 1 << 30
+
+
+def read_index_table(
+    path: str | os.PathLike, columns: int, what: str, error: type[FvfError]
+) -> np.ndarray:
+    """A text table of integers (vertex indices): ``columns`` per line, ``#`` comments.
+
+    Parameters
+    ----------
+    path : path
+        A regular file (a FIFO, a device or a directory is refused before it is opened) of
+        at most :data:`MAX_TABLE_BYTES` bytes.
+    columns : int
+        Integers per line; 1 gives a flat table.
+    what : str
+        What the file holds, for messages (``"landmarks"``, ``"the ground truth"``).
+    error : FvfError subclass
+        Raised for a file that is not a regular file, too large, not UTF-8 text, or not
+        ``columns`` integers per line; the message names ``path``.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64, shape (q,) when ``columns`` is 1, else (q, columns).
+    """
+    st = regular_file(path, error)
+    if st.st_size > MAX_TABLE_BYTES:
+        raise error(
+            f"{path}: {what} file is {st.st_size / 2**30:.3g} GiB, more than a table of "
+            f"vertex indices can be ({MAX_TABLE_BYTES / 2**30:.3g} GiB); is it the right file?"
+        )
+    try:
+        text = read_bytes(path, error).decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: {what} must be text (integers), not binary data ({exc})") from None
+    rows = [line.split("#", 1)[0].replace(",", " ").split() for line in text.splitlines()]
+    rows = [r for r in rows if r]
+    bad = next((r for r in rows if len(r) != columns), None)
+    if bad is not None:
+        raise error(
+            f"{path}: {what} must be {columns} integer(s) per line; a data line has "
+            f"{len(bad)}: {' '.join(bad)[:80]!r}"
+        )
+    try:
+        table = np.array(rows, dtype=np.int64).reshape(-1, columns)
+    except (ValueError, OverflowError) as exc:
+        raise error(f"{path}: {what} must be {columns} integer(s) per line ({exc})") from None
+    return table[:, 0] if columns == 1 else table

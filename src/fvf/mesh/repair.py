@@ -283,11 +283,15 @@ def remove_duplicate_vertices(
                 "coordinates, so distances to them are undefined. Fix: remove them (and "
                 "their faces) first, or merge with tol=0."
             )
-        radius = tol * float(np.linalg.norm(np.ptp(V, axis=0)))
+        # distances in units of the largest coordinate: a vertex at 1e308 would overflow
+        # the bounding box diagonal and the KD-tree's squared distances
+        scale = float(np.abs(V).max())
+        unit = V / scale if scale > 0 else V
+        radius = tol * float(np.linalg.norm(np.ptp(unit, axis=0)))
     if radius > 0:
         from scipy.spatial import cKDTree
 
-        pairs = cKDTree(V).query_pairs(radius, output_type="ndarray")
+        pairs = cKDTree(unit).query_pairs(radius, output_type="ndarray")
         g = sp.coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
         _, label = connected_components(g, directed=False)
         rep_of_label = np.full(label.max(initial=-1) + 1, n, dtype=np.int64)

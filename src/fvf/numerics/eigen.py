@@ -109,7 +109,7 @@ from .cholesky import (  # noqa: F401 (ND_MIN re-exported)
 )
 from .eigenpairs import eigen_residuals, normalized_eigenpairs, spectral_norm_bound
 from .krylov_schur import CHECK_EVERY, block_krylov_schur, block_size  # noqa: F401 (re-exported)
-from .progress import ProgressCallback, make_progress
+from .progress import ProgressCallback, make_progress, raised_by_callback
 
 __all__ = [
     "smallest_eigenpairs",
@@ -307,6 +307,8 @@ def smallest_eigenpairs(
         except (RuntimeError, np.linalg.LinAlgError, ValueError) as exc:
             if isinstance(exc, FvfError) and not isinstance(exc, SpectralSolveError):
                 raise  # bad input: no method can do better
+            if raised_by_callback(exc):
+                raise  # the user's progress callback stopped the solve
             failures.append(f"{name}: {type(exc).__name__}: {exc}")
             if i + 1 < len(chain):
                 warnings.warn(

@@ -15,7 +15,7 @@ from typing import Any
 
 from ..errors import ParameterError
 
-__all__ = ["ProgressCallback", "make_progress", "fraction_reporter"]
+__all__ = ["ProgressCallback", "make_progress", "fraction_reporter", "raised_by_callback"]
 
 ProgressCallback = Callable[[str, int, int], Any]
 
@@ -48,6 +48,34 @@ class _TqdmProgress:
         self._bar, self._stage = None, None
 
 
+#: The attribute set on an exception raised by a user's progress callback.
+_FROM_CALLBACK = "_fvf_raised_by_progress_callback"
+
+
+class _UserProgress:
+    """A user's callback, whose exceptions (a cancel) are marked so that no fallback of
+    a solver mistakes them for its own failure (:func:`raised_by_callback`)."""
+
+    def __init__(self, callback: ProgressCallback) -> None:
+        self._callback = callback
+
+    def __call__(self, stage: str, done: int, total: int) -> Any:
+        try:
+            return self._callback(stage, done, total)
+        except BaseException as exc:
+            try:
+                setattr(exc, _FROM_CALLBACK, True)
+            except (AttributeError, TypeError):  # an exception type with __slots__
+                pass
+            raise
+
+
+def raised_by_callback(exc: BaseException) -> bool:
+    """Whether ``exc`` came out of a user's progress callback: a solver that falls back
+    to another method on failure must re-raise it instead (the user asked to stop)."""
+    return bool(getattr(exc, _FROM_CALLBACK, False))
+
+
 def make_progress(
     progress: bool | ProgressCallback | None, *, delay: float = 0.0
 ) -> ProgressCallback:
@@ -57,7 +85,9 @@ def make_progress(
     ----------
     progress : None, bool or callable
         ``None``/``False``: silent. ``True``: a tqdm bar per stage when tqdm imports, else
-        silent. A callable: called as ``progress(stage, done, total)``.
+        silent. A callable: called as ``progress(stage, done, total)``; an exception it
+        raises (a cancel) propagates out of the solver unchanged, never taken for a
+        failure of a method that another one replaces.
     delay : float
         With ``True``: a stage's bar appears only once the stage has run this many
         seconds (tqdm's ``delay``; the command line uses 2 s).
@@ -75,8 +105,10 @@ def make_progress(
         except ImportError:
             return _silent
         return _TqdmProgress(functools.partial(tqdm, delay=delay) if delay > 0 else tqdm)
-    if callable(progress):
+    if isinstance(progress, (_UserProgress, _TqdmProgress)) or progress is _silent:
         return progress
+    if callable(progress):
+        return _UserProgress(progress)
     raise ParameterError(
         f"progress must be None, True/False or a callable (stage, done, total); got {progress!r}"
     )

@@ -30,15 +30,36 @@ if TYPE_CHECKING:
 def _read_landmarks(path: str) -> np.ndarray:
     """Landmark pairs from a text file: one line "i1 i2" per landmark (vertex of the first
     mesh, vertex of the second), '#' comments allowed; int64 (q, 2)."""
+    from fvf.errors import LandmarkError
+    from fvf.io.inputfile import read_index_table
+
+    return read_index_table(path, 2, "landmarks", LandmarkError)
+
+
+def _read_truth(args: argparse.Namespace) -> np.ndarray | None:
+    """The ground truth of ``--truth``, checked against the meshes before the match:
+    int64 (n_2,) of vertices of mesh 1 (or ``--truth-missing``)."""
     import numpy as np
 
-    try:
-        L = np.loadtxt(path, dtype=np.int64, comments="#", ndmin=2)
-    except ValueError as exc:
-        raise ValueError(f"{path}: landmarks must be two integers per line ({exc})") from exc
-    if L.shape[1] != 2:
-        raise ValueError(f"{path}: landmarks must be two integers per line; got {L.shape[1]}")
-    return L
+    import fvf
+    from fvf.errors import CorrespondenceError
+    from fvf.io.inputfile import read_index_table
+
+    if not args.truth:
+        return None
+    truth = read_index_table(args.truth, 1, "the ground truth", CorrespondenceError)
+    n_1, n_2 = (len(fvf.read_mesh(p)[0]) for p in (args.mesh_1, args.mesh_2))
+    bad = (truth < 0) | (truth >= n_1)
+    if args.truth_missing is not None:
+        bad &= truth != args.truth_missing
+    if truth.shape != (n_2,) or bad.any():
+        first = f"; line {np.flatnonzero(bad)[0] + 1} is {truth[bad][0]}" if bad.any() else ""
+        raise CorrespondenceError(
+            f"{args.truth}: the ground truth needs {n_2} lines (one per vertex of "
+            f"{args.mesh_2}), each a vertex of {args.mesh_1} in [0, {n_1}) or the "
+            f"--truth-missing value; it has {truth.size}{first}"
+        )
+    return truth
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
@@ -76,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
     errors_png = derived_picture(args.png, "errors") if args.png and args.truth else None
     check_outputs(args, data_output(args), ("--png", args.png), ("--png", errors_png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
+    truth = _read_truth(args)
     result = fvf.match_result(
         args.mesh_1,
         args.mesh_2,
@@ -91,15 +113,18 @@ def run(args: argparse.Namespace) -> int:
         "mesh_2_path": np.array(str(Path(args.mesh_2).resolve())),
         "command": np.array(args.command_line),
     }
-    if args.truth:
-        truth = np.loadtxt(args.truth, dtype=np.int64, ndmin=1)
+    if truth is not None:
         valid = truth != args.truth_missing if args.truth_missing is not None else None
         p1 = result.prepared_1
-        err = fvf.geodesic_errors(p1.mesh, p1.input_to_mesh[result.p2p_21], p1.input_to_mesh[truth])
+        known = truth if valid is None else np.where(valid, truth, 0)
+        err = fvf.geodesic_errors(p1.mesh, p1.input_to_mesh[result.p2p_21], p1.input_to_mesh[known])
         if valid is not None:
             err = np.where(valid, err, np.nan)
         arrays["errors"] = err
-        print(f"mean geodesic error / sqrt(area): {np.nanmean(err):.4f}")
+        if np.isnan(err).all():
+            print("no vertex has a ground truth (all are --truth-missing): no mean error")
+        else:
+            print(f"mean geodesic error / sqrt(area): {np.nanmean(err):.4f}")
     save_npz(args.output, arrays)
     times = ", ".join(f"{k} {v:.1f} s" for k, v in result.timings.items())
     print(f"matched {result.p2p_21.size} vertices ({times})")

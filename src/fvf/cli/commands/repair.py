@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..common import EXIT_OK, add_output, check_outputs, real
+from ..common import EXIT_OK, add_output, check_output_places, check_outputs, real
 from ..registry import register_command
 
 
@@ -39,10 +39,13 @@ def run(args: argparse.Namespace) -> int:
 
     out, maps = Path(args.output), _maps_path(args.output)
     check_outputs(args, ("-o", str(out)), ("the index maps", str(maps)))
+    check_output_places(out, maps)
+    fvf.io.check_writable(out)
     V, F = fvf.read_mesh(args.mesh)
     result = fvf.repair_mesh(V, F, tol=args.tol)
     mesh = result.mesh  # the repaired mesh must be valid (else: what is left, status 2)
-    fvf.write_mesh(out, mesh.vertices, mesh.faces)
+    # the maps are written to their temporary file first and renamed last: a failure of
+    # either file leaves both outputs as they were
     with atomic_path(maps) as tmp:
         np.savez(
             tmp,
@@ -55,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
             mesh_path=np.array(str(Path(args.mesh).resolve())),
             command=np.array(args.command_line),
         )
+        fvf.write_mesh(out, mesh.vertices, mesh.faces)
     for line in result.log or ("nothing to repair",):
         print(f"  {line}")
     print(
