@@ -116,6 +116,22 @@ def close_singularity_pairs(
         opposite signs), which lowers the total |index| by 2/N: a ±1/N, ∓1/N pair
         cancels, a ±2/N, ∓1/N pair leaves one ±1/N singularity.
     """
+    return _greedy_close_pairs(
+        mesh, vertices, radius, lambda i, j: np.sign(steps[i]) == -np.sign(steps[j])
+    )
+
+
+def _greedy_close_pairs(
+    mesh: TriMesh,
+    vertices: np.ndarray,
+    radius: float,
+    keep: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> list[tuple[int, int]]:
+    """Disjoint pairs of ``vertices`` closer than ``radius`` (3D), closest first.
+
+    The pairs (i, j) of positions in ``vertices`` for which ``keep(i, j)`` (bool, one per
+    candidate pair) holds, matched greedily: a vertex joins the first pair it can.
+    """
     if vertices.size < 2 or radius <= 0:
         return []
     P = mesh.vertices[vertices]
@@ -123,14 +139,13 @@ def close_singularity_pairs(
     if ij.size == 0:
         return []
     i, j = ij[:, 0], ij[:, 1]
-    ki, kj = steps[i], steps[j]
-    keep = np.sign(ki) == -np.sign(kj)
-    i, j = i[keep], j[keep]
-    d = np.linalg.norm(P[i] - P[j], axis=1)
+    kept = keep(i, j)
+    i, j = i[kept], j[kept]
+    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
     used = np.zeros(vertices.size, dtype=bool)
     pairs = []
-    for a, b in zip(i[np.argsort(d, kind="stable")], j[np.argsort(d, kind="stable")], strict=True):
-        if used[a] or used[b]:  # greedy matching over the few close pairs
+    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
+        if used[a] or used[b]:
             continue
         used[a] = used[b] = True
         pairs.append((int(vertices[a]), int(vertices[b])))
@@ -408,24 +423,9 @@ def close_equal_pairs(
 ) -> list[tuple[int, int]]:
     """Disjoint pairs (a, b) of singular vertices of equal index ±1/N closer than
     ``radius`` (3D), closest first; ``vertices`` int64 (s,), ``steps`` N × their indices."""
-    if vertices.size < 2 or radius <= 0:
-        return []
-    P = mesh.vertices[vertices]
-    ij = cKDTree(P).query_pairs(radius, output_type="ndarray")
-    if ij.size == 0:
-        return []
-    i, j = ij[:, 0], ij[:, 1]
-    keep = (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
-    i, j = i[keep], j[keep]
-    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
-    used = np.zeros(vertices.size, dtype=bool)
-    pairs = []
-    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
-        if used[a] or used[b]:
-            continue
-        used[a] = used[b] = True
-        pairs.append((int(vertices[a]), int(vertices[b])))
-    return pairs
+    return _greedy_close_pairs(
+        mesh, vertices, radius, lambda i, j: (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
+    )
 
 
 @takes_mesh
