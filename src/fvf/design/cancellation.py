@@ -50,6 +50,7 @@ indices split into two −1/N singularities again.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 import numpy.typing as npt
@@ -275,6 +276,25 @@ def _checked(
     return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True), rot
 
 
+def _checked_edits(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    radius: float,
+    rounds: int,
+    backend: Backend,
+    connection_rotations: npt.ArrayLike | None,
+    *rules_at: Callable[[float], tuple[Callable, Callable]],
+) -> np.ndarray:
+    """The public entrances: check the arguments, then run :func:`_edit` with each
+    ``rules_at(radius)`` (``moves_for`` and ``better``) in turn on one factored matrix."""
+    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
+    reanglers = _Reanglers(mesh, radius, backend)
+    for rules in rules_at:
+        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules(radius), rot)
+    return u
+
+
 @takes_mesh
 def cancel_close_singularities(
     mesh: TriMesh,
@@ -319,9 +339,9 @@ def cancel_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius), rot)
+    return _checked_edits(
+        mesh, u, n, radius, rounds, backend, connection_rotations, partial(_cancelling, mesh)
+    )
 
 
 def _cancelling(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -477,9 +497,9 @@ def separate_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius), rot)
+    return _checked_edits(
+        mesh, u, n, radius, rounds, backend, connection_rotations, partial(_separating, mesh)
+    )
 
 
 def _separating(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -639,13 +659,16 @@ def tidy_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    for rules in (
-        _cancelling(mesh, radius),
-        _separating(mesh, radius),
-        _cancelling(mesh, radius),  # pairs the moves brought close
-        _splitting(mesh, radius, max_step),  # index beyond max_step / N
-    ):
-        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
-    return u
+    return _checked_edits(
+        mesh,
+        u,
+        n,
+        radius,
+        rounds,
+        backend,
+        connection_rotations,
+        partial(_cancelling, mesh),
+        partial(_separating, mesh),
+        partial(_cancelling, mesh),  # pairs the moves brought close
+        lambda r: _splitting(mesh, r, max_step),  # index beyond max_step / N
+    )
