@@ -50,6 +50,7 @@ indices split into two −1/N singularities again.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 import numpy.typing as npt
@@ -116,6 +117,22 @@ def close_singularity_pairs(
         opposite signs), which lowers the total |index| by 2/N: a ±1/N, ∓1/N pair
         cancels, a ±2/N, ∓1/N pair leaves one ±1/N singularity.
     """
+    return _greedy_close_pairs(
+        mesh, vertices, radius, lambda i, j: np.sign(steps[i]) == -np.sign(steps[j])
+    )
+
+
+def _greedy_close_pairs(
+    mesh: TriMesh,
+    vertices: np.ndarray,
+    radius: float,
+    keep: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> list[tuple[int, int]]:
+    """Disjoint pairs of ``vertices`` closer than ``radius`` (3D), closest first.
+
+    The pairs (i, j) of positions in ``vertices`` for which ``keep(i, j)`` (bool, one per
+    candidate pair) holds, matched greedily: a vertex joins the first pair it can.
+    """
     if vertices.size < 2 or radius <= 0:
         return []
     P = mesh.vertices[vertices]
@@ -123,14 +140,13 @@ def close_singularity_pairs(
     if ij.size == 0:
         return []
     i, j = ij[:, 0], ij[:, 1]
-    ki, kj = steps[i], steps[j]
-    keep = np.sign(ki) == -np.sign(kj)
-    i, j = i[keep], j[keep]
-    d = np.linalg.norm(P[i] - P[j], axis=1)
+    kept = keep(i, j)
+    i, j = i[kept], j[kept]
+    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
     used = np.zeros(vertices.size, dtype=bool)
     pairs = []
-    for a, b in zip(i[np.argsort(d, kind="stable")], j[np.argsort(d, kind="stable")], strict=True):
-        if used[a] or used[b]:  # greedy matching over the few close pairs
+    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
+        if used[a] or used[b]:
             continue
         used[a] = used[b] = True
         pairs.append((int(vertices[a]), int(vertices[b])))
@@ -260,6 +276,25 @@ def _checked(
     return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True), rot
 
 
+def _checked_edits(
+    mesh: TriMesh,
+    u: npt.ArrayLike,
+    n: int,
+    radius: float,
+    rounds: int,
+    backend: Backend,
+    connection_rotations: npt.ArrayLike | None,
+    *rules_at: Callable[[float], tuple[Callable, Callable]],
+) -> np.ndarray:
+    """The public entrances: check the arguments, then run :func:`_edit` with each
+    ``rules_at(radius)`` (``moves_for`` and ``better``) in turn on one factored matrix."""
+    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
+    reanglers = _Reanglers(mesh, radius, backend)
+    for rules in rules_at:
+        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules(radius), rot)
+    return u
+
+
 @takes_mesh
 def cancel_close_singularities(
     mesh: TriMesh,
@@ -304,9 +339,9 @@ def cancel_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_cancelling(mesh, radius), rot)
+    return _checked_edits(
+        mesh, u, n, radius, rounds, backend, connection_rotations, partial(_cancelling, mesh)
+    )
 
 
 def _cancelling(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -408,24 +443,9 @@ def close_equal_pairs(
 ) -> list[tuple[int, int]]:
     """Disjoint pairs (a, b) of singular vertices of equal index ±1/N closer than
     ``radius`` (3D), closest first; ``vertices`` int64 (s,), ``steps`` N × their indices."""
-    if vertices.size < 2 or radius <= 0:
-        return []
-    P = mesh.vertices[vertices]
-    ij = cKDTree(P).query_pairs(radius, output_type="ndarray")
-    if ij.size == 0:
-        return []
-    i, j = ij[:, 0], ij[:, 1]
-    keep = (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
-    i, j = i[keep], j[keep]
-    order = np.argsort(np.linalg.norm(P[i] - P[j], axis=1), kind="stable")
-    used = np.zeros(vertices.size, dtype=bool)
-    pairs = []
-    for a, b in zip(i[order], j[order], strict=True):  # greedy matching over a few pairs
-        if used[a] or used[b]:
-            continue
-        used[a] = used[b] = True
-        pairs.append((int(vertices[a]), int(vertices[b])))
-    return pairs
+    return _greedy_close_pairs(
+        mesh, vertices, radius, lambda i, j: (steps[i] == steps[j]) & (np.abs(steps[i]) == 1)
+    )
 
 
 @takes_mesh
@@ -477,9 +497,9 @@ def separate_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *_separating(mesh, radius), rot)
+    return _checked_edits(
+        mesh, u, n, radius, rounds, backend, connection_rotations, partial(_separating, mesh)
+    )
 
 
 def _separating(mesh: TriMesh, radius: float) -> tuple[Callable, Callable]:
@@ -639,13 +659,16 @@ def tidy_close_singularities(
     FieldShapeError
         Wrong shape, non-finite values or a zero vector on some face.
     """
-    n, radius, u, rot = _checked(mesh, u, n, radius, rounds, connection_rotations)
-    reanglers = _Reanglers(mesh, radius, backend)
-    for rules in (
-        _cancelling(mesh, radius),
-        _separating(mesh, radius),
-        _cancelling(mesh, radius),  # pairs the moves brought close
-        _splitting(mesh, radius, max_step),  # index beyond max_step / N
-    ):
-        u = _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
-    return u
+    return _checked_edits(
+        mesh,
+        u,
+        n,
+        radius,
+        rounds,
+        backend,
+        connection_rotations,
+        partial(_cancelling, mesh),
+        partial(_separating, mesh),
+        partial(_cancelling, mesh),  # pairs the moves brought close
+        lambda r: _splitting(mesh, r, max_step),  # index beyond max_step / N
+    )

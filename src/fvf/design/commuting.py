@@ -17,7 +17,7 @@ import scipy.sparse as sp
 from ..calculus import field_product, stiffness, vertex_to_face
 from ..errors import ParameterError
 from ..mesh.convert import MeshLike, takes_mesh
-from ..mesh.inputs import TangentPolicy, as_face_field
+from ..mesh.inputs import TangentPolicy, as_face_field, as_nonnegative
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
 from ..operators.brackets import ad
@@ -36,17 +36,6 @@ ACAP_DIRECT_MAX_FACES = 400_000
 
 def _vertex_mass3(mesh: TriMesh) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(np.repeat(mesh.vertex_areas, 3)))
-
-
-def _weight(x: object, name: str) -> float:
-    """A finite weight >= 0, else :class:`~fvf.errors.ParameterError`."""
-    try:
-        value = float(x)  # type: ignore[arg-type]  # any failure is reported below
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a finite number >= 0; got {x!r}") from exc
-    if not (np.isfinite(value) and value >= 0):
-        raise ParameterError(f"{name} must be a finite number >= 0; got {value!r}")
-    return value
 
 
 @takes_mesh
@@ -110,7 +99,7 @@ def rescale(
     f : float64 (n,)
         A_V-normalized, sign chosen so that ∫f > 0.
     """
-    alpha = _weight(alpha, "alpha")
+    alpha = as_nonnegative(alpha, "alpha")
     F = rescaling_operator(mesh, v, u)
     E = (F.T @ _vertex_mass3(mesh) @ F + alpha * stiffness(mesh)).tocsr()
     E = 0.5 * (E + E.T)
@@ -134,7 +123,7 @@ def acap_energy_matrix(
     A = ad(mesh, v, tangent="ignore")
     B = tangent_basis_matrix(mesh)
     AB = (A @ B).tocsr()  # (3n, 2m)
-    lam = _weight(lam, "lam")
+    lam = as_nonnegative(lam, "lam")
     E = AB.T @ _vertex_mass3(mesh) @ AB + lam * real_connection_laplacian(mesh, kind)
     E = sp.csr_array(E)
     return (0.5 * (E + E.T)).tocsr()

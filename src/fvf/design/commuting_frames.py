@@ -45,9 +45,9 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import div, face_to_vertex, rotate, stiffness, vertex_to_face
-from ..errors import FrameError, ParameterError, format_indices
+from ..errors import FrameError, format_indices
 from ..mesh.convert import takes_mesh
-from ..mesh.inputs import as_face_field, as_vertex_function
+from ..mesh.inputs import as_face_field, as_nonnegative, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from ..numerics.summary import short_repr
@@ -298,12 +298,7 @@ def rescale_frame(
     continuous product rule; the discrete bracket follows it up to discretization error),
     so both are returned; ``tests/test_commuting_frames.py`` measures the decrease.
     """
-    try:
-        alpha = float(alpha)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"alpha must be a finite number >= 0; got {alpha!r}") from exc
-    if not (np.isfinite(alpha) and alpha >= 0):
-        raise ParameterError(f"alpha must be a finite number >= 0; got {alpha!r}")
+    alpha = as_nonnegative(alpha, "alpha")
     u, v = _check_frame(mesh, u, v)
     K, rhs = _frame_system(mesh, u, v, alpha)
     st = factor_hermitian(K, backend, solves="few").solve(rhs)

@@ -53,7 +53,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     format_indices,
 )
 from ..mesh.convert import takes_mesh
-from ..mesh.inputs import as_direction_count
+from ..mesh.inputs import as_direction_count, as_nonnegative
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from ..numerics.progress import ProgressCallback, make_progress
@@ -639,7 +639,7 @@ def _alignment_terms(
     pen = np.zeros(mesh.n_faces)
     rhs = np.zeros(mesh.n_faces, dtype=complex)
     if align is not None:
-        beta = _nonnegative(align_strength, "align_strength")
+        beta = as_nonnegative(align_strength, "align_strength", ConstraintError)
         t_align, omega = alignment_targets(mesh, align, n, align_weights)
         pen += beta * omega * mesh.face_areas
         rhs += pen * t_align
@@ -701,13 +701,3 @@ def _field_from_power(
     if f.size:
         root[f] = tau if hard else _nearest_root(z[f], tau, n)
     return mesh.from_complex(root)
-
-
-def _nonnegative(x: float, name: str) -> float:
-    try:
-        x = float(x)
-    except (TypeError, ValueError) as exc:
-        raise ConstraintError(f"{name} must be a finite number >= 0; got {x!r}.") from exc
-    if not (np.isfinite(x) and x >= 0):
-        raise ConstraintError(f"{name} must be a finite number >= 0; got {x!r}.")
-    return x

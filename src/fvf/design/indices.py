@@ -45,6 +45,7 @@ from ..mesh.inputs import (
     as_face_field,
     as_vertex_function,
     unit_scale,
+    vector_rows,
 )
 
 if TYPE_CHECKING:
@@ -320,19 +321,9 @@ def singularities(
 
 def _as_vertex_field(mesh: TriMesh, U: npt.ArrayLike, name: str) -> np.ndarray:
     U = np.asarray(U)
-    n = mesh.n_vertices
-    if U.shape == (3 * n,):
-        U = U.reshape(n, 3)
-    if U.shape != (n, 3):
-        hint = (
-            " (a face field? this needs one vector per vertex; see vertex_indices)"
-            if U.shape[:1] == (mesh.n_faces,) or U.shape == (3 * mesh.n_faces,)
-            else ""
-        )
-        raise FieldShapeError(
-            f"{name} must be a per-vertex vector field of shape ({n}, 3) or ({3 * n},); "
-            f"got {U.shape}{hint}."
-        )
+    face_like = U.shape[:1] == (mesh.n_faces,) or U.shape == (3 * mesh.n_faces,)
+    hint = " (a face field? this needs one vector per vertex; see vertex_indices)"
+    U = vector_rows(U, mesh.n_vertices, name, "vertex", hint if face_like else "")
     return as_vertex_function(mesh, U, name, columns=True)
 
 

@@ -49,6 +49,7 @@ __all__ = [
     "check_tangent_policy",
     "as_count",
     "as_positive",
+    "as_nonnegative",
     "as_growth_limit",
     "max_row_norm",
     "unit_scale",
@@ -106,6 +107,32 @@ def as_positive(value: Any, name: str, allow_inf: bool = False) -> float:
         kind = "a positive number" + ("" if allow_inf else " (finite)")
         raise ParameterError(f"{name} must be {kind}; got {value!r}")
     return x
+
+
+def as_nonnegative(value: Any, name: str, error: type[Exception] = ParameterError) -> float:
+    """A weight or strength option: anything ``float()`` takes, finite and >= 0; else
+    ``error`` (:class:`ParameterError` unless the caller's domain has its own)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{name} must be a finite number >= 0; got {value!r}") from exc
+    if not (np.isfinite(x) and x >= 0):
+        raise error(f"{name} must be a finite number >= 0; got {x!r}")
+    return x
+
+
+def vector_rows(a: np.ndarray, count: int, name: str, where: str, hint: str = "") -> np.ndarray:
+    """``a`` as ``count`` rows of 3D vectors, float (count, 3): an array of that shape, or
+    one row-major flattened (3 count,); else :class:`FieldShapeError` saying it wants a
+    per-``where`` vector field, followed by ``hint``."""
+    if a.shape == (3 * count,):
+        a = a.reshape(count, 3)
+    if a.shape != (count, 3):
+        raise FieldShapeError(
+            f"{name} must be a per-{where} vector field of shape ({count}, 3) or "
+            f"({3 * count},); got {a.shape}{hint}."
+        )
+    return a
 
 
 def as_growth_limit(value: Any) -> float:
@@ -263,19 +290,9 @@ def as_face_field(
     """
     check_tangent_policy(tangent)
     a, dtype = _real_array_and_dtype(u, name)
-    m = mesh.n_faces
-    if a.shape == (3 * m,):
-        a = a.reshape(m, 3)
-    if a.shape != (m, 3):
-        hint = (
-            " (a vertex field? this needs one vector per face)"
-            if a.shape[:1] == (mesh.n_vertices,)
-            else ""
-        )
-        raise FieldShapeError(
-            f"{name} must be a per-face vector field of shape ({m}, 3) or ({3 * m},); got "
-            f"{a.shape}{hint}."
-        )
+    vertex_like = a.shape[:1] == (mesh.n_vertices,)
+    hint = " (a vertex field? this needs one vector per face)" if vertex_like else ""
+    a = vector_rows(a, mesh.n_faces, name, "face", hint)
     check_finite(a, name, "faces")
     if tangent == "ignore":
         return a

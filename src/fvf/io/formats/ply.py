@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...errors import MeshReadError
-from ..atomic import atomic_path
+from ..atomic import atomic_write_bytes
 from ._text import numbers, text_lines
 from .base import BOM, MeshFormat, Polygons
 
@@ -354,8 +354,7 @@ def write(
 ) -> None:
     """Write :func:`ply_bytes` to ``path`` whole or not at all."""
     data = ply_bytes(V, F, vertex_data, face_data, comments)
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data)
+    atomic_write_bytes(path, data)
 
 
 FORMAT = MeshFormat(

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import MeshReadError, VerticesWeldedWarning
-from ..atomic import atomic_path
+from ..atomic import atomic_write_bytes
 from ._text import numbers
 from .base import BOM, MeshFormat, Polygons
 
@@ -267,8 +267,7 @@ def write(
         rec["normal"], rec["corners"] = unit, T
     header = f"binary STL written by fvf: {len(F)} triangles".encode("ascii").ljust(80)
     data = header + np.uint32(len(F)).astype("<u4").tobytes() + rec.tobytes()
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data)
+    atomic_write_bytes(path, data)
 
 
 FORMAT = MeshFormat(
