@@ -123,7 +123,8 @@ def test_extraction_rejects_broken_uv():
 # ---------------------------------------------------------------------------- pipeline
 def test_torus_curvature_aligned_quads_are_regular():
     mesh = fvf.torus(48, 24)
-    V, Q, p = fvf.quad_mesh(mesh, target_faces=300, return_parameterization=True)
+    V, Q = made = fvf.quad_mesh(mesh, target_faces=300)
+    p = made.parameterization
     assert p.singular.size == 0 and p.n_flipped == 0
     valence = check_closed_quads(mesh, V, Q)
     assert np.all(valence == 4)
@@ -137,7 +138,8 @@ def test_torus_curvature_aligned_quads_are_regular():
 
 def test_rounded_cube_has_eight_valence_three_corners():
     mesh = rounded_cube(4)
-    V, Q, p = fvf.quad_mesh(mesh, target_faces=600, return_parameterization=True)
+    V, Q = made = fvf.quad_mesh(mesh, target_faces=600)
+    p = made.parameterization
     valence = check_closed_quads(mesh, V, Q)
     assert sorted(p.index4[p.singular]) == [1] * 8
     assert np.count_nonzero(valence == 3) == 8 and np.all((valence == 3) | (valence == 4))
@@ -168,7 +170,7 @@ def test_user_field_is_followed():
     mesh = fvf.torus(48, 24)
     u = fvf.param.default_cross_field(mesh)
     rot = mesh.from_complex(mesh.to_complex(u) * np.exp(0.25j * np.pi))
-    V, Q, p = fvf.quad_mesh(mesh, field=rot, target_faces=400, return_parameterization=True)
+    V, Q = fvf.quad_mesh(mesh, field=rot, target_faces=400)
     check_closed_quads(mesh, V, Q)
     q_rot = fvf.quad_quality(mesh, V, Q, field=rot)
     q_orig = fvf.quad_quality(mesh, V, Q, field=u)
@@ -254,7 +256,14 @@ def test_high_index_singularity_is_split():
 
 def test_target_too_coarse_for_the_topology():
     with pytest.raises(fvf.QuadExtractionError):
-        fvf.quad_mesh(fvf.torus(24, 12), target_faces=1)
+        fvf.quad_mesh(fvf.torus(24, 12), target_faces=1, retry=False)
+
+
+def test_a_target_too_coarse_is_retried_with_more_quads():
+    """The retries end at a valid torus with more quads; the log says what failed first."""
+    r = fvf.quad_mesh(fvf.torus(24, 12), target_faces=1)
+    assert r.validity.valid and r.quads.shape[0] > 1
+    assert "too coarse" in r.attempts[0] and r.attempts[-1].endswith(f"valid, {len(r.quads)} quads")
 
 
 @pytest.mark.parametrize(
@@ -304,7 +313,8 @@ SHARED_CASES = [
 @pytest.mark.parametrize("name, target", SHARED_CASES)
 def test_shared_meshes_no_flips_and_closed_quads(name, target):
     mesh = load_shared(name)
-    V, Q, p = fvf.quad_mesh(mesh, target_faces=target, return_parameterization=True)
+    V, Q = made = fvf.quad_mesh(mesh, target_faces=target)
+    p = made.parameterization
     assert p.n_flipped == 0
     check_seamless(mesh, p)
     check_closed_quads(mesh, V, Q)

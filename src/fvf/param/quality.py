@@ -99,7 +99,7 @@ def _quad_areas(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.minimum(a1, a2)
 
 
-def _surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
+def surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     """Points on triangles T (k, 3) with spacing ≈ step (barycentric grids per triangle)."""
     e = np.maximum(
         np.linalg.norm(V[T[:, 1]] - V[T[:, 0]], axis=1),
@@ -185,8 +185,8 @@ def quad_quality(
     diag = float(np.linalg.norm(mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)))
     step = 0.25 * min(mesh.mean_edge_length, float(np.sqrt(area.mean())))
     tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
-    quad_pts = _surface_samples(V, tris, step)
-    in_pts = _surface_samples(mesh.vertices, mesh.faces, step)
+    quad_pts = surface_samples(V, tris, step)
+    in_pts = surface_samples(mesh.vertices, mesh.faces, step)
     h_to = float(cKDTree(in_pts).query(quad_pts)[0].max()) / diag
     h_from = float(cKDTree(quad_pts).query(in_pts)[0].max()) / diag
     if field is None and parameterization is not None:

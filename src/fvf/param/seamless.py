@@ -46,6 +46,7 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
 from .cutmesh import CutMesh, cut_mesh
+from .features import feature_constraints
 from .folds import flip_count as _flip_count
 from .folds import repair_folds
 from .frames import (
@@ -313,6 +314,7 @@ def seamless_parameterization(
     cone_cancel_radius: float = 1.0,
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
+    features: npt.ArrayLike | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -360,6 +362,9 @@ def seamless_parameterization(
         (:mod:`fvf.numerics.progress`): each stage is reported as ``(message, 0, 1)``
         when it starts and ``(message, 1, 1)`` when it ends; the message names the stage
         and its size (the command prints them).
+    features : array_like of int (k,), optional
+        Sharp feature edges (indices into ``mesh.edges``; :mod:`fvf.param.features`): the
+        default field is held along them. Ignored when ``field`` is given.
 
     Returns
     -------
@@ -377,7 +382,8 @@ def seamless_parameterization(
     clock("cross field" if field is None else "reading the cross field")
     rot = None
     if field is None:
-        u = default_cross_field(mesh, align, edge_length=h)
+        held = None if features is None else feature_constraints(mesh, features)
+        u = default_cross_field(mesh, align, edge_length=h, constraints=held)
         rot = default_connection_rotations(mesh, align, h)
     else:
         u = unit_cross_field(mesh, field)
