@@ -66,12 +66,15 @@ __all__ = [
     "folded_quads",
     "quad_normals",
     "reference_normals",
+    "surface_sample_tree",
     "untangle_quads",
     "warn_folded",
 ]
 
 #: Input triangles (nearest centroids) searched for the closest point on the surface.
 CANDIDATES = 32
+#: Triangles of the nearest surface samples also searched (:func:`surface_sample_tree`).
+SAMPLE_CANDIDATES = 8
 #: Fraction of the way to the mean of its quad neighbours a free vertex moves per step.
 RELAX_STEP = 0.5
 #: Relaxation steps per region before the region grows by one ring of quads.
@@ -83,7 +86,7 @@ MAX_RINGS = 3
 def closest_surface_points(
     mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Closest points of the input surface, among the triangles with the nearest centroids.
+    """Closest points of the input surface, among the triangles nearest each query point.
 
     Parameters
     ----------
@@ -97,20 +100,60 @@ def closest_surface_points(
     faces : int64 (k,)
         The input triangle holding each closest point.
     closest : float64 (k, 3)
-        The closest point on that triangle; searched among the ``min(CANDIDATES, m)``
-        triangles whose centroids are nearest each query point.
+        The closest point on that triangle, searched among the ``min(CANDIDATES, m)``
+        triangles whose centroids are nearest each query point and the triangles of the
+        :data:`SAMPLE_CANDIDATES` nearest points of a dense sampling of the surface
+        (:func:`surface_sample_tree`; long thin triangles, whose centroids lie far from
+        most of their points, are found through it).
     """
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if tree is None:
         tree = cKDTree(mesh.face_centroids)
     c = min(CANDIDATES, mesh.n_faces)
-    cand = tree.query(x, k=c)[1].reshape(x.shape[0], c)  # (k, c)
-    T = mesh.vertices[mesh.faces[cand]]  # (k, c, 3, 3)
+    samples, owner = surface_sample_tree(mesh)
+    s = min(SAMPLE_CANDIDATES, owner.size)
+    cand = np.concatenate(
+        [
+            tree.query(x, k=c)[1].reshape(x.shape[0], c),
+            owner[samples.query(x, k=s)[1].reshape(x.shape[0], s)],
+        ],
+        axis=1,
+    )  # (k, c + s)
+    T = mesh.vertices[mesh.faces[cand]]  # (k, c + s, 3, 3)
     best = _closest_on_triangles(T, np.broadcast_to(x[:, None, :], T.shape[:2] + (3,)))
     d2 = np.einsum("kcd,kcd->kc", best - x[:, None, :], best - x[:, None, :])
     j = np.argmin(d2, axis=1)
     rows = np.arange(x.shape[0])
     return cand[rows, j].astype(np.int64), best[rows, j]
+
+
+def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
+    """A k-d tree of points spread over every triangle, and the triangle of each point.
+
+    Each triangle is sampled on a barycentric grid with ``ceil(longest edge / step)``
+    steps per side (at most 48), step the smaller of the median edge and
+    √(area / 20 000): a sliver gets points along its whole length, and a mesh of a few
+    large triangles (a CAD box) points every ~1/140 of its size. Cached on the mesh.
+    Returns (cKDTree, int64 (p,)).
+    """
+
+    def build() -> tuple[cKDTree, np.ndarray]:
+        V, F = mesh.vertices, mesh.faces
+        e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)
+        step = min(float(np.median(e)), float(np.sqrt(mesh.total_area / 20_000)))
+        level = np.clip(np.ceil(e.max(axis=1) / max(step, 1e-300)).astype(np.int64), 1, 48)
+        pts, owner = [mesh.face_centroids], [np.arange(F.shape[0])]
+        for k in np.unique(level):  # a loop over a few subdivision levels
+            sel = np.flatnonzero(level == k)
+            i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+            keep = (i + j) <= k
+            b = np.stack([1.0 - (i[keep] + j[keep]) / k, i[keep] / k, j[keep] / k], axis=1)
+            P = np.einsum("sc,tcd->tsd", b, V[F[sel]])
+            pts.append(P.reshape(-1, 3))
+            owner.append(np.repeat(sel, b.shape[0]))
+        return cKDTree(np.concatenate(pts)), np.concatenate(owner).astype(np.int64)
+
+    return mesh.cached("surface_sample_tree", build)
 
 
 def _closest_on_triangles(T: np.ndarray, x: np.ndarray) -> np.ndarray:
