@@ -106,7 +106,7 @@ def options_for(method, basis):
 
 def run_mesh(name, mesh, is_sphere, counter, repeats, methods):
     rows = []
-    mesh_n, v, f0 = fvf.mesh.builtin.compressible_case(mesh)
+    mesh_n, v, f0 = fvf.examples.compressible_case(mesh)
     basis = {}
     if "spectral" in methods:
         tb, basis["n"] = best(lambda: fvf.SpectralBasis(mesh_n, 50), 1)

@@ -26,7 +26,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import fvf
-from fvf.design.indices import _angle_defects
+from fvf.mesh.geometry import angle_defects
 
 SHARED = Path(
     os.environ.get("FVF_SHARED_MESHES", Path(__file__).resolve().parents[2] / "shared" / "meshes")
@@ -38,7 +38,7 @@ TARGET = 2499
 def run(name: str, align: str) -> None:
     mesh = fvf.TriMesh(*fvf.read_mesh(SHARED / name))
     h = float(np.sqrt(mesh.face_areas.sum() / TARGET))
-    spikes = np.flatnonzero(np.abs(_angle_defects(mesh)) > np.pi / 4)
+    spikes = np.flatnonzero(np.abs(angle_defects(mesh)) > np.pi / 4)
     for ell in (None, h):
         start = time.perf_counter()
         u = fvf.design_field(

@@ -58,7 +58,7 @@ def _child(method: str, mesh_path: str, target: int, out: str) -> None:
             Vq, Q = np.zeros((0, 3)), np.zeros((0, 4), np.int64)
             extra = {"error": f"{type(exc).__name__}: {exc}"[:200]}
     else:
-        from fvf.param.peer import instant_meshes
+        from fvf.peers import instant_meshes
 
         Vq, Q = instant_meshes(mesh, max(target, 32))
     seconds = time.perf_counter() - t0

@@ -28,7 +28,7 @@ def main() -> None:
         print(f"mesh: fvf.icosphere(4) ({mesh.n_vertices} vertices, {mesh.n_faces} faces)")
     X = mesh.vertices
     theta = 2.4
-    u0, u1, v = fvf.mesh.builtin.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
+    u0, u1, v = fvf.examples.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
 
     frames = fvf.interpolate(mesh, v, u0, u1, np.linspace(0.0, 1.0, 5))  # (5, m, 3)
     average = 0.5 * (u0 + u1)

@@ -98,3 +98,120 @@ def test_progress_options():
     make_progress(True)("iterate", 1, 2)  # a tqdm bar, or silent without tqdm
     with pytest.raises(fvf.ParameterError, match="progress"):
         make_progress(3)
+
+
+# ---------------------------------------------------------------------------- failures
+def _path_laplacian(n=40, dtype=float):
+    """The path graph's Laplacian: symmetric, singular (constants in its kernel)."""
+    L = sp.diags_array(
+        [-np.ones(n - 1), np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1)],
+        offsets=[-1, 0, 1],
+    )
+    return sp.csr_array(L, dtype=dtype)
+
+
+def _indefinite(n=40, dtype=float):
+    """Symmetric, nonsingular, with both positive and negative eigenvalues."""
+    return sp.csr_array(_path_laplacian(n, dtype) - 0.5 * sp.eye_array(n))
+
+
+FAST = [b for b in available_backends() if b != "scipy"]
+
+
+@pytest.mark.parametrize("backend", FAST)
+@pytest.mark.parametrize("dtype", [float, complex])
+def test_a_cholesky_backend_that_finds_k_not_positive_definite_raises_a_typed_error(backend, dtype):
+    """cvxopt's ArithmeticError, cholespy's ValueError("Matrix is not positive definite!"),
+    scikit-sparse's CholmodError: each reaches the caller as FactorizationError (also a
+    SpectralSolveError and a RuntimeError) naming the backend; the backend's own
+    exception is kept as the cause."""
+    for K in (_indefinite(dtype=dtype), _path_laplacian(dtype=dtype)):
+        with pytest.raises(fvf.FactorizationError, match=f"backend='{backend}'.*positive") as e:
+            factor_hermitian(K, backend)
+        assert isinstance(e.value, fvf.SpectralSolveError | RuntimeError | fvf.FvfError)
+        assert e.value.__cause__ is not None and not isinstance(e.value.__cause__, fvf.FvfError)
+
+
+@pytest.mark.parametrize("backend", available_backends())
+def test_a_zero_matrix_raises_a_typed_error(backend):
+    """No stored entries: cholespy says "Failed to resize matrix arrays!", cvxopt stops at
+    column 0, SuperLU finds the factor exactly singular."""
+    with pytest.raises(fvf.FactorizationError, match=f"backend='{backend}'"):
+        factor_hermitian(sp.csr_array((5, 5)), backend)
+
+
+def test_superlu_factors_indefinite_matrices_and_refuses_singular_ones():
+    """The scipy backend (diagonal pivots) factors a nonsingular indefinite K; a singular
+    K is a FactorizationError; superlu_factor's pivot check refuses the indefinite one."""
+    from fvf.numerics.cholesky import SPDFactor, superlu_factor
+
+    K = _indefinite(dtype=complex)
+    fac = factor_hermitian(K, "scipy")
+    assert isinstance(fac, SPDFactor) and fac.complex
+    b = np.arange(K.shape[0]) + 1j
+    assert np.abs(K @ fac.solve(b) - b).max() < 1e-10 * np.abs(b).max()
+    with pytest.raises(fvf.FactorizationError, match="backend='scipy'.*singular"):
+        factor_hermitian(_path_laplacian(), "scipy")
+    with pytest.raises(fvf.FactorizationError, match="non-positive pivots"):
+        superlu_factor(_indefinite())
+    with pytest.raises(fvf.ParameterError, match="ordering"):
+        superlu_factor(_indefinite(), "metis")
+
+
+def test_auto_falls_back_to_superlu_when_k_is_not_positive_definite(monkeypatch):
+    """backend="auto": a Cholesky backend that finds K not positive definite gives way to
+    SuperLU straight away (the other Cholesky backends would fail the same way), with a
+    FactorizationFallbackWarning naming the backend; a singular K fails everywhere."""
+    import fvf.numerics.cholesky as C
+
+    tried = []
+    for name, build in list(C._BUILDERS.items()):
+
+        def spy(K, is_complex, name=name, build=build):
+            tried.append(name)
+            return build(K, is_complex)
+
+        monkeypatch.setitem(C._BUILDERS, name, spy)
+    K = _indefinite()
+    if FAST:
+        with pytest.warns(fvf.FactorizationFallbackWarning, match="positive definite.*'scipy'"):
+            fac = factor_hermitian(K, "auto")
+        assert tried == [C._auto("many"), "scipy"]
+    else:
+        fac = factor_hermitian(K, "auto")
+    assert fac.backend == "scipy"
+    assert np.abs(K @ fac.solve(np.ones(K.shape[0])) - 1).max() < 1e-10
+    tried.clear()
+    with pytest.raises(fvf.FactorizationError, match="every factorization backend failed"):
+        factor_hermitian(_path_laplacian(), "auto")  # no warning: nothing was used instead
+    assert tried == ([C._auto("many")] if FAST else []) + ["scipy"]
+
+
+def test_auto_tries_the_next_backend_when_one_gives_up_for_another_reason(monkeypatch):
+    """A failure that is not about K (cholespy's "Failed to resize matrix arrays!", here
+    forced) moves on to the next available backend, fast ones included."""
+    import fvf.numerics.cholesky as C
+
+    if len(FAST) < 1:
+        pytest.skip("no fast Cholesky backend installed (extra [fast])")
+    first = C._auto("many", is_complex=True)
+
+    def gives_up(K, is_complex):
+        raise RuntimeError("Failed to resize matrix arrays!")
+
+    monkeypatch.setitem(C._BUILDERS, first, gives_up)
+    _, K = _system()
+    with pytest.warns(fvf.FactorizationFallbackWarning, match="Failed to resize"):
+        fac = factor_hermitian(K, "auto", solves="many")
+    following = [b for b in available_backends() if b != first]
+    assert fac.backend == following[0]
+    b = np.ones(K.shape[0], dtype=complex)
+    assert np.abs(K @ fac.solve(b) - b).max() < 1e-9
+    with pytest.raises(fvf.FactorizationError, match=f"backend='{first}'.*Failed to resize"):
+        factor_hermitian(K, first)
+
+
+@pytest.mark.parametrize("backend", ["auto", *available_backends()])
+def test_an_empty_matrix_factors_to_an_empty_solve(backend):
+    fac = factor_hermitian(sp.csr_array((0, 0), dtype=complex), backend)
+    assert fac.solve(np.zeros((0, 3))).shape == (0, 3) and fac.complex

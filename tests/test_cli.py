@@ -548,7 +548,7 @@ def test_flow_that_grew_exits_6_and_names_the_cli_options(tmp_path, capsys):
     success: exit status 6, and the advice names the command's options."""
     from conftest import shared_mesh_path
 
-    mesh, v, f0 = fvf.mesh.builtin.compressible_case(
+    mesh, v, f0 = fvf.examples.compressible_case(
         fvf.TriMesh(*fvf.read_mesh(shared_mesh_path("lion-00.off")))
     )
     fvf.write_mesh(tmp_path / "lion.off", mesh.vertices, mesh.faces)

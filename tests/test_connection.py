@@ -216,7 +216,7 @@ def test_knoppel_weights_equilateral_and_linear_exactness():
     assert (cot > 0).all()  # acute, hence Delaunay: w = |e| / ℓ*
     M = np.einsum("p,pi,pj->ij", w, dc, dc)[:2, :2]
     boundary = np.zeros((2, 2))
-    corners = mesh._edge_corners
+    corners = mesh.edge_corners
     for e in mesh.boundary_edges:
         cidx = corners[e][corners[e] >= 0][0]
         t, k = divmod(cidx, 3)

@@ -215,8 +215,8 @@ def test_match_with_landmarks_breaks_the_symmetry(sym_shape):
     assert np.mean(p == np.arange(S.n_vertices)) > 0.99
 
 
-def test_match_full_output_and_conversions(shape):
-    res = fvf.match(shape, shape, k=30, k_fit=10, full_output=True)
+def test_match_result_and_conversions(shape):
+    res = fvf.match_result(shape, shape, k=30, k_fit=10)
     assert isinstance(res, fvf.MatchResult)
     assert res.C_12.shape == (30, 30) and res.C_fit.shape == (10, 10)
     assert rel(res.C_12, np.diag(np.diag(res.C_12))) < 1e-8  # identity up to signs
@@ -234,6 +234,32 @@ def test_match_full_output_and_conversions(shape):
     assert np.array_equal(p, np.arange(b.mesh.n_vertices)) and rel(C, np.eye(30)) < 1e-10
     C, p = fvf.zoomout(np.eye(10), b, b, 30, step=4, samples=200)
     assert np.array_equal(p, np.arange(b.mesh.n_vertices))
+
+
+def test_a_match_result_is_its_vertex_map(shape):
+    """MatchResult stands for its p2p_21 wherever an array is expected (the one
+    convention of match, match_result and symmetry_map); match returns that array."""
+    res = fvf.match_result(shape, shape, k=30, k_fit=10)
+    p = res.p2p_21
+    assert np.array_equal(fvf.match(shape, shape, k=30, k_fit=10), p)
+    assert np.asarray(res) is p and np.asarray(res, dtype=np.float64).dtype == np.float64
+    assert res.shape == p.shape and res.dtype == np.int64 and len(res) == p.size
+    assert res[3] == p[3] and np.array_equal(res[:5], p[:5]) and list(res) == list(p)
+    assert np.array_equal(shape.vertices[np.asarray(res)], shape.vertices[p])
+    assert (res == p).all()  # numpy compares element-wise through __array__
+    with pytest.raises(ValueError):  # numpy's copy=False semantics
+        np.asarray(res, dtype=np.int32, copy=False)
+
+
+def test_match_full_output_is_deprecated_for_match_result(shape):
+    res = fvf.match_result(shape, shape, k=30, k_fit=10)
+    with pytest.warns(DeprecationWarning, match="fvf.match_result"):
+        old = fvf.match(shape, shape, k=30, k_fit=10, full_output=True)
+    assert isinstance(old, fvf.MatchResult)
+    assert np.array_equal(old.p2p_21, res.p2p_21) and np.array_equal(old.C_12, res.C_12)
+    with pytest.warns(DeprecationWarning, match="fvf.match_result"):
+        p = fvf.match(shape, shape, k=30, k_fit=10, full_output=False)
+    assert isinstance(p, np.ndarray) and np.array_equal(p, res.p2p_21)
 
 
 def test_nearest_rows_methods_agree(rng):
@@ -401,7 +427,7 @@ def camel_pair(a: int, b: int):
 @pytest.mark.parametrize("pair", CAMEL_PAIRS, ids=[f"{a}to{b}" for a, b in CAMEL_PAIRS])
 def test_camel_pairs_mean_geodesic_error(pair):
     path_1, path_2, truth, valid = camel_pair(*pair)
-    res = fvf.match(path_1, path_2, full_output=True)
+    res = fvf.match_result(path_1, path_2)
     prep = res.prepared_1
     err = fvf.mean_geodesic_error(
         prep.mesh, prep.input_to_mesh[res.p2p_21], prep.input_to_mesh[truth], valid=valid
@@ -414,7 +440,7 @@ def test_camel_orientation_term_decides_the_hind_legs():
     """Frames 1 -> 3 without the orientation term swap the hind legs (left for right):
     the mean error is ten times the bound; with it, below the bound."""
     path_1, path_2, truth, valid = camel_pair(1, 3)
-    res = fvf.match(path_1, path_2, orientation=None, full_output=True)
+    res = fvf.match_result(path_1, path_2, orientation=None)
     prep = res.prepared_1
     err = fvf.mean_geodesic_error(
         prep.mesh, prep.input_to_mesh[res.p2p_21], prep.input_to_mesh[truth], valid=valid

@@ -151,8 +151,8 @@ def test_demo_numbers_carry_expected_values_and_marks(tmp_path):
 def test_demo_quad_section_compares_with_instant_meshes_when_installed(peer, tmp_path):
     """The quad section reports fvf's metrics, and Instant Meshes' beside them when
     pynanoinstantmeshes is installed (else a row says how to get it)."""
+    from fvf import peers as peer_module
     from fvf.cli import demo as demo_module
-    from fvf.param import peer as peer_module
 
     if peer and not peer_module.has_instant_meshes():
         pytest.skip("pynanoinstantmeshes is not installed (bench/test-only peer)")

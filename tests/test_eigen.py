@@ -339,3 +339,26 @@ def test_fast_cholesky_is_used_when_installed_and_refuses_indefinite_matrices():
     b = np.random.default_rng(1).standard_normal(K.shape[0])
     assert np.linalg.norm(K @ fac.solve(b) - b) <= 1e-10 * np.linalg.norm(b)
     assert eigen._fast_factor(sp.csc_array(W - 5.0 * sp.diags_array(mass)), seed=0) is None
+
+
+def test_normalized_eigenpairs_is_the_shared_convention(rng):
+    """fvf.numerics.eigenpairs.normalized_eigenpairs (used by smallest_eigenpairs and the
+    multilevel solver): any scaling and sign of the vectors gives the returned pairs, with
+    the residuals of eigen_residuals; unusable vectors are a SpectralSolveError."""
+    from fvf.numerics.eigenpairs import normalized_eigenpairs
+
+    W, mass = problem(fvf.jittered_sphere(2, 0.3, seed=1))  # distinct eigenvalues
+    lam, X = smallest_eigenpairs(W, mass, 6, method="dense")
+    assert np.diff(lam).min() > 1e-4 * lam[-1]
+    scale = rng.uniform(0.5, 3.0, 6) * np.array([1, -1, 1, -1, -1, 1])
+    order = [3, 0, 5, 1, 4, 2]
+    lam2, X2, res = normalized_eigenpairs(W, mass, X[:, order] * scale[order])
+    np.testing.assert_allclose(lam2, lam, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(X2, X, atol=1e-12)
+    np.testing.assert_allclose(res, eigen_residuals(W, mass, lam2, X2), rtol=1e-10, atol=1e-16)
+    bad = X.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(SpectralSolveError, match="non-finite"):
+        normalized_eigenpairs(W, mass, bad)
+    with pytest.raises(SpectralSolveError, match="zero eigenvector"):
+        normalized_eigenpairs(W, mass, np.zeros_like(X))

@@ -60,7 +60,7 @@ def test_divergence_free_flow_keeps_norm(closed):
 
 
 def _lion_setup(name):
-    return fvf.mesh.builtin.compressible_case(load_shared(name))
+    return fvf.examples.compressible_case(load_shared(name))
 
 
 def test_growth_warning_fires_on_lion():

@@ -30,7 +30,7 @@ _NORMALIZED = {}
 
 def normalized_shared(name):
     if name not in _NORMALIZED:
-        _NORMALIZED[name] = fvf.mesh.builtin.compressible_case(load_shared(name))
+        _NORMALIZED[name] = fvf.examples.compressible_case(load_shared(name))
     return _NORMALIZED[name]
 
 

@@ -141,3 +141,18 @@ def test_errors():
         ideal_fluid(mesh, omega[:-1], 0.1, 1)
     with pytest.raises(RuntimeError, match="shorter dt"):
         ideal_fluid(mesh, omega, 50.0, 3, max_iterations=2)
+
+
+def test_the_spectral_methods_are_registered_with_their_dispatchers():
+    """fvf.spectral implements the spectral flow and fluid; fvf.flows only dispatches."""
+    from fvf.flows import dispatch, fluid
+
+    mesh = fvf.icosphere(2)
+    v = mesh.project_tangent(np.cross([0, 0, 1.0], mesh.face_centroids))
+    flow = fvf.TransportFlow(mesh, v, "spectral", k=9)
+    assert isinstance(flow.basis, fvf.SpectralBasis) and flow.basis.k == 9
+    f0 = mesh.vertices[:, 0]
+    np.testing.assert_allclose(flow(f0, 0.5), flow.basis.reduced_flow(v, f0, 0.5))
+    for register in (dispatch.register_flow_method, fluid.register_fluid_method):
+        with pytest.raises(ValueError):
+            register("chapter" if register is dispatch.register_flow_method else "midpoint", None)

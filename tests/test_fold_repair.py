@@ -1,5 +1,5 @@
 """Pieces of the integer rounding (fvf.param.rounding) and of the fold repair after it
-(fvf.param.folds), against dense references."""
+(fvf.param.uv_folds), against dense references."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fvf.param.folds import _Responses, face_distortion, flip_count, integer_moves
 from fvf.param.rounding import MixedIntegerSolver
+from fvf.param.uv_folds import _Responses, face_distortion, flip_count, integer_moves
 
 
 def test_face_distortion_is_the_singular_values_of_j_f_inverse():
@@ -30,7 +30,7 @@ def test_responses_rows_and_columns_equal_the_dense_response_matrix(block, monke
     """R = K_i − K_r H_rr⁻¹ H_ri with H = KᵀK: rows (adjoint solves) and columns (direct
     solves, small entries dropped) both equal the dense matrix, also when the solves go in
     blocks of bounded memory (block=80 entries: two right-hand sides of 36 unknowns)."""
-    from fvf.param import folds
+    from fvf.param import uv_folds as folds
 
     if block is not None:
         monkeypatch.setattr(folds, "SCHUR_BLOCK_ENTRIES", block)

@@ -132,7 +132,7 @@ def test_sorted_pass_matches_unique(name):
     edges, face_edges, counts, corners = reference_edges(F, n)
     np.testing.assert_array_equal(mesh.edges, edges)
     np.testing.assert_array_equal(mesh.face_edges, face_edges)
-    np.testing.assert_array_equal(mesh._edge_corners, corners)
+    np.testing.assert_array_equal(mesh.edge_corners, corners)
     np.testing.assert_array_equal(mesh.boundary_edges, np.flatnonzero(counts == 1))
     ef = np.where(corners >= 0, corners // 3, -1)
     np.testing.assert_array_equal(mesh.edge_faces, ef)
@@ -180,7 +180,7 @@ def test_sort_fallbacks_give_the_same_pass(name, path, monkeypatch):
 def test_twin_map_is_an_involution_on_interior_halfedges(name):
     mesh = get_mesh(name)
     F = np.asarray(mesh.faces).ravel()
-    c = mesh._edge_corners
+    c = mesh.edge_corners
     interior = (c >= 0).all(axis=1)
     twin = np.full(F.size, -1)
     twin[c[interior, 0]] = c[interior, 1]
@@ -234,6 +234,31 @@ def test_fans_count_every_vertex_on_a_chain_of_bow_ties():
         fvf.NonManifoldError, match=rf"vertices \[0, {len(V)}\] .* form 3 separate fans"
     ):
         fvf.TriMesh(V2, F2)
+
+
+@pytest.mark.parametrize("name", [*CORPUS[:4], *HOSTILE])
+def test_corner_fans_match_vertex_fans_in_any_orientation(name):
+    """The repairs' fans (any orientation) are the validated mesh's fans, whatever faces
+    are flipped; edge_pairs flags exactly the edges whose faces were flipped apart."""
+    if name in HOSTILE:
+        V, F = HOSTILE[name][0]
+    else:
+        mesh = get_mesh(name)
+        V, F = mesh.vertices, mesh.faces
+    V, F = np.asarray(V), np.array(F)
+    expected = fans_of(V, F)
+    flip = np.random.default_rng(5).random(len(F)) < 0.3
+    F[flip] = F[flip][:, ::-1]
+    runs = halfedges.sort_halfedges(F, len(V))
+    count, labels = halfedges.corner_fans(F, runs)
+    vertex_of_fan = np.empty(count, dtype=np.int64)
+    vertex_of_fan[labels] = F.ravel()
+    np.testing.assert_array_equal(np.bincount(vertex_of_fan, minlength=len(V)), expected)
+    first, second, same = halfedges.edge_pairs(runs)
+    np.testing.assert_array_equal(same, flip[first // 3] != flip[second // 3])
+    np.testing.assert_array_equal(
+        halfedges.misoriented_edges(runs), np.flatnonzero(runs.counts == 2)[same]
+    )
 
 
 @pytest.mark.parametrize("name", CORPUS)

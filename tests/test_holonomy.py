@@ -9,7 +9,7 @@ import pytest
 import fvf
 from fvf.design.connection import connection_laplacian
 from fvf.design.holonomy import holonomy_rotations, smoothed_angle_defects
-from fvf.design.indices import _angle_defects
+from fvf.mesh.geometry import angle_defects
 from fvf.mesh.shapes import _icosahedron, midpoint_subdivision
 
 
@@ -24,7 +24,7 @@ def flat_icosahedron(levels: int = 3) -> fvf.TriMesh:
 
 def test_smoothed_defects_keep_the_total_and_spread_the_spikes():
     mesh = flat_icosahedron()
-    K = _angle_defects(mesh)
+    K = angle_defects(mesh)
     spikes = np.flatnonzero(np.abs(K) > 1e-9)
     assert spikes.size == 12 and np.allclose(K[spikes], np.pi / 3)
     Kt = smoothed_angle_defects(mesh, 3 * mesh.mean_edge_length)
@@ -41,7 +41,7 @@ def test_rotations_give_the_smoothed_holonomy_exactly():
     x = holonomy_rotations(mesh, ell)
     E = mesh.edges
     div = np.bincount(E[:, 1], x, mesh.n_vertices) - np.bincount(E[:, 0], x, mesh.n_vertices)
-    K = _angle_defects(mesh)
+    K = angle_defects(mesh)
     np.testing.assert_allclose(div, K - smoothed_angle_defects(mesh, ell), atol=1e-10)
     L = connection_laplacian(mesh, n=4, curvature_smoothing=ell)
     assert abs(L - L.conj().T).max() == 0
@@ -74,7 +74,7 @@ def test_each_component_keeps_its_own_total():
     x = holonomy_rotations(mesh, ell)
     E = mesh.edges
     div = np.bincount(E[:, 1], x, mesh.n_vertices) - np.bincount(E[:, 0], x, mesh.n_vertices)
-    np.testing.assert_allclose(div, _angle_defects(mesh) - Kt, atol=1e-10)
+    np.testing.assert_allclose(div, angle_defects(mesh) - Kt, atol=1e-10)
 
 
 def test_smoothing_frees_the_cones_of_a_flat_icosahedron():
@@ -82,7 +82,7 @@ def test_smoothing_frees_the_cones_of_a_flat_icosahedron():
     (12 × +1/4 and 4 × −1/4 elsewhere). Smoothed over three edges: the 8 × +1/4 of a
     sphere (where on this symmetric mesh is arbitrary: at least 4 spikes carry none)."""
     mesh = flat_icosahedron()
-    spikes = np.flatnonzero(np.abs(_angle_defects(mesh)) > 1e-9)
+    spikes = np.flatnonzero(np.abs(angle_defects(mesh)) > 1e-9)
     u0 = fvf.smoothest_fields(mesh, 1, n=4)[1][0]
     ids0, ind0 = fvf.singularities(mesh, u0, n=4)
     assert np.isin(spikes, ids0).all() and ids0.size == 16

@@ -112,3 +112,21 @@ def test_vertex_pattern_assembly_matches_coo(closed, rng):
     ref = sp.coo_array((K.ravel(), (rows, cols)), shape=A.shape).tocsr() + sp.diags_array(d)
     assert abs(A - ref).max() < 1e-12
     assert A.has_sorted_indices
+
+
+def test_builtin_spot_is_the_bundled_file_as_read_mesh_reads_it():
+    """fvf.mesh.builtin reads spot.obj itself (the mesh layer sits below the file layer)."""
+    mesh = fvf.mesh.builtin.spot()
+    V, F = fvf.read_mesh(fvf.mesh.builtin.spot_path())
+    assert np.array_equal(mesh.vertices, V) and np.array_equal(mesh.faces, F)
+    assert mesh.vertices.dtype == np.float64 and mesh.faces.dtype == np.int64
+    assert fvf.spot is fvf.mesh.spot is fvf.examples.spot is fvf.mesh.builtin.spot
+
+
+@pytest.mark.parametrize("name", ["fig12_fields", "compressible_case"])
+def test_scenes_moved_to_examples_still_resolve_from_mesh_builtin(name):
+    with pytest.warns(DeprecationWarning, match=rf"fvf\.examples\.{name}"):
+        old = getattr(fvf.mesh.builtin, name)
+    assert old is getattr(fvf.examples, name)
+    with pytest.raises(AttributeError):
+        fvf.mesh.builtin.no_such_scene  # noqa: B018

@@ -1,4 +1,4 @@
-"""Instant Meshes as the reference remesher (fvf.param.peer): its typed errors, and its
+"""Instant Meshes as the reference remesher (fvf.peers): its typed errors, and its
 quad count when the bench/test-only package is installed."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fvf
-from fvf.param.peer import has_instant_meshes, instant_meshes
+from fvf.peers import has_instant_meshes, instant_meshes
 
 
 @pytest.mark.parametrize("bad", [31, 100.0, True, "many"])

@@ -1194,6 +1194,16 @@ SPECS: dict[str, Spec] = {
         error=_match_error,
         max_faces=30_000,
     ),
+    "match_result": Spec(
+        lambda fn, mesh, c: fn(mesh, mesh, k=8, k_fit=4, zoomout_samples=None),
+        lambda r, mesh, c: (
+            _check_p2p(r.p2p_21, mesh),
+            np.array_equal(np.asarray(r), r.p2p_21) or pytest.fail("np.asarray(result)"),
+            r.C_12.shape == (8, 8) or pytest.fail("C_12"),
+        ),
+        error=_match_error,
+        max_faces=30_000,
+    ),
     "symmetry_map": Spec(
         lambda fn, mesh, c: fn(mesh, k=8, k_fit=4, zoomout_samples=None),
         lambda r, mesh, c: (_check_p2p(r.p2p, mesh), r.C.shape == (8, 8) or pytest.fail("C")),
@@ -1279,6 +1289,83 @@ def test_every_public_name_has_a_spec():
         target = _fvf_name(name)
         assert target in SPECS, f"chapter.{name} has no spec"
         assert getattr(chapter, name) is getattr(fvf, target), f"chapter.{name} is not fvf.{target}"
+
+
+# ---------------------------------------------------------------------------- the namespace
+#: The layers whose ``__all__`` the flat namespace re-exports (docs/architecture.md).
+FLAT_LAYERS = ("errors", "numerics", "mesh", "io", "calculus", "operators", "flows")
+FLAT_LAYERS += ("spectral", "design", "param")
+#: Names of ``fvf.__all__`` that are no layer's: the subpackages, the chapter, the scenes.
+ROOT_ONLY = {"chapter", "examples", "mesh", "io", "operators", "flows", "spectral", "design"}
+ROOT_ONLY |= {"numerics", "param"}
+
+
+def test_the_flat_namespace_is_each_layers_public_names_once():
+    """fvf.__all__ is every layer's __all__ less its NOT_FLAT, and the root-only names."""
+    import importlib
+
+    home: dict[str, str] = {}
+    for name in FLAT_LAYERS:
+        layer = importlib.import_module(f"fvf.{name}")
+        assert set(layer.NOT_FLAT) <= set(layer.__all__), name
+        assert len(layer.__all__) == len(set(layer.__all__)), f"fvf.{name}.__all__ repeats"
+        for public in layer.__all__:
+            if public in layer.NOT_FLAT:
+                assert public not in vars(fvf), f"fvf.{public} should stay in fvf.{name}"
+                continue
+            assert public not in home, f"{public} is in fvf.{home[public]} and fvf.{name}"
+            home[public] = name
+            assert getattr(fvf, public) is getattr(layer, public), public
+    assert not ROOT_ONLY & set(home)
+    assert len(fvf.__all__) == len(set(fvf.__all__))
+    assert set(fvf.__all__) == set(home) | ROOT_ONLY
+    assert fvf.examples.__name__ == "fvf.examples" and fvf.chapter.__name__ == "fvf.chapter"
+
+
+def test_the_root_never_imports_the_top_layers():
+    """``fvf.batch``, ``fvf.viz`` and ``fvf.cli`` are reached by importing them."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, fvf; "
+        "bad = [m for m in ('fvf.batch', 'fvf.viz', 'fvf.cli') if m in sys.modules]; "
+        "sys.exit(1 if bad or hasattr(fvf, 'batch') else 0)"
+    )
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+#: Placeholders the docs write for "any public name".
+_PLACEHOLDERS = {"fvf.name", "fvf.Name"}
+
+
+def test_every_documented_name_resolves():
+    """Each ``fvf.x.y`` that README.md and docs/*.md write in backticks exists."""
+    import importlib
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    missing = []
+    for page in [root / "README.md", *sorted((root / "docs").rglob("*.md"))]:
+        for code in re.findall(r"`([^`]+)`", page.read_text()):
+            for dotted in re.findall(r"(?<![\w.])fvf(?:\.[A-Za-z_]\w*)+", code):
+                if dotted in _PLACEHOLDERS:
+                    continue
+                parts = dotted.split(".")
+                obj: Any = fvf
+                for i, part in enumerate(parts[1:], start=1):
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", DeprecationWarning)  # moved plumbing
+                        if hasattr(obj, part):
+                            obj = getattr(obj, part)
+                            continue
+                    try:
+                        obj = importlib.import_module(".".join(parts[: i + 1]))
+                    except ImportError:
+                        missing.append(f"{page.relative_to(root)}: {dotted}")
+                        break
+    assert not missing, missing
 
 
 MESHES = buildable()

@@ -11,7 +11,7 @@ import fvf
 from conftest import load_shared
 from fvf.design.constrained import closest_faces
 from fvf.param.extraction import extract_quads
-from fvf.param.quadfolds import (
+from fvf.param.quad_folds import (
     closest_surface_points,
     folded_quads,
     untangle_quads,
@@ -133,7 +133,7 @@ def test_a_crumpled_scan_is_judged_at_the_scale_of_the_quads():
     their four half-triangles agrees with the surface under the quad: none is folded."""
     from scipy.spatial import cKDTree
 
-    from fvf.param.quadfolds import closest_surface_points, quad_normals, reference_normals
+    from fvf.param.quad_folds import closest_surface_points, quad_normals, reference_normals
 
     mesh = load_shared("lion-00.off")
     with warnings.catch_warnings():

@@ -328,7 +328,7 @@ def test_fold_repair_stops_when_the_weights_run_away(monkeypatch):
     """On FAUST the third re-rounding of the stiffened fit leaves more than
     RUNAWAY_FACTOR x the fewest flipped triangles + RUNAWAY_SLACK (the weights ran away):
     the repair stops there, 4 re-roundings early, and reports the best it saw."""
-    from fvf.param import folds
+    from fvf.param import uv_folds as folds
 
     mesh = load_shared("faust_r_tr_reg_001.off")
     solvers, released = [], []
@@ -500,7 +500,7 @@ def test_fold_repair_removes_the_flips_of_rounding_on_spot():
 # ---------------------------------------------------------------------------- frames, cut mesh
 def test_commuting_scaling_gives_a_seamless_unflipped_parameterization():
     from fvf.param.cutmesh import cut_mesh
-    from fvf.param.frames import commuting_scale
+    from fvf.param.frame_field import commuting_scale
 
     mesh = fvf.torus(48, 24)
     p = fvf.seamless_parameterization(mesh, target_faces=300, scaling="commuting")

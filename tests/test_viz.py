@@ -401,6 +401,137 @@ def _box(a, b, c):
     return V, F
 
 
+def ink_box(img):
+    """(rows, columns) spanned by the non-white pixels of a picture."""
+    rows = np.flatnonzero((img < 245).any(2).any(1))
+    cols = np.flatnonzero((img < 245).any(2).any(0))
+    return rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
+
+
+@pytest.mark.parametrize("backend", ["polyscope-egl", "matplotlib"])
+def test_up_option_stands_the_shape_up(tmp_path, backend):
+    """An ellipsoid tall in y is drawn taller than wide with up y, wider than tall with up
+    z; with up -y its top (high y, yellow in viridis) is at the bottom of the picture."""
+    need(backend)
+    ball = fvf.icosphere(3)
+    tall = fvf.TriMesh(ball.vertices * [1.0, 3.0, 1.0], ball.faces)
+    y = tall.vertices[:, 1]
+    common = dict(backend=backend, size=(300, 300), view=(0.0, 0.0))
+    shapes = {}
+    for up in ("y", "z", "-y"):
+        info = viz.render(tall, tmp_path / f"{up}.png", up=up, **common)
+        assert info.extra["up"] == up
+        shapes[up] = ink_box(picture(info.path))
+    assert shapes["y"][0] > 2.5 * shapes["y"][1]  # rows vs columns: 3 : 1 seen from the front
+    assert shapes["z"][1] > 2.5 * shapes["z"][0]  # seen from +x, y across
+    assert shapes["-y"] == pytest.approx(shapes["y"], abs=2)
+    style = viz.RenderStyle(size=(300, 300), view=(0.0, 0.0), backend=backend, cmap="viridis")
+    for up, top_is_high in (("y", True), ("-y", False)):
+        img = picture(
+            viz.render(tall, tmp_path / "f.png", function=y, style=style.replace(up=up)).path
+        )
+        panel = img[:, :200]
+        rows = np.flatnonzero((panel < 245).any(2).any(1))
+        top, bottom = panel[rows[:20]], panel[rows[-20:]]
+        # viridis: yellow (high) has far more red than purple (low)
+        red_top = top[..., 0][(top < 245).any(2)].mean()
+        red_bottom = bottom[..., 0][(bottom < 245).any(2)].mean()
+        assert (red_top > red_bottom + 60) == top_is_high, (up, red_top, red_bottom)
+    # a view's own up wins over the style's; the style's fills in "auto"
+    scene = fvf.viz.scene.build_scene(tall, view=[(0, 0, "z"), (0, 0)], up="-x")
+    assert [v.up for v in scene.views] == ["z", "-x"]
+    with pytest.raises(fvf.ParameterError, match="up must be one of"):
+        viz.RenderStyle(up="w")
+    with pytest.raises(fvf.FvfError, match="view.up"):
+        viz.render(tall, tmp_path / "x.png", view=(0, 0, "+q"), backend="matplotlib")
+
+
+def test_render_style_holds_the_appearance(sphere, tmp_path):
+    """A RenderStyle draws what the same keywords draw; keywords replace its options; a
+    bad option fails when the style is made."""
+    import dataclasses
+
+    v = rotation_field(sphere)
+    f = sphere.vertices[:, 2]
+    options = dict(
+        cmap="magma", clim="symmetric", colorbar_label="z", arrow_spacing=20, size=(320, 240),
+        view=(10.0, 30.0, "z"), title="styled", backend="matplotlib", arrow_color=(0, 0.8, 0),
+    )  # fmt: skip
+    style = viz.RenderStyle(**options)
+    a = viz.render(sphere, tmp_path / "a.png", function=f, field=v, **options)
+    b = viz.render(sphere, path=tmp_path / "b.png", function=f, field=v, style=style)
+    assert a.clim == b.clim and a.n_arrows == b.n_arrows and a.arrow_scale == b.arrow_scale
+    np.testing.assert_array_equal(picture(a.path), picture(b.path))
+    c = viz.render(sphere, tmp_path / "c.png", function=f, field=v, style=style, size=(200, 150))
+    assert c.size == (200, 150) and c.extra["arrow_colors"][0] == (0.0, 0.8, 0.0)
+    assert style.size == (320, 240) and (style.width, style.height) == (320, 240)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        style.cmap = "viridis"  # type: ignore[misc]
+    assert viz.RenderStyle() == viz.RenderStyle(cmap="viridis", size=(800, 600))
+    for bad in (dict(size=(10, 10)), dict(clim=(1, 0)), dict(max_arrows=0),
+                dict(arrow_scale=-1.0), dict(backend="vtk"), dict(arrow_spacing=1)):  # fmt: skip
+        with pytest.raises(fvf.ParameterError):
+            viz.RenderStyle(**bad)
+        with pytest.raises(fvf.ParameterError):
+            style.replace(**bad)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'colour'"):
+        viz.render(sphere, tmp_path / "x.png", colour="red")
+    with pytest.raises(fvf.FvfError, match="RenderStyle"):
+        viz.render(sphere, tmp_path / "x.png", style={"cmap": "magma"})
+    scene = fvf.viz.scene.build_scene(sphere, function=f, style=style, cmap="viridis")
+    assert scene.colorbar["cmap"] == "viridis" and scene.colorbar["label"] == "z"
+
+
+def test_polyscope_render_leaves_the_callers_scene(sphere, tmp_path):
+    """Structures the caller registered in polyscope stay (enabled as they were) and are
+    not drawn; only render's own are removed; the camera and window are restored."""
+    need("polyscope-egl")
+    from fvf.viz.ps_backend import PREFIX, init_headless
+
+    ps = init_headless()
+    kw = dict(
+        function=sphere.vertices[:, 2], field=rotation_field(sphere), backend="polyscope-egl",
+        size=(240, 180), singularities=(sphere.vertices[:2], [1, 1]),
+        streamlines=viz.streamlines(sphere, rotation_field(sphere), 10),
+    )  # fmt: skip
+    alone = picture(viz.render(sphere, tmp_path / "alone.png", **kw).path)
+    ball = fvf.icosphere(1)
+    # "mesh" is the name render used for its own mesh; this one hides the sphere
+    mine = ps.register_surface_mesh("mesh", 1.3 * ball.vertices, ball.faces, color=(1, 0, 0))
+    dots = ps.register_point_cloud("my points", sphere.vertices, enabled=False)
+    try:
+        ps.set_window_size(321, 123)
+        ps.look_at_dir((3.0, 1.0, 2.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+        ps.set_view_projection_mode("perspective")
+        ps.set_vertical_fov_degrees(33.0)
+        ps.set_background_color((0.1, 0.2, 0.3))
+
+        def state():
+            return (
+                ps.get_camera_view_matrix(), ps.get_vertical_fov_degrees(),
+                ps.get_view_projection_mode(), ps.get_window_size(),
+                ps.get_background_color(), ps.get_length_scale(), *ps.get_bounding_box(),
+            )  # fmt: skip
+
+        before = state()
+        shared = picture(viz.render(sphere, tmp_path / "shared.png", **kw).path)
+        np.testing.assert_array_equal(shared, alone)  # the caller's structures are not drawn
+        assert ps.has_surface_mesh("mesh") and ps.has_point_cloud("my points")
+        assert mine.is_enabled() and not dots.is_enabled()
+        for name in ("mesh", "field 0", "halo 0"):
+            assert not ps.has_surface_mesh(PREFIX + name)
+        assert not ps.has_curve_network(PREFIX + "streamlines")
+        assert not ps.has_point_cloud(PREFIX + "singularities")
+        for x, y in zip(state(), before, strict=True):
+            if isinstance(x, str):
+                assert x == y
+            else:
+                np.testing.assert_allclose(x, y)
+    finally:
+        ps.remove_surface_mesh("mesh", error_if_absent=False)
+        ps.remove_point_cloud("my points", error_if_absent=False)
+
+
 def lic_reference(mesh, points, texel, L, seed=0):
     """Classical LIC of the rotation about z computed without the mesh: the solid noise
     averaged over arcs of the circles of latitude through the points (Hann window)."""

@@ -34,7 +34,7 @@ GROUPS = {
     "Field design": ["design"],
     "Parameterization and quad meshes": ["param"],
     "Numerics": ["numerics"],
-    "Chapter names and errors": ["chapter", "errors"],
+    "Chapter names, scenes and errors": ["chapter", "examples", "errors"],
     "Batch processing": ["batch"],
     "Command line and pictures": ["cli", "viz"],
 }

@@ -5,6 +5,13 @@ functions on faces, shape (m,); PC vector fields are (m, 3) arrays, flattened fa
 (entry ``3t + k`` is component k of face t). Every operator here depends on the mesh
 only, is assembled once from per-face formulas (no Python loop over faces) and cached on
 the :class:`~fvf.TriMesh`; the returned sparse arrays share read-only buffers.
+
+A function named for an operator returns its matrix (:func:`grad`, :func:`div`,
+:func:`rotation`, :func:`vertex_to_face`, :func:`face_to_vertex`); applying it to an
+array has a name of its own, for the result or the action (:func:`gradient`,
+:func:`divergence`, :func:`rotate`, :func:`vertex_to_face_values`,
+:func:`face_to_vertex_values`), and returns the matrix times the array
+(``docs/conventions.md``, "Names").
 """
 
 from __future__ import annotations
@@ -15,14 +22,21 @@ import scipy.sparse as sp
 
 from .errors import FieldShapeError, ParameterError
 from .mesh.convert import takes_mesh
+from .mesh.geometry import (
+    cross_rows,
+    edge_components,
+    readonly,
+    readonly_csr,
+    sorted_corners,
+)
 from .mesh.inputs import (
-    _check_finite,
-    _real_array,
     as_face_field,
     as_face_function,
     as_vertex_function,
+    check_finite,
+    real_array,
 )
-from .mesh.trimesh import TriMesh, _cross, _readonly, edge_components
+from .mesh.trimesh import TriMesh
 
 __all__ = [
     "face_areas",
@@ -48,12 +62,17 @@ __all__ = [
     "face_to_vertex_values",
 ]
 
-
-def _freeze(A: sp.sparray) -> sp.csr_array:
-    A = sp.csr_array(A)
-    for a in (A.data, A.indices, A.indptr):
-        a.flags.writeable = False
-    return A
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.calculus.name``; ``fvf.diag`` and the others still resolve, with a
+#: DeprecationWarning); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "diag",
+        "field_inner",
+        "field_product",
+        "hat_gradients",
+    }
+)
 
 
 def face_rows_csr(values: np.ndarray, columns: np.ndarray, n_cols: int) -> sp.csr_array:
@@ -71,26 +90,6 @@ def face_rows_csr(values: np.ndarray, columns: np.ndarray, n_cols: int) -> sp.cs
     return sp.csr_array(
         (values.ravel(), columns.ravel().astype(np.int64, copy=False), indptr), shape=(r, n_cols)
     )
-
-
-# code = 4 (a < b) + 2 (b < c) + (a < c) -> argsort of (a, b, c); codes 1, 6 cannot occur.
-_ORDER_OF_CODE = np.array(
-    [[2, 1, 0], [0, 0, 0], [1, 2, 0], [1, 0, 2], [2, 0, 1], [0, 2, 1], [0, 0, 0], [0, 1, 2]]
-)
-
-
-def _sorted_corners(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
-    """Corner order sorting each face's vertex indices, and the sorted faces; (m, 3) each."""
-
-    def build():
-        F = mesh.faces
-        a, b, c = F[:, 0], F[:, 1], F[:, 2]
-        # A sorting network over three distinct values: the comparisons pick the order.
-        code = 4 * (a < b) + 2 * (b < c) + (a < c)
-        order = _ORDER_OF_CODE[code]
-        return _readonly(order), _readonly(np.take_along_axis(F, order, axis=1))
-
-    return mesh.cached("sorted_corners", build)
 
 
 def block_diagonal(blocks: np.ndarray) -> sp.csr_array:
@@ -130,7 +129,7 @@ def hat_gradients(mesh: TriMesh) -> np.ndarray:
     def build():
         g = np.empty((mesh.n_faces, 3, 3))  # [t, i, k]
         _rotated_edges(mesh, mesh.faces, 1.0 / (2.0 * mesh.face_areas), g.transpose(2, 0, 1))
-        return _readonly(g)
+        return readonly(g)
 
     return mesh.cached("hat_gradients", build)
 
@@ -145,7 +144,7 @@ def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray, out: n
     order: e_j is then the edge from corner j+1 to j+2 of that order, which reverses the
     face's edges for an odd permutation (flip the sign of ``scale`` there).
     """
-    e = edge_components(mesh._vertex_columns, corners)  # (3 coordinates, m, 3 corners)
+    e = edge_components(mesh.vertex_columns, corners)  # (3 coordinates, m, 3 corners)
     N = mesh.face_normals
     first, second = np.empty(e.shape[1:]), np.empty(e.shape[1:])  # contiguous (m, 3)
     for k in range(3):
@@ -159,7 +158,7 @@ def _rotated_edges(mesh: TriMesh, corners: np.ndarray, scale: np.ndarray, out: n
 @takes_mesh
 def vertex_mass(mesh: TriMesh) -> sp.csr_array:
     """[A_V]: the diagonal n x n matrix of barycentric vertex areas (inner product 26)."""
-    return mesh.cached("vertex_mass", lambda: _freeze(sp.diags_array(mesh.vertex_areas)))
+    return mesh.cached("vertex_mass", lambda: readonly_csr(sp.diags_array(mesh.vertex_areas)))
 
 
 @takes_mesh
@@ -172,8 +171,8 @@ def face_mass(mesh: TriMesh, components: int = 3) -> sp.csr_array:
     if components not in (1, 3):
         raise ParameterError(f"components must be 1 or 3; got {components}")
     return mesh.cached(
-        f"face_mass{components}",
-        lambda: _freeze(sp.diags_array(np.repeat(mesh.face_areas, components))),
+        f"face_mass:{components}",
+        lambda: readonly_csr(sp.diags_array(np.repeat(mesh.face_areas, components))),
     )
 
 
@@ -195,7 +194,7 @@ def rotation(mesh: TriMesh) -> sp.csr_array:
             ],
             axis=1,
         )  # (m, 3, 3): blocks[t] @ u = N_t x u
-        return _freeze(block_diagonal(blocks))
+        return readonly_csr(block_diagonal(blocks))
 
     return mesh.cached("rotation", build)
 
@@ -203,7 +202,7 @@ def rotation(mesh: TriMesh) -> sp.csr_array:
 @takes_mesh
 def rotate(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:
     """Apply J to a per-face field: ``N × u`` per face, (m, 3) -> (m, 3)."""
-    return _cross(mesh.face_normals, as_face_field(mesh, u, tangent="ignore"))
+    return cross_rows(mesh.face_normals, as_face_field(mesh, u, tangent="ignore"))
 
 
 def diag(values: npt.ArrayLike, repeat: int = 1) -> sp.csr_array:
@@ -217,10 +216,10 @@ def diag(values: npt.ArrayLike, repeat: int = 1) -> sp.csr_array:
     FieldShapeError
         ``values`` not a 1-D real array, or non-finite.
     """
-    a = _real_array(values, "values")
+    a = real_array(values, "values")
     if a.ndim != 1:
         raise FieldShapeError(f"values must be 1-D; got shape {a.shape}")
-    _check_finite(a, "values", "entries")
+    check_finite(a, "values", "entries")
     return sp.csr_array(sp.diags_array(np.repeat(a, repeat)))
 
 
@@ -255,10 +254,10 @@ def face_to_vertex(mesh: TriMesh) -> sp.csr_array:
     """
 
     def build():
-        order, Fs = _sorted_corners(mesh)
+        order, Fs = sorted_corners(mesh)
         w = (mesh.face_areas[:, None] / 3.0) / mesh.vertex_areas[Fs]  # (m, 3)
         IT = face_rows_csr(w, Fs, mesh.n_vertices)  # (m, n) = (I_V^F)^T
-        return _freeze(IT.T.tocsr())
+        return readonly_csr(IT.T.tocsr())
 
     return mesh.cached("face_to_vertex", build)
 
@@ -272,8 +271,8 @@ def vertex_to_face(mesh: TriMesh) -> sp.csr_array:
     """
 
     def build():
-        _, Fs = _sorted_corners(mesh)
-        return _freeze(face_rows_csr(np.full(Fs.shape, 1.0 / 3.0), Fs, mesh.n_vertices))
+        _, Fs = sorted_corners(mesh)
+        return readonly_csr(face_rows_csr(np.full(Fs.shape, 1.0 / 3.0), Fs, mesh.n_vertices))
 
     return mesh.cached("vertex_to_face", build)
 
@@ -288,7 +287,7 @@ def grad(mesh: TriMesh) -> sp.csr_array:
     """
 
     def build():
-        order, Fs = _sorted_corners(mesh)
+        order, Fs = sorted_corners(mesh)
         # Sorting a face's corners is a rotation (even) or a reflection (odd) of the face.
         odd = order[:, 1] != (order[:, 0] + 1) % 3
         scale = np.where(odd, -0.5, 0.5) / mesh.face_areas
@@ -300,7 +299,9 @@ def grad(mesh: TriMesh) -> sp.csr_array:
         cols = np.empty((m, 3, 3), dtype=index)
         cols[:] = Fs[:, None, :]
         indptr = np.arange(0, 9 * m + 1, 3, dtype=index)
-        return _freeze(sp.csr_array((vals.reshape(-1), cols.reshape(-1), indptr), shape=(3 * m, n)))
+        return readonly_csr(
+            sp.csr_array((vals.reshape(-1), cols.reshape(-1), indptr), shape=(3 * m, n))
+        )
 
     return mesh.cached("grad", build)
 
@@ -319,7 +320,7 @@ def div(mesh: TriMesh) -> sp.csr_array:
         rows = np.repeat(np.arange(G.shape[0]), 3)  # field index 3t + k of each entry
         data = -G.data * mesh.face_areas[rows // 3] / mesh.vertex_areas[G.indices]
         GT = sp.csc_array((data, G.indices, G.indptr), shape=(mesh.n_vertices, G.shape[0]))
-        return _freeze(GT.tocsr())
+        return readonly_csr(GT.tocsr())
 
     return mesh.cached("div", build)
 
@@ -331,11 +332,11 @@ def _cotangent_weights(mesh: TriMesh) -> np.ndarray:
     27), and e_a + e_b + e_c = 0 gives ⟨e_a, e_b⟩ = (|e_c|² − |e_a|² − |e_b|²) / 2: the
     face's contribution to the edge opposite corner c, from squared edge lengths only.
     """
-    sq = mesh._edge_lengths_sq  # (m, 3): |e_c|² opposite corner c
+    sq = mesh.face_edge_lengths_sq  # (m, 3): |e_c|² opposite corner c
     w = 2.0 * sq  # |e_c|² − |e_a|² − |e_b|² = 2 |e_c|² − (|e_a|² + |e_b|² + |e_c|²)
     w -= (sq[:, 0] + sq[:, 1] + sq[:, 2])[:, None]
     w *= (0.125 / mesh.face_areas)[:, None]
-    corners = mesh._edge_corners  # (E, 2): the corner opposite each edge on each side
+    corners = mesh.edge_corners  # (E, 2): the corner opposite each edge on each side
     per_side = w.reshape(-1).take(corners)
     if mesh.boundary_edges.size:
         per_side[corners < 0] = 0.0
@@ -357,7 +358,7 @@ def stiffness(mesh: TriMesh) -> sp.csr_array:
         E, n = mesh.edges, mesh.n_vertices
         diagonal = np.bincount(E[:, 0], w, minlength=n)
         diagonal += np.bincount(E[:, 1], w, minlength=n)
-        return _freeze(mesh.assemble_edge_operator(w, -diagonal))
+        return readonly_csr(mesh.assemble_edge_operator(w, -diagonal))
 
     return mesh.cached("stiffness", build)
 
@@ -373,7 +374,7 @@ def laplacian(mesh: TriMesh) -> sp.csr_array:
     def build():
         W = stiffness(mesh)  # L = [A_V]⁻¹ W: scale each row of the shared pattern
         rows = np.repeat(np.arange(mesh.n_vertices), np.diff(W.indptr))
-        return _freeze(
+        return readonly_csr(
             sp.csr_array((W.data / mesh.vertex_areas[rows], W.indices, W.indptr), W.shape)
         )
 
@@ -400,7 +401,7 @@ def poisson_bracket(mesh: TriMesh, f: npt.ArrayLike, g: npt.ArrayLike) -> np.nda
     Per face, ⟨N × ∇f, ∇g⟩; antisymmetric in (f, g).
     """
     gf, gg = gradient(mesh, f), gradient(mesh, g)
-    return np.einsum("ij,ij->i", _cross(mesh.face_normals, gf), gg)
+    return np.einsum("ij,ij->i", cross_rows(mesh.face_normals, gf), gg)
 
 
 @takes_mesh

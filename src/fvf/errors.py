@@ -25,6 +25,7 @@ __all__ = [
     "PolygonTriangulatedWarning",
     "MeshScaleError",
     "DuplicateVertexWarning",
+    "UndeclaredCacheKeyError",
     "FieldError",
     "FieldShapeError",
     "FieldValueError",
@@ -39,6 +40,8 @@ __all__ = [
     "SpectralInputError",
     "SpectralSolveError",
     "SpectralFallbackWarning",
+    "FactorizationError",
+    "FactorizationFallbackWarning",
     "ConstraintError",
     "ConstraintIndexError",
     "ZeroDirectionError",
@@ -75,6 +78,9 @@ __all__ = [
     "FoldedQuadWarning",
     "format_indices",
 ]
+
+#: Every name of ``__all__`` is also ``fvf.name`` (the flat namespace leaves none out).
+NOT_FLAT: frozenset[str] = frozenset()
 
 
 # ---------------------------------------------------------------------------- base classes
@@ -138,6 +144,11 @@ class DuplicateVertexWarning(FvfWarning):
     :func:`fvf.remove_duplicate_vertices`."""
 
 
+class UndeclaredCacheKeyError(FvfError):
+    """A value cached on a TriMesh under a name not declared in
+    :data:`fvf.mesh.cache.CACHED_QUANTITIES` (a mistake in fvf or in an extension)."""
+
+
 # ---------------------------------------------------------------------------- functions and fields
 class FieldError(FvfError):
     """A function or vector field given to fvf cannot be used (base class)."""
@@ -199,11 +210,23 @@ class SpectralInputError(FvfError):
 
 
 class SpectralSolveError(FvfError, RuntimeError):
-    """Every method of the fallback chain failed to compute the eigenpairs."""
+    """An eigensolver failed to compute the eigenpairs (for :func:`fvf.smallest_eigenpairs`:
+    every method of its fallback chain failed)."""
 
 
 class SpectralFallbackWarning(FvfWarning):
     """The requested eigensolver failed; another one was used (the message says which)."""
+
+
+class FactorizationError(SpectralSolveError):
+    """A sparse factorization (:mod:`fvf.numerics.cholesky`) failed: the matrix is singular
+    or not positive definite, or the backend gave up (the message names the backend and
+    its reason). A :class:`SpectralSolveError`, so also a :class:`RuntimeError`."""
+
+
+class FactorizationFallbackWarning(FvfWarning):
+    """A factorization backend chosen by ``backend="auto"`` failed; the next one was used
+    (the message says which and why)."""
 
 
 # ---------------------------------------------------------------------------- design

@@ -43,6 +43,7 @@ __all__ = [
     "PairContext",
     "register_task",
     "registered_tasks",
+    "lookup_task",
     "resolve_tasks",
     "accepts",
 ]
@@ -142,7 +143,9 @@ def registered_tasks(kind: Kind | None = None) -> dict[str, Task]:
     return {n: t for n, t in _REGISTRY.items() if kind is None or t.kind == kind}
 
 
-def _lookup(item: str | Task) -> Task:
+def lookup_task(item: str | Task) -> Task:
+    """The registered task of this name (a Task passes through), else
+    :class:`fvf.ParameterError` listing the registered names."""
     if isinstance(item, Task):
         return item
     task = _REGISTRY.get(str(item).strip())
@@ -166,7 +169,7 @@ def resolve_tasks(tasks: Iterable[str | Task], options: Mapping[str, Any]) -> li
         An unknown task name (listing the registered ones), a dependency cycle, or
         options a task cannot honour.
     """
-    wanted = [_lookup(t) for t in tasks]
+    wanted = [lookup_task(t) for t in tasks]
     ordered: list[Task] = []
 
     def visit(task: Task, path: tuple[str, ...]) -> None:
@@ -175,7 +178,7 @@ def resolve_tasks(tasks: Iterable[str | Task], options: Mapping[str, Any]) -> li
         if any(t.name == task.name for t in ordered):
             return
         for need in task.needs:
-            visit(_lookup(need), (*path, task.name))
+            visit(lookup_task(need), (*path, task.name))
         ordered.append(task)
 
     for task in wanted:

@@ -27,12 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import OutputWriteError
 from ..io.atomic import atomic_path, deferred_fsync
 from ..io.datafile import write_data
 from ..io.meshfile import read_mesh
 from . import tasks as _builtin  # noqa: F401 (registers the built-in tasks)
-from .registry import MeshContext, PairContext, Task, TaskOutput, _lookup
+from .registry import MeshContext, PairContext, Task, TaskOutput, lookup_task
 from .store import KEY_FIELD, file_sha256, result_key, stored_row
 
 __all__ = ["MeshJob", "PairJob", "run_job", "run_jobs"]
@@ -162,7 +163,7 @@ def _provenance(
 def _run_mesh(job: MeshJob, row: dict, figures: dict) -> tuple[MeshContext, list]:
     ctx = _read(job.path, job.options)
     row.update(n=len(ctx.vertices), m=len(ctx.faces))
-    tasks = [_lookup(t) for t in job.tasks]
+    tasks = [lookup_task(t) for t in job.tasks]
     for task in (t for t in tasks if t.raw):
         _apply(task, ctx, figures)
     mesh = ctx.mesh  # validation: a mesh that is not valid fails here
@@ -186,14 +187,12 @@ def _write_mesh(job: MeshJob, ctx: MeshContext, extra: dict) -> None:
 def _run_pair(job: PairJob, row: dict, figures: dict) -> PairContext:
     source, target = _read(job.source, job.options), _read(job.target, job.options)
     ctx = PairContext(source, target, job.map, job.options)
-    for task in (_lookup(t) for t in job.tasks):
+    for task in (lookup_task(t) for t in job.tasks):
         _apply(task, ctx, figures)
     return ctx
 
 
 def _write_pair(job: PairJob, ctx: PairContext, extra: dict) -> None:
-    from .. import __version__
-
     path = Path(job.result)
     path.parent.mkdir(parents=True, exist_ok=True)
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")

@@ -227,12 +227,11 @@ def match(ctx: PairContext) -> TaskOutput:
     as :func:`fvf.match` documents.
     """
     k = int(ctx.options.get("k") or 200)  # fvf.match's default k
-    r = fvf.match(
+    r = fvf.match_result(
         (ctx.target.vertices, ctx.target.faces),
         (ctx.source.vertices, ctx.source.faces),
         k=k,
         k_fit=min(15, k),
-        full_output=True,
     )
     figures = {f"seconds_{step}": float(t) for step, t in r.timings.items()}
     return TaskOutput({"match_p2p": r.p2p_21, "match_C": r.C_12}, figures)

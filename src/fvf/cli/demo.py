@@ -420,7 +420,7 @@ def _fig12(s, story):
     mesh = fvf.icosphere(4)  # the scene needs a surface where the flow line is known
     X = mesh.vertices
     theta = 2.4
-    u0, u1, v = fvf.mesh.builtin.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
+    u0, u1, v = fvf.examples.fig12_fields(mesh, theta, width=0.9)  # (m, 3) each
     ts = np.linspace(0.0, 1.0, 7)
     us = fvf.interpolate(mesh, v, u0, u1, ts)  # (7, m, 3)
     average = 0.5 * (u0 + u1)
@@ -485,16 +485,7 @@ def _fig12(s, story):
             )
         )
     _progress(len(ts), len(ts), "interpolation frames")
-    from PIL import Image
-
-    frames = [Image.open(f).convert("RGB") for f in files]
-    cols = 4  # a grid of the frames, read left to right, top to bottom
-    w, h = frames[0].width, frames[0].height
-    strip = Image.new("RGB", (cols * w, -(-len(frames) // cols) * h), "white")
-    for i, f in enumerate(frames):
-        strip.paste(f, ((i % cols) * w, (i // cols) * h))
-    with atomic_path(story.out / "fig12_strip.png") as tmp:
-        strip.save(tmp, format="PNG")
+    _frame_grid(files, story.out / "fig12_strip.png")
     fvf.viz.write_gif(files + files[-2:0:-1], story.out / "fig12_interpolation.gif", fps=4)
     story.add_file(
         st,
@@ -502,6 +493,20 @@ def _fig12(s, story):
         "transport interpolation u_t, t = 0 to 1, left to right and top to bottom",
         link="fig12_interpolation.gif",
     )
+
+
+def _frame_grid(files: list, path: Path, cols: int = 4) -> None:
+    """Write the pictures ``files`` (equal sizes) as one PNG at ``path``: a grid of
+    ``cols`` columns, read left to right, top to bottom, white where no frame is left."""
+    from PIL import Image
+
+    frames = [Image.open(f).convert("RGB") for f in files]
+    w, h = frames[0].width, frames[0].height
+    grid = Image.new("RGB", (cols * w, -(-len(frames) // cols) * h), "white")
+    for i, f in enumerate(frames):
+        grid.paste(f, ((i % cols) * w, (i // cols) * h))
+    with atomic_path(path) as tmp:
+        grid.save(tmp, format="PNG")
 
 
 def _cross_field(s, story):
@@ -543,7 +548,7 @@ def _quads(s, story):
     Instant Meshes at the same quad count when it is installed."""
     import fvf
     from fvf.errors import ParameterizationInputError, QuadExtractionError
-    from fvf.param.peer import has_instant_meshes, instant_meshes
+    from fvf.peers import has_instant_meshes, instant_meshes
 
     st = story.begin("A quad mesh from a cross field (Fig. 1)", _quads)
     mesh = s.mesh

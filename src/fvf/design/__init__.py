@@ -7,7 +7,7 @@
 - :mod:`.symmetric`: fields consistent with a self-map (Azencot et al. 2017).
 - :mod:`.commuting`: commutation-guided rescaling and as-commuting-as-possible fields (§4.4).
 - :mod:`.indices`: indices and singularities of designed fields (Poincaré–Hopf).
-- :mod:`.frames`: frames (u, v) rescaled so that their flows nearly commute.
+- :mod:`.commuting_frames`: frames (u, v) rescaled so that their flows nearly commute.
 - :mod:`.alignment`: alignment targets (principal curvature directions, user fields).
 - :mod:`.nfields`: N-direction fields: power representation, period jumps, cut graph,
   combing.
@@ -17,6 +17,7 @@ A new design method goes into a module of its own here and is exported below.
 
 from .cancellation import cancel_close_singularities, separate_close_singularities
 from .commuting import acap_energy_matrix, acap_fields, rescale, rescaling_operator
+from .commuting_frames import FrameReport, FrameRescaling, frame_report, rescale_frame
 from .connection import (
     connection_energy,
     connection_laplacian,
@@ -27,7 +28,6 @@ from .connection import (
     tangent_basis_matrix,
 )
 from .constrained import closest_faces, design_field, locate_points
-from .frames import FrameReport, FrameRescaling, frame_report, rescale_frame
 from .indices import (
     face_indices,
     face_singularities,
@@ -85,3 +85,16 @@ __all__ = [
     "cancel_close_singularities",
     "separate_close_singularities",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.design.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "CutGraph",
+        "FrameReport",
+        "FrameRescaling",
+        "all_directions",
+        "consistency_residual",
+        "map_consistent_field",
+    }
+)

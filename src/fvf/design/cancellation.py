@@ -59,12 +59,13 @@ from scipy.spatial import cKDTree
 
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import cross_rows
 from ..mesh.inputs import as_direction_count, as_face_field
-from ..mesh.trimesh import TriMesh, _cross
+from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from .connection import connection_pairs
-from .indices import _rotations, singularities
-from .nfields import _check_nonzero, _edge_angles
+from .indices import as_connection_rotations, singularities
+from .nfields import check_nonzero, edge_angles
 
 __all__ = [
     "cancel_close_singularities",
@@ -177,7 +178,7 @@ def _edited_turnings(
 
     ``moves``: (a, b, s) moves s/N of index (s = ±1) from vertex a to vertex b.
     """
-    interior, phi = _edge_angles(mesh, u, rotations)
+    interior, phi = edge_angles(mesh, u, rotations)
     delta = phi - (TWO_PI / n) * np.rint(n * phi / TWO_PI)
     full = np.zeros(mesh.n_edges)
     full[interior] = delta
@@ -254,8 +255,8 @@ def _checked(
     if int(rounds) != rounds or rounds < 0:
         raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
     u = as_face_field(mesh, u, "u")
-    _check_nonzero(mesh, u, "its singularities")
-    rot = None if rotations is None else _rotations(mesh, rotations)
+    check_nonzero(mesh, u, "its singularities")
+    rot = None if rotations is None else as_connection_rotations(mesh, rotations)
     return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True), rot
 
 
@@ -346,7 +347,7 @@ def _apply_moves(
     full = np.zeros(mesh.n_edges)
     full[interior] = delta
     dpsi = reangle(full[(mesh.edge_faces >= 0).all(axis=1)])
-    Ju = _cross(mesh.face_normals, u)
+    Ju = cross_rows(mesh.face_normals, u)
     return np.cos(dpsi)[:, None] * u + np.sin(dpsi)[:, None] * Ju
 
 
@@ -555,7 +556,11 @@ def split_large_singularities(
     float64 (m, 3), checked by the caller; returns the edited field, float64 (m, 3).
     """
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = None if connection_rotations is None else _rotations(mesh, connection_rotations)
+    rot = (
+        None
+        if connection_rotations is None
+        else as_connection_rotations(mesh, connection_rotations)
+    )
     rules = _splitting(mesh, radius, max_step)
     return _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
 

@@ -104,7 +104,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..calculus import _freeze, face_rows_csr
+from ..calculus import face_rows_csr
 from ..errors import (
     FieldShapeError,
     FvfError,
@@ -113,12 +113,12 @@ from ..errors import (
     SpectralSolveError,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import centered_vertices, cross_rows, readonly, readonly_csr
 from ..mesh.inputs import as_direction_count, as_face_field
-from ..mesh.trimesh import TriMesh, _cross, _readonly
+from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.inverse_iteration import inverse_iteration
 from ..numerics.progress import ProgressCallback, make_progress
-from ..operators.directional import centered_vertices
 
 __all__ = [
     "ConnectionKind",
@@ -158,7 +158,8 @@ EIGEN_SOLVERS: tuple[str, ...] = ("auto", "dense", "arpack", "lobpcg")
 LOBPCG_MIN_FACES = 20_000
 
 
-def _check_kind(kind: str) -> ConnectionKind:
+def check_kind(kind: str) -> ConnectionKind:
+    """``kind`` if it is one of :data:`KINDS`, else :class:`fvf.FvfError`."""
     if kind not in KINDS:
         raise FvfError(f"kind must be one of {KINDS}; got {kind!r}.")
     return cast(ConnectionKind, kind)
@@ -189,7 +190,7 @@ def _corner_cotangents(mesh: TriMesh) -> np.ndarray:
 
 def _knoppel_pairs(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pair per interior edge: unfolding transport and guarded circumcentric weights."""
-    corners = mesh._edge_corners  # corner 3t + a opposite each edge, per side
+    corners = mesh.edge_corners  # corner 3t + a opposite each edge, per side
     interior = np.flatnonzero((corners >= 0).all(axis=1))
     cs, ct = corners[interior, 0], corners[interior, 1]
     s, t = cs // 3, ct // 3
@@ -301,7 +302,7 @@ def _build_pairs(mesh: TriMesh, kind: str) -> tuple[np.ndarray, np.ndarray, np.n
         faces = np.concatenate([pairs[:, 0], pairs[:, 1]])
         shares = _moment_shares(mesh, faces, np.concatenate([k_s, k_t]), np.concatenate([d_s, d_t]))
         w = shares[:P] + shares[P:]
-    return _readonly(pairs), _readonly(r), _readonly(w)
+    return readonly(pairs), readonly(r), readonly(w)
 
 
 @takes_mesh
@@ -332,7 +333,7 @@ def connection_pairs(
     -----
     Cached on the mesh; the arrays are read-only.
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     return mesh.cached(f"connection_pairs:{kind}", lambda: _build_pairs(mesh, kind))
 
 
@@ -391,7 +392,7 @@ def connection_laplacian(
     >>> L.shape, bool(abs(L - L.conj().T).max() == 0)
     ((320, 320), True)
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     n = as_direction_count(n)
     if curvature_smoothing is not None:
         from .holonomy import smoothing_length
@@ -418,12 +419,12 @@ def connection_laplacian(
         data = np.concatenate([diag.astype(complex), -w * r, -w * np.conj(r)])
         L = sp.coo_array((data, (rows, cols)), shape=(m, m)).tocsr()
         L.sort_indices()
-        return _freeze(L)
+        return readonly_csr(L)
 
-    key = f"connection_laplacian:{kind}" if n == 1 else f"connection_laplacian:{kind}:{n}"
+    variant = kind if n == 1 else f"{kind}:{n}"
     if curvature_smoothing is not None:
-        key += f":holonomy smoothed over {curvature_smoothing!r}"
-    return mesh.cached(key, build)
+        variant += f":holonomy smoothed over {curvature_smoothing!r}"
+    return mesh.cached(f"connection_laplacian:{variant}", build)
 
 
 @takes_mesh
@@ -435,17 +436,17 @@ def sample_points(mesh: TriMesh, kind: ConnectionKind = "knoppel") -> np.ndarray
     discrete energy of a smooth field u converges to ∫|∇u|² when u is sampled there (and
     projected to the face plane); the eigenvalues do not depend on this choice.
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     if kind == "singer_wu":
         return mesh.face_centroids
 
     def build():
         P = mesh.vertices[mesh.faces]
         a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
-        n = _cross(a, b)
-        num = _cross(n, a) * np.einsum("ij,ij->i", b, b)[:, None]
-        num += _cross(b, n) * np.einsum("ij,ij->i", a, a)[:, None]
-        return _readonly(P[:, 0] + num / (2.0 * np.einsum("ij,ij->i", n, n))[:, None])
+        n = cross_rows(a, b)
+        num = cross_rows(n, a) * np.einsum("ij,ij->i", b, b)[:, None]
+        num += cross_rows(b, n) * np.einsum("ij,ij->i", a, a)[:, None]
+        return readonly(P[:, 0] + num / (2.0 * np.einsum("ij,ij->i", n, n))[:, None])
 
     return mesh.cached("circumcenters", build)
 
@@ -482,10 +483,10 @@ def real_connection_laplacian(mesh: TriMesh, kind: ConnectionKind = "knoppel") -
     Acts on face-major local coordinates ``a = mesh.to_local(u).ravel()``
     (``[a0_0, a1_0, a0_1, a1_1, …]``); aᵀ L_ℝ a = z^* L z for z = a0 + i a1.
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     return mesh.cached(
         f"real_connection_laplacian:{kind}",
-        lambda: _freeze(complex_to_real(connection_laplacian(mesh, kind))),
+        lambda: readonly_csr(complex_to_real(connection_laplacian(mesh, kind))),
     )
 
 
@@ -505,8 +506,8 @@ def connection_mass(mesh: TriMesh, real: bool = False) -> sp.csr_array:
     """
     k = 2 if real else 1
     return mesh.cached(
-        f"connection_mass{k}",
-        lambda: _freeze(sp.diags_array(np.repeat(mesh.face_areas, k))),
+        f"connection_mass:{k}",
+        lambda: readonly_csr(sp.diags_array(np.repeat(mesh.face_areas, k))),
     )
 
 
@@ -538,7 +539,7 @@ def tangent_basis_matrix(mesh: TriMesh) -> sp.csr_array:
         m = mesh.n_faces
         vals = mesh.face_bases.transpose(0, 2, 1).reshape(3 * m, 2)  # row (t, k): b1_k, b2_k
         cols = np.repeat(2 * np.arange(m)[:, None] + np.arange(2), 3, axis=0)
-        return _freeze(face_rows_csr(vals, cols, 2 * m))
+        return readonly_csr(face_rows_csr(vals, cols, 2 * m))
 
     return mesh.cached("tangent_basis_matrix", build)
 
@@ -687,7 +688,7 @@ def smoothest_fields(
     zero vectors). Constraints or ``align=`` in :func:`fvf.design_field` avoid this.
     Measured speed: ``docs/nfields.md``.
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     n = as_direction_count(n)
     if solver not in EIGEN_SOLVERS:
         raise FvfError(f"solver must be one of {EIGEN_SOLVERS}; got {solver!r}.")

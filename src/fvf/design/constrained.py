@@ -58,7 +58,7 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from ..numerics.progress import ProgressCallback, make_progress
 from .alignment import ALIGN_STRENGTH, alignment_targets
-from .connection import ConnectionKind, _check_kind, connection_laplacian, smoothest_fields
+from .connection import ConnectionKind, check_kind, connection_laplacian, smoothest_fields
 from .holonomy import smoothing_length
 
 __all__ = [
@@ -567,7 +567,7 @@ def design_field(
     >>> bool(np.allclose(u, [1.0, 0.0, 0.0]))
     True
     """
-    kind = _check_kind(kind)
+    kind = check_kind(kind)
     n = as_direction_count(n)
     report = make_progress(progress)
     f, tau = _given_constraints(mesh, faces, directions, points, weights, hard, normalize)

@@ -42,9 +42,9 @@ import scipy.sparse as sp
 
 from ..calculus import stiffness, vertex_areas
 from ..errors import ParameterError, format_indices
+from ..mesh.geometry import angle_defects
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import factor_hermitian
-from .indices import _angle_defects
 
 __all__ = ["smoothed_angle_defects", "holonomy_rotations"]
 
@@ -87,7 +87,7 @@ def smoothed_angle_defects(mesh: TriMesh, length: float) -> np.ndarray:
     """
     ell = smoothing_length(length)
     _require_closed(mesh)
-    K = _angle_defects(mesh)
+    K = angle_defects(mesh)
     A = vertex_areas(mesh)
     heat = sp.csr_array(sp.diags_array(A) + ell**2 * stiffness(mesh))
     u = factor_hermitian(heat, "auto", "few").solve(K)
@@ -121,7 +121,7 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
 def _rotations_for(mesh: TriMesh, length: float) -> np.ndarray:
     """The uncached :func:`holonomy_rotations`, made read-only."""
     target = smoothed_angle_defects(mesh, length)
-    K = _angle_defects(mesh)
+    K = angle_defects(mesh)
     E = mesh.edges
     n, ne = mesh.n_vertices, E.shape[0]
     rows = np.concatenate([np.arange(ne), np.arange(ne)])

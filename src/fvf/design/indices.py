@@ -38,6 +38,7 @@ from ..errors import (
     format_indices,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import angle_defects, cross_rows
 from ..mesh.inputs import (
     TangentPolicy,
     as_direction_count,
@@ -45,7 +46,6 @@ from ..mesh.inputs import (
     as_vertex_function,
     unit_scale,
 )
-from ..mesh.trimesh import _cross
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh
@@ -87,34 +87,10 @@ def _zero_mask(length: np.ndarray, scale: float, rtol: float) -> np.ndarray:
     return length <= rtol * scale
 
 
-def _corner_angles(mesh: TriMesh) -> np.ndarray:
-    """Interior angle of each face at each corner, float64 (m, 3)."""
-
-    def build():
-        e = mesh.face_edge_vectors  # e[t, i] = X(v_{i+2}) - X(v_{i+1})
-        a = -np.roll(e, -2, axis=1)  # X(v_{i+1}) - X(v_i) = -e[t, i+2]
-        b = np.roll(e, -1, axis=1)  # X(v_{i+2}) - X(v_i) = e[t, i+1]
-        cr = np.cross(a, b)
-        ang = np.arctan2(np.linalg.norm(cr, axis=2), np.einsum("tik,tik->ti", a, b))
-        ang.flags.writeable = False
-        return ang
-
-    return mesh.cached("singularities_corner_angles", build)
-
-
-def _angle_defects(mesh: TriMesh) -> np.ndarray:
-    """2*pi minus the sum of the corner angles at each vertex, float64 (n,).
-
-    Meaningful at interior vertices only (at a boundary vertex the geodesic curvature
-    would be pi minus the sum).
-    """
-    ang = _corner_angles(mesh)
-    total = np.bincount(mesh.faces.ravel(), weights=ang.ravel(), minlength=mesh.n_vertices)
-    return TWO_PI - total
-
-
-def _rotations(mesh: TriMesh, rotations: npt.ArrayLike) -> np.ndarray:
-    """``connection_rotations`` checked: float64 (E,), finite."""
+def as_connection_rotations(mesh: TriMesh, rotations: npt.ArrayLike) -> np.ndarray:
+    """``connection_rotations`` checked: float64 (E,), finite, else
+    :class:`fvf.ParameterError` (the angles of
+    :func:`fvf.design.holonomy.holonomy_rotations`)."""
     x = np.asarray(rotations, dtype=float)
     if x.shape != (mesh.n_edges,) or not np.isfinite(x).all():
         raise ParameterError(
@@ -248,7 +224,7 @@ def vertex_indices(
     def complex_angle(s: np.ndarray) -> np.ndarray:
         # <e, u> + i <N x e, u>: the direction of u_s relative to e, counter-clockwise.
         us = ut[s]
-        return np.einsum("ij,ij->i", ev, us) + 1j * np.einsum("ij,ij->i", _cross(N[s], ev), us)
+        return np.einsum("ij,ij->i", ev, us) + 1j * np.einsum("ij,ij->i", cross_rows(N[s], ev), us)
 
     # Walking counter-clockwise around a, the edge a->b is entered from s1 into s0
     # (in s0 = (a, b, c) the edge a->b is the first edge at corner a); walking around
@@ -256,7 +232,7 @@ def vertex_indices(
     z = complex_angle(s0) * np.conj(complex_angle(s1))
     x = np.zeros(interior.size)
     if connection_rotations is not None:
-        x = _rotations(mesh, connection_rotations)[interior]
+        x = as_connection_rotations(mesh, connection_rotations)[interior]
         z = z * np.exp(-1j * x)
     delta = _wrap(np.arctan2(z.imag, z.real))
     if order != 1:  # shortest rotation between the two N-direction sets
@@ -266,7 +242,7 @@ def vertex_indices(
         b, weights=delta, minlength=n
     )
 
-    index = np.rint(order * (turning + _angle_defects(mesh)) / TWO_PI).astype(np.int64)
+    index = np.rint(order * (turning + angle_defects(mesh)) / TWO_PI).astype(np.int64)
     index[mesh.boundary_vertices] = 0
 
     if is_zero.any():

@@ -55,9 +55,10 @@ from scipy.sparse import csgraph
 
 from ..errors import CutGraphError, FieldShapeError, format_indices
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import cross_rows
 from ..mesh.inputs import as_direction_count, as_face_field
-from ..mesh.trimesh import TriMesh, _cross
-from .indices import ZERO_RTOL, _rotations, vertex_indices
+from ..mesh.trimesh import TriMesh
+from .indices import ZERO_RTOL, as_connection_rotations, vertex_indices
 
 __all__ = [
     "to_power",
@@ -157,13 +158,13 @@ def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     """
     n = as_direction_count(n)
     u = as_face_field(mesh, u, "u")
-    Ju = _cross(mesh.face_normals, u)
+    Ju = cross_rows(mesh.face_normals, u)
     ang = TWO_PI * np.arange(n) / n
     return np.cos(ang)[:, None, None] * u[None] + np.sin(ang)[:, None, None] * Ju[None]
 
 
 # ---------------------------------------------------------------------------- matching
-def _edge_angles(
+def edge_angles(
     mesh: TriMesh, u: np.ndarray, rotations: npt.ArrayLike | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Interior edges and φ_e: the angle from t's unfolded representative to s's, (k,),
@@ -177,15 +178,19 @@ def _edge_angles(
     ev = X[E[interior, 1]] - X[E[interior, 0]]
 
     def rel(f: np.ndarray) -> np.ndarray:  # the direction of u_f measured from e, ccw
-        return np.einsum("ij,ij->i", ev, u[f]) + 1j * np.einsum("ij,ij->i", _cross(N[f], ev), u[f])
+        return np.einsum("ij,ij->i", ev, u[f]) + 1j * np.einsum(
+            "ij,ij->i", cross_rows(N[f], ev), u[f]
+        )
 
     z = rel(s) * np.conj(rel(t))
     if rotations is not None:
-        z = z * np.exp(-1j * _rotations(mesh, rotations)[interior])
+        z = z * np.exp(-1j * as_connection_rotations(mesh, rotations)[interior])
     return interior, np.arctan2(z.imag, z.real)
 
 
-def _check_nonzero(mesh: TriMesh, u: np.ndarray, what: str) -> None:
+def check_nonzero(mesh: TriMesh, u: np.ndarray, what: str) -> None:
+    """Raise :class:`fvf.FieldShapeError` naming the faces where u (m, 3) is (numerically)
+    zero (``what``: the quantity left undefined there)."""
     length = np.linalg.norm(u, axis=1)
     scale = float(length.max(initial=0.0))
     zero = np.flatnonzero(length <= ZERO_RTOL * scale) if scale > 0 else np.arange(u.shape[0])
@@ -236,9 +241,9 @@ def period_jumps(
     """
     n = as_direction_count(n)
     u = as_face_field(mesh, u, "u")
-    _check_nonzero(mesh, u, "the period jumps of its edges")
+    check_nonzero(mesh, u, "the period jumps of its edges")
     out = np.zeros(mesh.n_edges, dtype=np.int64)
-    interior, phi = _edge_angles(mesh, u, connection_rotations)
+    interior, phi = edge_angles(mesh, u, connection_rotations)
     out[interior] = np.mod(np.rint(n * phi / TWO_PI).astype(np.int64), n)
     return out
 
@@ -364,7 +369,7 @@ def cut_graph(
     """
     n = as_direction_count(n)
     u = as_face_field(mesh, u, "u")
-    _check_nonzero(mesh, u, "the cut graph through its singularities")
+    check_nonzero(mesh, u, "the cut graph through its singularities")
     E, EF = mesh.edges, mesh.edge_faces
     interior = np.flatnonzero((EF >= 0).all(axis=1))
     _, via = _bfs_forest(mesh, interior)
@@ -485,7 +490,7 @@ def comb(
     """
     n = as_direction_count(n)
     u = as_face_field(mesh, u, "u")
-    _check_nonzero(mesh, u, "its combing")
+    check_nonzero(mesh, u, "its combing")
     rot = connection_rotations
     mask = (
         cut_graph(mesh, u, n, connection_rotations=rot).mask
@@ -505,7 +510,7 @@ def comb(
     delta[child] = np.where(is_t, jumps[e], -jumps[e])
     k = np.mod(_tree_sums(parent, delta), n)
     ang = TWO_PI * k / n
-    Ju = _cross(mesh.face_normals, u)
+    Ju = cross_rows(mesh.face_normals, u)
     combed = np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * Ju
     new = period_jumps(mesh, combed, n, connection_rotations=rot)
     bad = uncut[new[uncut] != 0]

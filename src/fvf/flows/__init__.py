@@ -8,7 +8,10 @@
 - :mod:`.fluid`: ideal fluids by vorticity transport.
 
 A new flow method goes beside the others in :mod:`.dispatch` (its generator and integrator)
-and is listed in :data:`.dispatch.METHODS`.
+and is listed in :data:`.dispatch.METHODS`. A method that needs a layer above this one (the
+spectral flow and fluid, which need Laplace–Beltrami bases) lives there and registers with
+the dispatcher (:func:`.dispatch.register_flow_method`, :func:`.fluid.register_fluid_method`):
+this package never imports upward (docs/architecture.md).
 """
 
 from .dispatch import TransportFlow, dual_edge_fluxes, flow, skew_operator, upwind_operator
@@ -31,3 +34,6 @@ __all__ = [
     "fluid_time_step",
     "FluidResult",
 ]
+
+#: Every name of ``__all__`` is also ``fvf.name`` (the flat namespace leaves none out).
+NOT_FLAT: frozenset[str] = frozenset()

@@ -24,7 +24,9 @@ transport operators and time integrators whose behaviour is guaranteed for every
     ‖f_{k+1}‖² − ‖f_k‖² = h ⟨f_{k+½}, [div v] f_{k+½}⟩.
 ``"spectral"``
     The reduced flow in k Laplace–Beltrami eigenfunctions
-    (:meth:`fvf.SpectralBasis.reduced_flow`).
+    (:meth:`fvf.SpectralBasis.reduced_flow`). It lives with the bases in
+    :mod:`fvf.spectral.reduced_flows`, a layer above this one, which registers it here
+    (:func:`register_flow_method`); ``import fvf`` imports it.
 
 Use :func:`flow` for a single call. :class:`TransportFlow` keeps the operator, the
 factorizations and the work counts for several functions and times.
@@ -53,7 +55,6 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import (
     TangentPolicy,
-    as_count,
     as_face_field,
     as_growth_limit,
     as_positive,
@@ -79,6 +80,7 @@ __all__ = [
     "skew_operator",
     "TransportFlow",
     "flow",
+    "register_flow_method",
 ]
 
 #: The flow methods of :func:`flow`, the chapter's first (the default).
@@ -97,6 +99,37 @@ _OPTIONS = {
     "cayley": {"growth_limit", "dt", "courant", "operator", "max_products"},
     "spectral": {"k", "basis"},
 }
+
+#: The methods this module implements itself.
+_OWN = ("chapter", "upwind", "skew", "cayley")
+
+#: The methods of :data:`METHODS` implemented in a layer above this one (a layer never
+#: imports upward, docs/architecture.md), by name: ``build(mesh, field, options)`` -> a
+#: flow whose call maps f_0 float64 (n, c) and times float64 (T,) to (T, n, c).
+_REGISTERED: dict[str, Callable[[TriMesh, np.ndarray, dict[str, Any]], Any]] = {}
+
+
+def register_flow_method(
+    name: str, build: Callable[[TriMesh, np.ndarray, dict[str, Any]], Any]
+) -> None:
+    """Implement the flow method ``name`` of :data:`METHODS` from a layer above this one.
+
+    :mod:`fvf.spectral.reduced_flows` registers ``"spectral"`` when :mod:`fvf.spectral` is
+    imported (``import fvf`` imports it).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`METHODS` that this module does not implement itself.
+    build : callable
+        ``build(mesh, field, options)``, with the checked tangent field float64 (m, 3) and
+        the method's options (a dict, names already checked), returns the flow: a callable
+        ``(f0, times)`` mapping f_0 float64 (n, c) and times float64 (T,) to (T, n, c).
+        Its ``basis`` attribute, if any, becomes :attr:`TransportFlow.basis`.
+    """
+    if name not in METHODS or name in _OWN:
+        raise ValueError(f"{name!r} is not a flow method that fvf.flow leaves to a layer above")
+    _REGISTERED[name] = build
 
 
 # ---------------------------------------------------------------------------- operators
@@ -300,6 +333,8 @@ class TransportFlow:
     operator : sparse (n, n) or None
         The generator (df/dt = −operator f): D^V_v, G, S, or the Cayley operator; None for
         ``"spectral"``.
+    basis : SpectralBasis
+        ``"spectral"`` only: the basis of the reduced flow.
     stats : dict
         Work of the last call: ``matvecs`` (column products with an n x n matrix),
         ``steps``, ``factorizations`` (sparse LU); for "chapter" and "skew" the
@@ -396,17 +431,15 @@ class TransportFlow:
                         "to 0; scale the field down (and the times up by as much)"
                     )
             self.dt = as_positive(dt, "dt", allow_inf=True)
-        else:  # spectral
-            from ..spectral.basis import SpectralBasis
-
-            basis = options.get("basis")
-            if basis is None:
-                basis = SpectralBasis(mesh, as_count(options.get("k", 50), "k", minimum=1))
-            elif basis.mesh is not mesh:
+        else:  # registered from a layer above: "spectral"
+            build = _REGISTERED.get(method)
+            if build is None:
                 raise ParameterError(
-                    "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
+                    f"flow method {method!r} lives in fvf.spectral; import fvf (or fvf.spectral)"
                 )
-            self.basis = basis
+            self._registered = build(mesh, self.field, options)
+            if hasattr(self._registered, "basis"):
+                self.basis = self._registered.basis
 
     # ------------------------------------------------------------------ growth
     @property
@@ -560,7 +593,8 @@ class TransportFlow:
         elif self.method == "cayley":
             out = _chain(f0, times, self._advance_cayley)
         else:
-            out = self._spectral(f0, times)
+            out = self._registered(f0.reshape(f0.shape[0], -1), times)
+            out = out.reshape((times.size,) + f0.shape)
         if not np.isfinite(out).all():
             raise FlowOverflowError(
                 f"the {self.method} flow overflowed to inf/NaN; use method='upwind' (bounded "
@@ -592,14 +626,6 @@ class TransportFlow:
                 f"max_products={self.max_products:.3g}. Shorten t, flow fewer times or "
                 "columns, or raise max_products."
             )
-
-    def _spectral(self, f0: np.ndarray, times: np.ndarray) -> np.ndarray:
-        cols = f0.reshape(f0.shape[0], -1)
-        out = np.stack(
-            [self.basis.reduced_flow(self.field, cols[:, j], times) for j in range(cols.shape[1])],
-            axis=-1,
-        )  # (T, n, c)
-        return out.reshape((times.size,) + f0.shape)
 
 
 @takes_mesh

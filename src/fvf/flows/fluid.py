@@ -38,8 +38,9 @@ exactly for the truncated system, since each D̂ is skew.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -56,9 +57,6 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
-
-if TYPE_CHECKING:
-    from ..spectral.basis import SpectralBasis
 from ..operators.directional import D_V
 
 __all__ = [
@@ -67,6 +65,10 @@ __all__ = [
     "ideal_fluid",
     "fluid_time_step",
     "stream_velocity",
+    "METHODS",
+    "register_fluid_method",
+    "extrapolate_midpoint",
+    "midpoint_not_converged",
 ]
 
 #: Options of SuperLU for structurally symmetric 1-ring matrices: minimum degree ordering
@@ -166,8 +168,11 @@ class _Anderson:
         return x + d - (dX + dD) @ gamma
 
 
-def _extrapolate(mids: list[np.ndarray], current: np.ndarray) -> np.ndarray:
-    """Predict the next midpoint from the previous ones (newest first); O(h³) with three."""
+def extrapolate_midpoint(mids: list[np.ndarray], current: np.ndarray) -> np.ndarray:
+    """Predict the next midpoint from the previous ones (newest first); O(h³) with three.
+
+    The start of the midpoint iteration of every method of :func:`ideal_fluid`.
+    """
     if len(mids) >= 3:
         return 3.0 * mids[0] - 3.0 * mids[1] + mids[2]
     if len(mids) == 2:
@@ -175,7 +180,8 @@ def _extrapolate(mids: list[np.ndarray], current: np.ndarray) -> np.ndarray:
     return current
 
 
-def _not_converged(tol: float, max_iterations: int, step: int, res: float) -> RuntimeError:
+def midpoint_not_converged(tol: float, max_iterations: int, step: int, res: float) -> RuntimeError:
+    """The :class:`FluidSolveError` of a midpoint iteration that stopped at residual ``res``."""
     return FluidSolveError(
         f"the implicit midpoint iteration did not reach tol={tol:g} in {max_iterations} "
         f"iterations at step {step} (residual {res:.3g}); use a shorter dt or a larger tol."
@@ -228,6 +234,37 @@ class FluidResult:
         }
 
 
+#: The methods of :func:`ideal_fluid`, the full mesh's first (the default).
+METHODS = ("midpoint", "spectral")
+
+#: The methods of :data:`METHODS` implemented in a layer above this one (a layer never
+#: imports upward, docs/architecture.md), by name: a function
+#: ``run(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report)`` of
+#: the checked arguments of :func:`ideal_fluid` (``report`` its progress callback) that
+#: returns a :class:`FluidResult`.
+_REGISTERED: dict[str, Callable[..., FluidResult]] = {}
+
+
+def register_fluid_method(name: str, run: Callable[..., FluidResult]) -> None:
+    """Implement the method ``name`` of :func:`ideal_fluid` from a layer above this one.
+
+    :mod:`fvf.spectral.reduced_flows` registers ``"spectral"`` when :mod:`fvf.spectral`
+    is imported (``import fvf`` imports it).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`METHODS` but ``"midpoint"``, which this module implements.
+    run : callable
+        ``run(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report)``:
+        the arguments of :func:`ideal_fluid`, checked (``omega`` float64 (n,), ``report``
+        a progress callback ``(stage, done, total)``), returning a :class:`FluidResult`.
+    """
+    if name not in METHODS or name == "midpoint":
+        raise ValueError(f"{name!r} is not a fluid method that ideal_fluid leaves to a layer above")
+    _REGISTERED[name] = run
+
+
 @takes_mesh
 def fluid_time_step(mesh: TriMesh, omega0: npt.ArrayLike, courant: float = 0.5) -> float:
     """A step length for a Courant number: c · mean edge length / max |u(ω_0)|.
@@ -261,7 +298,7 @@ def ideal_fluid(
     *,
     method: str = "midpoint",
     k: int = 64,
-    basis: SpectralBasis | None = None,
+    basis: Any = None,
     tol: float = 1e-13,
     max_iterations: int = 50,
     save_every: int = 1,
@@ -326,7 +363,7 @@ def ideal_fluid(
     >>> bool(d["energy"] < 1e-11 and d["enstrophy"] < 1e-11)
     True
     """
-    if method not in ("midpoint", "spectral"):
+    if method not in METHODS:
         raise ParameterError(f"unknown fluid method {method!r}; choose 'midpoint' or 'spectral'")
     omega = as_vertex_function(mesh, omega0, "omega0")
     steps, save_every = as_count(steps, "steps"), as_count(save_every, "save_every", 1)
@@ -337,10 +374,13 @@ def ideal_fluid(
         raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
     dt = step
     report = make_progress(progress)
-    if method == "spectral":
-        return _spectral_fluid(
-            mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report
-        )
+    if method != "midpoint":  # registered from a layer above: "spectral"
+        run = _REGISTERED.get(method)
+        if run is None:
+            raise ParameterError(
+                f"fluid method {method!r} lives in fvf.spectral; import fvf (or fvf.spectral)"
+            )
+        return run(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report)
 
     solve_psi = StreamFunctionSolver(mesh)
     a = mesh.vertex_areas
@@ -362,7 +402,7 @@ def ideal_fluid(
     lu = None
     mids: list[np.ndarray] = []
     for step in range(1, steps + 1):
-        x = _extrapolate(mids, omega)  # predicted ω_{k+½}
+        x = extrapolate_midpoint(mids, omega)  # predicted ω_{k+½}
         scale = max(norm(omega), 1e-300)
         accel, previous, fresh = _Anderson(a, _ANDERSON_DEPTH), np.inf, False
         it = 0
@@ -375,20 +415,20 @@ def ideal_fluid(
             if res <= tol:
                 break
             if it == max_iterations:
-                raise _not_converged(tol, max_iterations, step, res)
+                raise midpoint_not_converged(tol, max_iterations, step, res)
             if not np.isfinite(res):  # the iterate blew up: dt far above the Courant limit
-                raise _not_converged(tol, max_iterations, step, res)
+                raise midpoint_not_converged(tol, max_iterations, step, res)
             if lu is None or (res > _REFACTOR_RATIO * previous and not fresh):
                 try:
                     lu = sla.splu((eye + h2 * D).tocsc(), **_SYMMETRIC_LU)
                 except RuntimeError as exc:  # "Factor is exactly singular"
-                    raise _not_converged(tol, max_iterations, step, res) from exc
+                    raise midpoint_not_converged(tol, max_iterations, step, res) from exc
                 info["factorizations"] += 1
                 accel, fresh = _Anderson(a, _ANDERSON_DEPTH), True
             previous = res
             x = accel(x, lu.solve(r))
             if not np.isfinite(x).all():
-                raise _not_converged(tol, max_iterations, step, np.inf)
+                raise midpoint_not_converged(tol, max_iterations, step, np.inf)
         iters.append(it)
         mids = [x, *mids[:2]]
         omega = 2.0 * x - omega
@@ -410,68 +450,4 @@ def ideal_fluid(
         np.array(iters, dtype=np.int64),
         "midpoint",
         info,
-    )
-
-
-def _spectral_fluid(mesh, omega, dt, steps, k, basis, tol, max_iterations, save_every, report):
-    from ..spectral.basis import SpectralBasis
-
-    if not mesh.is_closed:
-        raise ParameterError(
-            "method='spectral' needs a closed mesh (the Neumann eigenfunctions give "
-            "velocities through the boundary); use method='midpoint'."
-        )
-    if basis is None:
-        basis = SpectralBasis(mesh, int(k))
-    elif basis.mesh is not mesh:
-        raise ParameterError("basis was built on another mesh")
-    lam, Phi = basis.eigenvalues, basis.eigenvectors
-    moving = np.flatnonzero(lam > 1e-10 * max(lam[-1], 1e-300))  # not the constants
-    fields = np.stack([stream_velocity(mesh, Phi[:, i]) for i in moving])
-    C = basis.reduced_D_many(fields)  # (p, k, k): D̂_{J grad φ_i}, each skew
-    inv_lam = np.zeros_like(lam)
-    inv_lam[moving] = 1.0 / lam[moving]
-    eye = np.eye(basis.k)
-
-    def matrix(x):  # I + h/2 D̂_{J grad ψ(x)}, ψ(x) = −Φ Λ⁻¹ x
-        return eye + (0.5 * dt) * np.einsum("p,pjk->jk", -(inv_lam * x)[moving], C)
-
-    c = basis.project(omega)
-    energy, enstrophy = [0.5 * np.sum(c * c * inv_lam)], [c @ c]
-    coeffs, times, iters = [c], [0.0], []
-    mids: list[np.ndarray] = []
-    for step in range(1, steps + 1):
-        x = _extrapolate(mids, c)
-        scale = max(float(np.linalg.norm(c)), 1e-300)
-        it = 0
-        while True:
-            it += 1
-            M = matrix(x)
-            r = c - M @ x
-            res = float(np.linalg.norm(r)) / scale
-            if res <= tol:
-                break
-            if it == max_iterations:
-                raise _not_converged(tol, max_iterations, step, res)
-            x = x + np.linalg.solve(M, r)
-        iters.append(it)
-        mids = [x, *mids[:2]]
-        c = 2.0 * x - c
-        energy.append(0.5 * np.sum(c * c * inv_lam))
-        enstrophy.append(c @ c)
-        report("steps", step, steps)
-        if step % save_every == 0 or step == steps:
-            coeffs.append(c)
-            times.append(step * dt)
-    C = np.array(coeffs)
-    return FluidResult(
-        mesh,
-        np.array(times),
-        C @ Phi.T,
-        (-C * inv_lam) @ Phi.T,
-        np.array(energy),
-        np.array(enstrophy),
-        np.array(iters, dtype=np.int64),
-        "spectral",
-        {"basis": basis, "coefficients": coeffs},
     )

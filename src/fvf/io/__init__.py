@@ -28,3 +28,18 @@ __all__ = [
     "write_data",
     "atomic_path",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.io.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "DataFile",
+        "atomic_path",
+        "read_data",
+        "read_ply_properties",
+        "read_quad_mesh",
+        "write_data",
+        "write_quad_mesh",
+        "write_uv_mesh",
+    }
+)

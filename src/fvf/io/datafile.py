@@ -80,6 +80,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .._version import __version__
 from ..errors import (  # noqa: F401 (re-exported)
     DataFileError,
     DataKeyError,
@@ -614,8 +615,6 @@ def write_data(
     OutputWriteError
         The file could not be written (disk full, ...); a file already there is unchanged.
     """
-    from .. import __version__
-
     path = data_path(path)
     inputs = list(inputs)
     check_not_input(path, [mesh_path, *inputs], force=overwrite_inputs)

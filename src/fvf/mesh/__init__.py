@@ -55,3 +55,18 @@ __all__ = [
     "spot",
     "spot_path",
 ]
+
+#: Names of ``__all__`` that the flat namespace ``fvf`` leaves out (reach them as
+#: ``fvf.mesh.name``); every other name here is also ``fvf.name``.
+NOT_FLAT: frozenset[str] = frozenset(
+    {
+        "PreparedMesh",
+        "PrincipalCurvatures",
+        "mesh_report",
+        "midpoint_subdivision",
+        "prepare_mesh",
+        "spot_path",
+        "takes_mesh",
+        "vertex_normals",
+    }
+)

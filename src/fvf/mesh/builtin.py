@@ -1,16 +1,23 @@
-"""Built-in meshes shipped with the package, the fields of the chapter's Fig. 12 scene, and
-the compressible (lion) case of docs/chapter.md, "Facts we measured"."""
+"""The built-in mesh shipped with the package: Spot the cow.
+
+The chapter's scenes built on meshes (the fields of Fig. 12, the compressible case) need
+the calculus, a layer above the meshes, and live in :mod:`fvf.examples`.
+"""
 
 from __future__ import annotations
 
+import warnings
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
-from .convert import takes_mesh
 from .trimesh import TriMesh
 
-__all__ = ["spot", "spot_path", "fig12_fields", "compressible_case"]
+__all__ = ["spot", "spot_path"]
+
+#: Names that moved to :mod:`fvf.examples`: still reachable here, with a DeprecationWarning.
+_MOVED = ("fig12_fields", "compressible_case")
 
 
 def spot_path() -> str:
@@ -19,73 +26,35 @@ def spot_path() -> str:
 
 
 def spot() -> TriMesh:
-    """Spot the cow (Keenan Crane, CC0 1.0): closed, genus 0, 2930 vertices, 5856 faces."""
-    from ..io.meshfile import read_mesh
+    """Spot the cow (Keenan Crane, CC0 1.0): closed, genus 0, 2930 vertices, 5856 faces.
 
-    return TriMesh(*read_mesh(spot_path()))
-
-
-@takes_mesh
-def fig12_fields(
-    mesh: TriMesh, theta: float = 2.4, width: float = 0.9
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The two fields and the flow of the chapter's Fig. 12 (interpolation along a flow).
-
-    u0 and u1 are the gradients of Gaussian bumps exp(−|x − a|²/width²) centred at
-    a0 = R_z(θ/2) e_x and a1 = R_z(−θ/2) e_x; v = θ e_z × x (projected per face) carries a0
-    to a1 in unit time. On a unit sphere their average has two maxima and a saddle between
-    the bumps, while the interpolant of eq. (68) keeps one maximum moving along the equator.
-
-    Parameters
-    ----------
-    mesh : TriMesh
-        Best a unit sphere centred at the origin (e.g. ``fvf.icosphere(4)``).
-    theta : float
-        Angle between the bumps (radians).
-    width : float
-        Width of the bumps.
-
-    Returns
-    -------
-    u0, u1, v : float64 (m, 3)
-        Per-face fields.
+    The same arrays as ``fvf.read_mesh(spot_path())``, read here without the file layer:
+    the bundled file has only ``v x y z``, ``vt u v`` and ``f a/ta b/tb c/tc`` lines.
     """
-    from ..calculus import gradient
-
-    X = mesh.vertices
-    a0 = np.array([np.cos(theta / 2), np.sin(theta / 2), 0.0])
-    a1 = np.array([np.cos(theta / 2), -np.sin(theta / 2), 0.0])
-    u0 = gradient(mesh, np.exp(-((X - a0) ** 2).sum(1) / width**2))
-    u1 = gradient(mesh, np.exp(-((X - a1) ** 2).sum(1) / width**2))
-    v = theta * mesh.project_tangent(np.cross([0.0, 0.0, 1.0], mesh.face_centroids))
-    return u0, u1, v
+    return TriMesh(*_read_bundled_obj(spot_path()))
 
 
-@takes_mesh
-def compressible_case(mesh: TriMesh) -> tuple[TriMesh, np.ndarray, np.ndarray]:
-    """The lion case of docs/chapter.md ("Facts we measured") on any mesh.
+def _read_bundled_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices float64 (n, 3) and triangles int64 (m, 3) of an OBJ file fvf ships.
 
-    The mesh is centred and scaled to unit radius; v = grad x with unit L2 norm
-    (Σ_f |v_f|² area_f = 1); f0 = sin 3y + z. On lion-00 the chapter's flow of f0 along v
-    reaches ±1e17 by t = 0.1; the tests and ``benchmarks/bench_flows.py`` run it on every
-    mesh.
-
-    Parameters
-    ----------
-    mesh : TriMesh
-
-    Returns
-    -------
-    mesh : TriMesh
-        The centred, scaled copy.
-    v : ndarray float64 (m, 3)
-    f0 : ndarray float64 (n,)
+    Reads ``v`` and ``f`` lines only (texture indices after ``/`` dropped): enough for the
+    package's own data, not for users' files (:func:`fvf.read_mesh` checks those).
     """
-    from ..calculus import gradient
+    words = [line.split() for line in Path(path).read_text().splitlines()]
+    V = np.array([w[1:4] for w in words if w and w[0] == "v"], dtype=np.float64)
+    corners = [[c.partition("/")[0] for c in w[1:4]] for w in words if w and w[0] == "f"]
+    return V, np.array(corners, dtype=np.int64) - 1
 
-    X = mesh.vertices - mesh.vertices.mean(0)
-    X = X / np.linalg.norm(X, axis=1).max()
-    scaled = TriMesh(X, mesh.faces)
-    v = gradient(scaled, X[:, 0])
-    v = v / np.sqrt((scaled.face_areas * (v * v).sum(1)).sum())
-    return scaled, v, np.sin(3 * X[:, 1]) + X[:, 2]
+
+def __getattr__(name: str) -> object:
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"fvf.mesh.builtin.{name} moved to fvf.examples.{name}",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    # The one import of a layer above (docs/architecture.md): a deprecated alias only.
+    from .. import examples
+
+    return getattr(examples, name)

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .convert import takes_mesh
-from .trimesh import _cross, _readonly
+from .geometry import cross_rows, readonly
 
 if TYPE_CHECKING:
     from .trimesh import TriMesh
@@ -98,7 +98,7 @@ def vertex_normals(mesh: TriMesh) -> np.ndarray:
         w = (ang[:, :, None] * N[:, None, :]).reshape(-1, 3)
         out = np.stack([np.bincount(F, weights=w[:, j], minlength=nv) for j in range(3)], 1)
         length = np.linalg.norm(out, axis=1)
-        return _readonly(out / np.where(length > 0, length, 1.0)[:, None])
+        return readonly(out / np.where(length > 0, length, 1.0)[:, None])
 
     return mesh.cached("vertex_normals:max", build)
 
@@ -148,7 +148,7 @@ def principal_curvatures(mesh: TriMesh) -> PrincipalCurvatures:
     True
     """
 
-    return mesh.cached(CACHE_KEY, lambda: _estimate(mesh))
+    return mesh.cached("principal_curvatures", lambda: _estimate(mesh))
 
 
 #: Key of :func:`principal_curvatures` in the mesh's cache.
@@ -163,17 +163,17 @@ def _estimate(mesh: TriMesh) -> PrincipalCurvatures:
     theta = 0.5 * np.arctan2(2.0 * b, a - c)  # angle of the κ_1 eigenvector
     B = mesh.face_bases
     d1 = np.cos(theta)[:, None] * B[:, 0] + np.sin(theta)[:, None] * B[:, 1]
-    d2 = _cross(mesh.face_normals, d1)
+    d2 = cross_rows(mesh.face_normals, d1)
     return PrincipalCurvatures(
-        _readonly(mean + half),
-        _readonly(mean - half),
-        _readonly(d1),
-        _readonly(d2),
-        _readonly(S),
+        readonly(mean + half),
+        readonly(mean - half),
+        readonly(d1),
+        readonly(d2),
+        readonly(S),
     )
 
 
 def principal_curvatures_transient(mesh: TriMesh) -> PrincipalCurvatures:
     """:func:`principal_curvatures` from the mesh's cache when there, else computed without
     storing it: for one-shot users on big meshes (0.07 GB at 750k faces)."""
-    return mesh._cache.get(CACHE_KEY) or _estimate(mesh)
+    return mesh.peek_cached(CACHE_KEY) or _estimate(mesh)

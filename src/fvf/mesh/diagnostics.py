@@ -13,8 +13,10 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DuplicateVertexWarning, FvfError, format_indices
-from . import repair as _repair
-from .trimesh import DEGENERATE_AREA_RTOL, TriMesh, _validate_arrays
+from . import halfedges
+from .defects import duplicate_faces, raw_arrays, repeats_vertex, zero_area_faces
+from .repair import orient_faces, remove_duplicate_vertices, remove_unreferenced_vertices
+from .trimesh import DEGENERATE_AREA_RTOL, TriMesh, validate_arrays
 
 __all__ = ["mesh_report", "NEEDLE_ANGLE_DEG"]
 
@@ -43,6 +45,14 @@ def _problem(kind: str, what: str, fix: str) -> str:
 
 def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
     """Every repairable problem of finite, in-range arrays, each naming its repair."""
+    problems = _vertex_problems(X, F, report)
+    ok_faces = _face_problems(X, F, report, problems)
+    _topology_problems(X, F[ok_faces], report, problems)
+    return problems
+
+
+def _vertex_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
+    """Unreferenced vertices (a problem) and coincident ones (a hint)."""
     problems = []
     n = X.shape[0]
     used = np.zeros(n, dtype=bool)
@@ -57,7 +67,7 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
                 "V, F, kept = fvf.remove_unreferenced_vertices(V, F)",
             )
         )
-    welded = _repair.remove_duplicate_vertices(X, F)
+    welded = remove_duplicate_vertices(X, F)
     dup_v = np.flatnonzero(welded.vertex_origin[welded.vertex_map] != np.arange(n))
     report["duplicate_vertices"] = int(dup_v.size)
     if dup_v.size:  # legitimate after a split, so a hint and not a problem
@@ -66,8 +76,13 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
             "surface is cut there (an unwelded soup, a seam, or a split vertex). To weld them: "
             "fvf.remove_duplicate_vertices(V, F), then run fvf info again"
         ]
-    repeats = _repair._repeats_vertex(F)
-    flat = ~repeats & _repair._zero_area(X, F, DEGENERATE_AREA_RTOL)
+    return problems
+
+
+def _face_problems(X: np.ndarray, F: np.ndarray, report: dict, problems: list[str]) -> np.ndarray:
+    """Degenerate and duplicate faces; returns the faces to check the topology of, bool (m,)."""
+    repeats = repeats_vertex(F)
+    flat = ~repeats & zero_area_faces(X, F, DEGENERATE_AREA_RTOL)
     report["degenerate_faces"] = int(repeats.sum() + flat.sum())
     if repeats.any():
         problems.append(
@@ -85,7 +100,7 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
                 "fvf.remove_degenerate_faces(V, F) (it may open a crack; see docs/repair.md)",
             )
         )
-    duplicate, reversed_ = _repair._duplicate_faces(F)
+    duplicate, reversed_ = duplicate_faces(F)
     report["duplicate_faces"] = int(duplicate.sum())
     if duplicate.any():
         problems.append(
@@ -96,22 +111,27 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
                 "fvf.remove_duplicate_faces(V, F)",
             )
         )
-    ok_faces = ~(repeats | duplicate)
-    G = F[ok_faces]
-    ha, hb, bad, (edges, _, _) = _repair._edge_pairs(G, n)
+    return ~(repeats | duplicate)
+
+
+def _topology_problems(X: np.ndarray, G: np.ndarray, report: dict, problems: list[str]) -> None:
+    """Non-manifold edges, then non-manifold vertices and orientation, of the faces ``G``."""
+    n = X.shape[0]
+    runs = halfedges.sort_halfedges(G, n)
+    bad = np.flatnonzero(runs.counts > 2)
     report["nonmanifold_edges"] = int(bad.size)
     if bad.size:
         problems.append(
             _problem(
                 "NonManifoldError",
-                f"edges {[tuple(map(int, e)) for e in edges[bad[:5]]]} ({bad.size} in all) "
+                f"edges {[tuple(map(int, e)) for e in runs.edges[bad[:5]]]} ({bad.size} in all) "
                 "are shared by more than two faces (duplicates aside)",
                 "fvf.split_nonmanifold_edges(V, F) (cuts the faces apart along them)",
             )
         )
         report["orientation"] = "unknown (non-manifold edges)"
-        return problems
-    n_fans, fan = _repair._corner_fans(G, ha, hb)
+        return
+    n_fans, fan = halfedges.corner_fans(G, runs)
     vertex_of_fan = np.empty(n_fans, dtype=np.int64)
     vertex_of_fan[fan] = G.ravel()
     fans = np.bincount(vertex_of_fan, minlength=n)
@@ -125,25 +145,27 @@ def _find_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
                 "fvf.split_nonmanifold_vertices(V, F)",
             )
         )
+    report["orientation"] = _orientation(X, G, problems)
+
+
+def _orientation(X: np.ndarray, G: np.ndarray, problems: list[str]) -> str:
+    """ "consistent", "inconsistent" or "non-orientable" (edge-manifold faces ``G``)."""
     try:
-        oriented = _repair.orient_faces(X, G, outward=False)
+        oriented = orient_faces(X, G, outward=False)
     except FvfError as exc:
-        report["orientation"] = "non-orientable"
         problems.append(f"{type(exc).__name__}: {exc}")
-        return problems
-    if oriented.changed:
-        report["orientation"] = "inconsistent"
-        problems.append(
-            _problem(
-                "OrientationError",
-                f"faces {format_indices(oriented.face_origin[oriented.flipped])} are oriented "
-                "against their neighbours",
-                "fvf.orient_faces(V, F)",
-            )
+        return "non-orientable"
+    if not oriented.changed:
+        return "consistent"
+    problems.append(
+        _problem(
+            "OrientationError",
+            f"faces {format_indices(oriented.face_origin[oriented.flipped])} are oriented "
+            "against their neighbours",
+            "fvf.orient_faces(V, F)",
         )
-    else:
-        report["orientation"] = "consistent"
-    return problems
+    )
+    return "inconsistent"
 
 
 def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
@@ -174,9 +196,9 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
     X = np.asarray(vertices)
     F = np.asarray(faces)
     try:
-        X, F = _repair._arrays(X, F)
+        X, F = raw_arrays(X, F)
         if F.shape[0] == 0 or X.shape[0] == 0:
-            _validate_arrays(X, F)  # raises MeshShapeError for the empty mesh
+            validate_arrays(X, F)  # raises MeshShapeError for the empty mesh
     except FvfError as exc:
         report["problems"].append(f"{type(exc).__name__}: {exc}")
         return report
@@ -202,7 +224,7 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
             report.get("nonmanifold_edges") or report.get("nonmanifold_vertices")
         )
         return report
-    X, F, _ = _repair.remove_unreferenced_vertices(X, F)
+    X, F, _ = remove_unreferenced_vertices(X, F)
     try:
         with warnings.catch_warnings():  # a soup is reported as a hint, not a warning
             warnings.simplefilter("ignore", DuplicateVertexWarning)

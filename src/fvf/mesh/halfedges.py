@@ -8,6 +8,11 @@ every interior half-edge (its neighbour in the run). The twins give the fans of 
 around each vertex without a graph search, and the sorted edges give the 1-ring sparsity
 pattern of the vertex operators (Lemma 8) without another pass over the faces.
 
+The repairs (:mod:`fvf.mesh.repair`) and the report of ``fvf info``
+(:mod:`fvf.mesh.diagnostics`) read broken meshes through the same pass: edges in more
+than two faces are runs longer than two, and :func:`corner_fans` joins corners across the
+two-face edges whatever their orientation.
+
 Half-edge ``h = 3t + i`` is the edge opposite corner ``i`` of face ``t``: it runs from
 ``F[t, i+1]`` to ``F[t, i+2]`` (indices mod 3), so half-edges and corners share their
 indices.
@@ -18,13 +23,18 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "EdgeRuns",
     "sort_halfedges",
     "misoriented_edges",
+    "faces_of_edges",
+    "edge_pairs",
     "edge_corners",
     "vertex_fans",
+    "corner_fans",
     "OneRing",
     "one_ring",
     "assembly_slots",
@@ -96,7 +106,9 @@ def sort_halfedges(faces: np.ndarray, n_vertices: int) -> EdgeRuns:
     Parameters
     ----------
     faces : int64 (m, 3)
-        Valid vertex indices in ``[0, n_vertices)``, no face repeating a vertex.
+        Valid vertex indices in ``[0, n_vertices)``. A face that repeats a vertex (only
+        the repairs see such faces) gives a loop edge ``(i, i)`` and two half-edges of
+        one face on its other edge.
     n_vertices : int
 
     Returns
@@ -147,6 +159,29 @@ def misoriented_edges(runs: EdgeRuns) -> np.ndarray:
     two = np.flatnonzero(runs.counts == 2)
     p = runs.starts[two]
     return two[runs.backward[p] == runs.backward[p + 1]]
+
+
+def faces_of_edges(runs: EdgeRuns, edges: np.ndarray) -> np.ndarray:
+    """Sorted faces that contain one of ``edges`` (indices into ``runs.edges``), int64 (k,)."""
+    marked = np.zeros(runs.counts.size, dtype=bool)
+    marked[edges] = True
+    return np.unique(runs.halfedges[np.repeat(marked, runs.counts)] // 3)
+
+
+def edge_pairs(runs: EdgeRuns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The two half-edges of every edge in exactly two faces, in any orientation.
+
+    Returns
+    -------
+    first, second : int64 (k,)
+        Half-edges ``3t + i`` of the two faces, ``first`` running from the smaller to the
+        larger vertex unless both run the other way; edges in ``runs.edges`` order.
+    same : bool (k,)
+        The two faces traverse the edge in the same direction (inconsistent orientation).
+    """
+    p = runs.starts[runs.counts == 2]
+    h = runs.halfedges
+    return h[p], h[p + 1], runs.backward[p] == runs.backward[p + 1]
 
 
 def edge_corners(runs: EdgeRuns) -> np.ndarray:
@@ -219,6 +254,40 @@ def vertex_fans(
     if not closed:
         fans += np.bincount(flat[ends], minlength=n)
     return fans
+
+
+def corner_fans(faces: np.ndarray, runs: EdgeRuns) -> tuple[int, np.ndarray]:
+    """Fans of any mesh: the corners at one vertex joined across the two-face edges.
+
+    Unlike :func:`vertex_fans` this takes faces as found (before the repairs): any
+    orientation, edges in more than two faces (which join nothing, so the faces on them
+    fall into separate fans). Corners are matched by vertex: half-edge ``3t + i`` runs from
+    corner ``3t + i + 1`` to corner ``3t + i + 2`` (mod 3 within the face), and across an
+    edge its tail corner joins the corner of the other face at the same vertex. One
+    ``connected_components`` call over the 3m corners labels the fans.
+
+    Parameters
+    ----------
+    faces : int64 (m, 3)
+    runs : EdgeRuns
+        :func:`sort_halfedges` of ``faces``.
+
+    Returns
+    -------
+    count : int
+        Number of fans (of corners: a vertex in no face has none).
+    labels : int64 (3m,)
+        The fan of corner ``3t + i``.
+    """
+    size = faces.size
+    a, b, same = edge_pairs(runs)
+    a_tail, a_head = a + _NEXT_STEP[a % 3], a + _PREV_STEP[a % 3]
+    b_tail, b_head = b + _NEXT_STEP[b % 3], b + _PREV_STEP[b % 3]
+    rows = np.concatenate([a_tail, a_head])
+    cols = np.concatenate([np.where(same, b_tail, b_head), np.where(same, b_head, b_tail)])
+    graph = sp.coo_array((np.ones(rows.size), (rows, cols)), shape=(size, size))
+    count, labels = connected_components(graph, directed=False)
+    return int(count), labels.astype(np.int64)
 
 
 class OneRing(NamedTuple):

@@ -52,6 +52,8 @@ __all__ = [
     "as_growth_limit",
     "max_row_norm",
     "unit_scale",
+    "real_array",
+    "check_finite",
 ]
 
 #: Normal components up to this times max_t |u_t| count as round-off and are kept
@@ -143,7 +145,14 @@ def unit_scale(a: np.ndarray) -> float:
     return float(2.0 ** np.floor(np.log2(big)))
 
 
-def _real_array(a: npt.ArrayLike, name: str) -> np.ndarray:
+def real_array(a: npt.ArrayLike, name: str) -> np.ndarray:
+    """``a`` as float64, any shape.
+
+    Raises
+    ------
+    FieldShapeError
+        Ragged nested lists, or not real numbers (``name`` in the message).
+    """
     return _real_array_and_dtype(a, name)[0]
 
 
@@ -159,7 +168,9 @@ def _real_array_and_dtype(a: npt.ArrayLike, name: str) -> tuple[np.ndarray, np.d
     return np.asarray(a, dtype=np.float64), a.dtype
 
 
-def _check_finite(a: np.ndarray, name: str, what: str) -> None:
+def check_finite(a: np.ndarray, name: str, what: str) -> None:
+    """Raise :class:`FieldValueError` naming the rows of ``a`` (``what``: "vertices",
+    "faces", ...) that hold NaN or inf."""
     bad = ~np.isfinite(a)
     if bad.any():
         idx = np.flatnonzero(bad.reshape(a.shape[0], -1).any(axis=1))
@@ -182,7 +193,7 @@ def as_vertex_function(
     FieldValueError
         Non-finite values (naming the vertices).
     """
-    a = _real_array(f, name)
+    a = real_array(f, name)
     n = mesh.n_vertices
     ok = a.ndim == 1 and a.shape[0] == n
     if columns:
@@ -193,7 +204,7 @@ def as_vertex_function(
             f"{name} must be a function on the {n} vertices, shape {want}; got shape "
             f"{a.shape}. Fix: one value per vertex, in the order of mesh.vertices."
         )
-    _check_finite(a, name, "vertices")
+    check_finite(a, name, "vertices")
     return a
 
 
@@ -208,13 +219,13 @@ def as_face_function(mesh: TriMesh, f: npt.ArrayLike, name: str = "f") -> np.nda
     FieldValueError
         Non-finite values (naming the faces).
     """
-    a = _real_array(f, name)
+    a = real_array(f, name)
     m = mesh.n_faces
     if a.shape != (m,):
         raise FieldShapeError(
             f"{name} must be a function on the {m} faces, shape ({m},); got shape {a.shape}."
         )
-    _check_finite(a, name, "faces")
+    check_finite(a, name, "faces")
     return a
 
 
@@ -265,7 +276,7 @@ def as_face_field(
             f"{name} must be a per-face vector field of shape ({m}, 3) or ({3 * m},); got "
             f"{a.shape}{hint}."
         )
-    _check_finite(a, name, "faces")
+    check_finite(a, name, "faces")
     if tangent == "ignore":
         return a
     N = mesh.face_normals

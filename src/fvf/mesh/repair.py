@@ -21,13 +21,14 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import (
-    MeshIndexError,
-    MeshShapeError,
-    NonFiniteError,
-    NonManifoldError,
-    OrientationError,
-    format_indices,
+from ..errors import NonFiniteError, NonManifoldError, OrientationError, format_indices
+from . import halfedges
+from .defects import (
+    duplicate_faces,
+    nonmanifold_message,
+    raw_arrays,
+    repeats_vertex,
+    zero_area_faces,
 )
 from .trimesh import DEGENERATE_AREA_RTOL
 
@@ -208,172 +209,6 @@ def _result(
     )
 
 
-# ---------------------------------------------------------------------------- input and tables
-def _arrays(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Check shapes, dtypes and index range; allow faces that repeat a vertex, and m = 0.
-
-    The returned arrays may be the caller's own (no copy): the repairs never write into them.
-    """
-    try:
-        V = np.asarray(vertices)
-        F = np.asarray(faces)
-    except ValueError as exc:  # ragged nested lists
-        raise MeshShapeError(
-            f"vertices and faces must be rectangular arrays ({exc}). Fix: pass (n, 3) "
-            "vertices and (m, 3) faces."
-        ) from exc
-    if V.ndim != 2 or V.shape[1] != 3 or not (V.dtype.kind in "fiu" or V.size == 0):
-        raise MeshShapeError(
-            f"vertices must be real numbers of shape (n, 3); got {V.dtype} {V.shape}. "
-            "Fix: pass one xyz row per vertex."
-        )
-    if F.ndim != 2 or F.shape[1] != 3 or not (F.dtype.kind in "iu" or F.size == 0):
-        raise MeshShapeError(
-            f"faces must be integers of shape (m, 3); got {F.dtype} {F.shape}. Fix: "
-            "triangulate polygons first and pass faces.astype(np.int64)."
-        )
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    out = (F < 0) | (F >= V.shape[0])
-    if out.any():
-        bad = np.flatnonzero(out.any(axis=1))
-        raise MeshIndexError(
-            f"faces {format_indices(bad)} refer to vertex indices outside [0, {V.shape[0]}). "
-            "No repair can guess the intended vertex: fix the faces (0-based indices)."
-        )
-    return V, F
-
-
-def _repeats_vertex(F: np.ndarray) -> np.ndarray:
-    """Faces that list a vertex twice, bool (m,)."""
-    return (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])
-
-
-def _zero_area(V: np.ndarray, F: np.ndarray, area_rtol: float) -> np.ndarray:
-    """Faces of (numerically) zero area by TriMesh's rule, bool (m,).
-
-    Area <= ``area_rtol`` times the longest edge squared (``DEGENERATE_AREA_RTOL`` is the
-    threshold :class:`fvf.TriMesh` uses). Faces with non-finite corners are not flagged.
-    """
-    P = V[F]
-    e = P[:, [2, 0, 1]] - P[:, [1, 2, 0]]  # edge opposite each corner, (m, 3, 3)
-    area = 0.5 * np.linalg.norm(np.cross(e[:, 2], -e[:, 1]), axis=1)
-    return area <= area_rtol * np.einsum("tij,tij->ti", e, e).max(axis=1, initial=0.0)
-
-
-def _half_edges(F: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Undirected edges of the half-edges ``F[t, i] -> F[t, i+1]`` (corner order).
-
-    Returns
-    -------
-    edges : int64 (E, 2)
-        Sorted undirected edges ``(lo, hi)``.
-    edge_of : int64 (3m,)
-        Edge of half-edge ``3t + i``.
-    counts : int64 (E,)
-        Number of faces on each edge.
-    order : int64 (3m,)
-        Half-edges sorted by edge, so an edge's half-edges are consecutive.
-    """
-    tail = F.ravel()
-    head = F[:, [1, 2, 0]].ravel()
-    key = np.minimum(tail, head) * max(n, 1) + np.maximum(tail, head)
-    order = np.argsort(key)  # one sort gives the edges, their counts and the grouping
-    ks = key[order]
-    new = np.empty(ks.size, dtype=bool)
-    new[:1] = True
-    np.not_equal(ks[1:], ks[:-1], out=new[1:])
-    starts = np.flatnonzero(new)
-    counts = np.diff(np.append(starts, ks.size))
-    edge_of = np.empty(ks.size, dtype=np.int64)
-    edge_of[order] = np.cumsum(new) - 1
-    key = ks[starts]
-    edges = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
-    return edges, edge_of, counts, order
-
-
-def _edge_pairs(
-    F: np.ndarray, n: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Half-edge pairs of the manifold interior edges, and the non-manifold edges.
-
-    Returns
-    -------
-    ha, hb : int64 (k,)
-        The two half-edges ``3t + i`` of each edge that has exactly two faces.
-    nonmanifold : int64 (j,)
-        Indices into ``edges`` of edges with more than two faces.
-    (edges, counts, edge_of) : as in :func:`_half_edges`.
-    """
-    edges, edge_of, counts, order = _half_edges(F, n)
-    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    two = np.flatnonzero(counts == 2)
-    ha, hb = order[start[two]], order[start[two] + 1]
-    return ha, hb, np.flatnonzero(counts > 2), (edges, counts, edge_of)
-
-
-def _nonmanifold_message(
-    F: np.ndarray, edges: np.ndarray, counts: np.ndarray, edge_of: np.ndarray, bad: np.ndarray
-) -> str:
-    faces = np.unique(np.flatnonzero(np.isin(edge_of, bad)) // 3)
-    dup = np.flatnonzero(_duplicate_faces(F)[0])
-    hint = (
-        f"faces {format_indices(dup)} repeat another face: call fvf.remove_duplicate_faces(V, F) "
-        "first"
-        if dup.size
-        else "call fvf.split_nonmanifold_edges(V, F) to cut the faces apart along them"
-    )
-    return (
-        f"edges {[tuple(map(int, e)) for e in edges[bad[:5]]]} ({bad.size} in all) are shared "
-        f"by {int(counts[bad].max())} or more faces (faces {format_indices(faces)}). Fix: {hint}."
-    )
-
-
-def _duplicate_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Faces repeating the vertex set of an earlier face, and whether in the opposite order.
-
-    Returns
-    -------
-    duplicate : bool (m,)
-        True for every face but the first with its vertex set.
-    reversed_ : bool (m,)
-        True for duplicates whose cyclic order differs from the first face's.
-    """
-    m = F.shape[0]
-    key = np.sort(F, axis=1)
-    even = ((F[:, 0] < F[:, 1]).astype(int) + (F[:, 1] < F[:, 2]) + (F[:, 2] < F[:, 0])) == 2
-    if m == 0:
-        return np.zeros(0, bool), np.zeros(0, bool)
-    order = np.lexsort((np.arange(m), key[:, 2], key[:, 1], key[:, 0]))
-    ks = key[order]
-    new = np.ones(m, dtype=bool)
-    new[1:] = (ks[1:] != ks[:-1]).any(axis=1)
-    first = order[np.flatnonzero(new)][np.cumsum(new) - 1]  # first face of each one's group
-    duplicate = np.zeros(m, dtype=bool)
-    duplicate[order] = first != order
-    reversed_ = np.zeros(m, dtype=bool)
-    reversed_[order] = duplicate[order] & (even[order] != even[first])
-    return duplicate, reversed_
-
-
-def _corner_fans(F: np.ndarray, ha: np.ndarray, hb: np.ndarray) -> tuple[int, np.ndarray]:
-    """Fans: corners ``3t + i`` at one vertex joined across the manifold edges.
-
-    Corners are matched by vertex, so this works for any orientation: half-edge ``h = 3t +
-    i`` runs from corner ``h`` to corner ``3t + (i + 1) % 3``.
-    """
-    m = F.shape[0]
-    flat = F.ravel()
-    a_tail, a_head = ha, 3 * (ha // 3) + (ha % 3 + 1) % 3
-    b_tail, b_head = hb, 3 * (hb // 3) + (hb % 3 + 1) % 3
-    same = flat[a_tail] == flat[b_tail]  # the two faces traverse the edge the same way
-    r = np.concatenate([a_tail, a_head])
-    k = np.concatenate([np.where(same, b_tail, b_head), np.where(same, b_head, b_tail)])
-    g = sp.coo_array((np.ones(r.size), (r, k)), shape=(3 * m, 3 * m))
-    count, labels = connected_components(g, directed=False)
-    return int(count), labels.astype(np.int64)
-
-
 # ---------------------------------------------------------------------------- repairs
 def remove_unreferenced_vertices(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> RepairResult:
     """Drop vertices that no face uses, keeping the order of the others.
@@ -390,7 +225,7 @@ def remove_unreferenced_vertices(vertices: npt.ArrayLike, faces: npt.ArrayLike) 
         restricts a function to the new mesh); ``vertex_map`` (n,) is ``-1`` for the dropped
         vertices. Faces are only re-indexed. Unpacks as ``V, F, kept``.
     """
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     n = V.shape[0]
     used = np.zeros(n, dtype=bool)
     used[F.ravel()] = True
@@ -435,7 +270,7 @@ def remove_duplicate_vertices(
     NonFiniteError
         ``tol > 0`` and some coordinates are NaN or inf.
     """
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     n = V.shape[0]
     if tol < 0:
         raise ValueError(f"tol must be >= 0, got {tol}")
@@ -476,7 +311,7 @@ def remove_duplicate_vertices(
             f"remove_duplicate_vertices: merged vertices {format_indices(merged)} into "
             f"coincident lower-index vertices ({n} -> {kept.size} vertices)"
         )
-        rep_faces = np.flatnonzero(_repeats_vertex(F2) & ~_repeats_vertex(F))
+        rep_faces = np.flatnonzero(repeats_vertex(F2) & ~repeats_vertex(F))
         if rep_faces.size:
             log += (
                 f"; faces {format_indices(rep_faces)} now repeat a vertex: call "
@@ -512,9 +347,9 @@ def remove_degenerate_faces(
     only by dropped faces become unreferenced: the log says so; call
     :func:`remove_unreferenced_vertices`.
     """
-    V, F = _arrays(vertices, faces)
-    repeats = _repeats_vertex(F)
-    flat = ~repeats & _zero_area(V, F, area_rtol)
+    V, F = raw_arrays(vertices, faces)
+    repeats = repeats_vertex(F)
+    flat = ~repeats & zero_area_faces(V, F, area_rtol)
     keep = ~(repeats | flat)
     kept = np.flatnonzero(keep)
     log = ""
@@ -560,8 +395,8 @@ def remove_duplicate_faces(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> Rep
     non-manifold or the orientation inconsistent; which normal is right is then decided by
     :func:`orient_faces` from the neighbours, not by which copy came first.
     """
-    V, F = _arrays(vertices, faces)
-    duplicate, reversed_ = _duplicate_faces(F)
+    V, F = raw_arrays(vertices, faces)
+    duplicate, reversed_ = duplicate_faces(F)
     kept = np.flatnonzero(~duplicate)
     log = ""
     if duplicate.any():
@@ -615,16 +450,14 @@ def orient_faces(
     into its two sheets. A component is non-orientable exactly when a face's two nodes land
     on one sheet.
     """
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     n, m = V.shape[0], F.shape[0]
-    ha, hb, bad, (edges, counts, edge_of) = _edge_pairs(F, n)
+    runs = halfedges.sort_halfedges(F, n)
+    bad = np.flatnonzero(runs.counts > 2)
     if bad.size:
-        raise NonManifoldError(
-            "cannot orient: " + _nonmanifold_message(F, edges, counts, edge_of, bad)
-        )
+        raise NonManifoldError("cannot orient: " + nonmanifold_message(F, runs, bad))
+    ha, hb, same = halfedges.edge_pairs(runs)  # same direction: different flips needed
     ta, tb = ha // 3, hb // 3
-    flat = F.ravel()
-    same = flat[ha] == flat[hb]  # same direction: the two faces need different flips
     r = np.concatenate([ta, ta + m])
     k = np.concatenate([np.where(same, tb + m, tb), np.where(same, tb, tb + m)])
     g = sp.coo_array((np.ones(r.size), (r, k)), shape=(2 * m, 2 * m))
@@ -649,7 +482,7 @@ def orient_faces(
     invert = 2 * np.bincount(comp, weights=flip, minlength=n_labels) > size
     if outward and m:
         open_face = np.zeros(m, dtype=bool)
-        open_face[np.flatnonzero(counts[edge_of] == 1) // 3] = True
+        open_face[halfedges.faces_of_edges(runs, np.flatnonzero(runs.counts == 1))] = True
         closed = np.bincount(comp, weights=open_face, minlength=n_labels) == 0
         c = V[F[:, 0]].mean(axis=0)  # volumes about a point near the mesh, for precision
         a, b, d = (V[F[:, i]] - c for i in range(3))
@@ -674,13 +507,12 @@ def orient_faces(
 
 def _split_fans(V: np.ndarray, F: np.ndarray, cut_edges: bool) -> RepairResult:
     n, m = V.shape[0], F.shape[0]
-    ha, hb, bad, (edges, counts, edge_of) = _edge_pairs(F, n)
+    runs = halfedges.sort_halfedges(F, n)
+    bad = np.flatnonzero(runs.counts > 2)
     name = "split_nonmanifold_edges" if cut_edges else "split_nonmanifold_vertices"
     if bad.size and not cut_edges:
-        raise NonManifoldError(
-            "cannot split vertices: " + _nonmanifold_message(F, edges, counts, edge_of, bad)
-        )
-    n_fans, fan = _corner_fans(F, ha, hb)
+        raise NonManifoldError("cannot split vertices: " + nonmanifold_message(F, runs, bad))
+    n_fans, fan = halfedges.corner_fans(F, runs)
     flat = F.ravel()
     vertex_of_fan = np.empty(n_fans, dtype=np.int64)
     vertex_of_fan[fan] = flat
@@ -704,13 +536,15 @@ def _split_fans(V: np.ndarray, F: np.ndarray, cut_edges: bool) -> RepairResult:
             f"({extra.size} new vertices {n}..{n + extra.size - 1})"
         )
         if cut_edges and bad.size:
-            log += f"; cut along edges {[tuple(map(int, e)) for e in edges[bad[:5]]]}"
+            log += f"; cut along edges {[tuple(map(int, e)) for e in runs.edges[bad[:5]]]}"
             log += f" ({bad.size} in all) shared by more than two faces"
     if cut_edges:
-        _, _, still, (e2, c2, eo2) = _edge_pairs(F2, origin.size)
+        cut = halfedges.sort_halfedges(F2, origin.size)
+        still = np.flatnonzero(cut.counts > 2)
         if still.size:
+            named = [tuple(map(int, e)) for e in cut.edges[still[:5]]]
             raise NonManifoldError(
-                f"{name}: after cutting, edges {[tuple(map(int, e)) for e in e2[still[:5]]]} "
+                f"{name}: after cutting, edges {named} "
                 "are still shared by more than two faces (their faces meet around both ends "
                 "through other edges). Fix: remove those faces."
             )
@@ -746,7 +580,7 @@ def split_nonmanifold_vertices(vertices: npt.ArrayLike, faces: npt.ArrayLike) ->
         Some edge is in more than two faces; the message says whether duplicated faces
         cause it (:func:`remove_duplicate_faces`) or to call :func:`split_nonmanifold_edges`.
     """
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     return _split_fans(V, F, cut_edges=False)
 
 
@@ -779,7 +613,7 @@ def split_nonmanifold_edges(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> Re
     Duplicated faces also make edges non-manifold; remove them with
     :func:`remove_duplicate_faces` first, or the copies end up as separate loose triangles.
     """
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     return _split_fans(V, F, cut_edges=True)
 
 
@@ -843,7 +677,7 @@ def repair_mesh(
     unknown = [s for s in steps if s not in REPAIR_STEPS]
     if unknown:
         raise ValueError(f"unknown repair steps {unknown}; choose from {list(REPAIR_STEPS)}")
-    V, F = _arrays(vertices, faces)
+    V, F = raw_arrays(vertices, faces)
     total = _result(V.copy(), F.copy(), V.shape[0], F.shape[0])
     for step in steps:
         kwargs = {"tol": tol} if step == "remove_duplicate_vertices" else {}

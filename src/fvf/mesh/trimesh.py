@@ -3,13 +3,15 @@
 A :class:`TriMesh` holds an embedding ``X`` (n, 3) and oriented faces (m, 3). It is
 validated once, at construction, and never changes; every derived quantity (areas,
 normals, frames, edges, adjacency, and the operators of :mod:`fvf.calculus`) is computed
-on first use and cached on the instance.
+on first use and cached on the instance. The operators and tables the layers above build
+are kept under names declared in :mod:`fvf.mesh.cache`: :meth:`TriMesh.cache_info` lists
+them with their size and :meth:`TriMesh.clear_cache` drops them.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import cached_property
 from typing import Any, TypeVar
 
@@ -32,8 +34,10 @@ from ..errors import (
     user_stacklevel,
 )
 from . import halfedges
+from .cache import quantity_name, value_nbytes
+from .geometry import cross_rows, edge_components, readonly
 
-__all__ = ["TriMesh"]
+__all__ = ["TriMesh", "validate_arrays"]
 
 _T = TypeVar("_T")
 
@@ -57,47 +61,6 @@ _WELD = (
 #: fourth power of the extent (squared areas) and of its inverse (squared Laplacian
 #: entries) must stay normal float64 numbers.
 EXTENT_RANGE = (1e-75, 1e75)
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (k, 3) arrays (faster than ``np.cross`` for large k)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
-def edge_components(coordinates: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Edge vectors opposite each corner, component-major: float64 (3, k, 3).
-
-    ``out[c, t, i]`` is coordinate c of ``X(corners[t, i+2]) - X(corners[t, i+1])``
-    (indices mod 3), the edge e_{t,i} of eq. (27) when ``corners`` is the face.
-
-    Parameters
-    ----------
-    coordinates : float64 (3, n)
-        The vertex positions, one contiguous row per coordinate (``X.T`` copied).
-    corners : int64 (k, 3)
-        Vertex indices of each triangle, in the cyclic order wanted.
-
-    Notes
-    -----
-    Gathering one coordinate at a time reads 8-byte values from a contiguous row instead
-    of 24-byte vertex rows: 5-10x faster than ``X[F]`` for large meshes.
-    """
-    out = np.empty((3, corners.shape[0], 3))
-    for c in range(3):
-        p = coordinates[c].take(corners)  # (k, 3)
-        np.subtract(p[:, 2], p[:, 1], out=out[c, :, 0])
-        np.subtract(p[:, 0], p[:, 2], out=out[c, :, 1])
-        np.subtract(p[:, 1], p[:, 0], out=out[c, :, 2])
-    return out
 
 
 def _face_geometry_arrays(
@@ -165,7 +128,9 @@ class TriMesh:
     unreferenced vertex (:class:`UnreferencedVertexError`). Derived quantities are cached
     on first use; every array returned is read-only, and cached sparse operators share
     read-only buffers, so an accidental in-place change raises instead of corrupting the
-    cache.
+    cache. The operators and tables cached for the layers above are declared in
+    :mod:`fvf.mesh.cache`; :meth:`cache_info` lists those a mesh holds with their size,
+    :meth:`clear_cache` frees them.
 
     Examples
     --------
@@ -183,9 +148,9 @@ class TriMesh:
     _cache: dict[str, Any]
 
     def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
-        X, F = _validate_arrays(vertices, faces)
-        object.__setattr__(self, "vertices", _readonly(X))
-        object.__setattr__(self, "faces", _readonly(F))
+        X, F = validate_arrays(vertices, faces)
+        object.__setattr__(self, "vertices", readonly(X))
+        object.__setattr__(self, "faces", readonly(F))
         object.__setattr__(self, "_cache", {})
         self._validate_geometry()
         try:
@@ -216,16 +181,86 @@ class TriMesh:
             f"euler_characteristic={self.euler_characteristic})"
         )
 
+    # ------------------------------------------------------------------ cache
     def cached(self, key: str, build: Callable[[], _T]) -> _T:
         """Return ``build()`` computed once per mesh and stored under ``key``.
 
-        Used by :mod:`fvf.calculus` to cache operators that depend on the mesh only.
+        Parameters
+        ----------
+        key : str
+            A name declared in :data:`fvf.mesh.cache.CACHED_QUANTITIES`, optionally
+            followed by ``":"`` and the variant (the parameters the value depends on).
+        build : callable
+            Computes the value from the mesh only; its arrays should be read-only
+            (:func:`fvf.mesh.geometry.readonly`, :func:`fvf.mesh.geometry.readonly_csr`).
+
+        Raises
+        ------
+        UndeclaredCacheKeyError
+            ``key`` does not start with a declared name.
         """
         cache = self._cache
         if key not in cache:
+            quantity_name(key)
             cache[key] = build()
         value: _T = cache[key]
         return value
+
+    def peek_cached(self, key: str) -> Any:
+        """The value cached under ``key``, or None when it has not been computed (or was
+        dropped); never builds it. For one-shot users that should not keep a large value.
+        """
+        quantity_name(key)
+        return self._cache.get(key)
+
+    def cache_info(self) -> dict[str, int]:
+        """What the mesh's cache holds: each key and the bytes of its arrays.
+
+        Returns
+        -------
+        dict of str to int
+            Keys in the order they were computed (declared in
+            :data:`fvf.mesh.cache.CACHED_QUANTITIES`). Buffers shared by two values (the
+            Laplacian shares its index arrays with the stiffness matrix) count under
+            each; factorizations count as zero (:func:`fvf.mesh.cache.value_nbytes`).
+            The arrays validated at construction (edges, areas, normals, the 1-ring
+            pattern) are properties of the mesh, not entries of this cache.
+        """
+        return {key: value_nbytes(value) for key, value in self._cache.items()}
+
+    def clear_cache(self, names: str | Sequence[str] | None = None) -> int:
+        """Drop cached quantities to free memory; they are recomputed, identically, on use.
+
+        Parameters
+        ----------
+        names : str or sequence of str, optional
+            Declared names (every variant of each is dropped: ``"face_mass"`` drops
+            ``"face_mass:1"`` and ``"face_mass:3"``) or full keys. None drops everything.
+
+        Returns
+        -------
+        int
+            Bytes of the dropped values, as :meth:`cache_info` counts them. The memory is
+            freed once no other reference holds the values (an operator returned earlier
+            stays valid).
+
+        Raises
+        ------
+        UndeclaredCacheKeyError
+            A name that is not declared.
+        """
+        cache = self._cache
+        if names is None:
+            keys = list(cache)
+        else:
+            wanted = {names} if isinstance(names, str) else set(names)
+            for name in wanted:
+                quantity_name(name)
+            keys = [k for k in cache if k in wanted or quantity_name(k) in wanted]
+        freed = value_nbytes([cache[k] for k in keys])
+        for key in keys:
+            del cache[key]
+        return freed
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -247,8 +282,8 @@ class TriMesh:
     @cached_property
     def _face_geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Face areas (m,), unit normals (m, 3), squared edge lengths |e_{t,i}|² (m, 3)."""
-        areas, normals, edge_sq = _face_geometry_arrays(self._vertex_columns, self.faces)
-        return _readonly(areas), _readonly(normals), _readonly(edge_sq)
+        areas, normals, edge_sq = _face_geometry_arrays(self.vertex_columns, self.faces)
+        return readonly(areas), readonly(normals), readonly(edge_sq)
 
     @cached_property
     def face_areas(self) -> np.ndarray:
@@ -261,12 +296,12 @@ class TriMesh:
         return self._face_geometry[1]
 
     @cached_property
-    def _vertex_columns(self) -> np.ndarray:
+    def vertex_columns(self) -> np.ndarray:
         """The vertex coordinates one per contiguous row, float64 (3, n) (``X.T``)."""
-        return _readonly(np.ascontiguousarray(self.vertices.T))
+        return readonly(np.ascontiguousarray(self.vertices.T))
 
     @property
-    def _edge_lengths_sq(self) -> np.ndarray:
+    def face_edge_lengths_sq(self) -> np.ndarray:
         """|e_{t,i}|²: squared length of the edge opposite each corner, float64 (m, 3)."""
         return self._face_geometry[2]
 
@@ -274,12 +309,12 @@ class TriMesh:
     def vertex_areas(self) -> np.ndarray:
         """A_V: barycentric vertex areas, one third of the adjacent face areas, float64 (n,)."""
         a = np.repeat(self.face_areas / 3.0, 3)
-        return _readonly(np.bincount(self.faces.ravel(), weights=a, minlength=self.n_vertices))
+        return readonly(np.bincount(self.faces.ravel(), weights=a, minlength=self.n_vertices))
 
     @cached_property
     def face_centroids(self) -> np.ndarray:
         """Barycenter of each face, float64 (m, 3)."""
-        return _readonly(self.vertices[self.faces].mean(axis=1))
+        return readonly(self.vertices[self.faces].mean(axis=1))
 
     @cached_property
     def face_edge_vectors(self) -> np.ndarray:
@@ -287,8 +322,8 @@ class TriMesh:
 
         Indexed ``[t, i, :]``; these are the edges of eq. (27).
         """
-        e = edge_components(self._vertex_columns, self.faces)
-        return _readonly(np.ascontiguousarray(e.transpose(1, 2, 0)))
+        e = edge_components(self.vertex_columns, self.faces)
+        return readonly(np.ascontiguousarray(e.transpose(1, 2, 0)))
 
     @cached_property
     def face_bases(self) -> np.ndarray:
@@ -299,8 +334,8 @@ class TriMesh:
         """
         e = -self.face_edge_vectors[:, 2]  # x1 - x0, (m, 3)
         b1 = e / np.linalg.norm(e, axis=1)[:, None]
-        b2 = _cross(self.face_normals, b1)
-        return _readonly(np.stack([b1, b2], axis=1))
+        b2 = cross_rows(self.face_normals, b1)
+        return readonly(np.stack([b1, b2], axis=1))
 
     @cached_property
     def mean_edge_length(self) -> float:
@@ -364,7 +399,7 @@ class TriMesh:
         """
         runs = halfedges.sort_halfedges(self.faces, self.n_vertices)
         self._check_edge_runs(runs)
-        return _readonly(runs.edges), _readonly(halfedges.edge_corners(runs))
+        return readonly(runs.edges), readonly(halfedges.edge_corners(runs))
 
     @cached_property
     def edges(self) -> np.ndarray:
@@ -372,7 +407,7 @@ class TriMesh:
         return self._connectivity[0]
 
     @cached_property
-    def _edge_corners(self) -> np.ndarray:
+    def edge_corners(self) -> np.ndarray:
         """Corner ``3t + a`` opposite each edge on each side, int64 (E, 2); -1 if missing.
 
         Side 0 is the face traversing the edge from ``edges[e, 0]`` to ``edges[e, 1]``.
@@ -382,11 +417,11 @@ class TriMesh:
     @cached_property
     def face_edges(self) -> np.ndarray:
         """Index into :attr:`edges` of the edge opposite each corner, int64 (m, 3)."""
-        c = self._edge_corners.ravel()
+        c = self.edge_corners.ravel()
         has = c >= 0
         out = np.empty(3 * self.n_faces, dtype=np.int64)
         out[c[has]] = np.flatnonzero(has) // 2
-        return _readonly(out.reshape(-1, 3))
+        return readonly(out.reshape(-1, 3))
 
     @cached_property
     def edge_faces(self) -> np.ndarray:
@@ -395,29 +430,29 @@ class TriMesh:
         Column 0 is the face that traverses the edge from ``edges[e, 0]`` to
         ``edges[e, 1]``, column 1 the face traversing it the other way.
         """
-        c = self._edge_corners
-        return _readonly(np.where(c >= 0, c // 3, -1))
+        c = self.edge_corners
+        return readonly(np.where(c >= 0, c // 3, -1))
 
     @cached_property
     def face_adjacency(self) -> np.ndarray:
         """The face across the edge opposite each corner, int64 (m, 3); -1 on the boundary."""
-        c = self._edge_corners
+        c = self.edge_corners
         c = c[(c >= 0).all(axis=1)]  # interior edges: the two half-edges are twins
         out = np.full(3 * self.n_faces, -1, dtype=np.int64)
         out[c[:, 0]] = c[:, 1] // 3
         out[c[:, 1]] = c[:, 0] // 3
-        return _readonly(out.reshape(-1, 3))
+        return readonly(out.reshape(-1, 3))
 
     @cached_property
     def boundary_edges(self) -> np.ndarray:
         """Indices into :attr:`edges` of edges with one face, int64 (b,)."""
-        c = self._edge_corners
-        return _readonly(np.flatnonzero(np.minimum(c[:, 0], c[:, 1]) < 0))
+        c = self.edge_corners
+        return readonly(np.flatnonzero(np.minimum(c[:, 0], c[:, 1]) < 0))
 
     @cached_property
     def boundary_vertices(self) -> np.ndarray:
         """Sorted indices of vertices on the boundary, int64."""
-        return _readonly(np.unique(self.edges[self.boundary_edges]))
+        return readonly(np.unique(self.edges[self.boundary_edges]))
 
     @property
     def is_closed(self) -> bool:
@@ -449,7 +484,7 @@ class TriMesh:
             (np.ones(2 * F.shape[0]), (F[:, [0, 1]].ravel(), F[:, [1, 2]].ravel())), shape=(n, n)
         )
         count, labels = connected_components(g, directed=False)
-        return int(count), _readonly(labels.astype(np.int64))
+        return int(count), readonly(labels.astype(np.int64))
 
     @property
     def n_components(self) -> int:
@@ -481,7 +516,7 @@ class TriMesh:
     def _one_ring(self) -> halfedges.OneRing:
         """The 1-ring CSR pattern and the positions of each edge and vertex in it."""
         ring = halfedges.one_ring(self.edges, self.n_vertices)
-        return halfedges.OneRing(*(_readonly(a) for a in ring))
+        return halfedges.OneRing(*(readonly(a) for a in ring))
 
     @cached_property
     def vertex_pattern(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -501,8 +536,8 @@ class TriMesh:
             local blocks ``K[t]`` has data ``bincount(slots.ravel(), K.ravel())``.
         """
         ring = self._one_ring
-        slots = halfedges.assembly_slots(self.faces, self._edge_corners, ring)
-        return ring.indptr, ring.indices, _readonly(slots)
+        slots = halfedges.assembly_slots(self.faces, self.edge_corners, ring)
+        return ring.indptr, ring.indices, readonly(slots)
 
     def assemble_vertex_operator(
         self, local: np.ndarray, diagonal: np.ndarray | None = None
@@ -557,7 +592,7 @@ class TriMesh:
 
     # ------------------------------------------------------------------ validation
     def _validate_geometry(self) -> None:
-        X = self._vertex_columns  # (3, n): reductions along contiguous rows
+        X = self.vertex_columns  # (3, n): reductions along contiguous rows
         extent = float((X.max(axis=1) - X.min(axis=1)).max())
         lo, hi = EXTENT_RANGE
         if extent > 0 and not lo <= extent <= hi:
@@ -576,7 +611,7 @@ class TriMesh:
                 "`V, F, kept = fvf.remove_unreferenced_vertices(V, F)` (kept maps new to old "
                 "indices)."
             )
-        sq = self._edge_lengths_sq
+        sq = self.face_edge_lengths_sq
         longest = np.maximum(np.maximum(sq[:, 0], sq[:, 1]), sq[:, 2])
         bad = np.flatnonzero(self.face_areas <= DEGENERATE_AREA_RTOL * longest)
         if bad.size:
@@ -607,7 +642,7 @@ class TriMesh:
     @cached_property
     def _faces_per_vertex(self) -> np.ndarray:
         """Number of faces (corners) at each vertex, int64 (n,)."""
-        return _readonly(np.bincount(self.faces.ravel(), minlength=self.n_vertices))
+        return readonly(np.bincount(self.faces.ravel(), minlength=self.n_vertices))
 
     def _validate_topology(self) -> None:
         self._connectivity  # noqa: B018  (the sorted pass checks edges and orientation)
@@ -620,7 +655,7 @@ class TriMesh:
             raise NonManifoldError(
                 f"edges {[tuple(map(int, x)) for x in runs.edges[bad[:5]]]} ({bad.size} in "
                 f"all) are shared by more than two faces (faces "
-                f"{format_indices(_faces_of_edges(runs, bad))}); duplicated faces "
+                f"{format_indices(halfedges.faces_of_edges(runs, bad))}); duplicated faces "
                 "cause this too. Fix: `fvf.remove_duplicate_faces(V, F)` for duplicates, "
                 "otherwise cut the mesh there with `fvf.split_nonmanifold_edges(V, F)`."
             )
@@ -628,7 +663,7 @@ class TriMesh:
         inconsistent = halfedges.misoriented_edges(runs)
         if inconsistent.size:
             raise OrientationError(
-                f"faces {format_indices(_faces_of_edges(runs, inconsistent))} traverse a "
+                f"faces {format_indices(halfedges.faces_of_edges(runs, inconsistent))} traverse a "
                 "shared edge in the same direction as their neighbour (edges "
                 f"{format_indices(inconsistent)}), so the normals are inconsistent. Fix: "
                 "`fvf.orient_faces(V, F)` orients every component consistently (or flip the "
@@ -645,7 +680,7 @@ class TriMesh:
         """
         fans = halfedges.vertex_fans(
             self.faces,
-            self._edge_corners,
+            self.edge_corners,
             self.n_vertices,
             int(self._faces_per_vertex.max()),
         )
@@ -656,13 +691,6 @@ class TriMesh:
                 f"{int(fans[bad].max())} separate fans (two surfaces touch at a vertex). Fix: "
                 "`fvf.split_nonmanifold_vertices(V, F)` gives each fan its own copy."
             )
-
-
-def _faces_of_edges(runs: halfedges.EdgeRuns, edges: np.ndarray) -> np.ndarray:
-    """Sorted faces that contain one of ``edges`` (indices into ``runs.edges``)."""
-    marked = np.zeros(runs.counts.size, dtype=bool)
-    marked[edges] = True
-    return np.unique(runs.halfedges[np.repeat(marked, runs.counts)] // 3)
 
 
 def _coincident_vertices(X: np.ndarray) -> int:
@@ -681,9 +709,24 @@ def _as_array(a: npt.ArrayLike, name: str) -> np.ndarray:
         ) from exc
 
 
-def _validate_arrays(
-    vertices: npt.ArrayLike, faces: npt.ArrayLike
-) -> tuple[np.ndarray, np.ndarray]:
+def validate_arrays(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The checks :class:`TriMesh` runs on its raw arrays, before geometry and topology.
+
+    Returns
+    -------
+    X : float64 (n, 3)
+    F : int64 (m, 3)
+        C-contiguous copies (the caller's arrays are never changed).
+
+    Raises
+    ------
+    MeshShapeError
+        Wrong shapes or dtypes, or an empty mesh.
+    NonFiniteError
+        NaN or inf coordinates.
+    MeshIndexError
+        An index outside ``[0, n)``, or a face that repeats a vertex.
+    """
     X = _as_array(vertices, "vertices")
     F = _as_array(faces, "faces")
     if X.ndim != 2 or X.shape[1] != 3:

@@ -22,7 +22,8 @@ For n > :data:`DENSE_MAX` the default is a *block shift-invert Krylov–Schur* i
    All diagonal pivots must come out positive; otherwise K is not positive definite
    and the factorization counts as failed.
 3. Iterate on T = [M]^½ K⁻¹ [M]^½ (symmetric; its largest eigenvalues θ = 1/(λ − σ)
-   are the wanted ones) with a block Krylov–Schur method (Stewart 2002): block
+   are the wanted ones) with a block Krylov–Schur method (Stewart 2002;
+   :mod:`fvf.numerics.krylov_schur`): block
    Lanczos steps build an orthonormal basis of up to k + min(max(k, 100), ...) vectors,
    then Rayleigh–Ritz and a thick restart keeps the k + (basis − k)/2 best Ritz vectors.
    Each step solves with one block of b right-hand sides (b = clamp(k/16, 6, 8), at
@@ -65,25 +66,14 @@ n ≤ :data:`DENSE_FALLBACK_MAX`), and a :class:`SpectralFallbackWarning` says w
 and what was used instead. Nothing is printed. If the chain is exhausted,
 :class:`SpectralSolveError` is raised with every failure's reason.
 
-Residual measure
-----------------
-For an eigenpair (λ, φ) the relative residual is::
-
-    res = ‖Wφ − λ[M]φ‖_{M⁻¹} / ((|λ| + ν) · ‖φ‖_M),
-    ‖r‖_{M⁻¹}² = Σ_i r_i² / mass_i,   ‖φ‖_M² = Σ_i mass_i φ_i²,
-    ν = max_i Σ_j |W_ij| / sqrt(mass_i · mass_j),
-
-which is the normwise backward error of the eigenpair of the symmetric matrix
- = [M]^-½ W [M]^-½ (with the eigenvector [M]^½ φ), except that ‖Â‖₂ is replaced by
-its row-sum (Gershgorin) upper bound ν. It is computed by :func:`eigen_residuals`;
-every returned pair satisfies ``res ≤ tol``.
-
-Sign convention
----------------
-Each eigenvector is multiplied by ±1 so that its entry of largest magnitude is positive
-(the first such index on exact ties). Vectors of a multiple eigenvalue are one
-[M]-orthonormal basis of the eigenspace, which depends on ``seed``; with the same inputs
-and seed the output is identical from call to call.
+Residual measure and sign convention
+------------------------------------
+Every returned pair has the relative residual of :func:`eigen_residuals` at most ``tol``,
+and its eigenvector the sign convention of :mod:`fvf.numerics.eigenpairs` (the entry of
+largest magnitude positive), both applied by
+:func:`~fvf.numerics.eigenpairs.normalized_eigenpairs`. Vectors of a multiple eigenvalue
+are one [M]-orthonormal basis of the eigenspace, which depends on ``seed``; with the same
+inputs and seed the output is identical from call to call.
 
 Randomness is seeded only (``numpy.random.default_rng(seed)``): the start block of the
 Krylov iteration and the start vector of the eigsh path.
@@ -103,13 +93,22 @@ import scipy.sparse.csgraph  # noqa: F401  (sp.csgraph)
 import scipy.sparse.linalg as spla
 
 from ..errors import (  # noqa: F401 (re-exported)
+    FactorizationError,
     FvfError,
     FvfWarning,
     SpectralFallbackWarning,
     SpectralInputError,
     SpectralSolveError,
 )
-from .cholesky import ND_MIN, available_backends, factor_hermitian, symmetric_splu
+from .cholesky import (  # noqa: F401 (ND_MIN re-exported)
+    ND_MIN,
+    SPDFactor,
+    available_backends,
+    factor_hermitian,
+    superlu_factor,
+)
+from .eigenpairs import eigen_residuals, normalized_eigenpairs, spectral_norm_bound
+from .krylov_schur import CHECK_EVERY, block_krylov_schur, block_size  # noqa: F401 (re-exported)
 from .progress import ProgressCallback, make_progress
 
 __all__ = [
@@ -129,8 +128,6 @@ METHODS = ("auto", "krylov", "eigsh", "dense")
 DENSE_MAX = 500  # auto uses dense eigh up to this many vertices
 DENSE_K_MAX_N = 8000  # ... and also when 3k >= n, up to this many vertices
 DENSE_FALLBACK_MAX = 8000  # the fallback chain ends with dense eigh up to this size
-_ORTH_SKIP = 1e-13  # a Gram-Schmidt pass whose coefficients are all below this is skipped
-CHECK_EVERY = 24  # Ritz residuals are checked every ~this many new basis vectors
 SHIFT_FACTOR = 1e-8  # sigma = -SHIFT_FACTOR * mean(diag W / mass)
 
 Method = Literal["auto", "krylov", "eigsh", "dense"]
@@ -138,33 +135,13 @@ Ordering = Literal["auto", "mmd", "nd"]
 ORDERINGS = ("auto", "mmd", "nd")
 
 
-class _MethodFailed(Exception):
-    """Internal: a method of the chain failed (the message says why)."""
+#: A method of the chain failed (the message says why): the next one is tried. Every
+#: method reports failure with this typed error (a factorization's FactorizationError is
+#: one too), so nothing untyped reaches the caller when the chain is exhausted.
+_MethodFailed = SpectralSolveError
 
 
 # ------------------------------------------------------------------------ public helpers
-def spectral_norm_bound(W: sp.sparray | sp.spmatrix, mass: npt.ArrayLike) -> float:
-    """ν = max_i Σ_j |W_ij| / sqrt(mass_i mass_j): an upper bound of ‖[M]^-½ W [M]^-½‖₂.
-
-    Parameters
-    ----------
-    W : sparse array, shape (n, n)
-        Symmetric stiffness matrix.
-    mass : array_like of float, shape (n,)
-        Positive lumped mass.
-
-    Returns
-    -------
-    float
-        The row-sum (Gershgorin) bound of the largest eigenvalue of W φ = λ[M]φ.
-    """
-    W = sp.csr_array(W)
-    s = 1.0 / np.sqrt(np.asarray(mass, dtype=np.float64))
-    A = abs(W)
-    rows = s * (A @ s)
-    return float(rows.max()) if rows.size else 0.0
-
-
 def default_shift(W: sp.sparray | sp.spmatrix, mass: npt.ArrayLike) -> float:
     """σ = −10⁻⁸ · mean(diag W / mass): the negative shift of the shift-invert methods.
 
@@ -182,47 +159,6 @@ def default_shift(W: sp.sparray | sp.spmatrix, mass: npt.ArrayLike) -> float:
     if not np.isfinite(scale) or scale <= 0.0:
         scale = 1.0
     return -SHIFT_FACTOR * scale
-
-
-def eigen_residuals(
-    W: sp.sparray | sp.spmatrix,
-    mass: npt.ArrayLike,
-    evals: npt.ArrayLike,
-    evecs: npt.ArrayLike,
-) -> np.ndarray:
-    """Relative residuals ‖Wφ − λ[M]φ‖_{M⁻¹} / ((|λ| + ν) ‖φ‖_M) of eigenpairs.
-
-    ν is :func:`spectral_norm_bound` (an upper bound of the largest eigenvalue); see the
-    module docstring for the meaning of this measure.
-
-    Parameters
-    ----------
-    W : sparse array, shape (n, n)
-    mass : array_like of float, shape (n,)
-    evals : array_like of float, shape (k,)
-    evecs : array_like of float, shape (n, k)
-
-    Returns
-    -------
-    numpy.ndarray of float64, shape (k,)
-    """
-    W = sp.csr_array(W)
-    m = np.asarray(mass, dtype=np.float64)
-    lam = np.atleast_1d(np.asarray(evals, dtype=np.float64))
-    X = np.asarray(evecs, dtype=np.float64)
-    if X.ndim == 1:
-        X = X[:, None]
-    n = W.shape[0]
-    if m.shape != (n,) or X.shape != (n, lam.size):
-        raise SpectralInputError(
-            f"eigen_residuals needs mass ({n},) and evecs ({n}, {lam.size}) for "
-            f"{lam.size} eigenvalues and W {W.shape}; got mass {m.shape}, evecs {X.shape}"
-        )
-    nu = spectral_norm_bound(W, m)
-    R = W @ X - (m[:, None] * X) * lam[None, :]
-    rnorm = np.sqrt(np.einsum("ij,ij->j", R, R / m[:, None]))
-    xnorm = np.sqrt(np.einsum("ij,ij->j", X, X * m[:, None]))
-    return rnorm / ((np.abs(lam) + nu) * xnorm)
 
 
 # --------------------------------------------------------------------------- validation
@@ -361,16 +297,16 @@ def smallest_eigenpairs(
             lam, X = solvers[name](
                 W, m, k, tol=tol, seed=seed, maxiter=maxiter, ordering=ordering, **options
             )
-            lam, X, res = _finish(W, m, X)
+            lam, X, res = normalized_eigenpairs(W, m, X)
             if not np.all(res <= tol):
                 worst = int(np.argmax(res))
-                raise _MethodFailed(
+                raise SpectralSolveError(
                     f"residual check failed: pair {worst} has relative residual "
                     f"{res[worst]:.3g} > tol = {tol:.3g}"
                 )
-        except (_MethodFailed, RuntimeError, np.linalg.LinAlgError, ValueError) as exc:
-            if isinstance(exc, FvfError):
-                raise
+        except (RuntimeError, np.linalg.LinAlgError, ValueError) as exc:
+            if isinstance(exc, FvfError) and not isinstance(exc, SpectralSolveError):
+                raise  # bad input: no method can do better
             failures.append(f"{name}: {type(exc).__name__}: {exc}")
             if i + 1 < len(chain):
                 warnings.warn(
@@ -384,35 +320,6 @@ def smallest_eigenpairs(
     raise SpectralSolveError(
         "smallest_eigenpairs: every method failed:\n  " + "\n  ".join(failures)
     )
-
-
-# ------------------------------------------------------------------------------ finish
-def _finish(
-    W: sp.csr_array, m: np.ndarray, X: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """M-normalize, Rayleigh-quotient eigenvalues, ascending order, sign convention.
-
-    Returns (evals, evecs, relative residuals), sharing one product W @ X.
-    """
-    X = np.asarray(X, dtype=np.float64)
-    if X.ndim != 2 or not np.all(np.isfinite(X)):
-        raise _MethodFailed("non-finite eigenvectors")
-    norms = np.sqrt(np.einsum("ij,ij->j", X, X * m[:, None]))
-    if np.any(norms == 0):
-        raise _MethodFailed("zero eigenvector")
-    X = X / norms
-    WX = W @ X
-    rq = np.einsum("ij,ij->j", X, WX)
-    order = np.argsort(rq, kind="stable")
-    lam, X, WX = rq[order], X[:, order], WX[:, order]
-    idx = np.argmax(np.abs(X), axis=0)
-    sign = np.where(X[idx, np.arange(X.shape[1])] < 0, -1.0, 1.0)
-    X *= sign
-    WX *= sign
-    R = WX - (m[:, None] * X) * lam[None, :]
-    rnorm = np.sqrt(np.einsum("ij,ij->j", R, R / m[:, None]))
-    res = rnorm / (np.abs(lam) + spectral_norm_bound(W, m))
-    return np.ascontiguousarray(lam), X, res
 
 
 # ------------------------------------------------------------------------------ dense
@@ -436,62 +343,11 @@ def _solve_eigsh(W, m, k, *, tol, seed, maxiter, ordering=None):
         # maps to roughly the same relative residual here; ask for 1000x more.
         lam, X = spla.eigsh(W.tocsc(), k, M=M, sigma=sigma, which="LM", v0=v0, tol=1e-3 * tol)
     except spla.ArpackNoConvergence as exc:
-        raise _MethodFailed(f"ARPACK did not converge: {exc}") from exc
+        raise SpectralSolveError(f"ARPACK did not converge: {exc}") from exc
     return lam, X
 
 
 # ------------------------------------------------------------------------------ krylov
-class SPDFactor:
-    """A sparse factorization of a symmetric positive definite K, kept for solves.
-
-    SuperLU in symmetric mode (diagonal pivots only) on K or on its symmetric permutation
-    ``K[perm][:, perm]`` by a nested-dissection order (:func:`~.ordering.nested_dissection`).
-
-    Attributes
-    ----------
-    lu : scipy.sparse.linalg.SuperLU
-        The factorization (of the permuted matrix when ``perm`` is not None).
-    perm : ndarray of int64 (n,) or None
-        The symmetric permutation applied before SuperLU.
-    ordering : {"mmd", "nd"}
-        The fill-reducing ordering used.
-    """
-
-    def __init__(self, lu: spla.SuperLU, perm: np.ndarray | None, ordering: str) -> None:
-        self.lu = lu
-        self.perm = perm
-        self.ordering = ordering
-
-    @property
-    def pivots(self) -> np.ndarray:
-        """Diagonal of U (n,): all positive for a positive definite K."""
-        return self.lu.U.diagonal()
-
-    @property
-    def nnz(self) -> int:
-        """Entries of the factors L and U."""
-        return int(self.lu.L.nnz + self.lu.U.nnz)
-
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        """K⁻¹ B for B of shape (n,) or (n, p) (float64)."""
-        B = np.asarray(B, dtype=np.float64)
-        if self.perm is None:
-            return self.lu.solve(B)
-        X = np.empty(B.shape)
-        X[self.perm] = self.lu.solve(np.asfortranarray(B[self.perm]))
-        return X
-
-
-def _splu_symmetric(K: Any, ordering: Ordering = "auto") -> SPDFactor:
-    """SuperLU of a symmetric K with diagonal pivots, after the requested ordering."""
-    if ordering not in ORDERINGS:
-        raise SpectralInputError(f"ordering must be one of {ORDERINGS}; got {ordering!r}")
-    if ordering == "auto":
-        ordering = "nd" if K.shape[0] >= ND_MIN else "mmd"
-    lu, perm = symmetric_splu(K, ordering)
-    return SPDFactor(lu, perm, ordering)
-
-
 def factor_spd(K: sp.sparray | sp.spmatrix, ordering: Ordering = "auto") -> SPDFactor:
     """Symmetric-mode SuperLU factorization of a symmetric positive definite K.
 
@@ -509,21 +365,22 @@ def factor_spd(K: sp.sparray | sp.spmatrix, ordering: Ordering = "auto") -> SPDF
     Returns
     -------
     SPDFactor
+        The SuperLU member of the factorization family (:mod:`fvf.numerics.cholesky`).
 
-    Raises ``_MethodFailed`` when SuperLU reports a singular matrix or a pivot is not
-    positive (K is not positive definite).
+    Raises
+    ------
+    SpectralInputError
+        Unknown ordering.
+    FactorizationError
+        SuperLU found K singular, or a pivot is not positive (K is not positive definite).
     """
-    try:
-        fac = _splu_symmetric(K, ordering)
-    except RuntimeError as exc:
-        raise _MethodFailed(f"factorization of W - sigma*M failed ({exc})") from exc
-    piv = fac.pivots
-    if not np.all(np.isfinite(piv)) or np.any(piv <= 0):
-        raise _MethodFailed(
-            "factorization of W - sigma*M has non-positive pivots "
-            "(W is not positive semidefinite, or is too ill-conditioned)"
-        )
-    return fac
+    return superlu_factor(K, _checked_ordering(ordering))
+
+
+def _checked_ordering(ordering: Any) -> Ordering:
+    if ordering not in ORDERINGS:
+        raise SpectralInputError(f"ordering must be one of {ORDERINGS}; got {ordering!r}")
+    return ordering
 
 
 def _fast_factor(K: sp.csc_array, seed: int | None) -> Any:
@@ -536,10 +393,10 @@ def _fast_factor(K: sp.csc_array, seed: int | None) -> Any:
         return None
     try:
         fac = factor_hermitian(K, backend=fast[0])
-        b = np.random.default_rng(seed).standard_normal(K.shape[0])
-        x = fac.solve(b)
-    except Exception:  # noqa: BLE001 - a backend's own failure: use SuperLU instead
+    except FactorizationError:  # the backend's failure, typed: use SuperLU instead
         return None
+    b = np.random.default_rng(seed).standard_normal(K.shape[0])
+    x = fac.solve(b)
     res = np.linalg.norm(K @ x - b) / np.linalg.norm(b)
     if not (np.isfinite(x).all() and res <= 1e-8):
         return None
@@ -585,7 +442,7 @@ def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto", report=None):
         return np.ascontiguousarray((Khat @ Yt.T).T)
 
     ncomp = sp.csgraph.connected_components(W, directed=False)[0]
-    b = max(_block_size(n, k), min(ncomp + 2, 64, n // 8))
+    b = max(block_size(n, k), min(ncomp + 2, 64, n // 8))
     rng = np.random.default_rng(seed)
     for attempt in range(3):
         theta, Yt = block_krylov_schur(
@@ -610,12 +467,12 @@ def _solve_krylov(W, m, k, *, tol, seed, maxiter, ordering="auto", report=None):
             break
         tau, found, below = missed
         if below < found:
-            raise _MethodFailed(
+            raise SpectralSolveError(
                 f"inertia check failed: {found} computed eigenvalues but only {below} "
                 f"eigenvalues of the pencil below {tau:.6g}"
             )
         if attempt == 2:
-            raise _MethodFailed(
+            raise SpectralSolveError(
                 f"missed {below - found} eigenvalue(s) below {tau:.6g} after 3 attempts"
             )
         b_new = min(2 * b + below - found, n // 4)
@@ -636,22 +493,30 @@ def count_eigenvalues_below(
     """Number of eigenvalues of W φ = λ[M]φ below ``tau`` (Sylvester's law of inertia).
 
     Counts the negative pivots of a symmetric-mode (diagonal-pivot) SuperLU
-    factorization of W − τ[M]. Raises ``RuntimeError`` if SuperLU had to pivot off the
-    diagonal or the matrix is singular, since the count would then be unreliable.
-    ``ordering`` is the fill-reducing ordering (see :func:`factor_spd`).
+    factorization of W − τ[M]. ``ordering`` is the fill-reducing ordering (see
+    :func:`factor_spd`).
 
     Returns
     -------
     int
+
+    Raises
+    ------
+    SpectralInputError
+        Unknown ordering.
+    SpectralSolveError
+        (a ``RuntimeError``; :class:`~fvf.errors.FactorizationError` when SuperLU found
+        the matrix singular) SuperLU had to pivot off the diagonal or met a zero pivot:
+        the count would be unreliable.
     """
     W = sp.csr_array(W)
     m = np.asarray(mass, dtype=np.float64)
-    fac = _splu_symmetric(W - tau * sp.diags_array(m), ordering)
+    fac = superlu_factor(W - tau * sp.diags_array(m), _checked_ordering(ordering), check=False)
     if not np.array_equal(fac.lu.perm_r, fac.lu.perm_c):
-        raise RuntimeError("off-diagonal pivoting: inertia count unavailable")
+        raise SpectralSolveError("off-diagonal pivoting: inertia count unavailable")
     d = fac.pivots
     if not np.all(np.isfinite(d)) or np.any(d == 0):
-        raise RuntimeError("singular pivot: inertia count unavailable")
+        raise SpectralSolveError("singular pivot: inertia count unavailable")
     return int(np.count_nonzero(d < 0))
 
 
@@ -690,185 +555,6 @@ def _inertia_check(
     found = i + 1
     try:
         below = count_eigenvalues_below(W, m, tau, ordering)
-    except RuntimeError:
+    except SpectralSolveError:
         return None
     return None if below == found else (tau, found, below)
-
-
-def _block_size(n: int, k: int) -> int:
-    return int(max(1, min(max(6, k // 16), 8, n // 8)))
-
-
-def _orth_block(
-    Q: np.ndarray, j: int, Y: np.ndarray, rng: np.random.Generator, local_from: int = 0
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Orthogonalize rows Y (b, n) against Q[:j], then orthonormalize them.
-
-    A local pass against Q[local_from:j] (the rows the Lanczos recurrence couples to),
-    then one full classical Gram–Schmidt pass against Q[:j], repeated while a column
-    loses more than half its norm (Daniel–Gragg–Kaufman–Stewart criterion), then
-    Cholesky QR twice. Returns C (j, b), Qn (b, n) orthonormal rows and R (b, b) with
-    Y_in = Q[:j]ᵀ C + Qnᵀ R. Rank-deficient directions are replaced by random ones
-    orthogonal to everything (their rows of R are zero).
-    """
-    b, n = Y.shape
-    C = np.zeros((j, b))
-    norm0 = np.sqrt(np.einsum("ij,ij->i", Y, Y))
-    if j > 0:
-        if local_from > 0:
-            L = Q[local_from:j]
-            Cl = L @ Y.T
-            Y = Y - Cl.T @ L
-            C[local_from:j] += Cl
-        before = np.sqrt(np.einsum("ij,ij->i", Y, Y))
-        Qj = Q[:j]
-        for _ in range(3):
-            Cf = Qj @ Y.T
-            if np.abs(Cf).max() <= _ORTH_SKIP * before.min():
-                break  # already orthogonal to working precision: skip the update
-            Y = Y - Cf.T @ Qj
-            C += Cf
-            after = np.sqrt(np.einsum("ij,ij->i", Y, Y))
-            if np.all(after >= 0.5 * before):
-                break
-            before = after
-    scale = max(float(norm0.max()), np.finfo(float).tiny)
-    G = Y @ Y.T
-    d = np.sqrt(np.maximum(np.diag(G), 0.0))
-    if d.min() > 1e-6 * scale:
-        try:
-            R1 = sla.cholesky(G, lower=False)
-            Q1 = sla.solve_triangular(R1, np.eye(b), lower=False).T @ Y
-            R2 = sla.cholesky(Q1 @ Q1.T, lower=False)
-            Qn = sla.solve_triangular(R2, np.eye(b), lower=False).T @ Q1
-            return C, Qn, R2 @ R1
-        except np.linalg.LinAlgError:
-            pass
-    # rank-revealing path
-    Qf, R, piv = sla.qr(Y.T, mode="economic", pivoting=True)
-    rank = int(np.sum(np.abs(np.diag(R)) > 1e-10 * scale))
-    Rfull = np.zeros((b, b))
-    Rfull[:, piv] = R
-    Rfull[rank:] = 0.0
-    Qn = np.ascontiguousarray(Qf.T)
-    if rank < b:
-        Zt = rng.standard_normal((b - rank, n))
-        Good = np.vstack([Q[:j], Qn[:rank]])
-        for _ in range(2):
-            Zt -= (Good @ Zt.T).T @ Good
-        Qz, _ = np.linalg.qr(Zt.T)
-        Qn = np.vstack([Qn[:rank], Qz.T])
-    return C, Qn, Rfull
-
-
-def block_krylov_schur(
-    apply_T: Callable[[np.ndarray], np.ndarray],
-    apply_Khat: Callable[[np.ndarray], np.ndarray],
-    n: int,
-    nev: int,
-    *,
-    sigma: float,
-    nu: float,
-    tol: float,
-    rng: np.random.Generator,
-    maxiter: int = 60,
-    block: int | None = None,
-    max_basis: int | None = None,
-    keep: int | None = None,
-    report: ProgressCallback | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Largest eigenpairs of the symmetric positive definite operator T by block Krylov–Schur.
-
-    Parameters
-    ----------
-    apply_T : callable
-        Rows (b, n) -> rows of T applied to each, (b, n).
-    apply_Khat : callable
-        Rows (b, n) -> rows of T⁻¹ applied to each (used for exact residuals).
-    n, nev : int
-        Problem size and number of wanted eigenpairs.
-    sigma, nu : float
-        Shift (eigenvalue λ = σ + 1/θ) and the bound ν of the residual measure.
-    tol : float
-        Target relative residual.
-    rng : numpy.random.Generator
-        Start block.
-    maxiter : int
-        Maximum number of restarts.
-    block, max_basis, keep : int, optional
-        Block size, basis size before a restart, Ritz vectors kept at a restart.
-    report : callable, optional
-        ``report("iterate", converged, nev)`` after each convergence check.
-
-    Returns
-    -------
-    theta : numpy.ndarray, shape (nev,)
-        Largest eigenvalues of T, descending.
-    Yt : numpy.ndarray, shape (nev, n)
-        Orthonormal Ritz vectors as rows.
-    """
-    b = block or _block_size(n, nev)
-    mb = max_basis or nev + max(nev, min(100, 2 * nev + 4 * b))
-    mb = int(min(mb, n - 2 * b))
-    if mb < nev + b:
-        raise _MethodFailed(f"Krylov basis ({mb}) too small for k = {nev}; n = {n}")
-    p = keep or nev + (mb - nev) // 2
-    cap = mb + 2 * b
-    Q = np.empty((cap, n))
-    H = np.zeros((cap, cap))
-    _, Q[:b], _ = _orth_block(Q, 0, rng.standard_normal((b, n)), rng)
-    j = b  # basis size; the images of Q[:j-b] under T are known
-    first = 0  # start of the block expanded first after the last restart
-    tol_int = 0.5 * tol
-    check_every = max(1, CHECK_EVERY // b)
-    rel = np.full(nev, np.inf)
-    restarts = 0
-    while True:
-        Y = apply_T(Q[j - b : j])
-        local_from = 0 if j - b == first else j - 2 * b
-        C, Qn, R = _orth_block(Q, j, Y, rng, local_from)
-        H[:j, j - b : j] = C
-        H[j : j + b, j - b : j] = R
-        Q[j : j + b] = Qn
-        j += b
-        s = j - b
-        full = s >= mb
-        if not full and (s < nev + nev // 4 + b or ((s - first) // b) % check_every):
-            continue
-        # Rayleigh–Ritz on the square part
-        theta, S = np.linalg.eigh(0.5 * (H[:s, :s] + H[:s, :s].T))
-        theta, S = theta[::-1], S[:, ::-1]
-        Bres = H[s:j, :s] @ S  # residual coefficients on Q[s:j]
-        # exact residual in the original problem: (Â − λ) y = −(1/θ) K̂ r, r = Q[s:j]ᵀ c
-        Z = apply_Khat(Q[s:j])
-        G = Z @ Z.T
-        rn = np.sqrt(np.maximum(np.einsum("ij,ik,kj->j", Bres, G, Bres), 0.0))
-        pos = theta > 0
-        th = np.where(pos, theta, 1.0)
-        lam = np.where(pos, sigma + 1.0 / th, np.inf)
-        rel = np.where(pos, rn / th, np.inf) / (np.abs(lam) + nu)
-        if report is not None:
-            report("iterate", int(np.count_nonzero(rel[:nev] <= tol_int)), nev)
-        if np.all(rel[:nev] <= tol_int):
-            return theta[:nev], S[:, :nev].T @ Q[:s]
-        if not full:
-            continue
-        if restarts == maxiter:
-            break
-        restarts += 1
-        # thick restart: Q[:p] <- best Ritz vectors, Q[p:p+b] <- last block
-        chunk = 8192
-        for c0 in range(0, n, chunk):
-            c1 = min(n, c0 + chunk)
-            Q[:p, c0:c1] = S[:, :p].T @ Q[:s, c0:c1]
-        Q[p : p + b] = Q[s:j]
-        H[:] = 0.0
-        H[:p, :p] = np.diag(theta[:p])
-        H[p : p + b, :p] = Bres[:, :p]
-        j = p + b
-        first = p
-    worst = float(np.max(rel[:nev]))
-    raise _MethodFailed(
-        f"block Krylov-Schur did not converge in {maxiter} restarts "
-        f"(worst relative residual {worst:.3g}, tol {tol:.3g})"
-    )

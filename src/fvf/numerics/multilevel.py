@@ -1,6 +1,7 @@
 """Multilevel eigensolver for large face-field pencils (ACAP fields at a million faces).
 
-The direct path of :func:`fvf.acap_fields` factors E_B − σ[A_F] (:func:`fvf.factor_spd`);
+The direct path of :func:`fvf.acap_fields` factors E_B − σ[A_F]
+(:func:`fvf.numerics.eigen.factor_spd`);
 the factor of the ACAP energy grows about 4.5x per 4x faces (10.5 GB at 375k faces), so
 above a few hundred thousand faces it does not fit in memory. This module computes the
 same eigenpairs of a sparse symmetric positive semidefinite pencil W x = λ [M] x in
@@ -72,11 +73,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .eigen import (
-    SpectralInputError,
-    SpectralSolveError,
-    spectral_norm_bound,
-)
+from ..errors import SpectralInputError, SpectralSolveError
+from .eigenpairs import normalized_eigenpairs, spectral_norm_bound
 
 __all__ = [
     "AggregationHierarchy",
@@ -570,6 +568,51 @@ def _sym(G: np.ndarray) -> np.ndarray:
     return 0.5 * (G + G.T)
 
 
+def _check_pencil(
+    W: Any, mass: npt.ArrayLike, k: Any, tol: Any, rtol: Any
+) -> tuple[sp.csr_array, np.ndarray, int]:
+    """(W as float64 CSR, mass as float64, k as int) for :func:`multilevel_eigenpairs`, or
+    :class:`~fvf.errors.SpectralInputError`."""
+    W = sp.csr_array(W, dtype=np.float64)
+    m = np.asarray(mass, dtype=np.float64)
+    n = W.shape[0]
+    if W.shape != (n, n) or m.shape != (n,) or not np.all(m > 0):
+        raise SpectralInputError(
+            f"multilevel_eigenpairs needs a square W and a positive mass ({n},); "
+            f"got W {W.shape}, mass {m.shape}"
+        )
+    if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
+        raise SpectralInputError(f"k must be a positive integer; got {k!r}")
+    k = int(k)
+    if 4 * (k + _extra(k)) > n:
+        raise SpectralInputError(f"k = {k} is too large for n = {n} (multilevel path)")
+    if not (isinstance(tol, float | int) and np.isfinite(tol) and 0 < tol < 1):
+        raise SpectralInputError(f"tol must be a number in (0, 1); got {tol!r}")
+    if not (isinstance(rtol, float | int) and np.isfinite(rtol) and 0 <= rtol < 1):
+        raise SpectralInputError(f"rtol must be a number in [0, 1); got {rtol!r}")
+    return W, m, k
+
+
+def _start_block(H: AggregationHierarchy, m: np.ndarray, p: int, seed: int) -> np.ndarray:
+    """The start block (n, p): the smallest eigenvectors of the coarsest Galerkin pencil
+    (A_L, Pᵀ[M]P), prolongated; random columns where the coarsest level is too small."""
+    n = m.size
+    if len(H.levels) == 1:
+        return np.random.default_rng(seed).standard_normal((n, p))
+    Ml = sp.diags_array(m).tocsr()
+    for lev in H.levels[:-1]:
+        Ml = (lev.R @ (Ml @ lev.P)).tocsr()
+    Mc = Ml.toarray()
+    del Ml
+    Ac = H.coarse_matrix.toarray()
+    q = min(p, Ac.shape[0] - 1)
+    _, Yc = sla.eigh(_sym(Ac), _sym(Mc), subset_by_index=[0, q - 1])
+    X0 = H.prolongate(Yc)
+    if q < p:
+        X0 = np.hstack([X0, np.random.default_rng(seed).standard_normal((n, p - q))])
+    return X0
+
+
 def multilevel_eigenpairs(
     W: sp.sparray | sp.spmatrix,
     mass: npt.ArrayLike,
@@ -631,28 +674,11 @@ def multilevel_eigenpairs(
     SpectralInputError
         Bad shapes, k or tol.
     SpectralSolveError
-        The iteration did not reach ``tol`` and ``rtol`` within ``maxiter`` iterations.
+        The iteration did not reach ``tol`` and ``rtol`` within ``maxiter`` iterations
+        (or produced non-finite vectors).
     """
-    from .eigen import _finish  # the shared normalisation / sign convention / residuals
-
-    W = sp.csr_array(W, dtype=np.float64)
-    m = np.asarray(mass, dtype=np.float64)
-    n = W.shape[0]
-    if W.shape != (n, n) or m.shape != (n,) or not np.all(m > 0):
-        raise SpectralInputError(
-            f"multilevel_eigenpairs needs a square W and a positive mass ({n},); "
-            f"got W {W.shape}, mass {m.shape}"
-        )
-    if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-        raise SpectralInputError(f"k must be a positive integer; got {k!r}")
-    k = int(k)
+    W, m, k = _check_pencil(W, mass, k, tol, rtol)
     p = k + _extra(k)
-    if 4 * p > n:
-        raise SpectralInputError(f"k = {k} is too large for n = {n} (multilevel path)")
-    if not (isinstance(tol, float | int) and np.isfinite(tol) and 0 < tol < 1):
-        raise SpectralInputError(f"tol must be a number in (0, 1); got {tol!r}")
-    if not (isinstance(rtol, float | int) and np.isfinite(rtol) and 0 <= rtol < 1):
-        raise SpectralInputError(f"rtol must be a number in [0, 1); got {rtol!r}")
     info = {} if info is None else info
     t0 = time.perf_counter()
     H = AggregationHierarchy(W, near_kernel, m, positions, graph=graph, seed=seed)
@@ -660,23 +686,8 @@ def multilevel_eigenpairs(
     info["operator_complexity"] = H.operator_complexity
     info["setup_s"] = time.perf_counter() - t0
 
-    # start block: smallest eigenvectors of the coarsest Galerkin pencil, prolongated
     t0 = time.perf_counter()
-    if len(H.levels) == 1:
-        X0 = np.random.default_rng(seed).standard_normal((n, p))
-    else:
-        Ml = sp.diags_array(m).tocsr()
-        for lev in H.levels[:-1]:
-            Ml = (lev.R @ (Ml @ lev.P)).tocsr()
-        Mc = Ml.toarray()
-        del Ml
-        Ac = H.coarse_matrix.toarray()
-        nc = Ac.shape[0]
-        q = min(p, nc - 1)
-        _, Yc = sla.eigh(_sym(Ac), _sym(Mc), subset_by_index=[0, q - 1])
-        X0 = H.prolongate(Yc)
-        if q < p:
-            X0 = np.hstack([X0, np.random.default_rng(seed).standard_normal((n, p - q))])
+    X0 = _start_block(H, m, p, seed)
     info["start_s"] = time.perf_counter() - t0
 
     sq = np.sqrt(m)
@@ -702,7 +713,7 @@ def multilevel_eigenpairs(
     info["lobpcg_s"] = time.perf_counter() - t0
     info["iterations"] = iters
     X = Y * isq[:, None]
-    lam_all, X_all, res_all = _finish(W, m, X)
+    lam_all, X_all, res_all = normalized_eigenpairs(W, m, X)
     lam, X, res = lam_all[:k], X_all[:, :k], res_all[:k]
     info["residuals"] = res
     # residual relative to λ_k: ‖r‖_{M⁻¹} / ‖x‖_M = res (|λ| + ν); x is M-normalized

@@ -36,3 +36,6 @@ __all__ = [
     "bracket_smoothness",
     "dirichlet_ratio",
 ]
+
+#: Every name of ``__all__`` is also ``fvf.name`` (the flat namespace leaves none out).
+NOT_FLAT: frozenset[str] = frozenset()

@@ -23,9 +23,10 @@ from ..calculus import (
 )
 from ..errors import FieldValueError, ParameterError
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import centered_vertices
 from ..mesh.inputs import TangentPolicy, as_face_field, as_vertex_function, unit_scale
 from ..mesh.trimesh import TriMesh
-from .directional import D_V, centered_vertices, directional_derivatives
+from .directional import D_V, directional_derivatives
 from .divergence import dtilde_entries
 
 __all__ = [

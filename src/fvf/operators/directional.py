@@ -14,8 +14,6 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import (
-    _freeze,
-    _sorted_corners,
     face_rows_csr,
     face_to_vertex,
     field_inner,
@@ -24,8 +22,11 @@ from ..calculus import (
 )
 from ..errors import FieldShapeError
 from ..mesh.convert import takes_mesh
+
+# centered_vertices is a mesh quantity; importing it from here keeps working.
+from ..mesh.geometry import centered_vertices, readonly_csr, sorted_corners
 from ..mesh.inputs import TangentPolicy, as_face_field
-from ..mesh.trimesh import TriMesh, _readonly
+from ..mesh.trimesh import TriMesh
 
 __all__ = ["directional_derivatives", "D_F", "D_V", "Dbar_F", "Dbar_V", "extract_field"]
 
@@ -65,7 +66,7 @@ def D_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project") -> 
         D^F_v, since grad is tangent.
     """
     v = as_face_field(mesh, v, "v", tangent)
-    order, Fs = _sorted_corners(mesh)
+    order, Fs = sorted_corners(mesh)
     vals = np.take_along_axis(directional_derivatives(mesh, v), order, axis=1)
     return face_rows_csr(vals, Fs, mesh.n_vertices)
 
@@ -107,7 +108,7 @@ def _D_V_scatter(mesh: TriMesh) -> sp.csr_array:
         vals = np.broadcast_to(w[:, :, None], (m, 3, 3))
         cols = np.broadcast_to((3 * np.arange(m))[:, None, None] + np.arange(3), (m, 3, 3))
         P = sp.coo_array((vals.ravel(), (slots.ravel(), cols.ravel())), (indices.size, 3 * m))
-        return _freeze(P.tocsr())
+        return readonly_csr(P.tocsr())
 
     return mesh.cached("D_V_scatter", build)
 
@@ -162,14 +163,3 @@ def extract_field(mesh: TriMesh, D: Any) -> np.ndarray:
             f"coordinates; got shape {D.shape}."
         )
     return np.asarray(D @ centered_vertices(mesh))
-
-
-def centered_vertices(mesh: TriMesh) -> np.ndarray:
-    """X minus its mean, float64 (n, 3), cached: the coordinates derivations act on.
-
-    Any D with D 1 = 0 gives D X = D (X − c); the centred form avoids the cancellation
-    of large coordinates (see :func:`extract_field`).
-    """
-    return mesh.cached(
-        "centered_vertices", lambda: _readonly(mesh.vertices - mesh.vertices.mean(axis=0))
-    )

@@ -12,7 +12,6 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import (
-    _sorted_corners,
     div,
     face_rows_csr,
     face_to_vertex,
@@ -20,6 +19,7 @@ from ..calculus import (
     vertex_to_face,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import sorted_corners
 from ..mesh.inputs import TangentPolicy, as_face_field, as_face_function, as_vertex_function
 from ..mesh.trimesh import TriMesh
 
@@ -55,7 +55,7 @@ def Dtilde_F(mesh: TriMesh, v: npt.ArrayLike, tangent: TangentPolicy = "project"
     Column t has the three entries of the corners of face t.
     """
     v = as_face_field(mesh, v, "v", tangent)
-    order, Fs = _sorted_corners(mesh)
+    order, Fs = sorted_corners(mesh)
     vals = np.take_along_axis(dtilde_entries(mesh, v), order, axis=1)
     T = face_rows_csr(vals, Fs, mesh.n_vertices)  # (m, n): the transpose, row t = face t
     return T.T.tocsr()

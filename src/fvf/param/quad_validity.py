@@ -10,7 +10,7 @@ A quad mesh :math:`(V_q, Q)` made from a triangle mesh :math:`M` is **valid** wh
    :math:`\chi = |V| - |E| + |Q|` and the number of boundary loops, and the number of
    components;
 5. no quad is folded against the surface under it
-   (:func:`fvf.param.quadfolds.folded_quads`);
+   (:func:`fvf.param.quad_folds.folded_quads`);
 6. the two surfaces lie within one quad edge of each other (two-sided Hausdorff distance
    of dense samples, relative to the mean quad edge length).
 
@@ -29,7 +29,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
-from .quadfolds import folded_quads
+from .quad_folds import folded_quads
 from .quality import surface_samples
 
 __all__ = ["QuadValidity", "check_quad_mesh", "quad_components", "topology_signature"]

@@ -21,6 +21,7 @@ from ..errors import (
     ParameterizationInputError,
     QuadMeshError,
     SmallComponentWarning,
+    UndeclaredCacheKeyError,
     format_indices,
     user_stacklevel,
 )
@@ -29,11 +30,11 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.progress import make_progress
 from .extraction import extract_quads
 from .features import CREASE_ANGLE, sharp_edges, transferred_features
-from .frames import Alignment
+from .frame_field import Alignment
 from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
-from .quadfolds import MAX_RINGS, STEPS_PER_RING, closest_surface_points, untangle_quads
+from .quad_folds import MAX_RINGS, STEPS_PER_RING, closest_surface_points, untangle_quads
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 
@@ -140,8 +141,8 @@ def _mesh_part(part: Part, plans: list[_Plan], field, opts: dict, report) -> tup
         try:
             with _captured(opts["quiet"]):
                 V, Q, vf, param, surface = _attempt(part, plan, surfaces, field, opts, report)
-        except ParameterError:
-            raise
+        except (ParameterError, UndeclaredCacheKeyError):
+            raise  # the caller's option, or a bug: not a reason to try another way
         except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
             log.append(f"{plan}: {type(exc).__name__}: {_first_line(exc)}")
             continue
@@ -208,7 +209,7 @@ def quad_mesh(
     Each connected component is meshed on its own at one target edge length h: a
     seamless parameterization (:func:`fvf.seamless_parameterization`), its integer grid
     pulled back (:func:`fvf.param.extraction.extract_quads`), quads folded in 3D untangled
-    on the surface (:func:`fvf.param.quadfolds.untangle_quads`). The result must pass
+    on the surface (:func:`fvf.param.quad_folds.untangle_quads`). The result must pass
     :func:`fvf.param.quad_validity.check_quad_mesh`: pure quads, manifold, consistently
     oriented, the input's χ and boundary loops per component, no folded quad, within one
     quad edge of the input. Otherwise the next attempt runs (``docs/quads.md``): the input
@@ -328,6 +329,7 @@ def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[li
             f"components {format_indices(labels)} are too small for quads of edge {h:.3g} "
             f"(areas {areas} target quads) and were left out; ask for more quads to keep them",
             SmallComponentWarning,
+    UndeclaredCacheKeyError,
             stacklevel=user_stacklevel(),
         )
     if not made:

@@ -14,7 +14,7 @@ Measures (all vectorized):
   (vertices, edge points and face points; exact to the sampling step);
 - **topology**: closed, manifold, Euler characteristic;
 - **folded quads**: quads whose normal faces away from the input surface
-  (:func:`fvf.param.quadfolds.folded_quads`).
+  (:func:`fvf.param.quad_folds.folded_quads`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from .quadfolds import folded_quads
+from .quad_folds import folded_quads
 from .seamless import SeamlessParameterization
 
 __all__ = ["QuadQuality", "quad_quality", "quad_topology"]
@@ -164,7 +164,7 @@ def quad_quality(
     -------
     QuadQuality
         ``n_folded`` counts the quads folded in 3D (normal against the input surface's at
-        the quad; :func:`fvf.param.quadfolds.folded_quads`).
+        the quad; :func:`fvf.param.quad_folds.folded_quads`).
     """
     V = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)

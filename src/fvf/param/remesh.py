@@ -19,7 +19,7 @@ Two remeshers:
 
 The remeshed surface is a new :class:`fvf.TriMesh`; quad vertices made on it are put
 back on the input surface at their closest points
-(:func:`fvf.param.quadfolds.closest_surface_points`).
+(:func:`fvf.param.quad_folds.closest_surface_points`).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ Pipeline (``docs/quads.md`` has the derivation):
    close singularity pairs cancelled or moved apart (:func:`fvf.cancel_close_singularities`,
    :func:`fvf.separate_close_singularities`), and its
    frame (X, Y) = (1/h)(a u, b J u) per face, h the target edge length and a, b positive
-   per-face scales (:mod:`fvf.param.frames`);
+   per-face scales (:mod:`fvf.param.frame_field`);
 2. combing and a cut graph through the singularities (:func:`fvf.comb`,
    :func:`fvf.cut_graph`; :mod:`fvf.param.cutmesh`);
 3. transition functions across the cut, uv_s = R^q uv_t + c (:mod:`fvf.param.seams`);
@@ -19,7 +19,7 @@ Pipeline (``docs/quads.md`` has the derivation):
 5. integer rounding of the chain translations and of the singular-vertex positions
    (:mod:`fvf.param.rounding`), so that every transition is a rotation by k·90° plus an
    integer translation and every cone sits on an integer point;
-6. local stiffening where uv triangles are flipped (:mod:`fvf.param.folds`).
+6. local stiffening where uv triangles are flipped (:mod:`fvf.param.uv_folds`).
 """
 
 from __future__ import annotations
@@ -47,9 +47,7 @@ from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
 from .cutmesh import CutMesh, cut_mesh
 from .features import feature_constraints
-from .folds import flip_count as _flip_count
-from .folds import repair_folds
-from .frames import (
+from .frame_field import (
     SCALINGS,
     Alignment,
     Scaling,
@@ -61,6 +59,8 @@ from .frames import (
 )
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, seam_system
+from .uv_folds import flip_count as _flip_count
+from .uv_folds import repair_folds
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
 
@@ -324,9 +324,9 @@ def seamless_parameterization(
         Closed, one component (else :class:`fvf.ParameterizationInputError`).
     field : array_like (m, 3), optional
         Cross field as one representative tangent vector per face (any of the four
-        directions). Default: :func:`fvf.param.frames.default_cross_field` with ``align``
+        directions). Default: :func:`fvf.param.frame_field.default_cross_field` with ``align``
         (curvature-aligned at the scale h, its cones measured against the connection of
-        :func:`fvf.param.frames.default_connection_rotations`).
+        :func:`fvf.param.frame_field.default_connection_rotations`).
     target_faces : int, optional
         Approximate number of quads: h = √(area / target_faces). Default m / 10.
     edge_length : float, optional
@@ -337,7 +337,7 @@ def seamless_parameterization(
         Positive per-face scalings (a, b) of the frame (a u, b J u); overrides
         ``scaling``.
     scaling : {"fitted", "commuting", "none"}
-        How the frame is scaled when ``scale`` is None (:mod:`fvf.param.frames`): the
+        How the frame is scaled when ``scale`` is None (:mod:`fvf.param.frame_field`): the
         fitted gradient lengths (``scale_iterations`` rounds, default), the chapter's
         commuting rescaling (:func:`fvf.rescale_frame`), or unit lengths.
     rounding_batch : float
@@ -346,7 +346,7 @@ def seamless_parameterization(
         Rounds of fitting and rescaling for ``scaling="fitted"``.
     stiffening_iterations : int
         While uv triangles are flipped after rounding: rounds of local repair
-        (:mod:`fvf.param.folds`).
+        (:mod:`fvf.param.uv_folds`).
     cone_cancel_radius : float
         Opposite cone pairs closer than this many edge lengths h are cancelled
         (:func:`fvf.cancel_close_singularities`), then equal ones moved apart

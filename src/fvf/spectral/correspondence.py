@@ -1,4 +1,5 @@
-"""Shape correspondence in one call: :func:`match` and :func:`symmetry_map`.
+"""Shape correspondence in one call: :func:`match` (the vertex map), :func:`match_result`
+(everything computed) and :func:`symmetry_map`.
 
 The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`.zoomout`):
 
@@ -24,8 +25,10 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -49,6 +52,7 @@ from .zoomout import zoomout
 __all__ = [
     "MatchResult",
     "match",
+    "match_result",
     "symmetry_map",
     "as_prepared_mesh",
     "matching_descriptors",
@@ -63,7 +67,11 @@ MeshLike = TriMesh | tuple | str | os.PathLike
 
 @dataclass(frozen=True, eq=False)
 class MatchResult:
-    """Everything :func:`match` (or :func:`symmetry_map`) computed.
+    """Everything :func:`match_result` (or :func:`symmetry_map`) computed.
+
+    A result is also its vertex map: ``np.asarray(result)``, ``len(result)``,
+    ``result[i]``, ``result.shape`` and ``result.dtype`` are those of ``p2p_21``, so a
+    result can be passed wherever the array :func:`match` returns is expected.
 
     Attributes
     ----------
@@ -110,6 +118,29 @@ class MatchResult:
     def p2p(self) -> np.ndarray:
         """Alias of ``p2p_21`` (natural for a self-map)."""
         return self.p2p_21
+
+    # The vertex map as an array (numpy's array protocol and the sequence protocol).
+    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
+        return np.array(self.p2p_21, dtype=dtype, copy=copy)  # numpy's copy semantics
+
+    def __len__(self) -> int:
+        return len(self.p2p_21)
+
+    def __getitem__(self, index: Any) -> Any:
+        return self.p2p_21[index]
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter(self.p2p_21)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """``p2p_21.shape``: (n_2,)."""
+        return self.p2p_21.shape
+
+    @property
+    def dtype(self) -> np.dtype:
+        """``p2p_21.dtype``: int64."""
+        return self.p2p_21.dtype
 
 
 # ---------------------------------------------------------------------------- inputs
@@ -235,6 +266,16 @@ def matching_descriptors(
     return out[0], out[1]
 
 
+def _weights(weights: dict | None) -> dict:
+    """:data:`DEFAULT_WEIGHTS` with the user's overrides; an unknown name is an error."""
+    w = dict(DEFAULT_WEIGHTS)
+    unknown = set(weights or {}) - set(w)
+    if unknown:
+        raise ParameterError(f"unknown weights {sorted(unknown)}; choose from {sorted(w)}")
+    w.update(weights or {})
+    return w
+
+
 def _check_sizes(k: int, k_fit: int) -> tuple[int, int]:
     k, k_fit = int(k), int(k_fit)
     if not 3 <= k_fit <= k:
@@ -295,7 +336,7 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
-    full_output: Literal[False] = ...,
+    full_output: Literal[False] | None = ...,
 ) -> np.ndarray: ...
 
 
@@ -345,9 +386,12 @@ def match(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
-    full_output: bool = False,
+    full_output: bool | None = None,
 ) -> np.ndarray | MatchResult:
     """A vertex-to-vertex correspondence between two near-isometric shapes.
+
+    The vertex map of :func:`match_result`, which returns everything computed (the
+    functional maps, the bases, the prepared meshes, the timings).
 
     Parameters
     ----------
@@ -372,14 +416,15 @@ def match(
     zoomout_samples : int or None
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
-    full_output : bool
-        Return a :class:`MatchResult` instead of the vertex map.
+    full_output : bool, optional
+        Deprecated: ``full_output=True`` returns :func:`match_result`'s
+        :class:`MatchResult`, with a ``DeprecationWarning``; call :func:`match_result`.
 
     Returns
     -------
     p2p_21 : int64 (n_2,)
         For each vertex of mesh 2, a vertex of mesh 1 (the convention of
-        :func:`fvf.functional_map`); or a :class:`MatchResult`.
+        :func:`fvf.functional_map`).
 
     Raises
     ------
@@ -401,16 +446,102 @@ def match(
     >>> float(np.mean(p2p == perm)) > 0.9
     True
     """
+    if full_output is not None:
+        warnings.warn(
+            "fvf.match(..., full_output=...) is deprecated: call fvf.match_result(...) for "
+            "the MatchResult, fvf.match(...) for the vertex map",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+    result = match_result(
+        mesh_1,
+        mesh_2,
+        k=k,
+        k_fit=k_fit,
+        landmarks=landmarks,
+        n_descriptors=n_descriptors,
+        orientation=orientation,
+        weights=weights,
+        zoomout_step=zoomout_step,
+        zoomout_samples=zoomout_samples,
+    )
+    return result if full_output else result.p2p_21
+
+
+def match_result(
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
+    *,
+    k: int = 200,
+    k_fit: int = 15,
+    landmarks: npt.ArrayLike | None = None,
+    n_descriptors: int = 50,
+    orientation: str | None = "preserving",
+    weights: dict | None = None,
+    zoomout_step: int = 5,
+    zoomout_samples: int | None = 2000,
+) -> MatchResult:
+    """Everything :func:`match` computes: the vertex map, functional maps, bases, timings.
+
+    The same pipeline and arguments as :func:`match`; the :class:`MatchResult` is also
+    its vertex map (``np.asarray(result)`` equals ``result.p2p_21``).
+
+    Parameters
+    ----------
+    mesh_1, mesh_2 : TriMesh, (vertices, faces) or path
+        The shapes as you have them: non-manifold edges and vertices are repaired
+        internally and the result indexes the vertices you passed.
+    k : int
+        Size of the final functional map (ZoomOut target, and eigenpairs computed).
+    k_fit : int
+        Size of the fitted functional map (see the module docstring).
+    landmarks : array_like of int (q, 2), optional
+        Row j: a vertex of mesh 1 and the corresponding vertex of mesh 2 (input indices).
+    n_descriptors : int
+        Number of WKS descriptors.
+    orientation : {"preserving", "reversing", None}
+        The orientation term: keep "preserving" for two shapes of the same orientation.
+    weights : dict, optional
+        Overrides of :data:`DEFAULT_WEIGHTS` (``w_descr``, ``w_lap``, ``w_dcomm``,
+        ``w_orient``, ``w_orth``).
+    zoomout_step : int
+        Eigenpairs added per ZoomOut iteration.
+    zoomout_samples : int or None
+        ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
+        a mesh has fewer, or None); the final map is computed on all vertices.
+
+    Returns
+    -------
+    MatchResult
+        ``p2p_21`` int64 (n_2,): for each vertex of mesh 2, a vertex of mesh 1;
+        ``C_12`` (k, k) in ``basis_1``, ``basis_2``; ``C_fit`` (k_fit, k_fit); the
+        prepared meshes and ``timings``.
+
+    Raises
+    ------
+    DisconnectedMeshError
+        A mesh with several connected components.
+    NotEnoughEigenpairsError
+        A mesh with k or fewer vertices.
+    LandmarkError
+        Landmarks not of shape (q, 2), out of range or repeated.
+    ParameterError
+        k_fit outside [3, k], an unknown weight or option.
+
+    Examples
+    --------
+    >>> import numpy as np, fvf
+    >>> mesh = fvf.jittered_sphere(2, 0.3, seed=2)
+    >>> result = fvf.match_result(mesh, mesh, k=30)
+    >>> result.C_12.shape, np.asarray(result).shape == (mesh.n_vertices,)
+    ((30, 30), True)
+    """
     k, k_fit = _check_sizes(k, k_fit)
-    w = dict(DEFAULT_WEIGHTS)
-    unknown = set(weights or {}) - set(w)
-    if unknown:
-        raise ParameterError(f"unknown weights {sorted(unknown)}; choose from {sorted(w)}")
-    w.update(weights or {})
+    w = _weights(weights)
     p1 = as_prepared_mesh(mesh_1, "mesh_1")
     p2 = as_prepared_mesh(mesh_2, "mesh_2")
     lm = _landmark_pairs(landmarks, p1, p2)
-    result = _correspond(
+    return _correspond(
         p1,
         p2,
         k=k,
@@ -422,7 +553,6 @@ def match(
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
     )
-    return result if full_output else result.p2p_21
 
 
 def symmetry_map(
@@ -450,7 +580,8 @@ def symmetry_map(
     Returns
     -------
     MatchResult
-        ``result.p2p`` int64 (n,): the image of each input vertex; ``result.C`` (k, k)
+        ``result.p2p`` int64 (n,): the image of each input vertex (also
+        ``np.asarray(result)``); ``result.C`` (k, k)
         and ``result.basis`` the functional map of the symmetry in the prepared mesh's
         basis, ready for ``fvf.map_consistent_field(result.basis, result.C)``.
 
@@ -459,11 +590,7 @@ def symmetry_map(
     As for :func:`match`.
     """
     k, k_fit = _check_sizes(k, k_fit)
-    w = dict(DEFAULT_WEIGHTS)
-    unknown = set(weights or {}) - set(w)
-    if unknown:
-        raise ParameterError(f"unknown weights {sorted(unknown)}; choose from {sorted(w)}")
-    w.update(weights or {})
+    w = _weights(weights)
     p = as_prepared_mesh(mesh, "mesh")
     return _correspond(
         p,

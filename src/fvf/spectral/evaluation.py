@@ -87,7 +87,7 @@ def _unfolded_diagonals(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarr
     Returns (c (q,), d (q,), length (q,)).
     """
     X = mesh.vertices
-    corners = mesh._edge_corners  # (E, 2): the corner opposite each edge on each side
+    corners = mesh.edge_corners  # (E, 2): the corner opposite each edge on each side
     inner = (corners >= 0).all(axis=1)
     E = mesh.edges[inner]
     c, d = (mesh.faces.ravel()[corners[inner, side]] for side in (0, 1))

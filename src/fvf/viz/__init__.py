@@ -10,7 +10,9 @@ missing. ``docs/viz.md`` documents the conventions.
   markers with a legend (:func:`index_color`, :func:`index_label`), streamlines and/or a
   grey texture, in one or several views (:func:`two_sides`; the up axis from
   :func:`detect_up_axis`); headless polyscope (EGL) when it starts, else matplotlib; the
-  backend used is reported in the returned :class:`RenderInfo`.
+  backend used is reported in the returned :class:`RenderInfo`. How the picture looks
+  (colours, glyph sizes, camera and up axis, size, title, backend) is one frozen
+  :class:`RenderStyle` (``style=``); its options are also accepted one by one as keywords.
 - :func:`view`: polyscope's interactive window.
 - :func:`arrow_segments`: the arrows' start and end points (in the faces' planes);
   :func:`direction_set`: the N directions of an N-direction field.
@@ -55,6 +57,7 @@ from .lic import (
 )
 from .quads import render_checkerboard, render_quads
 from .refine import subdivide
+from .style import RenderStyle
 from .tracing import streamlines
 
 __all__ = [
@@ -64,6 +67,7 @@ __all__ = [
     "DEFAULT_LIC_RESOLUTION",
     "LicTexture",
     "RenderInfo",
+    "RenderStyle",
     "View",
     "arrow_segments",
     "available_backends",

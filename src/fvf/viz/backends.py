@@ -17,17 +17,16 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass, field
-from numbers import Integral, Real
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError, ParameterError
+from ..errors import FvfError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
+from .style import BACKENDS, MAX_SIZE, RenderStyle, as_style, check_render_options
 
 if TYPE_CHECKING:
     from .overlay import PanelOverlay
@@ -37,19 +36,13 @@ __all__ = [
     "BACKENDS",
     "MAX_SIZE",
     "RenderInfo",
+    "RenderStyle",
     "available_backends",
     "check_render_options",
     "polyscope_status",
     "render",
     "view",
 ]
-
-#: Every backend, best first.
-BACKENDS = ("polyscope-egl", "matplotlib")
-
-#: Largest picture side in pixels (a 8192 x 8192 RGBA image is 256 MiB; larger ones
-#: exhaust the memory or the OpenGL limits of the renderers).
-MAX_SIZE = 8192
 
 _PROBE = (
     "import polyscope as ps\n"
@@ -167,21 +160,19 @@ def render(
     singularities: tuple | None = None,
     streamlines: list | None = None,
     texture: Any = None,
-    arrow_scale: float | None = None,
-    cmap: str = "viridis",
-    clim: tuple[float, float] | str | None = None,
-    view: Any = None,
-    size: tuple[int, int] = (800, 600),
-    title: str | None = None,
-    backend: str = "auto",
-    max_arrows: int | None = None,
-    colorbar_label: str | None = None,
     n: int = 1,
-    arrow_spacing: float | None = None,
     field_labels: list | tuple | None = None,
-    arrow_color: tuple | None = None,
+    style: RenderStyle | None = None,
+    **options: Any,
 ) -> RenderInfo:
     """Render a mesh with a function, fields, singularities, streamlines or a texture.
+
+    The arguments are what is drawn; how it looks is ``style``
+    (:class:`fvf.viz.RenderStyle`: colours, glyph sizes, camera, picture size, title,
+    backend). Appearance keywords (``cmap=``, ``size=``, ``view=``, ...) are the same
+    options one at a time: they replace those of ``style`` (default
+    ``RenderStyle()``), so ``render(mesh, path, function=f, cmap="magma")`` and
+    ``render(mesh, path, function=f, style=RenderStyle(cmap="magma"))`` draw the same.
 
     Parameters
     ----------
@@ -189,7 +180,7 @@ def render(
     path : str or Path
         Output PNG.
     function : array_like (n,) or (m,), optional
-        Vertex or face scalars, drawn with ``cmap`` and a labelled colorbar.
+        Vertex or face scalars, drawn with ``style.cmap`` and a labelled colorbar.
     field : array_like (m, 3) or list of them, optional
         Per-face tangent vectors, drawn as flat arrows in the faces' planes
         (:mod:`fvf.viz.overlay`), about one per ``arrow_spacing`` pixels, each field in
@@ -206,46 +197,19 @@ def render(
         A grey texture: a :class:`fvf.viz.LicTexture` (:func:`fvf.viz.surface_lic`,
         drawn on its own finer canvas) or values per vertex / face, histogram-equalized.
         With ``function`` too, it darkens the colormap's colours.
-    arrow_scale : float, optional
-        Absolute arrow scale: an arrow is ``arrow_scale · |v_t|`` long in mesh units
-        (pass the same value to compare magnitudes across pictures). Default: the robust
-        longest arrow is 0.8 of the arrow spacing.
-    cmap : str
-        A matplotlib colormap name.
-    clim : (float, float) or {"robust", "symmetric", "full"}, optional
-        Colormap limits. Default ``"robust"``: the area-weighted 1st and 99th percentiles,
-        moved back to the min / max when nothing lies far beyond them
-        (:func:`fvf.viz.colors.robust_limits`); ``"symmetric"``: ``±`` the robust maximum
-        of ``|f|``; ``"full"``: min and max. Clipped values show as triangles on the
-        colorbar.
-    view : View, tuple, dict, or a list of them, optional
-        Camera (:class:`fvf.viz.View`; default a three-quarter view with the up axis
-        detected, :func:`fvf.viz.camera.detect_up_axis`). A list draws one panel per view
-        side by side, e.g. :func:`fvf.viz.two_sides` for both halves of a closed surface.
-    size : (int, int)
-        (width, height) of the PNG in pixels (all panels together), each in [64,
-        :data:`MAX_SIZE`] (height from 48).
-    title : str, optional
-        Drawn above the picture.
-    backend : {"auto", "polyscope-egl", "matplotlib"}
-        ``"auto"``: the first of :func:`available_backends`.
-    max_arrows : int, optional
-        At most about this many arrows per panel (>= 1; the spacing grows to fit).
-    colorbar_label : str, optional
-        Label of the colorbar (default "value").
     n : int
         Directions per face of ``field``: 1 draws arrows; N ≥ 2 draws the N directions
         (the representative turned by 2πk/N about the face normal,
         :func:`fvf.viz.arrows.direction_set`) as N strokes from the centroid, each half an
         arrow long.
-    arrow_spacing : float, optional
-        Pixels between arrows (default :func:`fvf.viz.overlay.default_spacing`: 1/22 of
-        the panel's smaller side, 14 to 40 px; 1.5 times that with several fields, whose
-        arrows interleave). Glyph sizes follow it.
     field_labels : list of str, optional
-        Names of the fields in the legend.
-    arrow_color : (r, g, b), optional
-        Colour of the first field's arrows instead of the automatic contrasting one.
+        Names of the fields in the legend, one per field.
+    style : RenderStyle, optional
+        The appearance; default ``RenderStyle()``.
+    **options
+        Options of :class:`fvf.viz.RenderStyle` (``cmap``, ``clim``, ``colorbar_label``,
+        ``arrow_color``, ``arrow_scale``, ``arrow_spacing``, ``max_arrows``, ``view``,
+        ``up``, ``size``, ``title``, ``backend``), replacing those of ``style``.
 
     Returns
     -------
@@ -253,7 +217,8 @@ def render(
         ``n_arrows`` counts the glyphs' faces over all panels; ``extra["panels"]`` the
         number of panels, ``extra["arrow_spacing"]`` the spacing in pixels,
         ``extra["arrow_colors"]`` the fields' colours, ``extra["capped_arrows"]`` the
-        arrows drawn shorter than their length (longer than 1.3 spacings).
+        arrows drawn shorter than their length (longer than 1.3 spacings),
+        ``extra["up"]`` the up axis of the first panel.
 
     Raises
     ------
@@ -261,56 +226,62 @@ def render(
         matplotlib (or polyscope for ``backend="polyscope-egl"``) is not installed.
     ParameterError
         A bad option: size out of range, non-finite or empty ``clim``, ``max_arrows`` < 1,
-        a non-positive or non-finite ``arrow_scale``, an unknown backend.
+        a non-positive or non-finite ``arrow_scale``, an unknown backend or up axis.
+    TypeError
+        A keyword that is neither data nor an option of :class:`fvf.viz.RenderStyle`.
     FvfError
         Bad inputs (shapes, unknown colormap), or the requested polyscope backend cannot
         start.
     OutputWriteError
         The PNG could not be written (a file already at ``path`` is unchanged).
+
+    Notes
+    -----
+    With polyscope, the picture is drawn in polyscope's global scene: structures
+    registered there by the caller are hidden while it draws and left as they were, and
+    the camera, window size, background colour and scene extents are restored afterwards
+    (the ground plane stays off: polyscope cannot report its mode).
     """
     from .compose import compose, has_legend, layout
-    from .overlay import panel_overlay
     from .scene import build_scene
 
     t0 = time.perf_counter()
-    if backend not in ("auto", *BACKENDS):
-        raise ParameterError(
-            f"backend must be 'auto' or one of {', '.join(BACKENDS)}; got {backend!r}"
-        )
-    width, height = check_render_options(size, clim, max_arrows, arrow_scale)
+    style = as_style(style, options, "render")
     scene = build_scene(
         mesh,
+        style=style,
         function=function,
         field=field,
         singularities=singularities,
         streamlines=streamlines,
         texture=texture,
-        arrow_scale=arrow_scale,
-        max_arrows=max_arrows,
-        cmap=cmap,
-        clim=clim,
-        view=view,
-        colorbar_label=colorbar_label,
         n=n,
-        arrow_spacing=arrow_spacing,
         field_labels=field_labels,
-        arrow_color=arrow_color,
     )
+    width, height = style.width, style.height
     lay = layout(
-        width, height, title, scene.colorbar is not None, has_legend(scene), len(scene.frames)
+        width, height, style.title, scene.colorbar is not None, has_legend(scene), len(scene.frames)
     )
     pw, ph = lay.panel_width, lay.panel_height
     if pw < 32 or ph < 32:
-        raise FvfError(f"size {size!r} leaves panels of {pw} x {ph} pixels; make it larger")
+        raise FvfError(f"size {style.size!r} leaves panels of {pw} x {ph} pixels; make it larger")
+    overlays = _overlays(scene, pw, ph)
+    used, fallback, images = _draw_panels(scene, overlays, pw, ph, style.backend)
+    path = Path(path)
+    compose(images, scene, path, width, height, style.title)
+    return _render_info(path, used, fallback, (width, height), t0, scene, overlays)
+
+
+def _overlays(scene: Scene, pw: int, ph: int) -> list[PanelOverlay]:
+    """The glyphs of every panel, all at the first panel's arrow scale."""
+    from .overlay import panel_overlay
+
     overlays: list[PanelOverlay] = []
     for frame, v in zip(scene.frames, scene.views, strict=True):
         first = overlays[0] if overlays else None
         spacing_mesh = None if first is None else first.spacing / first.pixel_scale
         overlays.append(panel_overlay(scene, frame, v.zoom, pw, ph, spacing_mesh))
-    used, fallback, images = _draw_panels(scene, overlays, pw, ph, backend)
-    path = Path(path)
-    compose(images, scene, path, width, height, title)
-    return _render_info(path, used, fallback, (width, height), t0, scene, overlays)
+    return overlays
 
 
 def _render_info(
@@ -381,51 +352,12 @@ def _draw_panels(
     return "matplotlib", fallback, images
 
 
-def check_render_options(
-    size: Any, clim: Any, max_arrows: Any, arrow_scale: Any
-) -> tuple[int, int]:
-    """Check :func:`render`'s numeric options; returns (width, height).
-
-    Raises
-    ------
-    ParameterError
-        Naming the option, its value and the allowed range.
-    """
-    try:
-        width, height = size
-    except (TypeError, ValueError):
-        raise ParameterError(f"size must be (width, height) in pixels; got {size!r}") from None
-    for name, value, low in (("width", width, 64), ("height", height, 48)):
-        if not (isinstance(value, Integral) and low <= int(value) <= MAX_SIZE):
-            raise ParameterError(
-                f"size: the {name} must be an integer in [{low}, {MAX_SIZE}] pixels; got {value!r}"
-            )
-    if isinstance(clim, str):
-        if clim not in ("robust", "symmetric", "full"):
-            raise ParameterError(
-                f"clim must be 'robust', 'symmetric', 'full' or (low, high); got {clim!r}"
-            )
-    elif clim is not None:
-        try:
-            lo, hi = (float(c) for c in clim)
-        except (TypeError, ValueError):
-            raise ParameterError(f"clim must be two numbers (low, high); got {clim!r}") from None
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ParameterError(f"clim must be two finite numbers with low < high; got {clim!r}")
-    if max_arrows is not None and not (isinstance(max_arrows, Integral) and int(max_arrows) >= 1):
-        raise ParameterError(
-            f"max_arrows must be a positive integer (or None: no cap); got {max_arrows!r}"
-        )
-    if arrow_scale is not None and not (
-        isinstance(arrow_scale, Real) and 0 < float(arrow_scale) < np.inf
-    ):
-        raise ParameterError(f"arrow_scale must be a positive finite number; got {arrow_scale!r}")
-    return int(width), int(height)
-
-
 @takes_mesh
 def view(mesh: TriMesh, **kwargs: Any) -> None:
     """Open polyscope's interactive window on a mesh (the same options as :func:`render`).
+
+    The window is ``size`` (default 1024 x 768) pixels; ``path``, ``title`` and
+    ``backend`` are ignored. Structures registered in polyscope by the caller stay.
 
     Raises
     ------
@@ -451,10 +383,9 @@ def view(mesh: TriMesh, **kwargs: Any) -> None:
             "polyscope already runs headless in this process; view() needs a fresh process"
         )
     kwargs.pop("path", None)
-    kwargs.pop("backend", None)
-    size = kwargs.pop("size", (1024, 768))
-    kwargs.pop("title", None)
-    scene = build_scene(mesh, **kwargs)
+    style = kwargs.pop("style", None)
+    size = kwargs.get("size") or (style.size if isinstance(style, RenderStyle) else (1024, 768))
+    scene = build_scene(mesh, style=style, **kwargs)
     try:
         if _STATE.get("mode") != "window":
             ps.init()

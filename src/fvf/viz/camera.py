@@ -6,7 +6,8 @@ matplotlib show the mesh from the same side.
 The up axis (``View(up="auto")``, the default) is y, the OBJ convention, unless the mesh
 clearly stands on its −z side and not on its −y side (:func:`detect_up_axis`): scans such
 as Nefertiti are stored z-up, while the Stanford models, Spot and the TOSCA animals are
-y-up.
+y-up. Any axis, either way round, can be made up: ``View(up="-y")`` shows a y-up
+picture upside down, ``up="x"`` stands an x-up file upright.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 from ..errors import FvfError, ParameterError
 
 __all__ = [
+    "UP_AXES",
     "View",
     "as_view",
     "as_views",
@@ -29,6 +31,8 @@ __all__ = [
 ]
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+#: The axes that can point up in a picture: x, y, z or their opposites.
+UP_AXES = ("x", "y", "z", "-x", "-y", "-z")
 
 #: Support band: points within this fraction of the height above the lowest point.
 SUPPORT_BAND = 0.03
@@ -45,13 +49,15 @@ class View:
     ----------
     azimuth : float or None
         Degrees about the up axis, from the "front" axis (the axis after ``up`` in x, y, z
-        order: +z for ``up="y"``, +x for ``up="z"``) toward the "right" axis (+x for
-        ``up="y"``). None picks the side of the mesh's bounding box with the larger
-        silhouette and turns 30° from it (a three-quarter view).
+        order: +z for ``up="y"`` or ``"-y"``, +x for ``up="z"``) toward the "right" axis
+        (+x for ``up="y"``, −x for ``up="-y"``). None picks the side of the mesh's
+        bounding box with the larger silhouette and turns 30° from it (a three-quarter
+        view).
     elevation : float
         Degrees above the horizontal plane.
-    up : {"auto", "x", "y", "z"}
-        The axis drawn vertical. ``"auto"`` (default): :func:`detect_up_axis`.
+    up : {"auto", "x", "y", "z", "-x", "-y", "-z"}
+        The mesh axis that points up in the picture (``"-y"``: −y up, the ``"y"``
+        picture turned upside down). ``"auto"`` (default): :func:`detect_up_axis`.
     zoom : float
         > 1 fills more of the picture (1 fits the whole mesh with a small margin).
     turn : float
@@ -77,8 +83,8 @@ def as_view(view: View | tuple | dict | None) -> View:
         out = View(*view)
     else:
         raise FvfError(f"view must be a fvf.viz.View, a tuple or a dict; got {type(view)!r}")
-    if out.up not in (*_AXES, "auto"):
-        raise FvfError(f"view.up must be 'auto', 'x', 'y' or 'z'; got {out.up!r}")
+    if out.up not in (*UP_AXES, "auto"):
+        raise FvfError(f"view.up must be 'auto' or one of {', '.join(UP_AXES)}; got {out.up!r}")
     if not (isinstance(out.zoom, int | float) and 0 < out.zoom < np.inf):
         raise ParameterError(f"view.zoom must be a positive finite number; got {out.zoom!r}")
     for name in ("azimuth", "elevation"):
@@ -119,11 +125,14 @@ def two_sides(view: View | tuple | dict | None = None) -> list[View]:
     return [v, replace(v, turn=v.turn + 180.0)]
 
 
-def resolve_up(view: View, points: np.ndarray, centroid: np.ndarray | None = None) -> View:
-    """``view`` with ``up="auto"`` replaced by :func:`detect_up_axis` of the points."""
+def resolve_up(
+    view: View, points: np.ndarray, centroid: np.ndarray | None = None, up: str | None = None
+) -> View:
+    """``view`` with ``up="auto"`` replaced by ``up``, or else :func:`detect_up_axis` of the
+    points (a view's explicit ``up`` is kept)."""
     if view.up != "auto":
         return view
-    return replace(view, up=detect_up_axis(points, centroid))
+    return replace(view, up=detect_up_axis(points, centroid) if up is None else up)
 
 
 def _stability(points: np.ndarray, centroid: np.ndarray, k: int) -> float:
@@ -206,8 +215,9 @@ def camera_frame(view: View, points: np.ndarray) -> np.ndarray:
         target toward the eye (larger ``⟨p, back⟩`` is nearer the eye).
     """
     up_axis = detect_up_axis(points) if view.up == "auto" else view.up
-    k = _AXES[up_axis]
-    u, f0, r0 = np.eye(3)[k], np.eye(3)[(k + 1) % 3], np.eye(3)[(k + 2) % 3]
+    k, sign = _AXES[up_axis[-1]], -1.0 if up_axis.startswith("-") else 1.0
+    # (right, up, front) right-handed: turning up over keeps the front and flips the right
+    u, f0, r0 = sign * np.eye(3)[k], np.eye(3)[(k + 1) % 3], sign * np.eye(3)[(k + 2) % 3]
     az = view.azimuth
     if az is None:
         ext = np.ptp(points, axis=0)

@@ -20,10 +20,15 @@ from .scene import Scene, shade
 
 __all__ = ["draw_matplotlib", "projection"]
 
+#: Pixel coordinates (k, 2) and depth (k,) of 3-D points (k, 3): :func:`projection`.
+Project = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+#: Whether 3-D surface points (k, 3) are seen, bool (k,): :func:`_visibility`.
+Visible = Callable[[np.ndarray], np.ndarray]
+
 
 def projection(
     scene: Scene, width: int, height: int, frame: np.ndarray | None = None, zoom: float = 1.0
-) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+) -> Project:
     """Pixel coordinates (x right, y up) and depth (larger is nearer) of 3-D points.
 
     Returns a function ``P (k, 3) -> (xy (k, 2), depth (k,))`` fitting the whole mesh in
@@ -80,7 +85,7 @@ def draw_matplotlib(
     markers, line width: :func:`fvf.viz.overlay.panel_overlay`) is computed when omitted.
     """
     require("matplotlib")
-    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.collections import PolyCollection
 
     from .overlay import panel_overlay
 
@@ -110,18 +115,35 @@ def draw_matplotlib(
     tol = max(1.5 * mesh.mean_edge_length, 3.0 / overlay.pixel_scale)
     visible = _visibility(polys, order, face_depth, width, height, tol, project)
     if scene.lines:
-        segs: list[np.ndarray] = []
-        for line in scene.lines:
-            p, _ = project(line)
-            ok = visible(line)
-            keep = ok[:-1] & ok[1:]
-            segs.extend(np.stack([p[:-1][keep], p[1:][keep]], axis=1))
-        if segs:
-            ax.add_collection(
-                LineCollection(
-                    segs, colors=[scene.line_color], linewidths=_points(overlay.line_width)
-                )
-            )
+        _draw_lines(ax, scene, overlay, project, visible)
+    _draw_glyphs(ax, overlay, project, visible)
+    if scene.markers is not None and len(scene.markers):
+        _draw_markers(ax, scene.markers, overlay, project, visible)
+    return _rgb(canvas)
+
+
+def _draw_lines(
+    ax: Any, scene: Scene, overlay: PanelOverlay, project: Project, visible: Visible
+) -> None:
+    """The streamlines' segments whose both ends are seen."""
+    from matplotlib.collections import LineCollection
+
+    segs: list[np.ndarray] = []
+    for line in scene.lines:
+        p, _ = project(line)
+        ok = visible(line)
+        keep = ok[:-1] & ok[1:]
+        segs.extend(np.stack([p[:-1][keep], p[1:][keep]], axis=1))
+    if segs:
+        ax.add_collection(
+            LineCollection(segs, colors=[scene.line_color], linewidths=_points(overlay.line_width))
+        )
+
+
+def _draw_glyphs(ax: Any, overlay: PanelOverlay, project: Project, visible: Visible) -> None:
+    """The glyphs whose face is seen, each over its halo."""
+    from matplotlib.collections import PolyCollection
+
     for g in overlay.glyphs:
         ok = visible(g.anchors)
         if not ok.any():
@@ -139,20 +161,24 @@ def draw_matplotlib(
                     zorder=z,
                 )
             )
-    if scene.markers is not None and len(scene.markers):
-        ok = visible(scene.markers)
-        p, _ = project(scene.markers[ok])
-        r_px = overlay.marker_radius * overlay.pixel_scale
-        ax.scatter(
-            p[:, 0],
-            p[:, 1],
-            s=_points(2 * r_px) ** 2,
-            c=overlay.marker_colors[ok] if overlay.marker_colors is not None else None,
-            edgecolors="black",
-            linewidths=_points(max(1.0, 0.18 * r_px)),
-            zorder=5,
-        )
-    return _rgb(canvas)
+
+
+def _draw_markers(
+    ax: Any, markers: np.ndarray, overlay: PanelOverlay, project: Project, visible: Visible
+) -> None:
+    """The singularities that are seen, as discs coloured by index with a black rim."""
+    ok = visible(markers)
+    p, _ = project(markers[ok])
+    r_px = overlay.marker_radius * overlay.pixel_scale
+    ax.scatter(
+        p[:, 0],
+        p[:, 1],
+        s=_points(2 * r_px) ** 2,
+        c=overlay.marker_colors[ok] if overlay.marker_colors is not None else None,
+        edgecolors="black",
+        linewidths=_points(max(1.0, 0.18 * r_px)),
+        zorder=5,
+    )
 
 
 def _visibility(polys, order, face_depth, width, height, tol, project):

@@ -1,12 +1,17 @@
 """The polyscope backend: OpenGL through EGL without a display (headless), or a window.
 
 polyscope keeps one global state per process: :func:`init_headless` starts it once
-(``ps.init("openGL3_egl")``), each panel removes the previous structures, registers
-the mesh and its colours, the glyphs of :mod:`fvf.viz.overlay` (flat arrows and strokes
-in the faces' planes, lifted a little along the normals, over a slightly larger halo),
-streamlines (a curve network) and markers (a coloured sphere in front of a black one),
-all sized in pixels of the picture, places the camera with the same frame as the
-matplotlib backend, and reads the frame buffer.
+(``ps.init("openGL3_egl")``) unless the caller's program already did, and each panel
+registers the mesh and its colours, the glyphs of :mod:`fvf.viz.overlay` (flat arrows
+and strokes in the faces' planes, lifted a little along the normals, over a slightly
+larger halo), streamlines (a curve network) and markers (a coloured sphere in front of a
+black one), all sized in pixels of the picture, places the camera with the same frame as
+the matplotlib backend, and reads the frame buffer.
+
+The caller's own polyscope scene is left as it was: fvf's structures have names of their
+own (:data:`PREFIX`) and are the only ones removed; while a panel is drawn, every other
+structure is cut away by a slice plane the panel's structures ignore; the camera, window
+size, background colour and scene extents are restored afterwards (:data:`SETTINGS`).
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -22,9 +28,40 @@ from ._deps import require
 from .overlay import PanelOverlay
 from .scene import Scene, shade
 
-__all__ = ["init_headless", "draw_polyscope", "place_camera", "populate"]
+__all__ = [
+    "PREFIX",
+    "SETTINGS",
+    "init_headless",
+    "draw_polyscope",
+    "place_camera",
+    "populate",
+    "remove_ours",
+]
 
 _STATE: dict = {}
+
+#: Start of the names of the structures fvf registers.
+PREFIX = "fvf: "
+
+#: The view settings a panel changes, as (getter, setter) of polyscope: saved before
+#: drawing and restored after (those a polyscope version lacks are skipped).
+SETTINGS = (
+    ("get_window_size", "set_window_size"),
+    ("get_view_projection_mode", "set_view_projection_mode"),
+    ("get_vertical_fov_degrees", "set_vertical_fov_degrees"),
+    ("get_camera_view_matrix", "set_camera_view_matrix"),
+    ("get_view_center", "set_view_center_raw"),
+    ("get_background_color", "set_background_color"),
+    ("get_length_scale", "set_length_scale"),
+    ("get_bounding_box", "set_bounding_box"),
+)
+
+#: How to find and remove a structure of each kind fvf registers.
+_KINDS = {
+    "surface": ("has_surface_mesh", "remove_surface_mesh"),
+    "points": ("has_point_cloud", "remove_point_cloud"),
+    "curves": ("has_curve_network", "remove_curve_network"),
+}
 
 
 @contextlib.contextmanager
@@ -48,7 +85,9 @@ def _quiet():
 def init_headless():
     """Start polyscope headless through EGL once per process; returns the module.
 
-    Raises whatever polyscope raises when EGL cannot start (the caller falls back).
+    A polyscope the caller's program started headless is used as it is (its
+    antialiasing too); one started with a window is refused (the caller falls back).
+    Raises whatever polyscope raises when EGL cannot start.
     """
     ps = require("polyscope")
     if _STATE.get("mode") == "headless":
@@ -56,12 +95,15 @@ def init_headless():
     if "error" in _STATE:
         raise RuntimeError(_STATE["error"])
     try:
-        ps.set_allow_headless_backends(True)
-        ps.set_verbosity(0)
-        ps.set_use_prefs_file(False)  # no .polyscope.ini in the user's working directory
-        with _quiet():
-            ps.init("openGL3_egl")
-        ps.set_SSAA_factor(2)  # antialiased glyph edges
+        if not _running(ps):
+            ps.set_allow_headless_backends(True)
+            ps.set_verbosity(0)
+            ps.set_use_prefs_file(False)  # no .polyscope.ini in the user's working directory
+            with _quiet():
+                ps.init("openGL3_egl")
+            ps.set_SSAA_factor(2)  # antialiased glyph edges
+        elif not ps.is_headless():
+            raise RuntimeError("polyscope already runs with a window in this process")
     except Exception as exc:  # polyscope raises RuntimeError, or others from its bindings
         _STATE["error"] = f"{type(exc).__name__}: {exc}"
         raise
@@ -69,12 +111,68 @@ def init_headless():
     return ps
 
 
-def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, color: tuple) -> None:
+def _running(ps: Any) -> bool:
+    """Whether polyscope was started already (by the caller's program)."""
+    started = getattr(ps, "is_initialized", None)
+    return bool(started()) if started is not None else False
+
+
+def _name(ps: Any, kind: str, base: str) -> str:
+    """A free name for one of fvf's structures (the caller's are never replaced)."""
+    has = getattr(ps, _KINDS[kind][0])
+    name = PREFIX + base
+    while has(name):
+        name += "'"
+    _STATE.setdefault("ours", []).append((kind, name))
+    return name
+
+
+def remove_ours(ps: Any) -> None:
+    """Remove the structures fvf registered, and only those."""
+    for kind, name in _STATE.pop("ours", []):
+        has, remove = (getattr(ps, f) for f in _KINDS[kind])
+        if has(name):
+            remove(name)
+
+
+@contextlib.contextmanager
+def _borrowed(ps: Any) -> Iterator[None]:
+    """Draw in polyscope's global state and give it back: afterwards fvf's structures are
+    removed and the view settings (:data:`SETTINGS`) restored."""
+    saved = [
+        (setter, getattr(ps, getter)())
+        for getter, setter in SETTINGS
+        if hasattr(ps, getter) and hasattr(ps, setter)
+    ]
+    try:
+        yield
+    finally:
+        remove_ours(ps)
+        for setter, value in saved:
+            if setter in ("set_window_size", "set_bounding_box"):
+                getattr(ps, setter)(*value)
+            else:
+                getattr(ps, setter)(value)
+
+
+def _hide_the_rest(ps: Any, ours: list) -> Any:
+    """A slice plane that cuts away every structure but ``ours`` (the caller's stay
+    registered and enabled, but out of the picture); returns it."""
+    plane = ps.add_slice_plane(f"{PREFIX}hide the rest")
+    plane.set_draw_plane(False)
+    plane.set_draw_widget(False)
+    plane.set_pose((0.0, 0.0, 1e30), (0.0, 0.0, 1.0))  # everything lies behind it
+    for structure in ours:
+        structure.set_ignore_slice_plane(plane, True)
+    return plane
+
+
+def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, color: tuple) -> Any:
     """Register flat polygons (k, p, 3), triangulated alike, as one unlit surface mesh."""
     k, p = polys.shape[:2]
     faces = (np.arange(k)[:, None, None] * p + triangles[None]).reshape(-1, 3)
-    ps.register_surface_mesh(
-        name,
+    return ps.register_surface_mesh(
+        _name(ps, "surface", name),
         polys.reshape(-1, 3),
         faces,
         color=tuple(color),
@@ -85,24 +183,9 @@ def _glyph_mesh(ps: Any, name: str, polys: np.ndarray, triangles: np.ndarray, co
     )
 
 
-def populate(
-    ps: Any, scene: Scene, frame: np.ndarray | None = None, overlay: PanelOverlay | None = None
-) -> None:
-    """Register the scene's mesh, colours, glyphs, streamlines and markers in polyscope.
-
-    ``frame`` (the panel's camera frame) defaults to the scene's first; ``overlay`` (the
-    glyphs and sizes of :func:`fvf.viz.overlay.panel_overlay`) is computed for a 1024 x 768
-    panel when omitted.
-    """
-    from .overlay import panel_overlay
-
-    frame = scene.frame if frame is None else frame
-    if overlay is None:
-        overlay = panel_overlay(scene, frame, scene.view.zoom, 1024, 768)
+def _surface(ps: Any, scene: Scene, frame: np.ndarray) -> Any:
+    """The drawn mesh with its shaded colours."""
     mesh = scene.mesh
-    ps.remove_all_structures()
-    ps.set_ground_plane_mode("none")
-    ps.set_background_color((1.0, 1.0, 1.0))
     if scene.colors_on == "vertices":  # area-weighted vertex normals
         N = np.zeros((mesh.n_vertices, 3))
         for c in range(3):
@@ -111,45 +194,95 @@ def populate(
     else:
         N = mesh.face_normals
     s = ps.register_surface_mesh(
-        "mesh", mesh.vertices, mesh.faces, edge_width=0.0, smooth_shade=False, material="flat"
+        _name(ps, "surface", "mesh"),
+        mesh.vertices,
+        mesh.faces,
+        edge_width=0.0,
+        smooth_shade=False,
+        material="flat",
     )
     colors = np.clip(scene.colors * shade(scene, N, frame)[:, None], 0.0, 1.0)
     s.add_color_quantity("colors", colors, defined_on=scene.colors_on, enabled=True)
+    return s
+
+
+def _streamlines(ps: Any, lines: list[np.ndarray], color: tuple, radius: float) -> Any:
+    """The polylines as one curve network of the given radius (mesh units)."""
+    nodes = np.concatenate(lines)
+    starts = np.cumsum([0] + [len(x) for x in lines[:-1]])
+    edges = np.concatenate(
+        [
+            np.stack([np.arange(k, k + len(x) - 1), np.arange(k + 1, k + len(x))], axis=1)
+            for k, x in zip(starts, lines, strict=True)
+        ]
+    )
+    net = ps.register_curve_network(
+        _name(ps, "curves", "streamlines"), nodes, edges, color=color, material="flat"
+    )
+    net.set_radius(radius, relative=False)
+    return net
+
+
+def _markers(ps: Any, scene: Scene, frame: np.ndarray, overlay: PanelOverlay) -> list:
+    """A black sphere per singularity with a smaller coloured one pushed toward the eye far
+    enough to be in front of it over its whole disc: a coloured disc with a black rim."""
+    px = 1.0 / overlay.pixel_scale  # mesh units per pixel
+    r = overlay.marker_radius
+    inner = r - max(1.0 * px, 0.16 * r)
+    rims = ps.register_point_cloud(
+        _name(ps, "points", "singularity rims"),
+        scene.markers,
+        color=(0.0, 0.0, 0.0),
+        material="flat",
+    )
+    rims.set_radius(r, relative=False)
+    shift = 1.1 * np.sqrt(r * r - inner * inner) + px
+    discs = ps.register_point_cloud(
+        _name(ps, "points", "singularities"), scene.markers + shift * frame[2], material="flat"
+    )
+    discs.set_radius(inner, relative=False)
+    discs.add_color_quantity("index", overlay.marker_colors, enabled=True)
+    return [rims, discs]
+
+
+def populate(
+    ps: Any, scene: Scene, frame: np.ndarray | None = None, overlay: PanelOverlay | None = None
+) -> list:
+    """Register the scene's mesh, colours, glyphs, streamlines and markers in polyscope.
+
+    ``frame`` (the panel's camera frame) defaults to the scene's first; ``overlay`` (the
+    glyphs and sizes of :func:`fvf.viz.overlay.panel_overlay`) is computed for a 1024 x 768
+    panel when omitted. The structures of an earlier call are removed first; the
+    caller's own structures are left alone (fvf's names start with :data:`PREFIX`).
+    Turns the ground plane off and the background white.
+
+    Returns
+    -------
+    list
+        The polyscope structures registered.
+    """
+    from .overlay import panel_overlay
+
+    frame = scene.frame if frame is None else frame
+    if overlay is None:
+        overlay = panel_overlay(scene, frame, scene.view.zoom, 1024, 768)
+    remove_ours(ps)
+    ps.set_ground_plane_mode("none")
+    ps.set_background_color((1.0, 1.0, 1.0))
+    made = [_surface(ps, scene, frame)]
     px = 1.0 / overlay.pixel_scale  # mesh units per pixel
     for i, g in enumerate(overlay.glyphs):
         # lifted along the normals so they stay above the surface; the halo a little less
         # (and so behind the glyph, seen from the eye)
         up = g.normals[:, None, :]
-        _glyph_mesh(ps, f"halo {i}", g.halo + (g.lift - 0.5 * px) * up, g.triangles, g.halo_color)
-        _glyph_mesh(ps, f"field {i}", g.polygons + g.lift * up, g.triangles, g.color)
+        halo = g.halo + (g.lift - 0.5 * px) * up
+        made.append(_glyph_mesh(ps, f"halo {i}", halo, g.triangles, g.halo_color))
+        made.append(_glyph_mesh(ps, f"field {i}", g.polygons + g.lift * up, g.triangles, g.color))
     if scene.lines:
-        nodes = np.concatenate(scene.lines)
-        starts = np.cumsum([0] + [len(x) for x in scene.lines[:-1]])
-        edges = np.concatenate(
-            [
-                np.stack([np.arange(k, k + len(x) - 1), np.arange(k + 1, k + len(x))], axis=1)
-                for k, x in zip(starts, scene.lines, strict=True)
-            ]
-        )
-        net = ps.register_curve_network(
-            "streamlines", nodes, edges, color=scene.line_color, material="flat"
-        )
-        net.set_radius(0.5 * overlay.line_width * px, relative=False)
+        made.append(_streamlines(ps, scene.lines, scene.line_color, 0.5 * overlay.line_width * px))
     if scene.markers is not None and len(scene.markers):
-        # a black sphere with a smaller coloured one pushed toward the eye far enough
-        # to be in front of it over its whole disc: a coloured disc with a black rim
-        r = overlay.marker_radius
-        inner = r - max(1.0 * px, 0.16 * r)
-        pc = ps.register_point_cloud(
-            "singularity rims", scene.markers, color=(0.0, 0.0, 0.0), material="flat"
-        )
-        pc.set_radius(r, relative=False)
-        shift = 1.1 * np.sqrt(r * r - inner * inner) + px
-        pc = ps.register_point_cloud(
-            "singularities", scene.markers + shift * frame[2], material="flat"
-        )
-        pc.set_radius(inner, relative=False)
-        pc.add_color_quantity("index", overlay.marker_colors, enabled=True)
+        made.extend(_markers(ps, scene, frame, overlay))
+    return made
 
 
 def place_camera(
@@ -177,7 +310,6 @@ def place_camera(
     depth = X @ frame[2]
     centre = frame[:2].T @ centre2 + frame[2] * 0.5 * (depth.min() + depth.max())
     length = 3.0 * float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    ps.set_automatically_compute_scene_extents(False)
     ps.set_length_scale(length)
     ps.set_bounding_box(X.min(0), X.max(0))
     ps.set_view_projection_mode("orthographic")
@@ -193,7 +325,10 @@ def draw_polyscope(
     view: Any = None,
     overlay: PanelOverlay | None = None,
 ) -> np.ndarray:
-    """Render one panel of a scene headless to an RGB image, uint8 (height, width, 3)."""
+    """Render one panel of a scene headless to an RGB image, uint8 (height, width, 3).
+
+    polyscope's scene is left as it was (see the module's description).
+    """
     from .overlay import panel_overlay
 
     frame = scene.frame if frame is None else frame
@@ -201,11 +336,14 @@ def draw_polyscope(
     if overlay is None:
         overlay = panel_overlay(scene, frame, view.zoom, width, height)
     ps = init_headless()
-    ps.set_window_size(int(width), int(height))
-    populate(ps, scene, frame, overlay)
-    place_camera(ps, scene, width, height, frame, view)
-    buf = np.asarray(ps.screenshot_to_buffer(transparent_bg=False))
-    ps.remove_all_structures()
+    with _borrowed(ps):
+        ps.set_window_size(int(width), int(height))
+        plane = _hide_the_rest(ps, populate(ps, scene, frame, overlay))
+        try:
+            place_camera(ps, scene, width, height, frame, view)
+            buf = np.asarray(ps.screenshot_to_buffer(transparent_bg=False))
+        finally:
+            ps.remove_slice_plane(plane.get_name())
     img = buf[:, :, :3]
     if img.shape[:2] != (height, width):  # some drivers round the buffer size
         from PIL import Image

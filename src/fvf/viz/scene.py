@@ -11,6 +11,7 @@ pixels (which faces carry an arrow, glyph sizes) is computed per panel by
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -22,7 +23,11 @@ from ..mesh.trimesh import TriMesh
 from .camera import View, as_views, camera_frame, resolve_up
 from .colors import contrast_color, equalize, index_color, index_label, resolve_clim
 
+if TYPE_CHECKING:
+    from .style import RenderStyle
+
 __all__ = [
+    "DATA_DEFAULTS",
     "FieldLayer",
     "Scene",
     "SURFACE_COLOR",
@@ -205,8 +210,6 @@ def _layers(mesh, fields, n, arrow_scale, labels, palette, avoid, arrow_color):
     if isinstance(n, bool) or not float(n).is_integer() or int(n) < 1:
         raise FvfError(f"n (directions per face) must be a positive integer; got {n!r}")
     n = int(n)
-    if arrow_scale is not None and not float(arrow_scale) > 0:
-        raise FvfError(f"arrow_scale must be positive; got {arrow_scale!r}")
     if labels is not None and len(labels) != len(fields):
         raise FvfError(f"field_labels has {len(labels)} names for {len(fields)} fields")
     layers: list[FieldLayer] = []
@@ -242,44 +245,56 @@ def _markers(singularities: tuple) -> tuple[np.ndarray, np.ndarray]:
     return P, ind
 
 
+#: The data keywords of :func:`fvf.viz.render` (what is drawn) and their defaults; every
+#: other keyword is an option of :class:`fvf.viz.RenderStyle` (how it looks).
+DATA_DEFAULTS: dict[str, Any] = {
+    "function": None,
+    "field": None,
+    "singularities": None,
+    "streamlines": None,
+    "texture": None,
+    "n": 1,
+    "field_labels": None,
+}
+
+
 @takes_mesh
-def build_scene(
-    mesh: TriMesh,
-    *,
-    function: npt.ArrayLike | None = None,
-    field: object = None,
-    singularities: tuple | None = None,
-    streamlines: list | None = None,
-    texture: object = None,
-    arrow_scale: float | None = None,
-    max_arrows: int | None = None,
-    cmap: str = "viridis",
-    clim: tuple[float, float] | str | None = None,
-    view: object = None,
-    colorbar_label: str | None = None,
-    n: int = 1,
-    arrow_spacing: float | None = None,
-    field_labels: list | tuple | None = None,
-    arrow_color: tuple | None = None,
-) -> Scene:
-    """Check the inputs of :func:`fvf.viz.render` and build a :class:`Scene`."""
+def build_scene(mesh: TriMesh, *, style: RenderStyle | None = None, **inputs: Any) -> Scene:
+    """Check the inputs of :func:`fvf.viz.render` and build a :class:`Scene`.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    style : RenderStyle, optional
+        The appearance (default :class:`fvf.viz.RenderStyle`).
+    **inputs
+        The data keywords of :func:`fvf.viz.render` (:data:`DATA_DEFAULTS`: ``function``,
+        ``field``, ``singularities``, ``streamlines``, ``texture``, ``n``,
+        ``field_labels``) and appearance keywords, which replace those of ``style``.
+
+    Returns
+    -------
+    Scene
+    """
     from ._deps import require
     from .lic import LicTexture
+    from .style import as_style
 
+    data = {k: inputs.pop(k, default) for k, default in DATA_DEFAULTS.items()}
+    style = as_style(style, inputs, "build_scene")
     mpl = require("matplotlib")
     if not isinstance(mesh, TriMesh):
         raise FvfError(f"mesh must be a fvf.TriMesh; got {type(mesh).__name__}")
+    texture = data["texture"]
     if isinstance(texture, LicTexture) and texture.source_faces != mesh.n_faces:
         raise FieldShapeError(
             f"the LIC texture was computed on a mesh with {texture.source_faces} faces; "
             f"this one has {mesh.n_faces}"
         )
-    if arrow_spacing is not None and not float(arrow_spacing) >= 2:
-        raise FvfError(f"arrow_spacing must be at least 2 pixels; got {arrow_spacing!r}")
     centroid = mesh.face_areas @ mesh.face_centroids / max(mesh.total_area, 1e-300)
-    views = [resolve_up(v, mesh.vertices, centroid) for v in as_views(view)]
+    views = [resolve_up(v, mesh.vertices, centroid, style.up) for v in as_views(style.view)]
     drawn, colors, on, colorbar, palette = _surface(
-        mesh, function, texture, cmap, clim, colorbar_label, mpl
+        mesh, data["function"], texture, style.cmap, style.clim, style.colorbar_label, mpl
     )
     scene = Scene(
         drawn,
@@ -288,20 +303,27 @@ def build_scene(
         [camera_frame(v, mesh.vertices) for v in views],
         views,
         mesh,
-        arrow_spacing=None if arrow_spacing is None else float(arrow_spacing),
-        max_arrows=max_arrows,
+        arrow_spacing=None if style.arrow_spacing is None else float(style.arrow_spacing),
+        max_arrows=style.max_arrows,
         colorbar=colorbar,
         palette=palette,
     )
     avoid: list = []
-    if singularities is not None:
-        scene.markers, scene.marker_indices = _markers(singularities)
+    if data["singularities"] is not None:
+        scene.markers, scene.marker_indices = _markers(data["singularities"])
         avoid = [index_color(i) for i in np.unique(scene.marker_indices)]
     scene.fields = _layers(
-        mesh, _field_list(field), n, arrow_scale, field_labels, palette, avoid, arrow_color
+        mesh,
+        _field_list(data["field"]),
+        data["n"],
+        style.arrow_scale,
+        data["field_labels"],
+        palette,
+        avoid,
+        style.arrow_color,
     )
-    if streamlines is not None:
-        lines = [np.asarray(x, float).reshape(-1, 3) for x in streamlines]
+    if data["streamlines"] is not None:
+        lines = [np.asarray(x, float).reshape(-1, 3) for x in data["streamlines"]]
         scene.lines = [x for x in lines if x.shape[0] >= 2]
         taken = avoid + [lay.color for lay in scene.fields]
         scene.line_color = contrast_color(palette, np.asarray(taken).reshape(-1, 3))

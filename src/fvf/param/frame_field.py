@@ -35,8 +35,8 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import vertex_to_face
+from ..design.commuting_frames import rescale_frame
 from ..design.constrained import design_field
-from ..design.frames import rescale_frame
 from ..design.holonomy import holonomy_rotations
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh

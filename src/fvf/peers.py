@@ -1,4 +1,9 @@
-r"""Instant Meshes as a reference quad remesher, for side-by-side comparisons.
+r"""Other projects' tools wrapped for comparisons: Instant Meshes, a reference quad remesher.
+
+The top layer, beside :mod:`fvf.cli` and :mod:`fvf.viz`: the demo and the benchmarks
+import it, the library never does (``tests/test_layers.py``). Each wrapper imports its
+project lazily and raises :class:`fvf.MissingExtraError` with the ``pip install`` line
+when it is absent; none is an fvf dependency.
 
 Instant Meshes (Jakob, Tarini, Panozzo & Sorkine-Hornung 2015, *Instant field-aligned
 meshes*) is field-aligned remeshing without a parameterization; it is on PyPI as
@@ -14,9 +19,9 @@ import os
 
 import numpy as np
 
-from ..errors import MissingExtraError, ParameterError
-from ..mesh.convert import takes_mesh
-from ..mesh.trimesh import TriMesh
+from .errors import MissingExtraError, ParameterError
+from .mesh.convert import takes_mesh
+from .mesh.trimesh import TriMesh
 
 __all__ = ["instant_meshes", "has_instant_meshes"]
 

@@ -1,0 +1,99 @@
+"""``fvf match``: a vertex correspondence between two near-isometric shapes
+(:func:`fvf.match`), with geodesic errors against a ground truth
+(:func:`fvf.geodesic_errors`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..common import (
+    EXIT_OK,
+    add_output,
+    check_outputs,
+    data_output,
+    load_viz,
+    match_pictures,
+    png_stem,
+    save_npz,
+)
+from ..registry import register_command
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+def _read_landmarks(path: str) -> np.ndarray:
+    """Landmark pairs from a text file: one line "i1 i2" per landmark (vertex of the first
+    mesh, vertex of the second), '#' comments allowed; int64 (q, 2)."""
+    import numpy as np
+
+    try:
+        L = np.loadtxt(path, dtype=np.int64, comments="#", ndmin=2)
+    except ValueError as exc:
+        raise ValueError(f"{path}: landmarks must be two integers per line ({exc})") from exc
+    if L.shape[1] != 2:
+        raise ValueError(f"{path}: landmarks must be two integers per line; got {L.shape[1]}")
+    return L
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("mesh_1", help="first mesh (OBJ, OFF, PLY): the map lands on it")
+    p.add_argument("mesh_2", help="second mesh: the map has one entry per vertex of it")
+    p.add_argument("--k", type=int, default=200, help="final functional map size (200)")
+    p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
+    p.add_argument("--landmarks", help='text file, one "i1 i2" pair of vertex indices per line')
+    p.add_argument("--truth", help="ground-truth p2p_21 (one integer per line): report errors")
+    p.add_argument("--truth-missing", type=int, help="value marking vertices without truth")
+    add_output(p, "output .npz (keys p2p_21, C_12)")
+    p.add_argument("--png", help="also write STEM_colors.png (and STEM_errors.png with --truth)")
+
+
+@register_command(
+    "match",
+    help="vertex correspondence between two near-isometric shapes (fvf.match: functional "
+    "maps with the orientation term, ZoomOut)",
+    example="fvf match A.off B.off -o map.npz --k 200 [--landmarks l.txt] [--png map.png]\n"
+    "  (map.npz: p2p_21 (n_B,) = vertex of A for each vertex of B, C_12 (k,k))",
+    arguments=_arguments,
+)
+def run(args: argparse.Namespace) -> int:
+    """Write the map (and its errors against ``--truth``, the pictures)."""
+    import numpy as np
+
+    import fvf
+
+    check_outputs(args, data_output(args), ("--png", args.png))
+    landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
+    result = fvf.match_result(
+        args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
+    )
+    arrays = {
+        "p2p_21": result.p2p_21,
+        "C_12": result.C_12,
+        "mesh_1_path": np.array(str(Path(args.mesh_1).resolve())),
+        "mesh_2_path": np.array(str(Path(args.mesh_2).resolve())),
+        "command": np.array(args.command_line),
+    }
+    if args.truth:
+        truth = np.loadtxt(args.truth, dtype=np.int64, ndmin=1)
+        valid = truth != args.truth_missing if args.truth_missing is not None else None
+        p1 = result.prepared_1
+        err = fvf.geodesic_errors(p1.mesh, p1.input_to_mesh[result.p2p_21], p1.input_to_mesh[truth])
+        if valid is not None:
+            err = np.where(valid, err, np.nan)
+        arrays["errors"] = err
+        print(f"mean geodesic error / sqrt(area): {np.nanmean(err):.4f}")
+    save_npz(args.output, arrays)
+    times = ", ".join(f"{k} {v:.1f} s" for k, v in result.timings.items())
+    print(f"matched {result.p2p_21.size} vertices ({times})")
+    if args.png:
+        stem = png_stem(args.png)
+        match_pictures(result, stem, result.prepared_2)
+        if args.truth:
+            p2 = result.prepared_2
+            e = np.nan_to_num(arrays["errors"])[p2.mesh_to_input]
+            load_viz().render_error_map(p2.mesh, e, f"{stem}_errors.png")
+            print(f"wrote {stem}_errors.png")
+    return EXIT_OK
