@@ -14,8 +14,8 @@ Two engines:
 
 * atheris (coverage-guided libFuzzer; ``pip install atheris`` into the dev venv, it is not
   a dependency of fvf). The first input byte picks the reader (``.obj``, ``.off``,
-  ``.ply``), the rest is the file; arguments starting with ``-`` go to libFuzzer, the others
-  are corpus directories (seeded when empty)::
+  ``.ply``, ``.stl``), the rest is the file; arguments starting with ``-`` go to
+  libFuzzer, the others are corpus directories (seeded when empty)::
 
       python tests/fuzz_readers.py corpus/ -atheris_runs=500000 -max_len=4096
 
@@ -24,9 +24,10 @@ Two engines:
 
       python tests/fuzz_readers.py --hypothesis 20000
 
-Seeds are the fuzz bases of ``tests/test_io.py``, a few extra shapes of each format, and
-the byte-level entries of ``tests/corpus.py``'s :func:`hostile_files` (byte order marks,
-CR-only lines, 4OFF, Python-only number spellings, binary junk).
+Seeds are the fuzz bases of ``tests/test_io.py`` and ``tests/test_formats.py`` (STL), a
+few extra shapes of each format, and the byte-level entries of ``tests/corpus.py``'s
+:func:`hostile_files` (byte order marks, CR-only lines, 4OFF, Python-only number
+spellings, binary junk).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-SUFFIXES = [".obj", ".off", ".ply"]
+SUFFIXES = [".obj", ".off", ".ply", ".stl"]
 COUNTS = {"runs": 0, "loaded": 0, "fvf_errors": 0, "repair_errors": 0, "findings": 0}
 API: dict = {}  # the fvf functions under test, imported by load_fvf (instrumented or not)
 
@@ -59,10 +60,11 @@ def load_fvf() -> None:
 
 def seeds() -> list[bytes]:
     """Seed inputs: selector byte + file bytes."""
+    from test_formats import STL_BASES
     from test_io import ASCII_PLY, FUZZ_BASES, binary_ply
 
     out = []
-    for name, data in FUZZ_BASES.items():
+    for name, data in {**FUZZ_BASES, **STL_BASES}.items():
         out.append(bytes([SUFFIXES.index(Path(name).suffix.lower())]) + data)
     out.append(b"\x02" + ASCII_PLY.encode())
     out.append(b"\x02" + binary_ply(">", [[0, 1, 2], [0, 2, 3], [4, 0, 1]], "int", "uint"))
@@ -124,7 +126,7 @@ class Checker:
         COUNTS["runs"] += 1
         if not data:
             return
-        path = self.paths[data[0] % 3]
+        path = self.paths[data[0] % len(SUFFIXES)]
         body = data[1:]
         path.write_bytes(body)
         io, FvfError = API["io"], API["FvfError"]

@@ -125,7 +125,7 @@ def test_write_mesh_rejects_bad_input(tmp_path):
     with pytest.raises(MeshIndexError):
         write_mesh(tmp_path / "a.ply", V, F + 1)
     with pytest.raises(FvfError, match=r"\.obj"):
-        write_mesh(tmp_path / "a.stl", V, F)
+        write_mesh(tmp_path / "a.3ds", V, F)  # not a format fvf writes
 
 
 # ---------------------------------------------------------------- OBJ
@@ -408,8 +408,8 @@ def test_empty_file(tmp_path, suffix):
 
 
 def test_unsupported_suffix_and_missing_file(tmp_path):
-    with pytest.raises(MeshReadError, match=r"'\.stl'.*\.obj, \.off, \.ply"):
-        read_text(tmp_path, "m.stl", "solid\n")
+    with pytest.raises(MeshReadError, match=r"'\.3ds'.*\.obj, \.off, \.ply"):
+        read_text(tmp_path, "m.3ds", "solid\n")
     with pytest.raises(MeshReadError, match="suffix"):
         read_text(tmp_path, "noext", "v 0 0 0\n")
     with pytest.raises(FileNotFoundError):

@@ -23,6 +23,8 @@ __all__ = [
     "OrientationError",
     "MeshReadError",
     "PolygonTriangulatedWarning",
+    "MeshFormatError",
+    "VerticesWeldedWarning",
     "MeshScaleError",
     "DuplicateVertexWarning",
     "UndeclaredCacheKeyError",
@@ -131,6 +133,18 @@ class MeshReadError(FvfError):
 
 class PolygonTriangulatedWarning(FvfWarning):
     """The file had polygons with more than 3 vertices; they were fan-triangulated."""
+
+
+class MeshFormatError(FvfError):
+    """A mesh file format cannot do what was asked: the suffix names no format fvf
+    writes, or the format cannot hold the faces (e.g. quads in STL) or the vertex and
+    face data given. Raised before anything is computed or written
+    (:func:`fvf.io.check_writable`)."""
+
+
+class VerticesWeldedWarning(FvfWarning):
+    """A triangle-soup file (STL) was read: facet corners at exactly the same position
+    were welded into shared vertices; the message says how many."""
 
 
 class MeshScaleError(MeshError):

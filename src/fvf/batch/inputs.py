@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import BatchInputError
-from ..io.meshfile import SUFFIXES
+from ..io.formats import readable_suffixes
 
 __all__ = ["MeshInput", "PairInput", "find_meshes", "unique_names", "read_pairs"]
 
@@ -65,7 +65,8 @@ class PairInput:
 
 
 def _is_mesh_file(path: Path) -> bool:
-    return path.is_file() and path.suffix.lower() in SUFFIXES and not path.name.startswith(".")
+    suffixes = readable_suffixes()  # the mesh formats fvf reads (fvf.io.formats registry)
+    return path.is_file() and path.suffix.lower() in suffixes and not path.name.startswith(".")
 
 
 def _meshes_in(folder: Path) -> list[Path]:
@@ -125,7 +126,7 @@ def find_meshes(inputs: Iterable[str | os.PathLike]) -> list[Path]:
         if missing:
             parts.append(f"no such file, folder or matching pattern: {', '.join(missing)}")
         if empty:
-            parts.append(f"no mesh file ({', '.join(SUFFIXES)}) in: {', '.join(empty)}")
+            parts.append(f"no mesh file ({', '.join(readable_suffixes())}) in: {', '.join(empty)}")
         raise BatchInputError(
             "; ".join(parts) + ". Fix: give existing mesh files, folders holding them, or "
             "quoted glob patterns such as 'scans/**/*.ply'"

@@ -1,13 +1,16 @@
-"""Files: mesh formats (:mod:`.meshfile`: OBJ, OFF, PLY) and the data files of functions
-and fields (:mod:`.datafile`: the ``.npz`` schema of the ``fvf`` command).
+"""Files: meshes (:mod:`.meshfile`: OBJ, OFF, PLY, STL read; those and VTK written) and
+the data files of functions and fields (:mod:`.datafile`: the ``.npz`` schema of the
+``fvf`` command).
 
-A new mesh format goes to :mod:`.meshfile` (a reader returning float64 (n, 3) vertices and
-int64 (m, 3) faces, and a writer); a new data format to :mod:`.datafile`.
+A new mesh format is a module of :mod:`.formats` (a reader returning the file's polygons,
+and/or a writer) registered in :mod:`.formats.registry` with what its files hold; a new
+data format goes to :mod:`.datafile`.
 """
 
 from .atomic import atomic_path
 from .datafile import DataFile, read_data, write_data
 from .meshfile import (
+    check_writable,
     read_mesh,
     read_ply_properties,
     read_quad_mesh,
@@ -23,6 +26,7 @@ __all__ = [
     "read_quad_mesh",
     "write_quad_mesh",
     "write_uv_mesh",
+    "check_writable",
     "DataFile",
     "read_data",
     "write_data",
@@ -35,6 +39,7 @@ NOT_FLAT: frozenset[str] = frozenset(
     {
         "DataFile",
         "atomic_path",
+        "check_writable",
         "read_data",
         "read_ply_properties",
         "read_quad_mesh",

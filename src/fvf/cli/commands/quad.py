@@ -36,7 +36,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         metavar="KEY",
         help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
     )
-    add_output(p, "output quad mesh (.obj or .off)")
+    add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
     p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
 
@@ -68,9 +68,10 @@ def _stage_printer() -> Callable[[str, int, int], None]:
 def run(args: argparse.Namespace) -> int:
     """Write the quad mesh (and the parameterized mesh, the picture); print its quality."""
     import fvf
-    from fvf.io.meshfile import write_quad_mesh, write_uv_mesh
+    from fvf.io.meshfile import check_writable, write_uv_mesh
 
     check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
+    check_writable(args.output, face_size=4)  # a format that holds quads, before the work
     mesh = load_mesh(args.mesh)
     field = Sources(args, mesh).field(args.field) if args.field else None
     progress = _stage_printer()
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     progress("quad extraction", 0, 1)
     qm = extract_quads(mesh, param.uv)
     V, Q = qm.vertices, qm.quads
-    write_quad_mesh(args.output, V, Q)
+    fvf.write_mesh(args.output, V, Q)
     q = fvf.quad_quality(mesh, V, Q, parameterization=param)
     print(
         f"wrote {args.output}: {Q.shape[0]} quads, {V.shape[0]} vertices, "
