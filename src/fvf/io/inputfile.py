@@ -11,11 +11,17 @@ failure into the same typed error.
 from __future__ import annotations
 
 import os
+import re
 import stat
+
+import numpy as np
 
 from ..errors import FvfError
 
-__all__ = ["regular_file", "read_bytes", "describe_mode"]
+__all__ = ["regular_file", "read_bytes", "read_index_table", "describe_mode"]
+
+
+_INTEGER = re.compile(r"[+-]?[0-9]{1,18}")
 
 
 def describe_mode(mode: int) -> str:
@@ -85,3 +91,27 @@ def read_bytes(path: str | os.PathLike, error: type[FvfError], head: int = 0) ->
             "nothing is writing it"
         )
     return data
+
+
+def read_index_table(
+    path: str | os.PathLike, columns: int, what: str, error: type[FvfError]
+) -> np.ndarray:
+    """A text file of integers, ``columns`` per line (``#`` comments), int64 (k, columns).
+
+    Read as a regular file with a size check (:func:`read_bytes`); ``what`` names the
+    table in messages ("feature edges", "landmarks"). An empty file gives (0, columns).
+    """
+    data = read_bytes(path, error)
+    rows = []
+    for number, line in enumerate(data.decode("utf-8", "replace").splitlines(), 1):
+        text = line.split("#", 1)[0].strip()
+        if not text:
+            continue
+        fields = text.split()
+        if len(fields) != columns or not all(_INTEGER.fullmatch(f) for f in fields):
+            raise error(
+                f"{path}, line {number}: {what} must be {columns} integers per line; got "
+                f"{text[:60]!r}"
+            )
+        rows.append([int(f) for f in fields])
+    return np.array(rows, dtype=np.int64).reshape(-1, columns)

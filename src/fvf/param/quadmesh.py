@@ -29,12 +29,12 @@ from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import make_progress
 from .extraction import extract_quads
-from .features import CREASE_ANGLE, sharp_edges, transferred_features
+from .features import CREASE_ANGLE, feature_edge_ids, sharp_edges, transferred_features
 from .frame_field import Alignment
+from .quad_folds import MAX_RINGS, STEPS_PER_RING, closest_surface_points, untangle_quads
 from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
-from .quad_folds import MAX_RINGS, STEPS_PER_RING, closest_surface_points, untangle_quads
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 
@@ -89,13 +89,7 @@ def _attempt(
             )
         surface = surfaces[key]
     f = None if field is None else _transfer_field(part.mesh, surface, field)
-    features = None
-    if opts["features"]:
-        features = sharp_edges(part.mesh, opts["crease_angle"])
-        if surface is not part.mesh:
-            features = transferred_features(
-                part.mesh, features, surface, opts["crease_angle"], plan.h
-            )
+    features = _features(part, surface, plan.h, opts)
     param = seamless_parameterization(
         surface,
         field=f,
@@ -118,6 +112,25 @@ def _attempt(
         param,
         surface,
     )
+
+
+def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
+    """Edge ids of ``surface`` the field is held along: sharp edges and the user's."""
+    mesh = part.mesh
+    found = [sharp_edges(mesh, opts["crease_angle"])] if opts["features"] else []
+    if opts["user_edges"] is not None:  # ids of the whole input's edges -> the part's
+        whole = opts["whole"]
+        pairs = whole.edges[opts["user_edges"]]
+        local = np.full(whole.n_vertices, -1, dtype=np.int64)
+        local[part.vertices] = np.arange(part.vertices.size)
+        mine = local[pairs]
+        found.append(feature_edge_ids(mesh, mine[(mine >= 0).all(axis=1)]))
+    if not found:
+        return None
+    edges = np.unique(np.concatenate(found))
+    if surface is not mesh:
+        edges = transferred_features(mesh, edges, surface, opts["crease_angle"], h)
+    return edges
 
 
 def _transfer_field(mesh: TriMesh, surface: TriMesh, field: np.ndarray) -> np.ndarray:
@@ -200,6 +213,7 @@ def quad_mesh(
     remesh: bool | str = "auto",
     remesher: Remesher = "auto",
     crease_angle: float | None = CREASE_ANGLE,
+    features: npt.ArrayLike | None = None,
     return_parameterization: bool = False,
     fold_repair_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
     **options: Any,
@@ -243,6 +257,10 @@ def quad_mesh(
         Dihedral angle (degrees) above which an edge is a sharp feature
         (:mod:`fvf.param.features`): the remeshing keeps it and the default field is held
         along it. None: no features.
+    features : array_like of int (k, 2), optional
+        Feature edges given as vertex pairs of ``mesh`` (either order; each must be an
+        edge), added to the sharp edges: the default field is held along them. The input
+        is then meshed as it is (never remeshed: the pairs name its own edges).
     return_parameterization : bool
         Deprecated: return ``(V, Q, parameterization)``; use the result's
         ``.parameterization``.
@@ -276,7 +294,8 @@ def quad_mesh(
         were left out (named in the message and in ``dropped_components``).
     """
     steps = _check_options(fold_repair_steps, remesh)
-    remesh = "never" if remesh is False else remesh
+    remesh = "never" if remesh is False or features is not None else remesh
+    user_edges = None if features is None else feature_edge_ids(mesh, features)
     h = edge_length_for(mesh, target_faces, edge_length)
     f = None if field is None else np.asarray(field, dtype=np.float64)
     if f is not None and f.shape != (mesh.n_faces, 3):
@@ -288,9 +307,11 @@ def quad_mesh(
         "remesher": remesher,
         "crease_angle": 180.0 if crease_angle is None else float(crease_angle),
         "features": crease_angle is not None,
+        "user_edges": user_edges,
         "seamless": options,
         "quiet": retry,
     }
+    opts["whole"] = mesh
     report = make_progress(options.get("progress"))
     parts = component_parts(mesh)
     _refuse_boundaries(mesh, parts)
@@ -329,7 +350,7 @@ def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[li
             f"components {format_indices(labels)} are too small for quads of edge {h:.3g} "
             f"(areas {areas} target quads) and were left out; ask for more quads to keep them",
             SmallComponentWarning,
-    UndeclaredCacheKeyError,
+            UndeclaredCacheKeyError,
             stacklevel=user_stacklevel(),
         )
     if not made:
