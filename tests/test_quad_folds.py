@@ -95,14 +95,16 @@ def test_folds_left_are_named_in_a_warning(torus_grid):
 
 
 def test_a_mirrored_quad_is_untangled(torus_grid):
-    """Two opposite corners swapped: the quad is mirrored, its neighbours are not."""
+    """Two opposite corners swapped: the quad is mirrored, and its neighbour across the
+    edge the swap turned is a bow tie (no diagonal split has both halves facing out)."""
     mesh, qm = torus_grid
     c = qm.quads[10]
     V, vf = qm.vertices.copy(), qm.vertex_face.copy()
     V[c[[1, 3]]], vf[c[[1, 3]]] = V[c[[3, 1]]], vf[c[[3, 1]]]
-    assert np.array_equal(folded_quads(mesh, V, qm.quads), [10])
+    assert np.array_equal(folded_quads(mesh, V, qm.quads), [10, 11])
+    assert len(set(qm.quads[11]) & set(c)) == 2  # the neighbour shares an edge with it
     r = untangle_quads(mesh, V, qm.quads, vf)
-    assert r.folded.size == 0 and set(r.moved) <= set(c)
+    assert r.folded.size == 0 and set(r.moved) <= set(c) | set(qm.quads[11])
     check_orientation(mesh, r.vertices, qm.quads)
     assert distance_to_surface(mesh, r.vertices[r.moved]).max() < 1e-12
 

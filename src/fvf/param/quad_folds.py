@@ -23,8 +23,12 @@ diagonal). Its reference normal is the vector area of the input surface the quad
 over the input triangles whose centroids :math:`x_f` lie within half the quad's shorter
 diagonal of its centroid :math:`c_q = \tfrac14 \sum_k p_k` (the surface under the quad);
 when there is none, :math:`P_q` is the triangle holding the surface point closest to
-:math:`c_q`. The quad is **folded** when :math:`n_q \cdot N_q \le 0`: it faces away from
-the surface at its own scale. (A single
+:math:`c_q`. The quad is **folded** when :math:`n_q \cdot N_q \le 0` — it faces away from
+the surface at its own scale — or when neither of its diagonal splits has both halves
+facing the surface (:math:`n_{012}` and :math:`n_{023}`, or :math:`n_{123}` and
+:math:`n_{130}`, each with a positive dot product with :math:`N_q` and with the normal of
+the input triangle closest to :math:`c_q`): a bow tie, or a quad bent over a ridge so far
+that it cannot be drawn as two triangles on the surface. (A single
 input triangle is not a reference: crumpled inputs such as the TOSCA lion have triangles
 folded over against their neighbours — 137 of its 10k face away from the mean normal of
 their two rings — and there a quad whose four half-triangles all agree with the surface
@@ -216,8 +220,19 @@ def reference_normals(
 
 
 def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
-    """bool (len(Q),): n_q · N_q ≤ 0 (module docstring)."""
-    return np.einsum("qd,qd->q", quad_normals(V, Q), reference_normals(mesh, V, Q, tree)) <= 0
+    """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split with both halves facing N_q
+    (module docstring)."""
+    N = reference_normals(mesh, V, Q, tree)
+    P = V[Q]
+    face, _ = closest_surface_points(mesh, P.mean(axis=1), tree)
+    Nc = mesh.face_normals[face]  # the surface right under the centre
+
+    def faces_up(a: int, b: int, c: int) -> np.ndarray:
+        n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])
+        return (np.einsum("qd,qd->q", n, N) > 0) & (np.einsum("qd,qd->q", n, Nc) > 0)
+
+    split = (faces_up(0, 1, 2) & faces_up(0, 2, 3)) | (faces_up(1, 2, 3) & faces_up(1, 3, 0))
+    return (np.einsum("qd,qd->q", quad_normals(V, Q), N) <= 0) | ~split
 
 
 @takes_mesh
