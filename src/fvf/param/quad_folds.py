@@ -69,6 +69,7 @@ __all__ = [
     "closest_surface_points",
     "folded_quads",
     "quad_normals",
+    "centre_normals",
     "reference_normals",
     "surface_sample_tree",
     "untangle_quads",
@@ -195,37 +196,53 @@ def quad_normals(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return np.cross(V[Q[:, 2]] - V[Q[:, 0]], V[Q[:, 3]] - V[Q[:, 1]])
 
 
+def centre_normals(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """The surface's side at each point, float64 (k, 3), unit: the sum of the area-weighted
+    vertex normals of the input triangle closest to the point (smoother than that
+    triangle's own normal, which on a crumpled scan may face the other way)."""
+    F, N = mesh.faces, mesh.face_areas[:, None] * mesh.face_normals
+    vn = np.zeros((mesh.n_vertices, 3))
+    np.add.at(vn, F.ravel(), np.repeat(N, 3, axis=0))
+    face, _ = closest_surface_points(mesh, points, tree)
+    n = vn[F[face]].sum(axis=1)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+
+
 def reference_normals(
     mesh: TriMesh, vertices: np.ndarray, quads: np.ndarray, tree: cKDTree
 ) -> np.ndarray:
     """N_q of the module docstring, float64 (q, 3): the vector area of the input surface
-    under each quad (not normalized); ``tree`` holds ``mesh.face_centroids``."""
+    under each quad, on the side of the surface at its centre (not normalized); ``tree``
+    holds ``mesh.face_centroids``."""
     P = vertices[quads]
     c = P.mean(axis=1)
     rho = 0.5 * np.minimum(
         np.linalg.norm(P[:, 2] - P[:, 0], axis=1), np.linalg.norm(P[:, 3] - P[:, 1], axis=1)
     )
-    AN = mesh.face_areas[:, None] * mesh.face_normals
-    near = cKDTree(c).sparse_distance_matrix(tree, float(rho.max()), output_type="coo_matrix")
+    side = centre_normals(mesh, c, tree)
+    samples, owner = surface_sample_tree(mesh)
+    weight = mesh.face_areas / np.bincount(owner, minlength=mesh.n_faces)  # area per sample
+    AN = weight[:, None] * mesh.face_normals
+    near = cKDTree(c).sparse_distance_matrix(samples, float(rho.max()), output_type="coo_matrix")
     keep = near.data <= rho[near.row]
-    rows, cols = near.row[keep], near.col[keep]
+    rows, cols = near.row[keep], owner[near.col[keep]]
+    same = np.einsum("kd,kd->k", AN[cols], side[rows]) > 0  # not the far wall of a thin part
+    rows, cols = rows[same], cols[same]
     out = np.stack(
         [np.bincount(rows, weights=AN[cols, k], minlength=len(c)) for k in range(3)], axis=1
     )
     empty = np.flatnonzero(np.bincount(rows, minlength=len(c)) == 0)
-    if empty.size:
-        face, _ = closest_surface_points(mesh, c[empty], tree)
-        out[empty] = AN[face]
+    out[empty] = side[empty]
     return out
 
 
 def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
-    """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split with both halves facing N_q
-    (module docstring)."""
+    """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
+    the surface at the centre (module docstring)."""
     N = reference_normals(mesh, V, Q, tree)
     P = V[Q]
     face, _ = closest_surface_points(mesh, P.mean(axis=1), tree)
-    Nc = mesh.face_normals[face]  # the surface right under the centre
+    Nc = mesh.face_normals[face]  # the triangle right under the centre
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
         n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])
