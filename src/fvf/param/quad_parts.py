@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mesh.trimesh import TriMesh
+from .caps import Capped
 from .quad_result import QuadMeshResult
 from .quad_validity import QuadValidity, check_quad_mesh
 
@@ -27,12 +28,20 @@ class Part:
         Its vertices, as indices of the input's vertices (in order).
     mesh : TriMesh
         The component alone (vertex i is input vertex ``vertices[i]``).
+    cap : Capped or None
+        With boundary loops: the component closed by domes (:mod:`fvf.param.caps`).
     """
 
     label: int
     faces: np.ndarray
     vertices: np.ndarray
     mesh: TriMesh
+    cap: Capped | None = None
+
+    @property
+    def closed(self) -> TriMesh:
+        """The closed surface the parameterization is made on."""
+        return self.mesh if self.cap is None else self.cap.mesh
 
 
 def component_parts(mesh: TriMesh) -> list[Part]:

@@ -8,6 +8,7 @@ h, through a list of attempts (:func:`_plans`), and returns the first result tha
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -18,7 +19,6 @@ import numpy.typing as npt
 
 from ..errors import (
     ParameterError,
-    ParameterizationInputError,
     QuadMeshError,
     SmallComponentWarning,
     UndeclaredCacheKeyError,
@@ -28,6 +28,7 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import make_progress
+from .caps import capped, cut_caps
 from .extraction import extract_quads
 from .features import CREASE_ANGLE, feature_edge_ids, sharp_edges, transferred_features
 from .frame_field import Alignment
@@ -43,6 +44,8 @@ __all__ = ["quad_mesh", "MIN_COMPONENT_QUADS"]
 #: A component smaller than this many target quads (area / h²) is meshed at its own,
 #: smaller edge length √(area / MIN_COMPONENT_QUADS); if that fails, it is left out.
 MIN_COMPONENT_QUADS = 8
+#: Ring spacing of the domes that close open components, in quad edges.
+CAP_SPACING = 0.5
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
 MORE_QUADS = 1.0 / np.sqrt(1.5)
 
@@ -64,7 +67,7 @@ def _plans(part: Part, h: float, align: Alignment, retry: bool, remesh: bool | s
         return [_Plan(remesh is True, align, h)]
     other: Alignment = "smooth" if align == "curvature" else "curvature"
     can = remesh != "never"
-    skip_input = remesh is True or (can and needs_remesh(part.mesh, h) is not None)
+    skip_input = remesh is True or (can and needs_remesh(part.closed, h) is not None)
     plans = [] if skip_input else [_Plan(False, align, h)]
     plans += [
         _Plan(can, align, h),
@@ -80,12 +83,12 @@ def _attempt(
     part: Part, plan: _Plan, surfaces: dict, field: np.ndarray | None, opts: dict, report
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh]:
     """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
-    surface = part.mesh
+    base = surface = part.closed
     if plan.remeshed:
         key = round(plan.h, 12)
         if key not in surfaces:
             surfaces[key] = remesh_for_quads(
-                part.mesh, plan.h, crease_angle=opts["crease_angle"], method=opts["remesher"]
+                base, plan.h, crease_angle=opts["crease_angle"], method=opts["remesher"]
             )
         surface = surfaces[key]
     f = None if field is None else _transfer_field(part.mesh, surface, field)
@@ -102,12 +105,14 @@ def _attempt(
     qm = extract_quads(surface, param.uv)
     repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
     report("quad extraction", 1, 1)
-    V, vf = repair.vertices, qm.vertex_face
+    V, vf, Q = repair.vertices, qm.vertex_face, qm.quads
+    if part.cap is not None:
+        V, Q = cut_caps(part.cap, V, Q)
     if surface is not part.mesh:
         vf, V = closest_surface_points(part.mesh, V)
     return (
         np.ascontiguousarray(V, np.float64),
-        np.ascontiguousarray(qm.quads, np.int64),
+        np.ascontiguousarray(Q, np.int64),
         vf,
         param,
         surface,
@@ -116,8 +121,10 @@ def _attempt(
 
 def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
     """Edge ids of ``surface`` the field is held along: sharp edges and the user's."""
-    mesh = part.mesh
+    mesh = part.closed
     found = [sharp_edges(mesh, opts["crease_angle"])] if opts["features"] else []
+    if part.cap is not None:
+        found.append(part.cap.rim)
     if opts["user_edges"] is not None:  # ids of the whole input's edges -> the part's
         whole = opts["whole"]
         pairs = whole.edges[opts["user_edges"]]
@@ -314,7 +321,6 @@ def quad_mesh(
     opts["whole"] = mesh
     report = make_progress(options.get("progress"))
     parts = component_parts(mesh)
-    _refuse_boundaries(mesh, parts)
     made, dropped = _mesh_parts(parts, h, f, align, retry, remesh, opts, report)
     result = join_parts(mesh, made, dropped, h)
     if return_parameterization:
@@ -336,6 +342,8 @@ def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[li
         if small:
             hp = float(np.sqrt(part.mesh.total_area / MIN_COMPONENT_QUADS))
         fp = None if field is None else field[part.faces]
+        if not part.mesh.is_closed:
+            part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         plans = _plans(part, hp, align, retry, remesh)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
@@ -356,17 +364,6 @@ def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[li
     if not made:
         raise QuadMeshError("every component is too small for the quad size; ask for more quads")
     return made, dropped
-
-
-def _refuse_boundaries(mesh: TriMesh, parts: list[Part]) -> None:
-    open_parts = [p for p in parts if not p.mesh.is_closed]
-    if open_parts:
-        loops = sum(p.mesh.n_boundary_loops for p in open_parts)
-        raise ParameterizationInputError(
-            f"the mesh has {loops} boundary loop(s) (components "
-            f"{format_indices([p.label for p in open_parts])}); quad meshing needs closed "
-            "components: close the holes first (e.g. trimesh's fill_holes) or mesh a closed copy"
-        )
 
 
 def _check_options(fold_repair_steps: object, remesh: object) -> int:
