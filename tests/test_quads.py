@@ -178,9 +178,20 @@ def test_user_field_is_followed():
 
 
 # ---------------------------------------------------------------------------- bad input
-def test_meshes_with_boundary_are_rejected():
-    with pytest.raises(fvf.ParameterizationInputError, match="boundary loop"):
-        fvf.quad_mesh(fvf.disk(4, 6), target_faces=10)
+def test_meshes_with_boundary_are_meshed_with_their_boundary():
+    """A disk: the quads have one boundary loop and χ = 1, counted from the connectivity."""
+    mesh = fvf.disk(8, 24)
+    V, Q = fvf.quad_mesh(mesh, target_faces=100)
+    closed, manifold, chi, _ = fvf.param.quality.quad_topology(V.shape[0], Q)
+    assert manifold and not closed and chi == 1
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, count = np.unique(e, axis=0, return_counts=True)
+    rim = np.unique(edges[count == 1])
+    b = mesh.edges[mesh.boundary_edges]  # the 24-gon's sides
+    A, B = mesh.vertices[b[:, 0]], mesh.vertices[b[:, 1]]
+    t = np.clip(np.einsum("rkd,kd->rk", V[rim, None] - A, B - A) / ((B - A) ** 2).sum(1), 0, 1)
+    d = np.linalg.norm(A + t[..., None] * (B - A) - V[rim, None], axis=2).min(axis=1)
+    assert d.max() < 1e-12  # the quads' boundary vertices lie on the input's boundary
 
 
 def test_several_components_are_rejected():
@@ -417,7 +428,7 @@ def test_quad_and_uv_files_round_trip(tmp_path):
         write_quad_mesh(tmp_path / "q.ply", qm.vertices, qm.quads)
 
 
-def test_command_quad(tmp_path, capsys):
+def test_command_quad(tmp_path, capsys, monkeypatch):
     from fvf.cli.main import main
 
     src = tmp_path / "torus.obj"
@@ -429,11 +440,22 @@ def test_command_quad(tmp_path, capsys):
     V, Q = fvf.io.read_quad_mesh(out)
     check_closed_quads(fvf.torus(24, 12), V, Q)
     assert uv.read_text().count("\nvt ") > 0
-    disk = tmp_path / "disk.obj"
-    fvf.write_mesh(disk, fvf.disk(4, 6).vertices, fvf.disk(4, 6).faces)
-    assert main(["quad", str(disk), "--faces", "20", "-o", str(tmp_path / "d.obj")]) == 2
-    assert "ParameterizationInputError" in capsys.readouterr().err
-    assert not (tmp_path / "d.obj").exists()
+    disk = tmp_path / "disk.obj"  # an open surface keeps its boundary loop
+    fvf.write_mesh(disk, fvf.disk(8, 24).vertices, fvf.disk(8, 24).faces)
+    assert main(["quad", str(disk), "--faces", "60", "-o", str(tmp_path / "d.obj")]) == 0
+    V, Q = fvf.io.read_quad_mesh(tmp_path / "d.obj")
+    assert fvf.param.quality.quad_topology(V.shape[0], Q)[2] == 1
+    # no attempt passes the gate: exit 4, the error lists the attempts, nothing written
+    from fvf.param import quadmesh
+    from fvf.param.quad_validity import QuadValidity
+
+    bad = QuadValidity(False, ("planted",), np.empty(0, np.int64), np.nan)
+    monkeypatch.setattr(quadmesh, "check_quad_mesh", lambda *a, **k: bad)
+    capsys.readouterr()
+    assert main(["quad", str(src), "--faces", "60", "-o", str(tmp_path / "t.obj")]) == 4
+    err = capsys.readouterr().err
+    assert "QuadMeshError" in err and "planted" in err
+    assert not (tmp_path / "t.obj").exists()
 
 
 def test_command_renders_quad_meshes(tmp_path):

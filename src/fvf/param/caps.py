@@ -15,7 +15,8 @@ closed by a fan to :math:`c + r n`. The dome leaves the loop at 57° to its plan
 loop is a sharp edge of the closed surface: the quad mesher's field is held along it
 (:mod:`fvf.param.features`) and quad edges run beside it. The quads of the closed surface
 whose centres lie on a dome are then cut off, and the remaining quad vertices put on M at
-their closest points (a vertex beyond the loop lands on the loop). The result has M's
+their closest points, and the vertices on the quads' boundary moved to their closest
+points on M's boundary loops (:func:`snap_boundary`). The result has M's
 boundary loops; :func:`fvf.param.quad_validity.check_quad_mesh` judges it against M.
 """
 
@@ -24,12 +25,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import ParameterizationInputError, format_indices
 from ..mesh.trimesh import TriMesh
 from .quad_folds import closest_surface_points
 
-__all__ = ["Capped", "boundary_loops", "capped", "cut_caps"]
+__all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
 
 #: Dome height over the loop's mean radius (57.5° at the rim, a sharp feature).
 DOME_HEIGHT = 1.0
@@ -151,3 +153,38 @@ def cut_caps(cap: Capped, vertices: np.ndarray, quads: np.ndarray) -> tuple[np.n
     remap = np.full(vertices.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     return vertices[used], remap[Q]
+
+
+def snap_boundary(
+    mesh: TriMesh, vertices: np.ndarray, quads: np.ndarray, vertex_faces: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The quads' boundary vertices moved to their closest points on ``mesh``'s boundary.
+
+    Returns the vertices float64 (k, 3) and the input face of each, int64 (k,). The
+    quads' boundary then lies on the input's boundary loops (their edges are chords of
+    them), not beside them.
+    """
+    Q = np.asarray(quads)
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    rim = np.unique(edges[uses == 1])
+    b = mesh.boundary_edges
+    if rim.size == 0 or b.size == 0:
+        return vertices, vertex_faces
+    A, B = mesh.vertices[mesh.edges[b, 0]], mesh.vertices[mesh.edges[b, 1]]
+    x = vertices[rim]
+    mids = 0.5 * (A + B)
+    cand = cKDTree(mids).query(x, k=min(16, b.size))[1].reshape(x.shape[0], -1)
+    a, d = A[cand], (B - A)[cand]  # (r, c, 3)
+    t = np.einsum("rcd,rcd->rc", x[:, None] - a, d) / np.maximum(
+        np.einsum("rcd,rcd->rc", d, d), 1e-300
+    )
+    p = a + np.clip(t, 0.0, 1.0)[..., None] * d
+    j = np.argmin(np.einsum("rcd,rcd->rc", p - x[:, None], p - x[:, None]), axis=1)
+    rows = np.arange(x.shape[0])
+    V = vertices.copy()
+    V[rim] = p[rows, j]
+    vf = vertex_faces.copy()
+    ef = mesh.edge_faces[b[cand[rows, j]]]
+    vf[rim] = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1])
+    return V, vf

@@ -28,11 +28,17 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import make_progress
-from .caps import capped, cut_caps
+from .caps import capped, cut_caps, snap_boundary
 from .extraction import extract_quads
 from .features import CREASE_ANGLE, feature_edge_ids, sharp_edges, transferred_features
 from .frame_field import Alignment
-from .quad_folds import MAX_RINGS, STEPS_PER_RING, closest_surface_points, untangle_quads
+from .quad_folds import (
+    MAX_RINGS,
+    STEPS_PER_RING,
+    closest_surface_points,
+    folded_quads,
+    untangle_quads,
+)
 from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
@@ -110,6 +116,8 @@ def _attempt(
         V, Q = cut_caps(part.cap, V, Q)
     if surface is not part.mesh:
         vf, V = closest_surface_points(part.mesh, V)
+    if part.cap is not None:
+        V, vf = _snapped(part.mesh, V, Q, vf)
     return (
         np.ascontiguousarray(V, np.float64),
         np.ascontiguousarray(Q, np.int64),
@@ -138,6 +146,16 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
     if surface is not mesh:
         edges = transferred_features(mesh, edges, surface, opts["crease_angle"], h)
     return edges
+
+
+def _snapped(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, vf: np.ndarray) -> tuple:
+    """:func:`fvf.param.caps.snap_boundary`, undone at the corners of quads it folds."""
+    W, wf = snap_boundary(mesh, V, Q, vf)
+    folded = folded_quads(mesh, W, Q)
+    if folded.size:
+        back = np.unique(Q[folded])
+        W[back], wf[back] = V[back], vf[back]
+    return W, wf
 
 
 def _transfer_field(mesh: TriMesh, surface: TriMesh, field: np.ndarray) -> np.ndarray:

@@ -2,7 +2,8 @@ r"""Quality of a quad mesh against the triangle mesh it was made from.
 
 Measures (all vectorized):
 
-- **irregular vertices**: valence ≠ 4, with their valence histogram;
+- **irregular vertices**: valence ≠ 4 (≠ 3 on the boundary), with their valence
+  histogram;
 - **corner angles**: |θ − 90°| over all quad corners (median, 95th percentile), θ the 3D
   angle between the two edges at the corner;
 - **area distortion**: the coefficient of variation std(A_q)/mean(A_q) of the quad areas
@@ -180,7 +181,11 @@ def quad_quality(
     closed, manifold, chi, valence = quad_topology(V.shape[0], Q)
     used = np.zeros(V.shape[0], dtype=bool)
     used[Q.ravel()] = True
-    irr = used & (valence != 4)
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    on_boundary = np.zeros(V.shape[0], dtype=bool)
+    on_boundary[edges[uses == 1].ravel()] = True
+    irr = used & (valence != np.where(on_boundary, 3, 4))  # regular: 4 inside, 3 on the rim
     vals, counts = np.unique(valence[irr], return_counts=True)
     dev = np.abs(_corner_angles(V, Q) - 90.0).ravel()
     area = _quad_areas(V, Q)
