@@ -89,6 +89,21 @@ def boundary_loops(mesh: TriMesh) -> list[np.ndarray]:
     return loops
 
 
+def _dome_direction(P: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """The unit normal of the loop's plane (Newell's) on the side the surface along the
+    loop faces (``normals``: its vertex normals, (k, 3)) and away from the mesh's
+    ``centre`` — the second decides where the first cancels (the open end of a tube)."""
+    n = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    n = n / max(float(np.linalg.norm(n)), 1e-300)
+    c = P.mean(axis=0)
+    r = max(float(np.linalg.norm(P - c, axis=1).mean()), 1e-300)
+    facing = float(n @ normals.sum(axis=0)) / max(
+        float(np.linalg.norm(normals, axis=1).sum()), 1e-300
+    )
+    away = float(n @ (c - centre)) / r
+    return n if facing + away >= 0 else -n
+
+
 def _dome(P: np.ndarray, n: np.ndarray, spacing: float) -> tuple:
     """The rings of one dome over loop points P (k, 3): float64 ((R-1) k, 3) ring points
     (ring by ring), the apex (3,), and R."""
@@ -117,10 +132,10 @@ def capped(mesh: TriMesh, spacing: float) -> Capped:
     AN = mesh.face_areas[:, None] * mesh.face_normals
     vn = np.zeros((mesh.n_vertices, 3))
     np.add.at(vn, mesh.faces.ravel(), np.repeat(AN, 3, axis=0))
+    centre = mesh.vertices.mean(axis=0)
     for loop in boundary_loops(mesh):
         P = mesh.vertices[loop]
-        n = vn[loop].sum(axis=0)
-        n = n / max(float(np.linalg.norm(n)), 1e-300)
+        n = _dome_direction(P, vn[loop], centre)
         pts, apex, rings = _dome(P, n, spacing)
         k = loop.size
         ids = [loop] + [offset + j * k + np.arange(k) for j in range(rings - 1)]

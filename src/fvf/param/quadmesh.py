@@ -376,7 +376,6 @@ def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[li
             f"components {format_indices(labels)} are too small for quads of edge {h:.3g} "
             f"(areas {areas} target quads) and were left out; ask for more quads to keep them",
             SmallComponentWarning,
-            UndeclaredCacheKeyError,
             stacklevel=user_stacklevel(),
         )
     if not made:
