@@ -148,6 +148,7 @@ def test_every_component_is_meshed_and_a_tiny_one_is_left_out_with_a_warning(mon
     with pytest.warns(fvf.SmallComponentWarning, match=r"components \[1\]"):
         made = fvf.quad_mesh(mesh, target_faces=300)
     assert made.dropped_components.tolist() == [1] and made.components.tolist() == [0]
+    monkeypatch.undo()
     two = fvf.TriMesh(
         np.concatenate([a.vertices, a.vertices + 3.0]),
         np.concatenate([a.faces, a.faces + a.n_vertices]),
