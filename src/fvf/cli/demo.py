@@ -579,7 +579,8 @@ def _quads(s, story):
         wide=True,
     )
     st.info("quads", Q.shape[0], note=f"target {target}")
-    st.check("flipped uv triangles", sum(x.n_flipped for x in made.parameterizations), equals=0)
+    flipped = int(sum(x.n_flipped for x in made.parameterizations))
+    st.check("flipped uv triangles", flipped, equals=0)
     st.check(
         "quad mesh is manifold with the input's boundary and Euler characteristic",
         [q.closed == mesh.is_closed, q.manifold, q.euler_characteristic],

@@ -15,6 +15,8 @@ features' length within a quarter quad edge of a quad edge.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
@@ -137,7 +139,7 @@ def feature_coverage(
     return float(weight[near].sum() / weight.sum())
 
 
-def _segment_samples(a: np.ndarray, b: np.ndarray, step: float, weights: bool = False):
+def _segment_samples(a: np.ndarray, b: np.ndarray, step: float, weights: bool = False) -> Any:
     """Points along segments a→b (k, 3) about ``step`` apart; with ``weights`` also the
     length each point stands for."""
     length = np.linalg.norm(b - a, axis=1)

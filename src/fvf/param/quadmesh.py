@@ -12,7 +12,7 @@ import dataclasses
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -27,7 +27,7 @@ from ..errors import (
 )
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from ..numerics.progress import make_progress
+from ..numerics.progress import ProgressCallback, make_progress
 from .caps import capped, cut_caps, snap_boundary
 from .extraction import extract_quads
 from .features import CREASE_ANGLE, feature_edge_ids, sharp_edges, transferred_features
@@ -86,7 +86,12 @@ def _plans(part: Part, h: float, align: Alignment, retry: bool, remesh: bool | s
 
 
 def _attempt(
-    part: Part, plan: _Plan, surfaces: dict, field: np.ndarray | None, opts: dict, report
+    part: Part,
+    plan: _Plan,
+    surfaces: dict,
+    field: np.ndarray | None,
+    opts: dict,
+    report: ProgressCallback,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh]:
     """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
     base = surface = part.closed
@@ -166,7 +171,13 @@ def _transfer_field(mesh: TriMesh, surface: TriMesh, field: np.ndarray) -> np.nd
     return surface.project_tangent(field[face])
 
 
-def _mesh_part(part: Part, plans: list[_Plan], field, opts: dict, report) -> tuple:
+def _mesh_part(
+    part: Part,
+    plans: list[_Plan],
+    field: np.ndarray | None,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple:
     """The first attempt whose quads pass the gate, or QuadMeshError listing them all."""
     log: list[str] = []
     surfaces: dict = {}
@@ -242,7 +253,7 @@ def quad_mesh(
     return_parameterization: bool = False,
     fold_repair_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
     **options: Any,
-) -> QuadMeshResult | tuple[np.ndarray, np.ndarray, SeamlessParameterization]:
+) -> QuadMeshResult:
     """A valid pure-quad mesh whose edges follow a cross field (the chapter's Fig. 1), or an error.
 
     Each connected component is meshed on its own at one target edge length h: a
@@ -287,8 +298,8 @@ def quad_mesh(
         edge), added to the sharp edges: the default field is held along them. The input
         is then meshed as it is (never remeshed: the pairs name its own edges).
     return_parameterization : bool
-        Deprecated: return ``(V, Q, parameterization)``; use the result's
-        ``.parameterization``.
+        Deprecated: return ``(V, Q, parameterization)`` instead of the result (typed as
+        the result for type checkers); use the result's ``.parameterization``.
     fold_repair_steps : int
         Relaxation steps at most for untangling folded quads (0: detect only).
     **options
@@ -327,7 +338,7 @@ def quad_mesh(
         from ..mesh.inputs import as_face_field
 
         f = as_face_field(mesh, f, "field")
-    opts = {
+    opts: dict[str, Any] = {
         "steps": steps,
         "remesher": remesher,
         "crease_angle": 180.0 if crease_angle is None else float(crease_angle),
@@ -348,11 +359,21 @@ def quad_mesh(
             DeprecationWarning,
             stacklevel=user_stacklevel(),
         )
-        return result.vertices, result.quads, result.parameterizations[0]
+        legacy = (result.vertices, result.quads, result.parameterizations[0])
+        return cast(QuadMeshResult, legacy)  # the deprecated three values, as before
     return result
 
 
-def _mesh_parts(parts, h, field, align, retry, remesh, opts, report) -> tuple[list, list]:
+def _mesh_parts(
+    parts: list[Part],
+    h: float,
+    field: np.ndarray | None,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple[list, list]:
     made, dropped = [], []
     for part in parts:
         hp = h

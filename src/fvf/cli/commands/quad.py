@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
+from typing import Any
 
 from ..common import (
     EXIT_OK,
@@ -104,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         align=args.align,
         crease_angle=args.crease_angle if args.crease_angle > 0 else None,
         features=features,
-        remesh={"auto": "auto", "always": True, "never": "never"}[args.remesh],
+        remesh=_REMESH[args.remesh],
         progress=_stage_printer(),
     )
     fvf.write_mesh(args.output, made.vertices, made.quads)
@@ -123,7 +124,10 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _write_uv(path: str, made, write_uv_mesh) -> None:
+_REMESH: dict[str, bool | str] = {"auto": "auto", "always": True, "never": "never"}
+
+
+def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
     """The triangle meshes the parameterizations live on, one file (components side by
     side, each in its own uv chart)."""
     import numpy as np
