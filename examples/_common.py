@@ -2,7 +2,8 @@
 
 Each script runs as ``python examples/<script>.py [MESH] [--out DIR] [--no-pictures]``:
 MESH is an OBJ/OFF/PLY file (default: the built-in Spot, 2930 vertices), DIR receives the
-pictures (default ``examples_out/``). Pictures need the ``[viz]`` extra
+pictures (default: a new temporary folder, named when the script starts; nothing is
+written into the repository). Pictures need the ``[viz]`` extra
 (``pip install 'fvf[viz]'``); without it the script still computes and prints every
 number, and says that it skipped the picture.
 """
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -23,9 +25,13 @@ def parse_args(description: str, default: str = "the built-in Spot") -> argparse
     """The command line shared by all examples."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("mesh", nargs="?", help=f"OBJ/OFF/PLY mesh (default: {default})")
-    parser.add_argument("--out", default="examples_out", help="folder for the pictures")
+    parser.add_argument("--out", help="folder for the pictures (default: a new temporary folder)")
     parser.add_argument("--no-pictures", action="store_true", help="numbers only")
-    return parser.parse_args()
+    args = parser.parse_args()
+    if args.out is None and not args.no_pictures:
+        args.out = tempfile.mkdtemp(prefix="fvf-examples-")
+        print(f"pictures go to {args.out} (choose the folder with --out DIR)")
+    return args
 
 
 def load_mesh(path: str | None) -> fvf.TriMesh:

@@ -1212,6 +1212,19 @@ SPECS: dict[str, Spec] = {
         error=_match_error,
         max_faces=30_000,
     ),
+    "MeshLike": Spec(
+        lambda fn, mesh, c: fvf.as_mesh(fvf.mesh.spot_path()),  # a path is a MeshLike
+        lambda r, mesh, c: (r.n_vertices == 2930) or pytest.fail(repr(r)),
+        meshless=True,
+    ),
+    "map_consistent_field": Spec(
+        lambda fn, mesh, c: fn(c.basis, np.eye(8)),  # C = I: every field commutes with it
+        lambda r, mesh, c: (
+            r[0].shape == (mesh.n_faces, 3) or pytest.fail("v shape"),
+            small(r[1], 1.0, 1e-6) or pytest.fail(f"residual {r[1]}"),
+        ),
+        error=_needs_vertices(8),
+    ),
     "MatchResult": Spec(
         lambda fn, mesh, c: fn,
         lambda r, mesh, c: dataclasses.is_dataclass(r) or pytest.fail("a dataclass"),
@@ -1341,32 +1354,57 @@ def test_the_root_never_imports_the_top_layers():
 _PLACEHOLDERS = {"fvf.name", "fvf.Name"}
 
 
-def test_every_documented_name_resolves():
-    """Each ``fvf.x.y`` that README.md and docs/*.md write in backticks exists."""
+def _unresolved(text: str) -> list[str]:
+    """The dotted names ``fvf.x.y`` written in ``text`` that do not exist."""
     import importlib
     import re
+
+    missing = []
+    for dotted in re.findall(r"(?<![\w.])fvf(?:\.[A-Za-z_]\w*)+", text):
+        if dotted in _PLACEHOLDERS:
+            continue
+        parts = dotted.split(".")
+        obj: Any = fvf
+        for i, part in enumerate(parts[1:], start=1):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)  # moved plumbing
+                if hasattr(obj, part):
+                    obj = getattr(obj, part)
+                    continue
+            try:
+                obj = importlib.import_module(".".join(parts[: i + 1]))
+            except ImportError:
+                missing.append(dotted)
+                break
+    return missing
+
+
+def test_every_documented_name_resolves():
+    """Each ``fvf.x.y`` that README.md and docs/*.md write (in backticks, code blocks or
+    link text) exists."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
     missing = []
     for page in [root / "README.md", *sorted((root / "docs").rglob("*.md"))]:
-        for code in re.findall(r"`([^`]+)`", page.read_text()):
-            for dotted in re.findall(r"(?<![\w.])fvf(?:\.[A-Za-z_]\w*)+", code):
-                if dotted in _PLACEHOLDERS:
-                    continue
-                parts = dotted.split(".")
-                obj: Any = fvf
-                for i, part in enumerate(parts[1:], start=1):
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore", DeprecationWarning)  # moved plumbing
-                        if hasattr(obj, part):
-                            obj = getattr(obj, part)
-                            continue
-                    try:
-                        obj = importlib.import_module(".".join(parts[: i + 1]))
-                    except ImportError:
-                        missing.append(f"{page.relative_to(root)}: {dotted}")
-                        break
+        missing += [f"{page.relative_to(root)}: {n}" for n in _unresolved(page.read_text())]
+    assert not missing, missing
+
+
+def test_every_name_in_the_command_help_resolves():
+    """Each ``fvf.x.y`` that ``fvf --help`` and ``fvf COMMAND --help`` write exists."""
+    import argparse
+
+    from fvf.cli.main import parser
+
+    top = parser()
+    texts = {"fvf --help": top.format_help()}
+    for action in top._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                texts[f"fvf {name} --help"] = sub.format_help()
+    assert len(texts) > 10
+    missing = [f"{where}: {name}" for where, text in texts.items() for name in _unresolved(text)]
     assert not missing, missing
 
 

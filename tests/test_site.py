@@ -250,3 +250,37 @@ def test_changelog_page_includes_the_repository_changelog(site):
     out, _ = site
     html = (out / "changelog" / "index.html").read_text()
     assert "Unreleased" in html and "0.1.0" in html and "FieldValueError" in html
+
+
+def _unrendered_math(html: str) -> list[str]:
+    """``$`` delimiters left in a page's text: math that arithmatex did not pick up (code,
+    scripts and the math it rendered removed first)."""
+    import html as html_lib
+
+    text = re.sub(r"<(script|style|pre|code)\b[^>]*>.*?</\1>", "", html, flags=re.S)
+    text = re.sub(r'<(span|div) class="arithmatex">.*?</\1>', "", text, flags=re.S)
+    text = html_lib.unescape(re.sub(r"<[^>]+>", " ", text))
+    return [
+        " ".join(text[max(m.start() - 30, 0) : m.end() + 30].split())
+        for m in re.finditer(r"\$\$|\$[^\s$][^$]*?\$", text)
+    ]
+
+
+def test_no_page_shows_unrendered_math_delimiters(site):
+    """Display math inside list items (docs/correspondence.md, the docstrings of
+    fvf.param.seamless and fvf.design.cancellation) is rendered, not shown as ``$$``."""
+    out, _ = site
+    found = {}
+    for page in sorted(out.rglob("*.html")):
+        left = _unrendered_math(page.read_text())
+        if left:
+            found[str(page.relative_to(out))] = left[:3]
+    assert not found, found
+    assert _unrendered_math("<p>$$x$$</p>") and not _unrendered_math("<code>$x$</code>")
+
+
+def test_wide_display_math_scrolls_in_its_box(site):
+    out, _ = site
+    css = (out / "stylesheets" / "math.css").read_text()
+    assert "overflow-x: auto" in css and "arithmatex" in css
+    assert "stylesheets/math.css" in (out / "quads" / "index.html").read_text()

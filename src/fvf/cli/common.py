@@ -49,6 +49,9 @@ __all__ = [
     "check_outputs",
     "data_output",
     "png_stem",
+    "derived_picture",
+    "add_picture_options",
+    "picture_options",
     "write_results",
     "render_picture",
     "save_npz",
@@ -315,8 +318,52 @@ def data_output(args: argparse.Namespace) -> tuple[str, str]:
 
 
 def png_stem(path: str) -> str:
-    """The stem of ``--png``: the pictures are ``STEM_colors.png``, ``STEM_errors.png``."""
+    """The stem of a picture name: ``map.png`` -> ``map``."""
     return str(Path(path).with_suffix(""))
+
+
+def derived_picture(path: str, what: str) -> str:
+    """The name of a further picture of ``--png NAME``: ``STEM_WHAT.SUFFIX`` beside NAME
+    (``map.pdf``, ``errors`` -> ``map_errors.pdf``; PNG when NAME has no suffix)."""
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}_{what}{p.suffix or '.png'}"))
+
+
+#: The choices of ``--up``.
+UP_CHOICES = ("auto", "x", "y", "z", "-x", "-y", "-z")
+
+
+def add_picture_options(p: argparse.ArgumentParser, size: bool = True) -> None:
+    """``--up``, ``--size W H`` and ``--dpi`` of every command that makes a picture."""
+    p.add_argument(
+        "--up",
+        choices=UP_CHOICES,
+        default="auto",
+        help="mesh axis pointing up in the picture (default auto: y, or z for a shape "
+        "standing on its -z side)",
+    )
+    if size:
+        p.add_argument(
+            "--size", nargs=2, type=integer, metavar=("W", "H"), help="picture size in pixels"
+        )
+    p.add_argument(
+        "--dpi",
+        type=integer,
+        help="dots per inch recorded in a PNG; the page of a .pdf or .svg is W/dpi inches "
+        "(default 100)",
+    )
+
+
+def picture_options(args: argparse.Namespace) -> dict:
+    """The :class:`fvf.viz.RenderStyle` options of :func:`add_picture_options`' flags."""
+    out: dict[str, Any] = {}
+    if getattr(args, "up", "auto") not in (None, "auto"):
+        out["up"] = args.up
+    if getattr(args, "size", None):
+        out["size"] = tuple(args.size)
+    if getattr(args, "dpi", None) is not None:
+        out["dpi"] = args.dpi
+    return out
 
 
 def write_results(args, out, arrays, mesh, inputs=()):
@@ -382,14 +429,20 @@ def save_npz(path: str, arrays: dict) -> str:
     return str(out)
 
 
-def match_pictures(result: Any, stem: str, mesh_2_prepared: PreparedMesh) -> None:
-    """Transferred colours of a map (``fvf match``, ``fvf symmetry``): ``STEM_colors.png``."""
+def match_pictures(
+    result: Any,
+    path: str,
+    mesh_2_prepared: PreparedMesh,
+    names: tuple[str, str] = ("mesh 1", "mesh 2"),
+    options: dict | None = None,
+) -> None:
+    """Transferred colours of a map (``fvf match``, ``fvf symmetry``), written to ``path``
+    (``--png NAME``), the panels titled ``names``; ``options``: :func:`picture_options`."""
     viz = load_viz()
     p1, p2 = result.prepared_1, mesh_2_prepared
     p2p = p1.input_to_mesh[result.p2p_21[p2.mesh_to_input]]  # prepared 2 -> prepared 1
-    path = f"{stem}_colors.png"
     try:
-        viz.render_correspondence(p1.mesh, p2.mesh, p2p, path)
+        viz.render_correspondence(p1.mesh, p2.mesh, p2p, path, names=names, **(options or {}))
     except ImportError as exc:
         raise unavailable(exc) from exc
     print(f"wrote {path}")

@@ -657,6 +657,8 @@ def demo(
     pictures: bool = True,
     size: tuple[int, int] = (600, 450),
     stages: tuple | None = None,
+    up: str | None = None,
+    dpi: int | None = None,
 ) -> dict:
     """Run the chapter's story on a mesh; write ``summary.json``, pictures and ``index.html``.
 
@@ -674,6 +676,11 @@ def demo(
     stages : tuple of functions, optional
         The sections to run (default :data:`STAGES`, all of them; each reads what the
         earlier ones left in ``s``, so pass a prefix).
+    up : {"x", "y", "z", "-x", "-y", "-z", "auto"}, optional
+        The mesh axis up in every picture (default: detected,
+        :func:`fvf.viz.camera.detect_up_axis`).
+    dpi : int, optional
+        Dots per inch recorded in the pictures (default 100).
 
     Returns
     -------
@@ -695,7 +702,8 @@ def demo(
         "n_faces": mesh.n_faces,
         "euler_characteristic": mesh.euler_characteristic,
     }
-    story = Story(out, pictures, size, _viz_missing())
+    options = {k: v for k, v in (("up", up), ("dpi", dpi)) if v not in (None, "auto")}
+    story = Story(out, pictures, size, _viz_missing(), options)
     if story.skip_reason is None:
         import fvf.viz
 

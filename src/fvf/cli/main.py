@@ -30,6 +30,7 @@ through a link) unless given ``--force``.
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import signal
 import sys
@@ -129,6 +130,9 @@ def parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     top.add_argument("--debug", action="store_true", help=_DEBUG)
+    top.add_argument(
+        "--version", action="version", version=f"fvf {_version()}", help="print fvf X.Y.Z"
+    )
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in registered_commands().values():
         _add(sub, command)
@@ -185,13 +189,23 @@ def main(argv: list[str] | None = None) -> int:
     :data:`EXIT_WRITE_FAILED` (5), :data:`EXIT_GREW` (6, a flow grew beyond
     ``--growth-limit``; the output was written), :data:`EXIT_INTERRUPTED` (130),
     :data:`EXIT_TERMINATED` (143).
+
+    A reader of the standard output that leaves early (``fvf info MESH | head -1``) is not
+    an error: what is printed after it left is dropped, the command runs on (its output
+    files are written) and the exit status is the command's own.
     """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    with _ClosedPipeQuiet():
+        return _run(argv)
+
+
+def _run(argv: list[str]) -> int:
+    """:func:`main` with ``sys.stdout`` guarded against a reader that left."""
     import numpy as np
 
-    argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = parser().parse_args(argv)
-    except SystemExit as exc:  # --help (0) or a usage error (2), already printed
+    except SystemExit as exc:  # --help, --version (0) or a usage error (2), already printed
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
     args.force = getattr(args, "force", False)
@@ -241,6 +255,61 @@ def main(argv: list[str] | None = None) -> int:
         except _Terminated:
             print("fvf: terminated; no output was half-written", file=sys.stderr)
             return EXIT_TERMINATED
+
+
+class _ClosedPipeQuiet:
+    """While the command runs, ``sys.stdout`` drops what it is given once its reader has
+    closed the pipe (:class:`_PipeWriter`); on leaving, the rest is flushed (or dropped) so
+    that the interpreter's last flush finds nothing to complain about."""
+
+    def __enter__(self):
+        self.previous = sys.stdout
+        if self.previous is not None:
+            sys.stdout = _PipeWriter(self.previous)
+        return self
+
+    def __exit__(self, *exc):
+        writer, sys.stdout = sys.stdout, self.previous
+        if isinstance(writer, _PipeWriter):
+            writer.flush()
+        return False
+
+
+class _PipeWriter:
+    """A text stream over ``stream`` for which a closed pipe (:class:`BrokenPipeError`)
+    is the end of the output, not an error: the file descriptor is pointed at the null
+    device and further text is dropped."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+        self.reader_left = False
+
+    def write(self, text: str) -> int:
+        if not self.reader_left:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._left()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_left:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._left()
+
+    def _left(self) -> None:
+        self.reader_left = True
+        try:  # the stream's own buffer is flushed again at exit: into the null device
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self._stream.fileno())
+            os.close(null)
+        except (OSError, ValueError, AttributeError):  # not a file (a test's capture)
+            pass
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 class _terminate_cleanly:

@@ -191,9 +191,15 @@ class Story:
     """Collects sections, renders pictures (or records why not), writes the report."""
 
     def __init__(
-        self, out: Path, pictures: bool, size: tuple[int, int], skip_reason: str | None = None
+        self,
+        out: Path,
+        pictures: bool,
+        size: tuple[int, int],
+        skip_reason: str | None = None,
+        options: dict | None = None,
     ):
         self.out, self.size = Path(out), tuple(size)
+        self.options = dict(options or {})  # RenderStyle options of every picture (up, dpi)
         self.skip_reason = None if pictures else "pictures were turned off (pictures=False)"
         if self.skip_reason is None:
             self.skip_reason = skip_reason
@@ -237,6 +243,8 @@ class Story:
 
         w, h = self.size
         kwargs.setdefault("size", (int(1.6 * w), h) if wide else (w, h))
+        for key, value in self.options.items():
+            kwargs.setdefault(key, value)
         if draw is None:
             info = fvf.viz.render(mesh, self.out / name, title=caption, **kwargs)
         else:

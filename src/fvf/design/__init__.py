@@ -95,6 +95,5 @@ NOT_FLAT: frozenset[str] = frozenset(
         "FrameRescaling",
         "all_directions",
         "consistency_residual",
-        "map_consistent_field",
     }
 )

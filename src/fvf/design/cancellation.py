@@ -15,12 +15,12 @@ topology fixed (the fixed-topology step of mixed-integer field design: Ray, Vall
    it from the other);
 3. rotate each face's representative by Δψ_t, minimizing
 
-   $$\sum_e w_e\,(\tilde\delta_e + \Delta\psi_s - \Delta\psi_t)^2
-   + \mu \sum_t \frac{A_t}{r^2}\,\Delta\psi_t^2 ,$$
+    $$\sum_e w_e\,(\tilde\delta_e + \Delta\psi_s - \Delta\psi_t)^2
+    + \mu \sum_t \frac{A_t}{r^2}\,\Delta\psi_t^2 ,$$
 
-   δ̃ the edited turnings and w_e the weights of the connection Laplacian
-   (:func:`fvf.design.connection.connection_pairs`): one sparse SPD solve on the dual
-   graph. The small μ fixes the constant and keeps the field where nothing changed.
+    δ̃ the edited turnings and w_e the weights of the connection Laplacian
+    (:func:`fvf.design.connection.connection_pairs`): one sparse SPD solve on the dual
+    graph. The small μ fixes the constant and keeps the field where nothing changed.
 
 The edited field's singularities are measured again by :func:`fvf.singularities`; a
 cancelled pair can expose the next one, so the steps repeat a few rounds.

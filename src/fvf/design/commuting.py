@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from ..calculus import field_product, stiffness, vertex_to_face
 from ..errors import ParameterError
-from ..mesh.convert import takes_mesh
+from ..mesh.convert import MeshLike, takes_mesh
 from ..mesh.inputs import TangentPolicy, as_face_field
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import SpectralFallbackWarning, SpectralSolveError, smallest_eigenpairs
@@ -59,7 +59,8 @@ def rescaling_operator(mesh: TriMesh, v: npt.ArrayLike, u: npt.ArrayLike) -> sp.
 
 @overload
 def rescale(
-    mesh: TriMesh,
+    mesh: MeshLike,
+    /,
     v: npt.ArrayLike,
     u: npt.ArrayLike,
     alpha: float,
@@ -68,7 +69,8 @@ def rescale(
 ) -> np.ndarray: ...
 @overload
 def rescale(
-    mesh: TriMesh,
+    mesh: MeshLike,
+    /,
     v: npt.ArrayLike,
     u: npt.ArrayLike,
     alpha: float,

@@ -50,6 +50,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
+from ..numerics.summary import short_repr
 from ..operators.brackets import commutator_field
 from ..operators.directional import D_V
 from .nfields import period_jumps
@@ -91,6 +92,8 @@ class FrameReport:
         frame jumps and no scaling can make it commute).
     """
 
+    __repr__ = short_repr  # arrays by dtype and shape
+
     bracket_energy: float
     curl_u: float
     curl_v: float
@@ -108,6 +111,8 @@ class FrameRescaling:
     before, after : FrameReport
         :func:`frame_report` of (u, v) and of (a u, b v).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     a: np.ndarray
     b: np.ndarray

@@ -58,6 +58,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.geometry import cross_rows
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .indices import ZERO_RTOL, as_connection_rotations, vertex_indices
 
 __all__ = [
@@ -265,6 +266,8 @@ class CutGraph:
     indices : float64 (s,)
         Their indices (multiples of 1/N).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     mask: np.ndarray
     edges: np.ndarray

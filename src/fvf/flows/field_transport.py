@@ -40,6 +40,7 @@ from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
 from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
+from ..numerics.summary import short_repr
 from ..operators.brackets import ad
 from .functional import GROWTH_LIMIT
 
@@ -57,6 +58,8 @@ class TransportResult:
     normal_part : float or float64 (T,)
         ‖normal component removed‖ / ‖field before projection‖ (L2, eq. 26).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     fields: np.ndarray
     normal_part: float | np.ndarray

@@ -57,6 +57,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
+from ..numerics.summary import short_repr
 from ..operators.directional import D_V
 
 __all__ = [
@@ -211,6 +212,8 @@ class FluidResult:
         ``"factorizations"`` (midpoint: sparse LUs of the preconditioner); ``"basis"`` and
         ``"coefficients"`` (spectral).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     mesh: TriMesh
     times: np.ndarray

@@ -7,6 +7,7 @@ and/or a writer) registered in :mod:`.formats.registry` with what its files hold
 data format goes to :mod:`.datafile`.
 """
 
+from ..mesh.convert import register_path_reader
 from .atomic import atomic_path
 from .datafile import DataFile, read_data, write_data
 from .meshfile import (
@@ -18,6 +19,10 @@ from .meshfile import (
     write_quad_mesh,
     write_uv_mesh,
 )
+
+# Every function taking a mesh accepts a mesh file path: the mesh layer below reads it
+# through this layer's reader (docs/architecture.md).
+register_path_reader(read_mesh)
 
 __all__ = [
     "read_mesh",

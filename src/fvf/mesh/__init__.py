@@ -6,7 +6,7 @@ Where things go: a new mesh quality check goes to :mod:`.diagnostics`, a new rep
 """
 
 from .builtin import spot, spot_path
-from .convert import as_mesh, takes_mesh
+from .convert import MeshLike, as_mesh, register_path_reader, takes_mesh
 from .curvature import PrincipalCurvatures, principal_curvatures, vertex_normals
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
@@ -27,8 +27,10 @@ from .trimesh import TriMesh
 
 __all__ = [
     "TriMesh",
+    "MeshLike",
     "as_mesh",
     "takes_mesh",
+    "register_path_reader",
     "PrincipalCurvatures",
     "principal_curvatures",
     "vertex_normals",
@@ -65,6 +67,7 @@ NOT_FLAT: frozenset[str] = frozenset(
         "mesh_report",
         "midpoint_subdivision",
         "prepare_mesh",
+        "register_path_reader",
         "spot_path",
         "takes_mesh",
         "vertex_normals",

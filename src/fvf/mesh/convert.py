@@ -1,10 +1,15 @@
 """Meshes from other libraries: :func:`as_mesh`, and the :func:`takes_mesh` entrance.
 
 Every public function of fvf that takes a mesh accepts, besides a :class:`TriMesh`, a
-``(vertices, faces)`` pair and the mesh objects of trimesh, meshio, PyVista, pyFM and
-Open3D: its entrance converts them with :func:`as_mesh` (the :func:`takes_mesh`
-decorator, one line above each such function, ``docs/architecture.md``). No library is
-imported to recognise its objects: they are read by their attributes.
+``(vertices, faces)`` pair, a mesh file path and the mesh objects of trimesh, meshio,
+PyVista, pyFM and Open3D (:data:`MeshLike`): its entrance converts them with
+:func:`as_mesh` (the :func:`takes_mesh` decorator, one line above each such function,
+``docs/architecture.md``). No library is imported to recognise its objects: they are read
+by their attributes.
+
+Paths are read by the file layer above this one: :mod:`fvf.io` registers its reader here
+(:func:`register_path_reader`) when it is imported, which ``import fvf`` does; this module
+never imports :mod:`fvf.io`.
 
 A foreign mesh is converted once and the :class:`TriMesh` remembered (weakly, with a
 digest of its arrays), so calling several fvf functions on one trimesh object does not
@@ -16,22 +21,40 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
+import os
 import warnings
 import weakref
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, Concatenate, ParamSpec, TypeVar, Union, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import MeshShapeError, PolygonTriangulatedWarning
 from .trimesh import TriMesh
 
-__all__ = ["as_mesh", "takes_mesh", "mesh_arrays"]
+__all__ = ["as_mesh", "takes_mesh", "mesh_arrays", "MeshLike", "register_path_reader"]
 
-F = TypeVar("F", bound=Callable[..., Any])
+#: What a function taking a mesh accepts: a :class:`TriMesh`, a ``(vertices, faces)``
+#: pair of array_like (n, 3) float and (m, 3) int, a mesh file path (str or
+#: ``os.PathLike``; OBJ, OFF, PLY, STL), or a mesh object of trimesh, meshio, PyVista,
+#: pyFM or Open3D (typed ``Any``: fvf imports none of them). See :func:`as_mesh`.
+MeshLike = Union[  # noqa: UP007  (a runtime alias: ``X | Any`` needs Python 3.11)
+    TriMesh,
+    tuple[npt.ArrayLike, npt.ArrayLike],
+    list,
+    str,
+    os.PathLike,
+    Any,
+]
+
+P = ParamSpec("P")
+R = TypeVar("R")
+S = TypeVar("S")
 
 _HOW = (
-    "pass a fvf.TriMesh, a (vertices (n, 3), faces (m, 3)) pair, or a mesh of trimesh "
+    "pass a fvf.TriMesh, a (vertices (n, 3), faces (m, 3)) pair, a mesh file path "
+    "(OBJ, OFF, PLY, STL), or a mesh of trimesh "
     "(.vertices/.faces), meshio (.points, triangle cells), PyVista (PolyData), pyFM "
     "(.vertlist/.facelist) or Open3D (.vertices/.triangles); for anything else build "
     "fvf.TriMesh(V, F) from its vertex and face arrays"
@@ -143,14 +166,55 @@ def _digest(V: np.ndarray, F: np.ndarray) -> bytes:
     return h.digest()
 
 
-def as_mesh(obj: Any) -> TriMesh:
+#: The reader of mesh file paths, ``reader(path) -> (vertices, faces)``, installed by
+#: :mod:`fvf.io` (:func:`register_path_reader`).
+_PATH_READER: list[Callable[[str | os.PathLike], tuple[np.ndarray, np.ndarray]]] = []
+
+
+def register_path_reader(
+    reader: Callable[[str | os.PathLike], tuple[np.ndarray, np.ndarray]],
+) -> None:
+    """Let :func:`as_mesh` (and so every function taking a mesh) read mesh file paths.
+
+    :mod:`fvf.io` calls it on import with :func:`fvf.io.read_mesh`: the file layer sits
+    above the mesh layer, so the mesh layer is handed its reader instead of importing it
+    (``docs/architecture.md``). A later call replaces the reader.
+
+    Parameters
+    ----------
+    reader : callable
+        ``reader(path) -> (vertices (n, 3) float64, faces (m, 3) int64)``; raises
+        ``OSError`` or :class:`fvf.errors.MeshReadError` for a file it cannot read.
+    """
+    _PATH_READER[:] = [reader]
+
+
+def _read_path(path: str | os.PathLike) -> TriMesh:
+    """The TriMesh of a mesh file; an invalid mesh's error names the file."""
+    from ..errors import MeshError
+
+    if not _PATH_READER:
+        raise TypeError(
+            f"as_mesh: got the path {os.fspath(path)!r}, but no mesh file reader is "
+            "registered: import fvf (or fvf.io) first, or pass the arrays"
+        )
+    V, F = _PATH_READER[0](path)
+    try:
+        return TriMesh(V, F)
+    except MeshError as exc:
+        raise type(exc)(f"{os.fspath(path)}: {exc}") from exc
+
+
+def as_mesh(obj: MeshLike) -> TriMesh:
     """A :class:`TriMesh` from any common mesh representation.
 
     Parameters
     ----------
-    obj : TriMesh, (V, F) pair, or a mesh object
+    obj : TriMesh, (V, F) pair, path, or a mesh object (:data:`MeshLike`)
         - :class:`TriMesh`: returned as is.
         - ``(vertices, faces)``: array_like (n, 3) float and (m, 3) int (a tuple or list).
+        - a mesh file path, ``str`` or ``os.PathLike`` (OBJ, OFF, PLY, STL): read with
+          :func:`fvf.io.read_mesh` each time it is passed (the file may change).
         - trimesh ``Trimesh`` (``.vertices``, ``.faces``); also anything else with those
           two attributes, e.g. :class:`fvf.RepairResult`.
         - meshio ``Mesh`` (``.points``, triangle cells; quads and polygons are
@@ -171,7 +235,9 @@ def as_mesh(obj: Any) -> TriMesh:
     TypeError
         ``obj`` is none of these; the message names its type and how to convert it.
     fvf.errors.MeshError
-        The arrays are not a valid mesh.
+        The arrays are not a valid mesh (for a file, the message starts with its path).
+    OSError, fvf.errors.MeshReadError
+        A path that cannot be read as a mesh file.
 
     Examples
     --------
@@ -182,6 +248,8 @@ def as_mesh(obj: Any) -> TriMesh:
     """
     if isinstance(obj, TriMesh):
         return obj
+    if isinstance(obj, str | os.PathLike):
+        return _read_path(obj)
     arrays = mesh_arrays(obj)
     if arrays is None:
         raise TypeError(f"as_mesh: got {type(obj).__module__}.{type(obj).__qualname__}; {_HOW}")
@@ -198,13 +266,28 @@ def as_mesh(obj: Any) -> TriMesh:
     return mesh
 
 
-def takes_mesh(fn: F) -> F:
+@overload
+def takes_mesh(
+    fn: Callable[Concatenate[TriMesh, P], R],
+) -> Callable[Concatenate[MeshLike, P], R]: ...
+
+
+@overload
+def takes_mesh(
+    fn: Callable[Concatenate[S, TriMesh, P], R],
+) -> Callable[Concatenate[S, MeshLike, P], R]: ...
+
+
+def takes_mesh(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Decorator: the argument ``mesh`` of ``fn`` goes through :func:`as_mesh` first.
 
-    One line above each public function (or ``__init__``) that takes a mesh; a
-    :class:`TriMesh` passes at the cost of one type check.
+    One line above each public function (or ``__init__``) that takes a mesh, as its first
+    parameter (after ``self``) annotated :class:`TriMesh`; a :class:`TriMesh` passes at
+    the cost of one type check. The decorated function's signature, for type checkers and
+    ``inspect.signature`` alike, takes ``mesh: MeshLike``.
     """
-    position = list(inspect.signature(fn).parameters).index("mesh")
+    signature = inspect.signature(fn)
+    position = list(signature.parameters).index("mesh")
 
     @functools.wraps(fn)
     def entrance(*args, **kwargs):
@@ -215,4 +298,10 @@ def takes_mesh(fn: F) -> F:
             kwargs["mesh"] = as_mesh(kwargs["mesh"])
         return fn(*args, **kwargs)
 
-    return entrance  # type: ignore[return-value]
+    entrance.__signature__ = signature.replace(  # type: ignore[attr-defined]
+        parameters=[
+            p.replace(annotation="MeshLike") if name == "mesh" else p
+            for name, p in signature.parameters.items()
+        ]
+    )
+    return entrance

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..numerics.summary import short_repr
 from .convert import takes_mesh
 from .geometry import cross_rows, readonly
 
@@ -57,6 +58,8 @@ class PrincipalCurvatures:
     shape_operator : float64 (m, 2, 2)
         S_t in the coordinates of ``mesh.face_bases``.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     k1: np.ndarray
     k2: np.ndarray

@@ -31,6 +31,7 @@ from ..errors import (
     MeshShapeError,
     NonFiniteError,
 )
+from ..numerics.summary import short_repr
 from .repair import DEFAULT_REPAIR_STEPS, repair_mesh
 from .trimesh import TriMesh
 
@@ -63,6 +64,8 @@ class PreparedMesh:
     log : tuple of str
         What was repaired or dropped (empty when the input was already clean).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     mesh: TriMesh
     n_input: int

@@ -33,6 +33,7 @@ from ..errors import (
     format_indices,
     user_stacklevel,
 )
+from ..numerics.summary import html_table
 from . import halfedges
 from .cache import quantity_name, value_nbytes
 from .geometry import cross_rows, edge_components, readonly
@@ -179,6 +180,21 @@ class TriMesh:
             f"TriMesh(n_vertices={self.n_vertices}, n_faces={self.n_faces}, "
             f"closed={self.is_closed}, components={self.n_components}, "
             f"euler_characteristic={self.euler_characteristic})"
+        )
+
+    def _repr_html_(self) -> str:
+        """A table for Jupyter: vertices, faces, components, boundary loops, χ, genus."""
+        genus = self.genus if self.n_components == 1 else "per component"
+        return html_table(
+            "TriMesh",
+            [
+                ("vertices", self.n_vertices),
+                ("faces", self.n_faces),
+                ("components", self.n_components),
+                ("boundary loops", self.n_boundary_loops),
+                ("Euler characteristic χ", self.euler_characteristic),
+                ("genus", genus),
+            ],
         )
 
     # ------------------------------------------------------------------ cache

@@ -17,6 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ExpmInputError
+from .summary import short_repr
 
 __all__ = [
     "as_times",
@@ -201,6 +202,8 @@ class ExpmJob:
     progress : callable or None
         Called with the fraction done (0..1).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     B2: np.ndarray
     times: np.ndarray

@@ -23,6 +23,7 @@ from scipy.sparse.csgraph import connected_components
 from ..design.indices import vertex_indices
 from ..design.nfields import comb, cut_graph, period_jumps
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 
 __all__ = ["CutMesh", "cut_mesh"]
 
@@ -49,6 +50,8 @@ class CutMesh:
         Cut-mesh vertex of each corner.
     n_wedges : int
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     field: np.ndarray
     angles: np.ndarray

@@ -34,6 +34,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import QuadExtractionError, format_indices
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .seams import ROTATIONS
 
 __all__ = ["QuadMesh", "extract_quads", "edge_transitions"]
@@ -65,6 +66,8 @@ class QuadMesh:
     quad_faces : int64 (q, 4)
         Input triangle in which each quad corner's outgoing edge starts.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     vertices: np.ndarray
     quads: np.ndarray

@@ -63,6 +63,7 @@ from scipy.spatial import cKDTree
 from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 
 __all__ = [
     "FoldRepair",
@@ -299,6 +300,8 @@ class FoldRepair:
     steps : int
         Relaxation steps taken.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     vertices: np.ndarray
     vertex_face: np.ndarray

@@ -12,10 +12,10 @@ Pipeline (``docs/quads.md`` has the derivation):
 3. transition functions across the cut, uv_s = R^q uv_t + c (:mod:`fvf.param.seams`);
 4. the Poisson fit
 
-   $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
+    $$\min_{u, v} \sum_t A_t \big( |\nabla u - X|^2 + |\nabla v - Y|^2 \big)$$
 
-   over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
-   normal equations (:mod:`fvf.numerics.cholesky`);
+    over the PL coordinates of the cut mesh, subject to the transitions, solved as sparse
+    normal equations (:mod:`fvf.numerics.cholesky`);
 5. integer rounding of the chain translations and of the singular-vertex positions
    (:mod:`fvf.param.rounding`), so that every transition is a rotation by k·90° plus an
    integer translation and every cone sits on an integer point;
@@ -45,6 +45,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
+from ..numerics.summary import short_repr
 from .cutmesh import CutMesh, cut_mesh
 from .features import feature_constraints
 from .frame_field import (
@@ -102,6 +103,8 @@ class SeamlessParameterization:
         ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``seconds`` (dict:
         wall time per stage, keyed by the stage's progress message).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     uv: np.ndarray
     field: np.ndarray

@@ -35,6 +35,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .cutmesh import CutMesh
 
 __all__ = ["SeamSystem", "ROTATIONS", "rotation_blocks", "seam_system"]
@@ -66,6 +67,8 @@ class SeamSystem:
     edge_chain : int64 (E,)
         Chain of each cut edge (−1 off the cut).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     P: sp.csr_array
     closing: sp.csr_array

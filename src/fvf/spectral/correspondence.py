@@ -41,9 +41,10 @@ from ..errors import (
     format_indices,
 )
 from ..io.meshfile import read_mesh
-from ..mesh.convert import as_mesh
+from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .basis import SpectralBasis
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
@@ -61,8 +62,6 @@ __all__ = [
 
 #: Dimensionless weights of the fit used by :func:`match` (see :mod:`.fmap_fit`).
 DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0, "w_orth": 1.0}
-
-MeshLike = TriMesh | tuple | str | os.PathLike
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +92,8 @@ class MatchResult:
     timings : dict
         Seconds per step.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     p2p_21: np.ndarray
     C_12: np.ndarray

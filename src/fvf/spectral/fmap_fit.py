@@ -46,6 +46,7 @@ import scipy.optimize as so
 from ..calculus import grad, rotation
 from ..errors import BasisSizeError, ParameterError
 from ..mesh.inputs import as_vertex_function
+from ..numerics.summary import short_repr
 from .basis import SpectralBasis
 from .fmaps import split_sizes
 
@@ -180,6 +181,8 @@ class FunctionalMapEnergy:
     weights : dict
         The dimensionless weights used.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     A: np.ndarray
     B: np.ndarray

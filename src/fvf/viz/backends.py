@@ -162,6 +162,7 @@ def render(
     texture: Any = None,
     n: int = 1,
     field_labels: list | tuple | None = None,
+    singularity_kind: str = "index",
     style: RenderStyle | None = None,
     **options: Any,
 ) -> RenderInfo:
@@ -178,9 +179,12 @@ def render(
     ----------
     mesh : TriMesh
     path : str or Path
-        Output PNG.
+        Output picture: PNG, or PDF / SVG by the suffix (``.pdf``, ``.svg``: title,
+        colorbar and legend as vector graphics, the rendered surface as an image).
     function : array_like (n,) or (m,), optional
-        Vertex or face scalars, drawn with ``style.cmap`` and a labelled colorbar.
+        Vertex or face scalars, drawn with ``style.cmap`` and a labelled colorbar. NaN
+        marks missing values, drawn in light grey (:data:`fvf.viz.scene.NO_DATA_COLOR`)
+        and named in the legend (``style.nan_label``).
     field : array_like (m, 3) or list of them, optional
         Per-face tangent vectors, drawn as flat arrows in the faces' planes
         (:mod:`fvf.viz.overlay`), about one per ``arrow_spacing`` pixels, each field in
@@ -204,12 +208,17 @@ def render(
         arrow long.
     field_labels : list of str, optional
         Names of the fields in the legend, one per field.
+    singularity_kind : {"index", "valence"}
+        How the legend names the ``singularities``: ``"index"`` (``index +1/4``, of a
+        field) or ``"valence"`` (``valence 3``: vertices of a quad mesh, given with the
+        cross-field index ``(4 − valence) / 4`` so both pictures share colours).
     style : RenderStyle, optional
         The appearance; default ``RenderStyle()``.
     **options
         Options of :class:`fvf.viz.RenderStyle` (``cmap``, ``clim``, ``colorbar_label``,
         ``arrow_color``, ``arrow_scale``, ``arrow_spacing``, ``max_arrows``, ``view``,
-        ``up``, ``size``, ``title``, ``backend``), replacing those of ``style``.
+        ``up``, ``size``, ``dpi``, ``title``, ``backend``, ``colorbar``, ``nan_label``),
+        replacing those of ``style``.
 
     Returns
     -------
@@ -242,7 +251,7 @@ def render(
     the camera, window size, background colour and scene extents are restored afterwards
     (the ground plane stays off: polyscope cannot report its mode).
     """
-    from .compose import compose, has_legend, layout
+    from .compose import compose, has_colorbar, has_legend, layout
     from .scene import build_scene
 
     t0 = time.perf_counter()
@@ -257,10 +266,11 @@ def render(
         texture=texture,
         n=n,
         field_labels=field_labels,
+        singularity_kind=singularity_kind,
     )
     width, height = style.width, style.height
     lay = layout(
-        width, height, style.title, scene.colorbar is not None, has_legend(scene), len(scene.frames)
+        width, height, style.title, has_colorbar(scene), has_legend(scene), len(scene.frames)
     )
     pw, ph = lay.panel_width, lay.panel_height
     if pw < 32 or ph < 32:
@@ -268,7 +278,7 @@ def render(
     overlays = _overlays(scene, pw, ph)
     used, fallback, images = _draw_panels(scene, overlays, pw, ph, style.backend)
     path = Path(path)
-    compose(images, scene, path, width, height, style.title)
+    compose(images, scene, path, width, height, style.title, int(style.dpi))
     return _render_info(path, used, fallback, (width, height), t0, scene, overlays)
 
 

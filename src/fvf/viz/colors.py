@@ -220,19 +220,21 @@ def outline_color(color: npt.ArrayLike) -> tuple[float, float, float]:
     return (1.0, 1.0, 1.0) if srgb_to_lab(color)[0] < 35.0 else (0.0, 0.0, 0.0)
 
 
-#: Singularity colours by index: warm for positive, cool for negative, darker with |index|.
+#: Singularity colours by index, from the colour-blind-safe palette of Okabe and Ito:
+#: warm for positive indices, cool for negative, and for each sign the colours differ in
+#: lightness as well as hue (so they stay apart for deuteranopes and in greyscale).
 _INDEX_COLORS = {
-    Fraction(1, 4): (1.00, 0.80, 0.10),
-    Fraction(1, 2): (1.00, 0.50, 0.00),
-    Fraction(1): (0.86, 0.10, 0.10),
-    Fraction(2): (0.55, 0.00, 0.20),
-    Fraction(-1, 4): (0.45, 0.90, 1.00),
-    Fraction(-1, 2): (0.10, 0.65, 0.90),
-    Fraction(-1): (0.10, 0.30, 0.90),
-    Fraction(-2): (0.10, 0.10, 0.50),
+    Fraction(1, 4): (0.94, 0.89, 0.26),  # yellow
+    Fraction(1, 2): (0.90, 0.62, 0.00),  # orange
+    Fraction(1): (0.84, 0.37, 0.00),  # vermilion
+    Fraction(2): (0.50, 0.15, 0.00),  # dark brown
+    Fraction(-1, 4): (0.34, 0.71, 0.91),  # sky blue
+    Fraction(-1, 2): (0.00, 0.45, 0.70),  # blue
+    Fraction(-1): (0.00, 0.20, 0.45),  # dark blue
+    Fraction(-2): (0.10, 0.10, 0.20),  # near black
 }
-_OTHER_POSITIVE = (0.60, 0.20, 0.60)
-_OTHER_NEGATIVE = (0.20, 0.55, 0.35)
+_OTHER_POSITIVE = (0.80, 0.47, 0.65)  # reddish purple
+_OTHER_NEGATIVE = (0.00, 0.62, 0.45)  # bluish green
 
 
 def _fraction(index: float) -> Fraction:
@@ -242,10 +244,12 @@ def _fraction(index: float) -> Fraction:
 def index_color(index: float) -> tuple[float, float, float]:
     """Marker colour of a singularity of the given index.
 
-    Warm colours for positive indices, cool for negative, darker as ``|index|`` grows:
-    +1/4 yellow, +1/2 orange, +1 red, +2 dark red; −1/4 light cyan, −1/2 sky blue,
-    −1 blue, −2 navy. Other positive indices (1/6, 3/4, …) are purple, other negative ones
-    green; 0 is grey.
+    Okabe–Ito colours (distinguishable by colour-blind readers), warm for positive
+    indices, cool for negative, darker as ``|index|`` grows: +1/4 yellow, +1/2 orange,
+    +1 vermilion, +2 dark brown; −1/4 sky blue, −1/2 blue, −1 dark blue, −2 near black.
+    Other positive indices (1/6, 3/4, …) are reddish purple, other negative ones bluish
+    green; 0 is grey. A quad mesh's vertex of valence v takes the colour of index
+    (4 − v)/4: valence 3 yellow, 5 sky blue.
     """
     f = _fraction(index)
     if f in _INDEX_COLORS:

@@ -16,9 +16,13 @@ import numpy as np
 from ..io.atomic import atomic_path
 from ._deps import require
 from .colors import index_color, index_label
-from .scene import Scene
+from .scene import NO_DATA_COLOR, Scene
 
-__all__ = ["Layout", "compose", "layout"]
+__all__ = ["FORMATS", "Layout", "compose", "has_colorbar", "layout", "marker_label"]
+
+#: The picture formats, by the output's suffix (anything else: PNG). PDF and SVG hold the
+#: title, colorbar and legend as vector graphics and the rendered panels as an image.
+FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
 
 TITLE_HEIGHT = 34
 COLORBAR_WIDTH = 100
@@ -42,8 +46,24 @@ class Layout:
 
 
 def has_legend(scene: Scene) -> bool:
-    """Whether the picture gets a legend: singularities, or labelled fields."""
-    return scene.markers is not None or any(f.label for f in scene.fields)
+    """Whether the picture gets a legend: singularities, labelled fields, or NaN values
+    of the function ("no data")."""
+    return (
+        scene.markers is not None or any(f.label for f in scene.fields) or scene.no_data is not None
+    )
+
+
+def has_colorbar(scene: Scene) -> bool:
+    """Whether the picture gets a colorbar: a function, unless it is switched off."""
+    return scene.colorbar is not None and scene.show_colorbar
+
+
+def marker_label(index: float, kind: str = "index") -> str:
+    """Legend text of a singularity: ``index +1/4`` of a field, or ``valence 3`` of a quad
+    mesh vertex (whose cross-field index is ``(4 − valence) / 4``)."""
+    if kind == "valence":
+        return f"valence {int(round(4 - 4 * float(index)))}"
+    return f"index {index_label(index)}"
 
 
 def layout(
@@ -64,6 +84,8 @@ def _legend_handles(scene: Scene) -> list:
     from matplotlib.patches import Patch
 
     handles: list[Artist] = []
+    if scene.no_data is not None:
+        handles.append(Patch(facecolor=NO_DATA_COLOR, edgecolor="0.4", label=scene.no_data))
     for f in scene.fields:
         if f.label:
             handles.append(Patch(facecolor=f.color, edgecolor="black", label=f.label))
@@ -72,6 +94,8 @@ def _legend_handles(scene: Scene) -> list:
         kinds, counts = np.unique(np.round(scene.marker_indices, 9), return_counts=True)
         if kinds.size == 0:
             handles.append(Line2D([], [], linestyle="none", label="no singularities"))
+        if scene.marker_kind == "valence":  # the field's colours: valence 3 is index +1/4
+            kinds, counts = kinds[::-1], counts[::-1]
         for k, c in zip(kinds, counts, strict=True):
             handles.append(
                 Line2D(
@@ -82,17 +106,17 @@ def _legend_handles(scene: Scene) -> list:
                     markersize=9,
                     markerfacecolor=index_color(k),
                     markeredgecolor="black",
-                    label=f"index {index_label(k)} ({c})",
+                    label=f"{marker_label(k, scene.marker_kind)} ({c})",
                 )
             )
     return handles
 
 
-def _title(fig: Any, canvas: Any, lay: Layout, title: str) -> None:
+def _title(fig: Any, canvas: Any, lay: Layout, title: str, pt: float = 1.0) -> None:
     """The title, centred over the panels, or over the picture when wider than them, in a
-    smaller font when wider than the picture."""
+    smaller font when wider than the picture (``pt``: points per point at 100 dpi)."""
     width, height = lay.width, lay.height
-    fontsize = 10.0 if width < 600 else 12.0
+    fontsize = (10.0 if lay.scene_width < 600 else 12.0) * pt
     text = fig.text(
         0.5 * lay.scene_width / width,
         1.0 - 0.5 * TITLE_HEIGHT / height,
@@ -113,7 +137,7 @@ def _title(fig: Any, canvas: Any, lay: Layout, title: str) -> None:
         wide = text.get_window_extent(renderer).width
 
 
-def _colorbar(fig: Any, lay: Layout, colorbar: dict, legend: bool) -> None:
+def _colorbar(fig: Any, lay: Layout, colorbar: dict, legend: bool, pt: float = 1.0) -> None:
     """The labelled colorbar in the side column (its upper half above a legend)."""
     import matplotlib
     from matplotlib.cm import ScalarMappable
@@ -126,27 +150,41 @@ def _colorbar(fig: Any, lay: Layout, colorbar: dict, legend: bool) -> None:
     cax = fig.add_axes((x0 + 4 / width, bottom * sh, 14 / width, (top - bottom) * sh))
     sm = ScalarMappable(Normalize(*colorbar["clim"]), matplotlib.colormaps[colorbar["cmap"]])
     bar = fig.colorbar(sm, cax=cax, extend=colorbar.get("extend", "neither"))
-    bar.ax.tick_params(labelsize=7 if small else 8)
+    bar.ax.tick_params(
+        labelsize=(7 if small else 8) * pt, length=3.5 * pt, width=0.8 * pt, pad=3.5 * pt
+    )
+    bar.outline.set_linewidth(0.8 * pt)
     if isinstance(bar.formatter, ScalarFormatter):  # the default of a linear norm
         bar.formatter.set_powerlimits((-3, 4))
-    bar.set_label(colorbar.get("label") or "value", fontsize=8 if small else 9)
+    bar.set_label(colorbar.get("label") or "value", fontsize=(8 if small else 9) * pt)
 
 
-def _legend(fig: Any, lay: Layout, scene: Scene) -> None:
-    """The legend in the side column: field labels and singularity indices."""
+def _legend(fig: Any, lay: Layout, scene: Scene, pt: float = 1.0) -> None:
+    """The legend in the side column: field labels, singularity indices (or valences), the
+    colour of missing values."""
     small = lay.width < 600
-    top = 0.46 if scene.colorbar is not None else 0.95
+    top = 0.46 if has_colorbar(scene) else 0.95
+    title = None
+    if scene.markers is not None:
+        title = "irregular vertices" if scene.marker_kind == "valence" else "singularities"
     sh = lay.scene_height / lay.height
     lax = fig.add_axes((lay.scene_width / lay.width, 0.02, lay.side / lay.width, top * sh))
     lax.set_axis_off()
     lax.set_zorder(3)
+    handles = _legend_handles(scene)
+    for h in handles:
+        if hasattr(h, "set_markersize"):
+            h.set_markersize(h.get_markersize() * pt)
+            h.set_markeredgewidth(h.get_markeredgewidth() * pt)
+        else:
+            h.set_linewidth(h.get_linewidth() * pt)
     lax.legend(
-        handles=_legend_handles(scene),
+        handles=handles,
         loc="upper left",
-        fontsize=7 if small else 8,
+        fontsize=(7 if small else 8) * pt,
         frameon=False,
-        title="singularities" if scene.markers is not None else None,
-        title_fontsize=7 if small else 8,
+        title=title,
+        title_fontsize=(7 if small else 8) * pt,
         borderaxespad=0.2,
         handletextpad=0.3,
         alignment="left",
@@ -172,25 +210,35 @@ def compose(
     width: int,
     height: int,
     title: str | None,
+    dpi: int = 100,
 ) -> None:
-    """Write the panels with title, colorbar and legend as a PNG of the given size."""
+    """Write the panels with title, colorbar and legend, ``width`` x ``height`` pixels.
+
+    The format follows the suffix of ``path`` (:data:`FORMATS`; PNG otherwise). ``dpi``
+    is recorded in a PNG and sets the page of a PDF or SVG to ``width / dpi`` inches; the
+    fonts scale with it, so the picture looks the same at every dpi.
+    """
     require("matplotlib")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     images = [panels] if isinstance(panels, np.ndarray) else list(panels)
     legend = has_legend(scene)
-    lay = layout(width, height, title, scene.colorbar is not None, legend, len(images))
-    fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100, facecolor="white")
+    lay = layout(width, height, title, has_colorbar(scene), legend, len(images))
+    pt = 100.0 / dpi  # font points: sized for 100 dpi
+    fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor="white")
     canvas = FigureCanvasAgg(fig)
     fig.figimage(_strip(images, lay), xo=0, yo=0, origin="upper", zorder=0)
     if title:
-        _title(fig, canvas, lay, title)
-    if scene.colorbar is not None:
-        _colorbar(fig, lay, scene.colorbar, legend)
+        _title(fig, canvas, lay, title, pt)
+    if has_colorbar(scene):
+        assert scene.colorbar is not None
+        _colorbar(fig, lay, scene.colorbar, legend, pt)
     if legend:
-        _legend(fig, lay, scene)
+        _legend(fig, lay, scene, pt)
+    fmt = FORMATS.get(Path(path).suffix.lower(), "png")
+    extra: dict[str, Any] = {"pil_kwargs": {"compress_level": 3}} if fmt == "png" else {}
+    if fmt == "svg":
+        extra["metadata"] = {"Date": None}  # the same picture gives the same file
     with atomic_path(path) as tmp:  # whole or not at all
-        fig.savefig(
-            str(tmp), format="png", dpi=100, facecolor="white", pil_kwargs={"compress_level": 3}
-        )
+        fig.savefig(str(tmp), format=fmt, dpi=dpi, facecolor="white", **extra)

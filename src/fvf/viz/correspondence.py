@@ -24,7 +24,13 @@ from ..mesh.trimesh import TriMesh
 from ._deps import require
 from .backends import RenderInfo, render
 
-__all__ = ["coordinate_stripes", "render_correspondence", "render_error_map", "plot_error_curves"]
+__all__ = [
+    "coordinate_stripes",
+    "render_correspondence",
+    "render_error_map",
+    "plot_error_curves",
+    "save_image",
+]
 
 
 @takes_mesh
@@ -53,8 +59,13 @@ def render_correspondence(
     view: Any = None,
     title: str | None = None,
     backend: str = "auto",
+    names: tuple[str, str] = ("mesh 1", "mesh 2"),
+    up: str | None = None,
+    dpi: int = 100,
 ) -> Path:
     """Mesh 1 coloured by ``function`` beside mesh 2 coloured by ``function[p2p_21]``.
+
+    One colorbar (on the right) serves both panels: they show one quantity.
 
     Parameters
     ----------
@@ -62,24 +73,30 @@ def render_correspondence(
     p2p_21 : array_like of int (n_2,)
         Vertex of mesh 1 for each vertex of mesh 2.
     path : str or Path
-        Output PNG (written atomically).
+        Output picture (written atomically): PNG, or PDF / SVG by the suffix (the
+        picture as an image in the page).
     function : array_like (n_1,), optional
         Default :func:`coordinate_stripes` of mesh 1.
-    cmap, size, view, title, backend
+    cmap, size, view, title, backend, up, dpi
         As for :func:`fvf.viz.render`; ``size`` is the whole picture.
+    names : (str, str)
+        The panels' titles (e.g. the file names; default "mesh 1", "mesh 2").
 
     Returns
     -------
     pathlib.Path
     """
+    from .compose import COLORBAR_WIDTH
+
     image = require("PIL.Image", "render_correspondence")
     f1 = coordinate_stripes(mesh_1) if function is None else np.asarray(function, dtype=float)
     f2 = f1[np.asarray(p2p_21, dtype=np.int64)]
-    clim = (float(f1.min()), float(f1.max()))
-    half = (size[0] // 2, size[1])
+    clim = (float(np.nanmin(f1)), float(np.nanmax(f1)))
+    left = max(64, (size[0] - COLORBAR_WIDTH) // 2)
+    widths = (left, max(64, size[0] - left))  # the second panel holds the colorbar
     with tempfile.TemporaryDirectory() as tmp:
         parts = []
-        for i, (mesh, f, name) in enumerate(((mesh_1, f1, "mesh 1"), (mesh_2, f2, "mesh 2"))):
+        for i, (mesh, f, name) in enumerate(((mesh_1, f1, names[0]), (mesh_2, f2, names[1]))):
             p = Path(tmp) / f"{i}.png"
             render(
                 mesh,
@@ -87,10 +104,13 @@ def render_correspondence(
                 function=f,
                 cmap=cmap,
                 clim=clim,
-                size=half,
+                size=(widths[i], size[1]),
                 view=view,
+                up=up,
                 title=name if title is None else f"{title}: {name}",
                 backend=backend,
+                colorbar=i == 1,
+                colorbar_label="function",
             )
             parts.append(image.open(p).convert("RGB"))
         canvas = image.new(
@@ -98,9 +118,29 @@ def render_correspondence(
         )
         canvas.paste(parts[0], (0, 0))
         canvas.paste(parts[1], (parts[0].width, 0))
-        with atomic_path(path) as out:
-            canvas.save(out, format="PNG")
+        save_image(canvas, path, dpi)
     return Path(path)
+
+
+def save_image(picture: Any, path: str | Path, dpi: int = 100) -> None:
+    """Write a PIL image atomically: PNG (with its dpi), or a PDF / SVG page of
+    ``size / dpi`` inches holding it, by the suffix of ``path``."""
+    from .compose import FORMATS
+
+    fmt = FORMATS.get(Path(path).suffix.lower(), "png")
+    with atomic_path(path) as out:
+        if fmt == "png":
+            picture.save(out, format="PNG", dpi=(dpi, dpi))
+            return
+        require("matplotlib")
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(picture.width / dpi, picture.height / dpi), dpi=dpi)
+        FigureCanvasAgg(fig)
+        fig.figimage(np.asarray(picture), xo=0, yo=0, origin="upper")
+        extra: dict[str, Any] = {"metadata": {"Date": None}} if fmt == "svg" else {}
+        fig.savefig(str(out), format=fmt, dpi=dpi, **extra)
 
 
 def render_error_map(
@@ -113,10 +153,15 @@ def render_error_map(
     **kwargs: Any,
 ) -> RenderInfo:
     """Per-vertex errors (n_2,) on mesh 2 (``magma``, clipped to ``clim``); returns the
-    :class:`fvf.viz.RenderInfo` of :func:`fvf.viz.render`."""
+    :class:`fvf.viz.RenderInfo` of :func:`fvf.viz.render`.
+
+    NaN errors (vertices without a ground truth) are drawn in light grey, named "no ground
+    truth" in the legend, never as zero error.
+    """
     e = np.asarray(errors, dtype=float)
     if clim is not None:
-        e = np.clip(e, *clim)
+        e = np.where(np.isnan(e), np.nan, np.clip(e, *clim))
+    kwargs.setdefault("nan_label", "no ground truth")
     return render(
         mesh_2,
         path,
@@ -135,9 +180,13 @@ def plot_error_curves(
     *,
     max_error: float = 0.1,
     title: str | None = None,
+    size: tuple[int, int] = (605, 440),
+    dpi: int = 110,
 ) -> Path:
     """Cumulative error curves: for each label, the fraction of vertices with normalized
-    geodesic error at most each threshold in [0, max_error]. Written atomically as PNG."""
+    geodesic error at most each threshold in [0, max_error]. Written atomically: PNG, or
+    PDF / SVG (vector) by the suffix of ``path``; ``size`` in pixels at ``dpi``. NaN errors
+    (no ground truth) are left out."""
     from ..spectral.evaluation import cumulative_error_curve
 
     require("matplotlib")
@@ -146,10 +195,13 @@ def plot_error_curves(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=110)
+    from .compose import FORMATS
+
+    fig, ax = plt.subplots(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
     thresholds = np.linspace(0.0, max_error, 201)
     for label, values in errors.items():
         e = np.asarray(values, dtype=float)
+        e = e[~np.isnan(e)]
         t, frac = cumulative_error_curve(e, thresholds)
         ax.plot(t, frac, label=f"{label} (mean {np.mean(e):.4f})")
     ax.set_xlabel("geodesic error / sqrt(area)")
@@ -162,6 +214,6 @@ def plot_error_curves(
         ax.set_title(title)
     fig.tight_layout()
     with atomic_path(path) as out:
-        fig.savefig(out, format="png")
+        fig.savefig(out, format=FORMATS.get(Path(path).suffix.lower(), "png"), dpi=dpi)
     plt.close(fig)
     return Path(path)

@@ -8,7 +8,14 @@ curves have the same on-screen size on a 5k-face and on a 750k-face mesh:
   between 14 and 40 pixels) sets which faces carry an arrow (:func:`screen_spread`), the
   default arrow length (the robust longest arrow is :data:`ARROW_FILL` of the spacing) and
   the glyph's shaft, head and halo;
-- singularity markers have a radius of :data:`MARKER_RADIUS` spacings (at least 4.5 px).
+- singularity markers have a radius of :data:`MARKER_RADIUS` spacings (at least 4.5 px),
+  but at most :data:`MARKER_GAP` of the typical distance between neighbouring markers
+  (at least 2 px), so dense irregular vertices stay apart;
+- N-direction fields (N ≥ 2) are drawn as unit crosses (their directions, not their
+  magnitudes) unless an absolute ``arrow_scale`` is given;
+- a wireframe (streamlines that are all single segments, e.g. quad edges) is drawn at
+  most :data:`WIRE_WIDTH` of its median on-screen edge length wide (at least 0.3 px), so
+  a dense quad mesh stays a mesh and not a solid colour.
 
 Both backends call :func:`panel_overlay` and draw the same glyphs (flat polygons in the
 faces' planes), so their pictures agree.
@@ -49,6 +56,10 @@ SHAFT, HEAD_WIDTH, HEAD_LENGTH, HALO = 0.075, 0.25, 0.38, 0.035
 STROKE = 0.07
 #: Singularity marker radius, in spacings.
 MARKER_RADIUS = 0.36
+#: Markers are at most this fraction of the median distance to the nearest other marker.
+MARKER_GAP = 0.4
+#: A wireframe's line width is at most this fraction of its median on-screen edge length.
+WIRE_WIDTH = 0.1
 #: Margin around the mesh in a panel (1.06: 3% on each side).
 MARGIN = 1.06
 
@@ -153,6 +164,9 @@ def _layer_glyphs(
     u = layer.vectors[faces]  # tangent (checked by as_face_field)
     ang = 2.0 * np.pi * np.arange(layer.n) / layer.n  # as direction_set, on these faces only
     d = np.cos(ang)[:, None, None] * u[None] + np.sin(ang)[:, None, None] * np.cross(nrm, u)[None]
+    if layer.n > 1 and layer.scale is None:  # N-direction fields: unit crosses by default
+        d = d / np.maximum(np.linalg.norm(d[0], axis=1), 1e-300)[None, :, None]
+        scale = scale * layer.top
     length = scale * np.linalg.norm(d[0], axis=1)
     cap = ARROW_CAP * spacing_mesh
     capped = int((length > cap).sum())
@@ -234,6 +248,29 @@ def panel_overlay(
     if scene.markers is not None:
         assert scene.marker_indices is not None  # set together with the markers
         out.marker_colors = np.array([index_color(i) for i in scene.marker_indices]).reshape(-1, 3)
-        out.marker_radius = max(4.5, MARKER_RADIUS * spacing) / s
-    out.line_width = max(1.2, 0.08 * spacing)
+        out.marker_radius = _marker_radius(scene.markers, max(4.5, MARKER_RADIUS * spacing), s)
+    out.line_width = _line_width(scene.lines, max(1.2, 0.08 * spacing), s)
     return out
+
+
+def _marker_radius(markers: np.ndarray, radius_px: float, s: float) -> float:
+    """Marker radius in mesh units: ``radius_px`` pixels, at most :data:`MARKER_GAP` of
+    the median nearest-marker distance (not below 2 pixels)."""
+    if markers.shape[0] >= 2:
+        from scipy.spatial import cKDTree
+
+        dist, _ = cKDTree(markers).query(markers, k=2)
+        gap = float(np.median(dist[:, 1])) * s  # pixels
+        if gap > 0:
+            radius_px = min(radius_px, max(2.0, MARKER_GAP * gap))
+    return radius_px / s
+
+
+def _line_width(lines: list[np.ndarray], width_px: float, s: float) -> float:
+    """Line width in pixels: ``width_px``, thinner for a dense wireframe (all the lines
+    single segments) — at most :data:`WIRE_WIDTH` of the median edge on screen."""
+    if lines and all(x.shape[0] == 2 for x in lines):
+        seg = np.stack(lines)  # (k, 2, 3)
+        edge = float(np.median(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1))) * s
+        width_px = min(width_px, max(0.3, WIRE_WIDTH * edge))
+    return width_px

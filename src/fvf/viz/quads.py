@@ -1,8 +1,9 @@
 """Pictures of parameterizations and quad meshes, drawn with :func:`fvf.viz.render`.
 
-- :func:`render_quads`: a quad mesh shaded, its edges as a wireframe on top, and its
-  irregular vertices marked by valence (red 3, blue 5, cyan 6, orange 2, purple other:
-  the singularity colours of 4 − valence).
+- :func:`render_quads`: a quad mesh shaded, its edges as a wireframe on top (thinner as
+  the quads get denser on screen), and its irregular vertices marked and named by valence,
+  in the colours of the cross-field index ``(4 − valence) / 4`` they come from (valence 3:
+  +1/4 yellow, valence 5: −1/4 sky blue, :func:`fvf.viz.index_color`).
 - :func:`render_checkerboard`: a triangle mesh textured by the checkerboard of a
   per-corner parameterization, uv (m, 3, 2): each triangle is subdivided on its own (so
   seams stay seams) and each small triangle coloured by the parity of ⌊u⌋ + ⌊v⌋ at its
@@ -42,9 +43,10 @@ def render_quads(
     vertices : array_like (k, 3) float
     quads : array_like (q, 4) int
     path : str or Path
-        Output PNG.
+        Output picture (PNG, PDF or SVG by the suffix).
     **kwargs
-        Passed to :func:`fvf.viz.render` (``view``, ``size``, ``title``, ``backend``).
+        Passed to :func:`fvf.viz.render` (``style`` or its options: ``view``, ``up``,
+        ``size``, ``dpi``, ``title``, ``backend``).
     """
     V = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
@@ -55,8 +57,15 @@ def render_quads(
     e = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], 2).reshape(-1, 2), 1), axis=0)
     valence = np.bincount(e.ravel(), minlength=V.shape[0])
     irr = np.flatnonzero((valence != 4) & (valence > 0))
-    sing = (V[irr], 4 - valence[irr]) if irr.size else None
-    return render(mesh, path, streamlines=quad_wireframe(V, Q), singularities=sing, **kwargs)
+    sing = (V[irr], (4 - valence[irr]) / 4.0) if irr.size else None
+    return render(
+        mesh,
+        path,
+        streamlines=quad_wireframe(V, Q),
+        singularities=sing,
+        singularity_kind="valence",
+        **kwargs,
+    )
 
 
 @takes_mesh
@@ -74,7 +83,7 @@ def render_checkerboard(
     mesh : TriMesh
     uv : array_like (m, 3, 2)
     path : str or Path
-        Output PNG.
+        Output picture (PNG, PDF or SVG by the suffix).
     subdivisions : int
         Each triangle is split into 4^subdivisions for the texture.
     **kwargs

@@ -40,6 +40,10 @@ __all__ = [
 
 #: Colour of a surface that shows no function: light blue-grey.
 SURFACE_COLOR = (0.80, 0.83, 0.88)
+#: Colour of the vertices or faces whose function value is NaN ("no data", "no ground
+#: truth"): a neutral light grey, outside every sequential colormap's hues, named in the
+#: legend (:attr:`fvf.viz.RenderStyle.nan_label`).
+NO_DATA_COLOR = (0.78, 0.78, 0.78)
 #: Overlay colour when nothing else decides (kept for callers of the old name).
 LINE_COLOR = (0.08, 0.08, 0.10)
 #: Range of the shading factor :func:`shade` multiplies colours by.
@@ -77,8 +81,11 @@ class Scene:
     marker_indices: np.ndarray | None = None  # (s,) float: k or k/N
     lines: list[np.ndarray] = field(default_factory=list)
     line_color: tuple = LINE_COLOR
-    colorbar: dict | None = None  # {"cmap", "clim", "label", "extend"}
+    colorbar: dict | None = None  # {"cmap", "clim", "label", "extend", "nan"}
     palette: np.ndarray | None = None  # (k, 3) colours the surface can show
+    show_colorbar: bool = True  # draw the colorbar (RenderStyle.colorbar)
+    no_data: str | None = None  # legend name of the NaN colour, when some value is NaN
+    marker_kind: str = "index"  # "index" (k/N of a field) or "valence" (of a quad mesh)
 
     @property
     def frame(self) -> np.ndarray:
@@ -105,7 +112,9 @@ def shade(scene: Scene, normals: np.ndarray, frame: np.ndarray | None = None) ->
     return lo + (hi - lo) * np.abs(normals @ light)
 
 
-def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str]:
+def _values(
+    mesh: TriMesh, f: npt.ArrayLike, name: str, nan: bool = False
+) -> tuple[np.ndarray, str]:
     a = np.asarray(f, dtype=float)
     if a.ndim == 1 and a.shape[0] == mesh.n_vertices:
         on = "vertices"
@@ -116,9 +125,11 @@ def _values(mesh: TriMesh, f: npt.ArrayLike, name: str) -> tuple[np.ndarray, str
             f"{name} must have one value per vertex ({mesh.n_vertices},) or per face "
             f"({mesh.n_faces},); got shape {a.shape}."
         )
-    if not np.isfinite(a).all():
-        bad = np.flatnonzero(~np.isfinite(a))
+    bad = np.flatnonzero(np.isinf(a) if nan else ~np.isfinite(a))
+    if bad.size:
         raise FieldValueError(f"{name} has non-finite values at {on} {bad[:8].tolist()}.")
+    if nan and np.isnan(a).all():
+        raise FieldValueError(f"{name} is NaN (no data) everywhere.")
     return a, on
 
 
@@ -141,7 +152,11 @@ def _to_vertices(mesh: TriMesh, a: np.ndarray) -> np.ndarray:
 
 
 def _surface(mesh, function, texture, cmap, clim, colorbar_label, mpl):
-    """Colours of the drawn mesh, where they live, the colorbar and the possible colours."""
+    """Colours of the drawn mesh, where they live, the colorbar and the possible colours.
+
+    NaN values of ``function`` are drawn in :data:`NO_DATA_COLOR`; the colour limits are
+    those of the other values. The colorbar dict says whether there were any (``"nan"``).
+    """
     from .lic import LicTexture
 
     colorbar = None
@@ -150,8 +165,9 @@ def _surface(mesh, function, texture, cmap, clim, colorbar_label, mpl):
     colors, on = np.tile(np.asarray(SURFACE_COLOR), (drawn.n_vertices, 1)), "vertices"
     palette = np.asarray([SURFACE_COLOR])
     if function is not None:
-        f, on = _values(mesh, function, "function")
-        lo, hi, below, above = resolve_clim(f, _areas(mesh, on), clim)
+        f, on = _values(mesh, function, "function", nan=True)
+        known = ~np.isnan(f)
+        lo, hi, below, above = resolve_clim(f[known], _areas(mesh, on)[known], clim)
         try:
             cm = mpl.colormaps[cmap]
         except KeyError as exc:
@@ -165,15 +181,23 @@ def _surface(mesh, function, texture, cmap, clim, colorbar_label, mpl):
                     "faces",
                 )
             )
-        colors = cm(np.clip((f - lo) / (hi - lo), 0.0, 1.0))[:, :3]
+        colors = cm(np.clip((np.nan_to_num(f) - lo) / (hi - lo), 0.0, 1.0))[:, :3]
+        colors[np.isnan(f)] = NO_DATA_COLOR
+        if on == "vertices" and np.isnan(f).any():  # no grey blended into the colormap:
+            F = drawn.faces  # a face touching a vertex without data is drawn without data
+            colors = np.where(np.isnan(f)[F].any(1)[:, None], NO_DATA_COLOR, colors[F].mean(1))
+            on = "faces"
         extend = {(False, False): "neither", (True, False): "min", (False, True): "max"}
         colorbar = {
             "cmap": cmap,
             "clim": (lo, hi),
             "label": colorbar_label,
             "extend": extend.get((below, above), "both"),
+            "nan": bool(np.isnan(f).any()),
         }
         palette = cm(np.linspace(0.0, 1.0, 64))[:, :3]
+        if colorbar["nan"]:
+            palette = np.vstack([palette, NO_DATA_COLOR])
     if texture is not None:
         if lic is not None:
             g, t_on = lic.values, "vertices"
@@ -245,6 +269,12 @@ def _markers(singularities: tuple) -> tuple[np.ndarray, np.ndarray]:
     return P, ind
 
 
+def _marker_kind(kind: object) -> str:
+    if kind not in ("index", "valence"):
+        raise FvfError(f"singularity_kind must be 'index' or 'valence'; got {kind!r}")
+    return str(kind)
+
+
 #: The data keywords of :func:`fvf.viz.render` (what is drawn) and their defaults; every
 #: other keyword is an option of :class:`fvf.viz.RenderStyle` (how it looks).
 DATA_DEFAULTS: dict[str, Any] = {
@@ -255,6 +285,7 @@ DATA_DEFAULTS: dict[str, Any] = {
     "texture": None,
     "n": 1,
     "field_labels": None,
+    "singularity_kind": "index",
 }
 
 
@@ -270,7 +301,8 @@ def build_scene(mesh: TriMesh, *, style: RenderStyle | None = None, **inputs: An
     **inputs
         The data keywords of :func:`fvf.viz.render` (:data:`DATA_DEFAULTS`: ``function``,
         ``field``, ``singularities``, ``streamlines``, ``texture``, ``n``,
-        ``field_labels``) and appearance keywords, which replace those of ``style``.
+        ``field_labels``, ``singularity_kind``) and appearance keywords, which replace
+        those of ``style``.
 
     Returns
     -------
@@ -307,6 +339,9 @@ def build_scene(mesh: TriMesh, *, style: RenderStyle | None = None, **inputs: An
         max_arrows=style.max_arrows,
         colorbar=colorbar,
         palette=palette,
+        show_colorbar=bool(style.colorbar),
+        no_data=style.nan_label if colorbar is not None and colorbar["nan"] else None,
+        marker_kind=_marker_kind(data["singularity_kind"]),
     )
     avoid: list = []
     if data["singularities"] is not None:

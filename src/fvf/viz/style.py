@@ -76,12 +76,24 @@ class RenderStyle:
         Camera (:class:`fvf.viz.View`; default a three-quarter view with the up axis
         detected, :func:`fvf.viz.camera.detect_up_axis`). A list draws one panel per view
         side by side, e.g. :func:`fvf.viz.two_sides` for both halves of a closed surface.
-    up : {"x", "y", "z", "-x", "-y", "-z"}, optional
+    up : {"x", "y", "z", "-x", "-y", "-z", "auto"}, optional
         The mesh axis that points up in the picture, for every view whose own ``up`` is
-        ``"auto"`` (a view's explicit ``up`` wins). Default None: detected per mesh.
+        ``"auto"`` (a view's explicit ``up`` wins). Default None (or ``"auto"``): detected
+        per mesh (:func:`fvf.viz.camera.detect_up_axis`).
     size : (int, int)
-        (width, height) of the PNG in pixels (all panels together), width in [64,
+        (width, height) of the picture in pixels (all panels together), width in [64,
         :data:`MAX_SIZE`], height in [48, :data:`MAX_SIZE`].
+    dpi : int
+        Dots per inch, in [10, 2400] (default 100): recorded in a PNG, and the page size
+        of a PDF or SVG (``size / dpi`` inches). Text keeps its size relative to the
+        picture whatever the dpi.
+    colorbar : bool
+        Draw the colorbar of ``function`` (default True; side-by-side pictures of one
+        quantity draw it once).
+    nan_label : str
+        Legend name of the vertices or faces whose ``function`` value is NaN, drawn in
+        :data:`fvf.viz.scene.NO_DATA_COLOR` (default "no data"; the error map of a
+        correspondence says "no ground truth").
     title : str, optional
         Drawn above the picture.
     backend : {"auto", "polyscope-egl", "matplotlib"}
@@ -100,6 +112,9 @@ class RenderStyle:
     size: tuple[int, int] = (800, 600)
     title: str | None = None
     backend: str = "auto"
+    dpi: int = 100
+    colorbar: bool = True
+    nan_label: str = "no data"
 
     def __post_init__(self) -> None:
         if self.backend not in ("auto", *BACKENDS):
@@ -113,8 +128,14 @@ class RenderStyle:
             raise ParameterError(
                 f"arrow_spacing must be at least 2 pixels; got {self.arrow_spacing!r}"
             )
+        if self.up == "auto":
+            object.__setattr__(self, "up", None)
         if self.up is not None and self.up not in UP_AXES:
-            raise ParameterError(f"up must be one of {', '.join(UP_AXES)}; got {self.up!r}")
+            raise ParameterError(
+                f"up must be one of {', '.join(UP_AXES)} (or 'auto'); got {self.up!r}"
+            )
+        if not (isinstance(self.dpi, Integral) and 10 <= int(self.dpi) <= 2400):
+            raise ParameterError(f"dpi must be an integer in [10, 2400]; got {self.dpi!r}")
         as_views(self.view)  # raises on a bad view
 
     @property

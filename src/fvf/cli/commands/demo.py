@@ -6,13 +6,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..common import EXIT_OK
+from ..common import EXIT_OK, add_picture_options
 from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mesh", help="OBJ, OFF or PLY file (default: built-in spot)")
     p.add_argument("--out", default="fvf-demo", help="output folder (default: fvf-demo)")
+    add_picture_options(p)  # --size: of a one-view picture (default 600 450)
 
 
 @register_command(
@@ -25,5 +26,6 @@ def run(args: argparse.Namespace) -> int:
     """Run the demo into ``--out``."""
     from ..demo import demo
 
-    demo(args.mesh, Path(args.out))
+    size = (int(args.size[0]), int(args.size[1])) if args.size else (600, 450)
+    demo(args.mesh, Path(args.out), size=size, up=args.up, dpi=args.dpi)
     return EXIT_OK

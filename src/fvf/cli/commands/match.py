@@ -11,11 +11,13 @@ from typing import TYPE_CHECKING
 from ..common import (
     EXIT_OK,
     add_output,
+    add_picture_options,
     check_outputs,
     data_output,
+    derived_picture,
     load_viz,
     match_pictures,
-    png_stem,
+    picture_options,
     save_npz,
 )
 from ..registry import register_command
@@ -47,7 +49,13 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--truth", help="ground-truth p2p_21 (one integer per line): report errors")
     p.add_argument("--truth-missing", type=int, help="value marking vertices without truth")
     add_output(p, "output .npz (keys p2p_21, C_12)")
-    p.add_argument("--png", help="also write STEM_colors.png (and STEM_errors.png with --truth)")
+    p.add_argument(
+        "--png",
+        metavar="NAME",
+        help="also write the transferred colours to NAME (.png, .pdf or .svg) and, with "
+        "--truth, the error map to NAME_errors with the same suffix",
+    )
+    add_picture_options(p)
 
 
 @register_command(
@@ -64,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
 
     import fvf
 
-    check_outputs(args, data_output(args), ("--png", args.png))
+    errors_png = derived_picture(args.png, "errors") if args.png and args.truth else None
+    check_outputs(args, data_output(args), ("--png", args.png), ("--png", errors_png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
     result = fvf.match_result(
         args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
@@ -89,11 +98,20 @@ def run(args: argparse.Namespace) -> int:
     times = ", ".join(f"{k} {v:.1f} s" for k, v in result.timings.items())
     print(f"matched {result.p2p_21.size} vertices ({times})")
     if args.png:
-        stem = png_stem(args.png)
-        match_pictures(result, stem, result.prepared_2)
-        if args.truth:
+        names = (Path(args.mesh_1).name, Path(args.mesh_2).name)
+        if Path(args.mesh_1).resolve() == Path(args.mesh_2).resolve():
+            names = (names[0], f"{names[1]} (self-map)")
+        options = picture_options(args)
+        match_pictures(result, args.png, result.prepared_2, names, options)
+        if errors_png is not None:
             p2 = result.prepared_2
-            e = np.nan_to_num(arrays["errors"])[p2.mesh_to_input]
-            load_viz().render_error_map(p2.mesh, e, f"{stem}_errors.png")
-            print(f"wrote {stem}_errors.png")
+            e = arrays["errors"][p2.mesh_to_input]  # NaN: no ground truth, drawn grey
+            load_viz().render_error_map(
+                p2.mesh,
+                e,
+                errors_png,
+                title=f"geodesic error / sqrt(area) on {names[1]}",
+                **options,
+            )
+            print(f"wrote {errors_png}")
     return EXIT_OK

@@ -6,16 +6,19 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from ..common import (
     EXIT_OK,
     Sources,
     add_output,
+    add_picture_options,
     check_outputs,
     integer,
     load_mesh,
     load_viz,
+    picture_options,
     unavailable,
 )
 from ..registry import register_command
@@ -58,7 +61,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
-    p.add_argument("--png", help="also render the quad mesh (fvf.viz)")
+    p.add_argument("--png", help="also render the quad mesh (fvf.viz): .png, .pdf or .svg")
+    add_picture_options(p)
 
 
 def _stage_printer() -> Callable[[str, int, int], None]:
@@ -82,7 +86,8 @@ def _stage_printer() -> Callable[[str, int, int], None]:
     help="quad mesh along a cross field: seamless parameterization and integer-grid "
     "extraction (fvf.quad_mesh)",
     example="fvf quad spot.obj --faces 2000 -o spot_quads.obj --uv spot_uv.obj\n"
-    "  fvf quad spot.obj --faces 2000 --field cross.npz:u -o spot_quads.obj",
+    "  fvf quad spot.obj --faces 2000 --field cross.npz:v -o spot_quads.obj\n"
+    "  (cross.npz: the v of `fvf design spot.obj --n 4 -o cross.npz`)",
     arguments=_arguments,
 )
 def run(args: argparse.Namespace) -> int:
@@ -117,7 +122,10 @@ def run(args: argparse.Namespace) -> int:
         viz = load_viz()
         Q = made.quads
         try:
-            info = viz.render_quads(made.vertices, Q, args.png, title=f"{Q.shape[0]} quads")
+            title = f"{Path(args.mesh).name}: {Q.shape[0]} quads"
+            info = viz.render_quads(
+                made.vertices, Q, args.png, title=title, **picture_options(args)
+            )
         except ImportError as exc:
             raise unavailable(exc) from exc
         print(f"wrote {info.path}")

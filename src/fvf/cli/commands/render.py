@@ -11,11 +11,13 @@ from ..common import (
     EXIT_OK,
     add_display_options,
     add_output,
+    add_picture_options,
     check_outputs,
     display_arrays,
     integer,
     load_mesh,
     load_viz,
+    picture_options,
     real,
     render_picture,
     unavailable,
@@ -38,11 +40,11 @@ def _quad_file(path: str) -> tuple[Any, Any] | None:
 
 def _arguments(p: argparse.ArgumentParser) -> None:
     add_display_options(p)
-    add_output(p, "output PNG")
+    add_output(p, "output picture: .png, .pdf or .svg")
     p.add_argument("--cmap", help="matplotlib colormap name (default viridis)")
     p.add_argument("--clim", nargs=2, type=real, metavar=("LO", "HI"), help="color range")
     p.add_argument("--arrow-scale", type=real, help="arrow length per unit field (absolute)")
-    p.add_argument("--size", nargs=2, type=integer, metavar=("W", "H"), help="pixels (800 600)")
+    add_picture_options(p)
     p.add_argument("--title", help="picture title")
     p.add_argument("--view", nargs=2, type=real, metavar=("AZ", "EL"), help="camera, degrees")
     p.add_argument("--max-arrows", type=integer, help="at most about this many arrows per view")
@@ -54,7 +56,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 
 @register_command(
     "render",
-    help="render a mesh with a function, a field and singularities to PNG (fvf.viz); a "
+    help="render a mesh with a function, a field and singularities to PNG, PDF or SVG "
+    "(fvf.viz); a "
     "pure-quad mesh is drawn with its wireframe and irregular vertices by valence",
     example="fvf render mesh.obj designed.npz --field v --singularities -o field.png",
     arguments=_arguments,
@@ -66,7 +69,9 @@ def run(args: argparse.Namespace) -> int:
     quads = None if args.data else _quad_file(args.mesh)
     if quads is not None:  # a quad mesh: shading, wireframe, irregular vertices by valence
         kwargs = {n: getattr(args, n) for n in ("title", "backend") if getattr(args, n)}
-        kwargs.update({n: tuple(getattr(args, n)) for n in ("size", "view") if getattr(args, n)})
+        kwargs.update(picture_options(args))
+        if args.view:
+            kwargs["view"] = tuple(args.view)
         try:
             info = viz.render_quads(*quads, args.output, **kwargs)
         except ImportError as exc:
@@ -78,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     for name in ("arrow_scale", "cmap", "title", "backend", "max_arrows", "arrow_spacing"):
         if getattr(args, name) is not None:
             kwargs[name] = getattr(args, name)
-    for name in ("clim", "size", "view"):
+    kwargs.update(picture_options(args))
+    for name in ("clim", "view"):
         if getattr(args, name) is not None:
             kwargs[name] = tuple(getattr(args, name))
     render_picture(viz, mesh, args.output, **kwargs)

@@ -9,10 +9,11 @@ from pathlib import Path
 from ..common import (
     EXIT_OK,
     add_output,
+    add_picture_options,
     check_outputs,
     data_output,
     match_pictures,
-    png_stem,
+    picture_options,
     save_npz,
 )
 from ..registry import register_command
@@ -23,7 +24,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--k", type=int, default=100, help="functional map size (100)")
     p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
     add_output(p, "output .npz")
-    p.add_argument("--png", help="also write STEM_colors.png (the mesh and its mirror colours)")
+    p.add_argument(
+        "--png",
+        metavar="NAME",
+        help="also write NAME (.png, .pdf or .svg): the mesh and its colours mirrored",
+    )
+    add_picture_options(p)
 
 
 @register_command(
@@ -56,5 +62,7 @@ def run(args: argparse.Namespace) -> int:
     involution = float(np.mean(result.p2p[result.p2p] == np.arange(result.p2p.size)))
     print(f"symmetry map: {involution:.1%} of the vertices are fixed by applying it twice")
     if args.png:
-        match_pictures(result, png_stem(args.png), result.prepared_2)
+        name = Path(args.mesh).name
+        names = (name, f"{name} mirrored")
+        match_pictures(result, args.png, result.prepared_2, names, picture_options(args))
     return EXIT_OK
