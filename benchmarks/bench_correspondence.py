@@ -132,13 +132,52 @@ def figures(folder: Path, maps: dict, errors: dict) -> None:
     print(f"wrote pictures to {folder}")
 
 
+def planted() -> int:
+    """Mean and max geodesic error against the identity of the planted pairs of
+    ``tests/test_correspondence_flips.py`` (generated body; FAUST frame when present),
+    with ``check_symmetry`` on and off, and the confidence of the choice."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_correspondence_flips import displaced, mirror_image, near_symmetric_body
+
+    shapes = {"body": (near_symmetric_body(), dict(k=40, k_fit=15))}
+    faust = DATA.parent / "faust_r_tr_reg_001.off"
+    if faust.exists():
+        shapes["FAUST"] = (fvf.TriMesh(*fvf.read_mesh(faust)), {})
+    print("| shape | pair | check | mean error | max error | orientation | confidence | s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, (S, kw) in shapes.items():
+        ident = np.arange(S.n_vertices)
+        for pair, T in (("mirror", mirror_image(S)), ("displaced", displaced(S))):
+            for check in (True, False):
+                res, wall, _ = _timed(
+                    lambda S=S, T=T, c=check, kw=kw: fvf.match_result(S, T, check_symmetry=c, **kw)
+                )
+                e = fvf.geodesic_errors(S, res.p2p_21, ident)
+                conf = "" if res.confidence is None else f"{res.confidence:.2f}"
+                a = fvf.spectral.orientation_agreement(S, T, res.p2p_21)
+                print(
+                    f"| {name} | {pair} | {'on' if check else 'off'} | {e.mean():.4f} | "
+                    f"{e.max():.4f} | {a:+.2f} | {conf} | {wall:.0f} |",
+                    flush=True,
+                )
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS))
     ap.add_argument("--pyfm-orient", type=float, default=1.0, help="pyFM's w_orient (README: 1)")
     ap.add_argument("--json", help="also write the results here")
     ap.add_argument("--figures", help="also write pictures (needs the [viz] extra) here")
+    ap.add_argument(
+        "--planted",
+        action="store_true",
+        help="instead: the planted flips (mirror image, displaced copy) with and without "
+        "fvf.match's symmetry check",
+    )
     args = ap.parse_args(argv)
+    if args.planted:
+        return planted()
     pairs = [tuple(int(x) for x in p.split("-")) for p in args.pairs.split(",")]
     if not DATA.exists():
         print(f"no data at {DATA} (set FVF_SHARED_MESHES)")

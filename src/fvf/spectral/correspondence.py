@@ -17,7 +17,9 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
    term must fix the signs of the few eigenfunctions that distinguish left from right,
    and in a small basis no other term can outweigh it.
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
-   on all vertices.
+   on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
+   and its composition with mesh 1's left-right symmetry, keeping the one nearer to an
+   isometry of the requested orientation (:mod:`.candidates`).
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -44,11 +46,13 @@ from ..io.meshfile import read_mesh
 from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import short_repr
 from .basis import SpectralBasis
+from .candidates import MapCandidate, score_candidates
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
-from .zoomout import zoomout
+from .zoomout import functional_map_from_p2p, zoomout
 
 __all__ = [
     "MatchResult",
@@ -62,6 +66,9 @@ __all__ = [
 
 #: Dimensionless weights of the fit used by :func:`match` (see :mod:`.fmap_fit`).
 DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0, "w_orth": 1.0}
+
+#: Eigenpairs at which :func:`match` scores its candidate maps (:mod:`.candidates`).
+K_SCORE = 30
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +98,16 @@ class MatchResult:
         The map between the prepared meshes.
     timings : dict
         Seconds per step.
+    confidence : float or None
+        How sure :func:`match` is of its choice between the fitted map and the fitted
+        map composed with mesh 1's left-right symmetry (:mod:`fvf.spectral.candidates`):
+        1 − E_chosen / E_other in [0, 1], E the candidates' distortion-plus-orientation
+        energy. Near 0 the two candidates are about as good (an exactly symmetric pair,
+        or both refined to the same map); None when no choice was made
+        (``check_symmetry=False``, :func:`symmetry_map`).
+    alternatives : tuple of MapCandidate
+        Every candidate scored (name, energy, distortion, orientation agreement,
+        chosen), lowest energy first; empty when no choice was made.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -104,6 +121,8 @@ class MatchResult:
     prepared_2: PreparedMesh
     p2p_21_prepared: np.ndarray
     timings: dict = field(default_factory=dict)
+    confidence: float | None = None
+    alternatives: tuple[MapCandidate, ...] = ()
 
     @property
     def C(self) -> np.ndarray:
@@ -297,31 +316,79 @@ def _correspond(
     weights: dict,
     zoomout_step: int,
     zoomout_samples: int | None,
+    check_symmetry: bool = False,
+    progress: Any = None,
 ) -> MatchResult:
     """The pipeline of the module docstring; p2 None means a self-map of p1."""
+    report = make_progress(progress)
+    stages = 5 if check_symmetry and p2 is not None else 4
     timings = {}
     t = time.perf_counter()
+    report("match", 0, stages)
     unit_1, basis_1 = _unit_area_basis(p1.mesh, k, "mesh_1")
     unit_2, basis_2 = (unit_1, basis_1) if p2 is None else _unit_area_basis(p2.mesh, k, "mesh_2")
     timings["bases"] = time.perf_counter() - t
+    report("match", 1, stages)
     t = time.perf_counter()
     d1, d2 = matching_descriptors(unit_1, unit_2, n_descriptors=n_descriptors, landmarks=landmarks)
     timings["descriptors"] = time.perf_counter() - t
+    report("match", 2, stages)
     t = time.perf_counter()
     C_fit = fit_functional_map(unit_1, unit_2, d1, d2, k=k_fit, orientation=orientation, **weights)
     timings["fit"] = time.perf_counter() - t
-    t = time.perf_counter()
+    report("match", 3, stages)
     n_min = min(unit_1.mesh.n_vertices, unit_2.mesh.n_vertices)
     samples = zoomout_samples if zoomout_samples and zoomout_samples < n_min else None
     if samples is not None and samples <= k:
         raise ParameterError(
             f"zoomout_samples = {samples} must exceed k = {k} (or be None for all vertices)"
         )
-    C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
+    confidence: float | None = None
+    alternatives: tuple[MapCandidate, ...] = ()
+    t = time.perf_counter()
+    if stages == 5:
+        starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, samples)
+        timings["symmetry"] = time.perf_counter() - t
+        report("match", 4, stages)
+        t = time.perf_counter()
+        sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+        C, p2p, alternatives, confidence = score_candidates(
+            starts,
+            unit_1,
+            unit_2,
+            k_final=k,
+            k_score=K_SCORE,
+            step=zoomout_step,
+            samples=samples,
+            sign=sign,
+        )
+    else:
+        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
     timings["zoomout"] = time.perf_counter() - t
+    report("match", stages, stages)
     q2 = p1 if p2 is None else p2
     p2p_input = p1.mesh_to_input[p2p[q2.input_to_mesh]]
-    return MatchResult(p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings)
+    return MatchResult(
+        p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings, confidence, alternatives
+    )
+
+
+def _candidate_starts(
+    C_fit: np.ndarray,
+    unit_1: SpectralBasis,
+    d1: np.ndarray,
+    weights: dict,
+    step: int,
+    samples: int | None,
+) -> dict[str, np.ndarray]:
+    """C_fit and C_fit C_σ, σ the orientation-reversing self-map of mesh 1 (the fit of
+    :func:`symmetry_map`, ZoomOut to ``K_SCORE``), both (k_fit, k_fit)."""
+    k_fit = C_fit.shape[1]
+    k_sym = max(min(K_SCORE, unit_1.k), k_fit)
+    C_sym = fit_functional_map(unit_1, unit_1, d1, d1, k=k_fit, orientation="reversing", **weights)
+    _, p_sym = zoomout(C_sym, unit_1, unit_1, k_sym, step=step, samples=samples)
+    C_sigma = functional_map_from_p2p(p_sym, unit_1, unit_1, k_fit)
+    return {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
 
 
 @overload
@@ -337,6 +404,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: Literal[False] | None = ...,
 ) -> np.ndarray: ...
 
@@ -354,6 +423,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: Literal[True],
 ) -> MatchResult: ...
 
@@ -371,6 +442,8 @@ def match(
     weights: dict | None = ...,
     zoomout_step: int = ...,
     zoomout_samples: int | None = ...,
+    check_symmetry: bool = ...,
+    progress: bool | ProgressCallback | None = ...,
     full_output: bool,
 ) -> np.ndarray | MatchResult: ...
 
@@ -387,6 +460,8 @@ def match(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    check_symmetry: bool = True,
+    progress: bool | ProgressCallback | None = None,
     full_output: bool | None = None,
 ) -> np.ndarray | MatchResult:
     """A vertex-to-vertex correspondence between two near-isometric shapes.
@@ -417,6 +492,14 @@ def match(
     zoomout_samples : int or None
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
+    check_symmetry : bool
+        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
+        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
+        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
+        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+    progress : bool or callable, optional
+        ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
+        after each step (bases, descriptors, fit, candidates, ZoomOut).
     full_output : bool, optional
         Deprecated: ``full_output=True`` returns :func:`match_result`'s
         :class:`MatchResult`, with a ``DeprecationWarning``; call :func:`match_result`.
@@ -465,6 +548,8 @@ def match(
         weights=weights,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        check_symmetry=check_symmetry,
+        progress=progress,
     )
     return result if full_output else result.p2p_21
 
@@ -481,6 +566,8 @@ def match_result(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    check_symmetry: bool = True,
+    progress: bool | ProgressCallback | None = None,
 ) -> MatchResult:
     """Everything :func:`match` computes: the vertex map, functional maps, bases, timings.
 
@@ -510,6 +597,14 @@ def match_result(
     zoomout_samples : int or None
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
+    check_symmetry : bool
+        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
+        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
+        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
+        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+    progress : bool or callable, optional
+        ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
+        after each step (bases, descriptors, fit, candidates, ZoomOut).
 
     Returns
     -------
@@ -553,6 +648,8 @@ def match_result(
         weights=w,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        check_symmetry=check_symmetry,
+        progress=progress,
     )
 
 
@@ -565,6 +662,7 @@ def symmetry_map(
     weights: dict | None = None,
     zoomout_step: int = 5,
     zoomout_samples: int | None = 2000,
+    progress: bool | ProgressCallback | None = None,
 ) -> MatchResult:
     """The orientation-reversing intrinsic self-map (left-right symmetry) of a shape.
 
@@ -575,8 +673,8 @@ def symmetry_map(
     Parameters
     ----------
     mesh : TriMesh, (vertices, faces) or path
-    k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples
-        As for :func:`match`.
+    k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples, progress
+        As for :func:`match` (progress reports the steps as ``"match"``).
 
     Returns
     -------
@@ -604,4 +702,5 @@ def symmetry_map(
         weights=w,
         zoomout_step=zoomout_step,
         zoomout_samples=zoomout_samples,
+        progress=progress,
     )

@@ -18,6 +18,7 @@ from ..common import (
     load_viz,
     match_pictures,
     picture_options,
+    progress_option,
     save_npz,
 )
 from ..registry import register_command
@@ -76,7 +77,12 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args, data_output(args), ("--png", args.png), ("--png", errors_png))
     landmarks = _read_landmarks(args.landmarks) if args.landmarks else None
     result = fvf.match_result(
-        args.mesh_1, args.mesh_2, k=args.k, k_fit=args.k_fit, landmarks=landmarks
+        args.mesh_1,
+        args.mesh_2,
+        k=args.k,
+        k_fit=args.k_fit,
+        landmarks=landmarks,
+        progress=progress_option(args),
     )
     arrays = {
         "p2p_21": result.p2p_21,

@@ -14,6 +14,7 @@ from ..common import (
     data_output,
     match_pictures,
     picture_options,
+    progress_option,
     save_npz,
 )
 from ..registry import register_command
@@ -46,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     import fvf
 
     check_outputs(args, data_output(args), ("--png", args.png))
-    result = fvf.symmetry_map(args.mesh, k=args.k, k_fit=args.k_fit)
+    result = fvf.symmetry_map(args.mesh, k=args.k, k_fit=args.k_fit, progress=progress_option(args))
     p = result.prepared_1
     arrays = {
         "p2p": result.p2p,
