@@ -6,6 +6,12 @@ the crease angle (default :data:`CREASE_ANGLE` degrees, suited to CAD: a 90° ed
 box is sharp, the facets of a cylinder tessellated with 32 sections, 11.25° apart, are
 not). Users may give the feature edges themselves.
 
+Scans have sharp edges too — noise, coarse fingers — amid other rough edges: an edge is a
+feature only when the other edges of its two faces are smooth (dihedral below
+:data:`SMOOTH_SIDES` × the crease angle; the CAD corpus's crease edges have at most 4°
+beside them, the shared scans' 5–30°), and only chains of such edges at least
+:data:`MIN_CHAIN` quad edges long count.
+
 The default cross field is constrained on every face next to a feature edge to the
 direction of that edge (hard constraints of :func:`fvf.design_field`; the longest
 feature edge of a face wins), so that quad edges run along the features. The measure of
@@ -19,6 +25,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterError, format_indices
@@ -36,6 +44,11 @@ __all__ = [
 
 #: Default crease angle in degrees (an edge sharper than this is a feature).
 CREASE_ANGLE = 35.0
+#: A chain of sharp edges shorter than this many quad edges is no feature.
+MIN_CHAIN = 2.0
+#: A sharp edge is a feature only when the other edges of its two faces are flatter than
+#: this fraction of the crease angle (CAD: ≤ 4° beside 90° edges; scans: 5–30°).
+SMOOTH_SIDES = 1.0 / 6.0
 
 
 def dihedral_angles(mesh: TriMesh) -> np.ndarray:
@@ -50,12 +63,39 @@ def dihedral_angles(mesh: TriMesh) -> np.ndarray:
     return out
 
 
-def sharp_edges(mesh: TriMesh, crease_angle: float = CREASE_ANGLE) -> np.ndarray:
-    """Indices into ``mesh.edges`` of the sharp edges, int64 (k,)."""
+def sharp_edges(
+    mesh: TriMesh, crease_angle: float = CREASE_ANGLE, min_length: float = 0.0
+) -> np.ndarray:
+    """Indices into ``mesh.edges`` of the sharp edges, int64 (k,).
+
+    With ``min_length`` > 0, only chains of sharp edges (connected through shared
+    vertices) at least that long are kept: a CAD crease runs on, the creases of a scan's
+    noise or of a coarse organic mesh are short and scattered.
+    """
     a = float(crease_angle)
     if not (0.0 < a < 180.0):
         raise ParameterError(f"crease_angle must be in (0, 180) degrees; got {crease_angle!r}")
-    return np.flatnonzero(dihedral_angles(mesh) > a)
+    d = dihedral_angles(mesh)
+    sharp = np.flatnonzero((d > a) & (_side_roughness(mesh, d > a, d) < SMOOTH_SIDES * a))
+    if min_length <= 0 or sharp.size == 0:
+        return sharp
+    E = mesh.edges[sharp]
+    n = mesh.n_vertices
+    graph = sp.coo_matrix((np.ones(sharp.size), (E[:, 0], E[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    length = np.linalg.norm(mesh.vertices[E[:, 1]] - mesh.vertices[E[:, 0]], axis=1)
+    chain = np.bincount(label[E[:, 0]], weights=length, minlength=n)
+    return sharp[chain[label[E[:, 0]]] >= min_length]
+
+
+def _side_roughness(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Per edge (E,): the largest dihedral angle of the other, not sharp, edges of its two
+    faces (0 where there is none)."""
+    fe = mesh.face_edges
+    other = np.where(sharp[fe], 0.0, d[fe]).max(axis=1)  # (m,) per face
+    ef = mesh.edge_faces
+    both = np.where(ef >= 0, other[np.maximum(ef, 0)], 0.0)
+    return both.max(axis=1)
 
 
 def feature_edge_ids(mesh: TriMesh, pairs: npt.ArrayLike) -> np.ndarray:

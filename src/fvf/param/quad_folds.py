@@ -27,7 +27,8 @@ when there is none, :math:`P_q` is the triangle holding the surface point closes
 the surface at its own scale — or when neither of its diagonal splits has both halves
 facing the surface (:math:`n_{012}` and :math:`n_{023}`, or :math:`n_{123}` and
 :math:`n_{130}`, each with a positive dot product with :math:`N_q` and with the normal of
-the input triangle closest to :math:`c_q`): a bow tie, or a quad bent over a ridge so far
+the input surface at :math:`c_q`: the vertex normals of the triangle closest to it,
+summed, which a crumpled triangle does not turn): a bow tie, or a quad bent over a ridge so far
 that it cannot be drawn as two triangles on the surface. (A single
 input triangle is not a reference: crumpled inputs such as the TOSCA lion have triangles
 folded over against their neighbours — 137 of its 10k face away from the mean normal of
@@ -242,8 +243,7 @@ def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np
     the surface at the centre (module docstring)."""
     N = reference_normals(mesh, V, Q, tree)
     P = V[Q]
-    face, _ = closest_surface_points(mesh, P.mean(axis=1), tree)
-    Nc = mesh.face_normals[face]  # the triangle right under the centre
+    Nc = centre_normals(mesh, P.mean(axis=1), tree)  # the surface right under the centre
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
         n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])

@@ -30,7 +30,13 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
 from .caps import capped, cut_caps, snap_boundary
 from .extraction import extract_quads
-from .features import CREASE_ANGLE, feature_edge_ids, sharp_edges, transferred_features
+from .features import (
+    CREASE_ANGLE,
+    MIN_CHAIN,
+    feature_edge_ids,
+    sharp_edges,
+    transferred_features,
+)
 from .frame_field import Alignment
 from .quad_folds import (
     MAX_RINGS,
@@ -135,7 +141,8 @@ def _attempt(
 def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
     """Edge ids of ``surface`` the field is held along: sharp edges and the user's."""
     mesh = part.closed
-    found = [sharp_edges(mesh, opts["crease_angle"])] if opts["features"] else []
+    chain = MIN_CHAIN * h
+    found = [sharp_edges(mesh, opts["crease_angle"], chain)] if opts["features"] else []
     if part.cap is not None:
         found.append(part.cap.rim)
     if opts["user_edges"] is not None:  # ids of the whole input's edges -> the part's
