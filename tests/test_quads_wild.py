@@ -29,7 +29,6 @@ TARGET_SLOW = 2000
 PROMISE_XFAIL: dict[str, str] = {}
 # No valid quad mesh today (the promise holds: a typed error).
 VALID_XFAIL = {
-    "scan_body_holes": "QuadMeshError: a folded quad at a hole's rim in every attempt",
     "tiny_strip": "QuadMeshError: a ribbon narrower than a few quads (topology changes)",
 }
 # Measured at TARGET_SLOW quads (slow suite).

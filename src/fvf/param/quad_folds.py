@@ -27,8 +27,8 @@ when there is none, :math:`P_q` is the triangle holding the surface point closes
 the surface at its own scale — or when neither of its diagonal splits has both halves
 facing the surface (:math:`n_{012}` and :math:`n_{023}`, or :math:`n_{123}` and
 :math:`n_{130}`, each with a positive dot product with :math:`N_q` and with the normal of
-the input surface at :math:`c_q`: the vertex normals of the triangle closest to it,
-summed, which a crumpled triangle does not turn): a bow tie, or a quad bent over a ridge so far
+the input triangle closest to :math:`c_q` — or, where that triangle is folded over
+against the sum of its vertices' normals, that sum): a bow tie, or a quad bent over a ridge so far
 that it cannot be drawn as two triangles on the surface. (A single
 input triangle is not a reference: crumpled inputs such as the TOSCA lion have triangles
 folded over against their neighbours — 137 of its 10k face away from the mean normal of
@@ -238,12 +238,22 @@ def reference_normals(
     return out
 
 
+def _centre_reference(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """The normal of the input triangle closest to each point, or, where that triangle is
+    folded over against its vertices' normals (a crumpled scan), their sum (k, 3)."""
+    face, _ = closest_surface_points(mesh, points, tree)
+    raw = mesh.face_normals[face]
+    smooth = centre_normals(mesh, points, tree)
+    crumpled = np.einsum("kd,kd->k", raw, smooth) <= 0
+    return np.where(crumpled[:, None], smooth, raw)
+
+
 def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
     """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
     the surface at the centre (module docstring)."""
     N = reference_normals(mesh, V, Q, tree)
     P = V[Q]
-    Nc = centre_normals(mesh, P.mean(axis=1), tree)  # the surface right under the centre
+    Nc = _centre_reference(mesh, P.mean(axis=1), tree)
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
         n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])

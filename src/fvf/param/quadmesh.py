@@ -79,7 +79,8 @@ def _plans(part: Part, h: float, align: Alignment, retry: bool, remesh: bool | s
         return [_Plan(remesh is True, align, h)]
     other: Alignment = "smooth" if align == "curvature" else "curvature"
     can = remesh != "never"
-    skip_input = remesh is True or (can and needs_remesh(part.closed, h) is not None)
+    why = needs_remesh(part.closed, h) if can else None
+    skip_input = remesh is True or (why is not None and "angle" in why)  # slivers: remesh first
     plans = [] if skip_input else [_Plan(False, align, h)]
     plans += [
         _Plan(can, align, h),

@@ -4,8 +4,9 @@ A seamless parameterization is only as good as the triangles it is fitted on: CA
 exports carry slivers and fans with one vertex of valence 60 (the curvature-aligned
 field gets a cone of index beyond ±1/2 there), coarse files have fewer triangles than
 quads. QuadWild and QuadriFlow therefore remesh the input before designing the field;
-:func:`fvf.quad_mesh` does the same when the input asks for it (:func:`needs_remesh`)
-or when meshing the input itself failed.
+:func:`fvf.quad_mesh` does the same first when the input's triangles are thin
+(:func:`needs_remesh`: slivers), and after the input itself failed when they are only
+coarse (a coarse but well-shaped input, such as a decimated scan, often meshes as it is).
 
 Two remeshers:
 
