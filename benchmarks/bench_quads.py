@@ -72,8 +72,13 @@ def _child(method: str, mesh_path: str, target: int, out: str) -> None:
     extra = {}
     if method.startswith("fvf"):
         try:
-            Vq, Q, p = fvf.quad_mesh(mesh, target_faces=target, return_parameterization=True)
-            extra = {"flips": p.n_flipped, "cones": int(p.singular.size)}
+            made = fvf.quad_mesh(mesh, target_faces=target)
+            Vq, Q, ps = made.vertices, made.quads, made.parameterizations
+            extra = {
+                "flips": sum(p.n_flipped for p in ps),
+                "cones": sum(int(p.singular.size) for p in ps),
+                "attempts": len(made.attempts),
+            }
         except fvf.FvfError as exc:
             Vq, Q = np.zeros((0, 3)), np.zeros((0, 4), np.int64)
             extra = {"error": f"{type(exc).__name__}: {exc}"[:200]}

@@ -31,8 +31,8 @@ def rounded_cube(subdivisions: int = 4, p: float = 8.0) -> fvf.TriMesh:
 
 
 def picture(name: str, mesh: fvf.TriMesh, target: int, view=None) -> None:
-    V, Q, p = fvf.quad_mesh(mesh, target_faces=target, return_parameterization=True)
-    q = fvf.quad_quality(mesh, V, Q, parameterization=p)
+    made = fvf.quad_mesh(mesh, target_faces=target)
+    V, Q, p, q = made.vertices, made.quads, made.parameterizations[0], made.quality
     kw = {"size": (640, 480)} | ({"view": view} if view else {})
     fvf.viz.render_quads(
         V,

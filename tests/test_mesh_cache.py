@@ -17,6 +17,7 @@ from fvf.design import connection, holonomy
 from fvf.mesh import geometry
 from fvf.mesh.cache import CACHED_QUANTITIES, quantity_name, value_nbytes
 from fvf.operators.directional import D_V, extract_field
+from fvf.param.quad_folds import closest_surface_points
 from fvf.spectral.evaluation import geodesic_distances
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "fvf"
@@ -103,6 +104,7 @@ def fill_cache(mesh: fvf.TriMesh) -> dict[str, object]:
     results["rotations"] = holonomy.holonomy_rotations(mesh, ell)
     for method in ("unfolded", "edges", "heat"):
         results[method] = geodesic_distances(mesh, [0, 5], method=method)
+    results["closest"] = closest_surface_points(mesh, 1.01 * mesh.vertices)
     return results
 
 

@@ -23,47 +23,18 @@ import wild_corpus as wc
 TARGET = 500  # quads, default suite
 TARGET_SLOW = 2000
 
-# Measured at TARGET quads: what breaks the promise today. (Fold counts vary a little with
-# the BLAS thread count; the suite runs on one thread, see conftest.py.)
-PROMISE_XFAIL = {
-    "cad_box_hole": "folded quads (2 planar bow ties on the caps) returned without an error",
-    "cad_cylinder_boss": "a folded quad returned with only a FoldedQuadWarning",
-    "cad_sliver_cylinder": "folded quads (11) on the fan-triangulated caps, no error",
-    "tiny_cube12": "foreign RuntimeError 'Failed to resize matrix arrays!' on a 12-face cube",
-}
-# Measured at TARGET quads: no valid quad mesh today (the promise may still hold).
-OPEN = "ParameterizationInputError: open surfaces are refused"
-PARTS = "ParameterizationInputError: several components are refused"
-REFUSED = {
-    "cad_two_parts": PARTS,
-    "scan_body_holes": OPEN,
-    "scan_potato_hole": OPEN,
-    "scan_multipart": PARTS,
-    "tiny_two_triangles": PARTS,
-    "tiny_strip": OPEN,
-}
+# Measured at TARGET quads: every corpus mesh keeps the promise (a valid mesh or a typed
+# error). (Fold counts vary a little with the BLAS thread count; the suite runs on one
+# thread, see conftest.py.)
+PROMISE_XFAIL: dict[str, str] = {}
+# No valid quad mesh today (the promise holds: a typed error).
 VALID_XFAIL = {
-    **PROMISE_XFAIL,
-    **REFUSED,
-    "cad_plate_holes": "QuadExtractionError: 156 uv triangles flipped (genus 6, slivers)",
-    "cad_extrusion": "QuadExtractionError: 3 uv triangles flipped (gear teeth)",
+    "tiny_strip": "QuadMeshError: a ribbon narrower than a few quads (topology changes)",
 }
 # Measured at TARGET_SLOW quads (slow suite).
-PROMISE_XFAIL_SLOW = {
-    "cad_l_bracket": "a folded quad and Hausdorff 1.05 quad edges, only a FoldedQuadWarning",
-    "cad_cylinder_boss": "folded quads (3) returned with only a FoldedQuadWarning",
-    "cad_extrusion": "folded quads (2-5) and Hausdorff 1.0-1.3 quad edges, no error",
-    "scan_body_remeshed": "a folded quad returned without an error",
-    "tiny_cube12": PROMISE_XFAIL["tiny_cube12"],
-}
-VALID_XFAIL_SLOW = {
-    **PROMISE_XFAIL_SLOW,
-    **REFUSED,
-    "cad_box_hole": "QuadExtractionError: 2 uv triangles flipped",
-    "cad_plate_holes": "QuadExtractionError: 11 uv triangles flipped (genus 6, slivers)",
-}
-# fvf reads no STL yet: ``fvf quad`` exits 2 on the CAD files (an XPASS today).
-CLI_XFAIL = {k: f"once fvf reads STL: {v}" for k, v in PROMISE_XFAIL.items()}
+PROMISE_XFAIL_SLOW: dict[str, str] = {}
+VALID_XFAIL_SLOW = dict(VALID_XFAIL)
+CLI_XFAIL: dict[str, str] = {}
 
 
 def _cases(xfails: dict[str, str], slow: bool = False) -> list:

@@ -67,6 +67,8 @@ __all__ = [
     "ParameterizationInputError",
     "FlippedParameterizationWarning",
     "QuadExtractionError",
+    "QuadMeshError",
+    "SmallComponentWarning",
     "DirectionCountError",
     "CutGraphError",
     "FrameError",
@@ -400,6 +402,23 @@ class FlippedParameterizationWarning(FvfWarning):
 class QuadExtractionError(FvfError, RuntimeError):
     """Quad extraction met a parameterization it cannot turn into a valid quad mesh
     (flipped or degenerate uv triangles, a target too coarse for the topology)."""
+
+
+class QuadMeshError(QuadExtractionError):
+    """:func:`fvf.quad_mesh` found no valid quad mesh: every attempt (the input, the
+    input remeshed at the quad scale, the smoothest field, more quads) gave a mesh that
+    fails a validity check or failed itself. ``attempts`` lists each attempt and why it
+    failed; ``best`` is the least bad quad mesh seen (or None), for inspection only."""
+
+    def __init__(self, message: str, attempts: tuple = (), best: object = None) -> None:
+        super().__init__(message)
+        self.attempts = tuple(attempts)
+        self.best = best
+
+
+class SmallComponentWarning(FvfWarning):
+    """Connected components too small for the quad size were left out of a quad mesh
+    (the message names them and gives their areas in target quads)."""
 
 
 # ---------------------------------------------------------------------------- folded quads

@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Callable, Mapping
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -247,7 +247,6 @@ def quad(ctx: MeshContext) -> TaskOutput:
     :func:`fvf.quad_quality` (``n_quads``, ``irregular_fraction``, angle deviations,
     ``n_folded``, ``closed``, ``manifold``, ...).
     """
-    made = fvf.quad_mesh(ctx.mesh, return_parameterization=True)
-    V, Q, param = cast("tuple[np.ndarray, np.ndarray, Any]", made)
-    quality = fvf.quad_quality(ctx.mesh, V, Q, parameterization=param)
-    return TaskOutput({"quad_vertices": V, "quad_quads": Q}, output_of(quality, "quad").figures)
+    made = fvf.quad_mesh(ctx.mesh)
+    quads = {"quad_vertices": made.vertices, "quad_quads": made.quads}
+    return TaskOutput(quads, output_of(made.quality, "quad").figures)

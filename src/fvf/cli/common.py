@@ -274,7 +274,7 @@ def inputs(args: argparse.Namespace) -> list:
     data = [data] if isinstance(data, str) else list(data)
     named = [split_source(getattr(args, o, None) or "")[0] for o in _KEY_OPTIONS]
     meshes = [getattr(args, o, None) for o in ("mesh", "mesh_1", "mesh_2")]
-    extra = [getattr(args, o, None) for o in ("constraints", "landmarks", "truth")]
+    extra = [getattr(args, o, None) for o in ("constraints", "landmarks", "truth", "features")]
     return [*meshes, *data, *extra, *named]
 
 
@@ -292,12 +292,22 @@ def progress_option(args: argparse.Namespace) -> Any:
 
 # ---------------------------------------------------------------------------- outputs
 def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
-    """Refuse, before any work, outputs that are inputs (unless --force)."""
+    """Refuse, before any work, outputs that are inputs (unless --force) and two outputs
+    that name one file (the second would replace the first)."""
+    from fvf.errors import OutputError
     from fvf.io.atomic import check_not_input
 
+    seen: dict[str, str] = {}
     for option, path in outputs:
         if path is not None:
             check_not_input(path, inputs(args), force=args.force, option=option)
+            key = str(Path(path).resolve())
+            if key in seen:
+                raise OutputError(
+                    f"{seen[key]} and {option} both name {path}: the second output would "
+                    "replace the first; give them different names"
+                )
+            seen[key] = option
 
 
 def check_output_places(*paths: str | Path) -> None:

@@ -68,7 +68,10 @@ ALIGN_SMOOTHING = 2.0
 
 @takes_mesh
 def default_cross_field(
-    mesh: TriMesh, align: Alignment = "curvature", edge_length: float | None = None
+    mesh: TriMesh,
+    align: Alignment = "curvature",
+    edge_length: float | None = None,
+    constraints: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
@@ -85,6 +88,9 @@ def default_cross_field(
         (module docstring), and its singularities should be measured with
         :func:`default_connection_rotations`. :func:`fvf.seamless_parameterization`
         passes its h. Ignored with ``align="smooth"``.
+    constraints : (int64 (c,), float64 (c, 3)), optional
+        Faces and the directions the field is held to there (hard constraints of
+        :func:`fvf.design_field`; the sharp features of :mod:`fvf.param.features`).
 
     Returns
     -------
@@ -95,12 +101,17 @@ def default_cross_field(
     """
     if align not in ALIGNMENTS:
         raise ParameterError(f"align must be one of {ALIGNMENTS}; got {align!r}")
+    faces, dirs = constraints if constraints is not None and len(constraints[0]) else (None, None)
+    hard = faces is not None
     if align == "smooth":
-        u = design_field(mesh, n=4)
+        u = design_field(mesh, faces, dirs, hard=hard, n=4)
     else:
         h = edge_length
         u = design_field(
             mesh,
+            faces,
+            dirs,
+            hard=hard,
             n=4,
             align="curvature",
             curvature_smoothing=h,

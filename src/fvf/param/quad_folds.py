@@ -23,8 +23,13 @@ diagonal). Its reference normal is the vector area of the input surface the quad
 over the input triangles whose centroids :math:`x_f` lie within half the quad's shorter
 diagonal of its centroid :math:`c_q = \tfrac14 \sum_k p_k` (the surface under the quad);
 when there is none, :math:`P_q` is the triangle holding the surface point closest to
-:math:`c_q`. The quad is **folded** when :math:`n_q \cdot N_q \le 0`: it faces away from
-the surface at its own scale. (A single
+:math:`c_q`. The quad is **folded** when :math:`n_q \cdot N_q \le 0` — it faces away from
+the surface at its own scale — or when neither of its diagonal splits has both halves
+facing the surface (:math:`n_{012}` and :math:`n_{023}`, or :math:`n_{123}` and
+:math:`n_{130}`, each with a positive dot product with :math:`N_q` and with the normal of
+the input triangle closest to :math:`c_q` — or, where that triangle is folded over
+against the sum of its vertices' normals, that sum): a bow tie, or a quad bent over a ridge so far
+that it cannot be drawn as two triangles on the surface. (A single
 input triangle is not a reference: crumpled inputs such as the TOSCA lion have triangles
 folded over against their neighbours — 137 of its 10k face away from the mean normal of
 their two rings — and there a quad whose four half-triangles all agree with the surface
@@ -66,13 +71,17 @@ __all__ = [
     "closest_surface_points",
     "folded_quads",
     "quad_normals",
+    "centre_normals",
     "reference_normals",
+    "surface_sample_tree",
     "untangle_quads",
     "warn_folded",
 ]
 
 #: Input triangles (nearest centroids) searched for the closest point on the surface.
 CANDIDATES = 32
+#: Triangles of the nearest surface samples also searched (:func:`surface_sample_tree`).
+SAMPLE_CANDIDATES = 8
 #: Fraction of the way to the mean of its quad neighbours a free vertex moves per step.
 RELAX_STEP = 0.5
 #: Relaxation steps per region before the region grows by one ring of quads.
@@ -84,7 +93,7 @@ MAX_RINGS = 3
 def closest_surface_points(
     mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Closest points of the input surface, among the triangles with the nearest centroids.
+    """Closest points of the input surface, among the triangles nearest each query point.
 
     Parameters
     ----------
@@ -98,20 +107,60 @@ def closest_surface_points(
     faces : int64 (k,)
         The input triangle holding each closest point.
     closest : float64 (k, 3)
-        The closest point on that triangle; searched among the ``min(CANDIDATES, m)``
-        triangles whose centroids are nearest each query point.
+        The closest point on that triangle, searched among the ``min(CANDIDATES, m)``
+        triangles whose centroids are nearest each query point and the triangles of the
+        :data:`SAMPLE_CANDIDATES` nearest points of a dense sampling of the surface
+        (:func:`surface_sample_tree`; long thin triangles, whose centroids lie far from
+        most of their points, are found through it).
     """
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if tree is None:
         tree = cKDTree(mesh.face_centroids)
     c = min(CANDIDATES, mesh.n_faces)
-    cand = tree.query(x, k=c)[1].reshape(x.shape[0], c)  # (k, c)
-    T = mesh.vertices[mesh.faces[cand]]  # (k, c, 3, 3)
+    samples, owner = surface_sample_tree(mesh)
+    s = min(SAMPLE_CANDIDATES, owner.size)
+    cand = np.concatenate(
+        [
+            tree.query(x, k=c)[1].reshape(x.shape[0], c),
+            owner[samples.query(x, k=s)[1].reshape(x.shape[0], s)],
+        ],
+        axis=1,
+    )  # (k, c + s)
+    T = mesh.vertices[mesh.faces[cand]]  # (k, c + s, 3, 3)
     best = _closest_on_triangles(T, np.broadcast_to(x[:, None, :], T.shape[:2] + (3,)))
     d2 = np.einsum("kcd,kcd->kc", best - x[:, None, :], best - x[:, None, :])
     j = np.argmin(d2, axis=1)
     rows = np.arange(x.shape[0])
     return cand[rows, j].astype(np.int64), best[rows, j]
+
+
+def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
+    """A k-d tree of points spread over every triangle, and the triangle of each point.
+
+    Each triangle is sampled on a barycentric grid with ``ceil(longest edge / step)``
+    steps per side (at most 48), step the smaller of the median edge and
+    √(area / 20 000): a sliver gets points along its whole length, and a mesh of a few
+    large triangles (a CAD box) points every ~1/140 of its size. Cached on the mesh.
+    Returns (cKDTree, int64 (p,)).
+    """
+
+    def build() -> tuple[cKDTree, np.ndarray]:
+        V, F = mesh.vertices, mesh.faces
+        e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)
+        step = min(float(np.median(e)), float(np.sqrt(mesh.total_area / 20_000)))
+        level = np.clip(np.ceil(e.max(axis=1) / max(step, 1e-300)).astype(np.int64), 1, 48)
+        pts, owner = [mesh.face_centroids], [np.arange(F.shape[0])]
+        for k in np.unique(level):  # a loop over a few subdivision levels
+            sel = np.flatnonzero(level == k)
+            i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+            keep = (i + j) <= k
+            b = np.stack([1.0 - (i[keep] + j[keep]) / k, i[keep] / k, j[keep] / k], axis=1)
+            P = np.einsum("sc,tcd->tsd", b, V[F[sel]])
+            pts.append(P.reshape(-1, 3))
+            owner.append(np.repeat(sel, b.shape[0]))
+        return cKDTree(np.concatenate(pts)), np.concatenate(owner).astype(np.int64)
+
+    return mesh.cached("surface_sample_tree", build)
 
 
 def _closest_on_triangles(T: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -149,33 +198,69 @@ def quad_normals(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return np.cross(V[Q[:, 2]] - V[Q[:, 0]], V[Q[:, 3]] - V[Q[:, 1]])
 
 
+def centre_normals(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """The surface's side at each point, float64 (k, 3), unit: the sum of the area-weighted
+    vertex normals of the input triangle closest to the point (smoother than that
+    triangle's own normal, which on a crumpled scan may face the other way)."""
+    F, N = mesh.faces, mesh.face_areas[:, None] * mesh.face_normals
+    vn = np.zeros((mesh.n_vertices, 3))
+    np.add.at(vn, F.ravel(), np.repeat(N, 3, axis=0))
+    face, _ = closest_surface_points(mesh, points, tree)
+    n = vn[F[face]].sum(axis=1)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+
+
 def reference_normals(
     mesh: TriMesh, vertices: np.ndarray, quads: np.ndarray, tree: cKDTree
 ) -> np.ndarray:
     """N_q of the module docstring, float64 (q, 3): the vector area of the input surface
-    under each quad (not normalized); ``tree`` holds ``mesh.face_centroids``."""
+    under each quad, on the side of the surface at its centre (not normalized); ``tree``
+    holds ``mesh.face_centroids``."""
     P = vertices[quads]
     c = P.mean(axis=1)
     rho = 0.5 * np.minimum(
         np.linalg.norm(P[:, 2] - P[:, 0], axis=1), np.linalg.norm(P[:, 3] - P[:, 1], axis=1)
     )
-    AN = mesh.face_areas[:, None] * mesh.face_normals
-    near = cKDTree(c).sparse_distance_matrix(tree, float(rho.max()), output_type="coo_matrix")
+    side = centre_normals(mesh, c, tree)
+    samples, owner = surface_sample_tree(mesh)
+    weight = mesh.face_areas / np.bincount(owner, minlength=mesh.n_faces)  # area per sample
+    AN = weight[:, None] * mesh.face_normals
+    near = cKDTree(c).sparse_distance_matrix(samples, float(rho.max()), output_type="coo_matrix")
     keep = near.data <= rho[near.row]
-    rows, cols = near.row[keep], near.col[keep]
+    rows, cols = near.row[keep], owner[near.col[keep]]
+    same = np.einsum("kd,kd->k", AN[cols], side[rows]) > 0  # not the far wall of a thin part
+    rows, cols = rows[same], cols[same]
     out = np.stack(
         [np.bincount(rows, weights=AN[cols, k], minlength=len(c)) for k in range(3)], axis=1
     )
     empty = np.flatnonzero(np.bincount(rows, minlength=len(c)) == 0)
-    if empty.size:
-        face, _ = closest_surface_points(mesh, c[empty], tree)
-        out[empty] = AN[face]
+    out[empty] = side[empty]
     return out
 
 
+def _centre_reference(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """The normal of the input triangle closest to each point, or, where that triangle is
+    folded over against its vertices' normals (a crumpled scan), their sum (k, 3)."""
+    face, _ = closest_surface_points(mesh, points, tree)
+    raw = mesh.face_normals[face]
+    smooth = centre_normals(mesh, points, tree)
+    crumpled = np.einsum("kd,kd->k", raw, smooth) <= 0
+    return np.where(crumpled[:, None], smooth, raw)
+
+
 def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
-    """bool (len(Q),): n_q · N_q ≤ 0 (module docstring)."""
-    return np.einsum("qd,qd->q", quad_normals(V, Q), reference_normals(mesh, V, Q, tree)) <= 0
+    """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
+    the surface at the centre (module docstring)."""
+    N = reference_normals(mesh, V, Q, tree)
+    P = V[Q]
+    Nc = _centre_reference(mesh, P.mean(axis=1), tree)
+
+    def faces_up(a: int, b: int, c: int) -> np.ndarray:
+        n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])
+        return (np.einsum("qd,qd->q", n, N) > 0) & (np.einsum("qd,qd->q", n, Nc) > 0)
+
+    split = (faces_up(0, 1, 2) & faces_up(0, 2, 3)) | (faces_up(1, 2, 3) & faces_up(1, 3, 0))
+    return (np.einsum("qd,qd->q", quad_normals(V, Q), N) <= 0) | ~split
 
 
 @takes_mesh

@@ -1,22 +1,248 @@
-"""The quad mesh of a cross field: seamless parameterization, then integer-grid extraction."""
+r"""The quad mesh of a cross field: seamless parameterization, integer-grid extraction, a gate.
+
+:func:`quad_mesh` meshes each connected component on its own, at one target edge length
+h, through a list of attempts (:func:`_plans`), and returns the first result that passes
+:func:`fvf.param.quad_validity.check_quad_mesh`; an invalid quad mesh is never returned.
+"""
 
 from __future__ import annotations
 
-from typing import Any
+import contextlib
+import dataclasses
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import ParameterError, QuadExtractionError
+from ..errors import (
+    ParameterError,
+    QuadMeshError,
+    SmallComponentWarning,
+    UndeclaredCacheKeyError,
+    format_indices,
+    user_stacklevel,
+)
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from ..numerics.progress import make_progress
+from ..numerics.progress import ProgressCallback, make_progress
+from .caps import capped, cut_caps, snap_boundary
 from .extraction import extract_quads
+from .features import (
+    CREASE_ANGLE,
+    MIN_CHAIN,
+    feature_edge_ids,
+    sharp_edges,
+    transferred_features,
+)
 from .frame_field import Alignment
-from .quad_folds import MAX_RINGS, STEPS_PER_RING, untangle_quads, warn_folded
-from .seamless import SeamlessParameterization, seamless_parameterization
+from .quad_folds import (
+    MAX_RINGS,
+    STEPS_PER_RING,
+    closest_surface_points,
+    folded_quads,
+    untangle_quads,
+)
+from .quad_parts import Part, component_parts, join_parts
+from .quad_result import QuadMeshResult
+from .quad_validity import check_quad_mesh, topology_signature
+from .remesh import Remesher, needs_remesh, remesh_for_quads
+from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 
-__all__ = ["quad_mesh"]
+__all__ = ["quad_mesh", "MIN_COMPONENT_QUADS"]
+
+#: A component smaller than this many target quads (area / h²) is meshed at its own,
+#: smaller edge length √(area / MIN_COMPONENT_QUADS); if that fails, it is left out.
+MIN_COMPONENT_QUADS = 8
+#: Ring spacing of the domes that close open components, in quad edges.
+CAP_SPACING = 0.5
+#: Each retry with more quads shrinks h by this factor (1.5× the quads).
+MORE_QUADS = 1.0 / np.sqrt(1.5)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    remeshed: bool
+    align: Alignment
+    h: float
+
+    def __str__(self) -> str:
+        surface = "remeshed" if self.remeshed else "input"
+        return f"{surface} surface, {self.align} field, h = {self.h:.4g}"
+
+
+def _plans(part: Part, h: float, align: Alignment, retry: bool, remesh: bool | str) -> list[_Plan]:
+    """The attempts for one component, in order (``docs/quads.md``)."""
+    if not retry:
+        return [_Plan(remesh is True, align, h)]
+    other: Alignment = "smooth" if align == "curvature" else "curvature"
+    can = remesh != "never"
+    why = needs_remesh(part.closed, h) if can else None
+    skip_input = remesh is True or (why is not None and "angle" in why)  # slivers: remesh first
+    plans = [] if skip_input else [_Plan(False, align, h)]
+    plans += [
+        _Plan(can, align, h),
+        _Plan(can, other, h),
+        _Plan(can, align, h * MORE_QUADS),
+        _Plan(can, other, h * MORE_QUADS),
+        _Plan(can, align, h * MORE_QUADS**2),
+    ]
+    return list(dict.fromkeys(plans))
+
+
+def _attempt(
+    part: Part,
+    plan: _Plan,
+    surfaces: dict,
+    field: np.ndarray | None,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh]:
+    """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
+    base = surface = part.closed
+    if plan.remeshed:
+        key = round(plan.h, 12)
+        if key not in surfaces:
+            surfaces[key] = remesh_for_quads(
+                base, plan.h, crease_angle=opts["crease_angle"], method=opts["remesher"]
+            )
+        surface = surfaces[key]
+    f = None if field is None else _transfer_field(part.mesh, surface, field)
+    features = _features(part, surface, plan.h, opts)
+    param = seamless_parameterization(
+        surface,
+        field=f,
+        edge_length=plan.h,
+        align=plan.align,
+        features=features,
+        **opts["seamless"],
+    )
+    report("quad extraction", 0, 1)
+    qm = extract_quads(surface, param.uv)
+    repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
+    report("quad extraction", 1, 1)
+    V, vf, Q = repair.vertices, qm.vertex_face, qm.quads
+    if part.cap is not None:
+        V, Q = cut_caps(part.cap, V, Q)
+    if surface is not part.mesh:
+        vf, V = closest_surface_points(part.mesh, V)
+    if part.cap is not None:
+        V, vf = _snapped(part.mesh, V, Q, vf)
+    return (
+        np.ascontiguousarray(V, np.float64),
+        np.ascontiguousarray(Q, np.int64),
+        vf,
+        param,
+        surface,
+    )
+
+
+def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
+    """Edge ids of ``surface`` the field is held along: sharp edges and the user's."""
+    mesh = part.closed
+    chain = MIN_CHAIN * h
+    found = [sharp_edges(mesh, opts["crease_angle"], chain)] if opts["features"] else []
+    if part.cap is not None:
+        found.append(part.cap.rim)
+    if opts["user_edges"] is not None:  # ids of the whole input's edges -> the part's
+        whole = opts["whole"]
+        pairs = whole.edges[opts["user_edges"]]
+        local = np.full(whole.n_vertices, -1, dtype=np.int64)
+        local[part.vertices] = np.arange(part.vertices.size)
+        mine = local[pairs]
+        found.append(feature_edge_ids(mesh, mine[(mine >= 0).all(axis=1)]))
+    if not found:
+        return None
+    edges = np.unique(np.concatenate(found))
+    if surface is not mesh:
+        edges = transferred_features(mesh, edges, surface, opts["crease_angle"], h)
+    return edges
+
+
+def _snapped(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, vf: np.ndarray) -> tuple:
+    """:func:`fvf.param.caps.snap_boundary`, undone at the corners of quads it folds."""
+    W, wf = snap_boundary(mesh, V, Q, vf)
+    folded = folded_quads(mesh, W, Q)
+    if folded.size:
+        back = np.unique(Q[folded])
+        W[back], wf[back] = V[back], vf[back]
+    return W, wf
+
+
+def _transfer_field(mesh: TriMesh, surface: TriMesh, field: np.ndarray) -> np.ndarray:
+    """A per-face field of ``mesh`` on ``surface``: the value at the closest input face."""
+    if surface is mesh:
+        return field
+    face, _ = closest_surface_points(mesh, surface.face_centroids)
+    return surface.project_tangent(field[face])
+
+
+def _mesh_part(
+    part: Part,
+    plans: list[_Plan],
+    field: np.ndarray | None,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple:
+    """The first attempt whose quads pass the gate, or QuadMeshError listing them all."""
+    log: list[str] = []
+    surfaces: dict = {}
+    want = topology_signature(part.mesh.n_vertices, part.mesh.faces)
+    best = None
+    for i, plan in enumerate(plans):
+        if i:
+            report(f"component {part.label}: attempt {i + 1} ({plan})", 0, 1)
+            report(f"component {part.label}: attempt {i + 1} ({plan})", 1, 1)
+        try:
+            with _captured(opts["quiet"]):
+                V, Q, vf, param, surface = _attempt(part, plan, surfaces, field, opts, report)
+        except (ParameterError, UndeclaredCacheKeyError):
+            raise  # the caller's option, or a bug: not a reason to try another way
+        except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            log.append(f"{plan}: {type(exc).__name__}: {_first_line(exc)}")
+            continue
+        verdict = check_quad_mesh(part.mesh, V, Q, signature=want)
+        if verdict.valid:
+            log.append(f"{plan}: valid, {Q.shape[0]} quads")
+            return V, Q, vf, param, surface, verdict, log
+        log.append(f"{plan}: {Q.shape[0]} quads, invalid: {verdict}")
+        best = best or (V, Q)
+    raise QuadMeshError(
+        f"no valid quad mesh of component {part.label} ({part.mesh.n_faces} triangles) after "
+        f"{len(plans)} attempts:\n  " + "\n  ".join(log) + "\n" + _advice(opts),
+        attempts=tuple(log),
+        best=best,
+    )
+
+
+@contextlib.contextmanager
+def _captured(quiet: bool) -> Iterator[list]:
+    """Warnings of an attempt kept for its log entry (``quiet``) or passed on."""
+    if not quiet:
+        yield []
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield caught
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0][:300] if text else ""
+
+
+def _advice(opts: dict) -> str:
+    tip = "try another target (fvf quad --faces N), or align='smooth'"
+    if opts["remesher"] in ("auto", "subdivide"):
+        from .remesh import available_remesher
+
+        if available_remesher() != "pymeshlab":
+            tip += (
+                "; install the remesher (pip install 'fvf[remesh]') for inputs with bad triangles"
+            )
+    return "What to try: " + tip + "."
 
 
 @takes_mesh
@@ -27,69 +253,166 @@ def quad_mesh(
     field: npt.ArrayLike | None = None,
     edge_length: float | None = None,
     align: Alignment = "curvature",
+    retry: bool = True,
+    remesh: bool | str = "auto",
+    remesher: Remesher = "auto",
+    crease_angle: float | None = CREASE_ANGLE,
+    features: npt.ArrayLike | None = None,
     return_parameterization: bool = False,
     fold_repair_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
     **options: Any,
-) -> tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, SeamlessParameterization]:
-    """A pure-quad mesh whose edges follow a cross field (the chapter's Fig. 1 pipeline).
+) -> QuadMeshResult:
+    """A valid pure-quad mesh whose edges follow a cross field (the chapter's Fig. 1), or an error.
 
-    Runs :func:`fvf.seamless_parameterization` and pulls back its integer grid
-    (:func:`fvf.param.extraction.extract_quads`): quad vertices at integer points, quad
-    edges along integer iso-lines. Quads folded in 3D (normal against the input surface's
-    at the quad; :func:`fvf.param.quad_folds.folded_quads`) are then untangled on the
-    surface (:func:`fvf.param.quad_folds.untangle_quads`): the corners of the folded quads,
-    and a few rings around them when needed, are relaxed tangentially and put back on the
-    input surface. Those vertices leave their integer uv points (on spot at 1500 quads and
-    armadillo at 8000, four vertices each, by up to 0.57 of the median quad edge); the
-    connectivity is unchanged.
+    Each connected component is meshed on its own at one target edge length h: a
+    seamless parameterization (:func:`fvf.seamless_parameterization`), its integer grid
+    pulled back (:func:`fvf.param.extraction.extract_quads`), quads folded in 3D untangled
+    on the surface (:func:`fvf.param.quad_folds.untangle_quads`). The result must pass
+    :func:`fvf.param.quad_validity.check_quad_mesh`: pure quads, manifold, consistently
+    oriented, the input's χ and boundary loops per component, no folded quad, within one
+    quad edge of the input. Otherwise the next attempt runs (``docs/quads.md``): the input
+    remeshed at the quad scale (:mod:`fvf.param.remesh`; first, when its triangles are
+    too coarse or too thin), the other default field, 1.5× and 2.25× the quads. When
+    every attempt fails, :class:`fvf.QuadMeshError` lists them; nothing invalid is ever
+    returned.
 
     Parameters
     ----------
     mesh : TriMesh
-        Closed, one component, orientable (else :class:`fvf.ParameterizationInputError`).
+        Closed components (boundary loops: :class:`fvf.ParameterizationInputError`).
     target_faces : int, optional
-        Approximate number of quads (default m / 10); exclusive with ``edge_length``.
+        Approximate number of quads in all (default m / 10); exclusive with
+        ``edge_length``. h = √(area / target_faces).
     field : array_like (m, 3), optional
-        Cross field, one representative tangent vector per face (default: curvature
-        aligned, or the smoothest with ``align="smooth"``).
+        Cross field, one representative tangent vector per input face (default:
+        curvature aligned, or the smoothest with ``align="smooth"``).
     edge_length : float, optional
-        Target quad edge length instead of a count.
+        Target quad edge length h instead of a count.
     align : {"curvature", "smooth"}
+    retry : bool
+        Try the other attempts when the first fails (default). ``False``: one attempt,
+        on the input (remeshed only with ``remesh=True``); its warnings reach the caller.
+    remesh : {"auto", True, "never"}
+        ``"auto"``: remesh when the input asks for it or an attempt on it failed;
+        ``True``: always; ``"never"``: never.
+    remesher : {"auto", "pymeshlab", "subdivide"}
+        :func:`fvf.param.remesh.remesh_for_quads`.
+    crease_angle : float or None
+        Dihedral angle (degrees) above which an edge is a sharp feature
+        (:mod:`fvf.param.features`): the remeshing keeps it and the default field is held
+        along it. None: no features.
+    features : array_like of int (k, 2), optional
+        Feature edges given as vertex pairs of ``mesh`` (either order; each must be an
+        edge), added to the sharp edges: the default field is held along them. The input
+        is then meshed as it is (never remeshed: the pairs name its own edges).
     return_parameterization : bool
-        Also return the :class:`fvf.SeamlessParameterization`.
+        Deprecated: return ``(V, Q, parameterization)`` instead of the result (typed as
+        the result for type checkers); use the result's ``.parameterization``.
     fold_repair_steps : int
-        Relaxation steps at most for untangling folded quads (0: detect and warn only).
+        Relaxation steps at most for untangling folded quads (0: detect only).
     **options
         Passed to :func:`fvf.seamless_parameterization` (``scale``, ``rounding_batch``,
-        ``scale_iterations``, ``stiffening_iterations``, ``cone_cancel_radius``).
+        ``scale_iterations``, ``stiffening_iterations``, ``cone_cancel_radius``,
+        ``backend``, ``progress``).
 
     Returns
     -------
-    vertices : float64 (k, 3)
-        On the input surface: at the integer points of the parameterization, except the
-        vertices moved by the untangling of folded quads.
-    quads : int64 (q, 4)
-        Counter-clockwise about the input's outward normal. On a closed input: a closed,
-        manifold, pure-quad mesh with the input's Euler characteristic (checked).
-    parameterization : SeamlessParameterization
-        Only with ``return_parameterization=True``.
+    QuadMeshResult
+        ``vertices`` float64 (k, 3) on the input surface, ``quads`` int64 (q, 4)
+        counter-clockwise about the outward normal, ``vertex_faces``, ``quality``,
+        ``parameterizations``; ``V, Q = result`` unpacks the first two.
 
     Raises
     ------
-    QuadExtractionError
-        uv triangles stay flipped after stiffening (the faces are named), or the grid does
-        not close into quads (target too coarse for the topology). No broken mesh is
-        returned.
+    QuadMeshError
+        No attempt gave a valid mesh (a subclass of :class:`fvf.QuadExtractionError`).
+    ParameterizationInputError
+        A component has boundary loops, or (``retry=False``) a cone the fit refuses.
     ParameterError
-        ``fold_repair_steps`` is negative or not an integer.
+        A bad option (``fold_repair_steps`` negative or not an integer, …).
 
     Warns
     -----
-    FoldedQuadWarning
-        Quads stay folded in 3D after the untangling (the quads are named; the mesh is
-        returned as it is: closed and manifold, with those quads facing inwards). Fix: ask
-        for more quads.
+    SmallComponentWarning
+        Components smaller than :data:`MIN_COMPONENT_QUADS` quads that could not be meshed
+        were left out (named in the message and in ``dropped_components``).
     """
+    steps = _check_options(fold_repair_steps, remesh)
+    remesh = "never" if remesh is False or features is not None else remesh
+    user_edges = None if features is None else feature_edge_ids(mesh, features)
+    h = edge_length_for(mesh, target_faces, edge_length)
+    f = None if field is None else np.asarray(field, dtype=np.float64)
+    if f is not None and f.shape != (mesh.n_faces, 3):
+        from ..mesh.inputs import as_face_field
+
+        f = as_face_field(mesh, f, "field")
+    opts: dict[str, Any] = {
+        "steps": steps,
+        "remesher": remesher,
+        "crease_angle": 180.0 if crease_angle is None else float(crease_angle),
+        "features": crease_angle is not None,
+        "user_edges": user_edges,
+        "seamless": options,
+        "quiet": retry,
+    }
+    opts["whole"] = mesh
+    report = make_progress(options.get("progress"))
+    parts = component_parts(mesh)
+    made, dropped = _mesh_parts(parts, h, f, align, retry, remesh, opts, report)
+    result = join_parts(mesh, made, dropped, h)
+    if return_parameterization:
+        warnings.warn(
+            "quad_mesh(return_parameterization=True) is deprecated: the result carries "
+            ".parameterization",
+            DeprecationWarning,
+            stacklevel=user_stacklevel(),
+        )
+        legacy = (result.vertices, result.quads, result.parameterizations[0])
+        return cast(QuadMeshResult, legacy)  # the deprecated three values, as before
+    return result
+
+
+def _mesh_parts(
+    parts: list[Part],
+    h: float,
+    field: np.ndarray | None,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple[list, list]:
+    made, dropped = [], []
+    for part in parts:
+        hp = h
+        small = part.mesh.total_area < MIN_COMPONENT_QUADS * h * h
+        if small:
+            hp = float(np.sqrt(part.mesh.total_area / MIN_COMPONENT_QUADS))
+        fp = None if field is None else field[part.faces]
+        if not part.mesh.is_closed:
+            part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
+        plans = _plans(part, hp, align, retry, remesh)
+        try:
+            made.append((part, _mesh_part(part, plans, fp, opts, report)))
+        except QuadMeshError:
+            if not small or len(parts) == 1:
+                raise
+            dropped.append(part)
+    if dropped:
+        labels = np.array([p.label for p in dropped])
+        areas = ", ".join(f"{p.mesh.total_area / (h * h):.2g}" for p in dropped)
+        warnings.warn(
+            f"components {format_indices(labels)} are too small for quads of edge {h:.3g} "
+            f"(areas {areas} target quads) and were left out; ask for more quads to keep them",
+            SmallComponentWarning,
+            stacklevel=user_stacklevel(),
+        )
+    if not made:
+        raise QuadMeshError("every component is too small for the quad size; ask for more quads")
+    return made, dropped
+
+
+def _check_options(fold_repair_steps: object, remesh: object) -> int:
     if (
         isinstance(fold_repair_steps, bool)
         or not isinstance(fold_repair_steps, int | np.integer)
@@ -98,24 +421,6 @@ def quad_mesh(
         raise ParameterError(
             f"fold_repair_steps must be a non-negative integer; got {fold_repair_steps!r}"
         )
-    param = seamless_parameterization(
-        mesh,
-        field=field,
-        target_faces=target_faces,
-        edge_length=edge_length,
-        align=align,
-        **options,
-    )
-    report = make_progress(options.get("progress"))
-    report("quad extraction", 0, 1)
-    qm = extract_quads(mesh, param.uv)
-    repair = untangle_quads(
-        mesh, qm.vertices, qm.quads, qm.vertex_face, max_steps=int(fold_repair_steps)
-    )
-    warn_folded(repair)
-    report("quad extraction", 1, 1)
-    V = np.ascontiguousarray(repair.vertices, dtype=np.float64)
-    Q = np.ascontiguousarray(qm.quads, dtype=np.int64)
-    if Q.shape[0] == 0:  # pragma: no cover - extract_quads raises first
-        raise QuadExtractionError("no quads were extracted")
-    return (V, Q, param) if return_parameterization else (V, Q)
+    if remesh not in ("auto", True, "never", False):
+        raise ParameterError(f"remesh must be 'auto', True or 'never'; got {remesh!r}")
+    return int(fold_repair_steps)

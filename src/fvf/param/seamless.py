@@ -40,6 +40,7 @@ from ..errors import (
     ParameterError,
     ParameterizationInputError,
     format_indices,
+    user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
@@ -47,6 +48,7 @@ from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import short_repr
 from .cutmesh import CutMesh, cut_mesh
+from .features import feature_constraints
 from .frame_field import (
     SCALINGS,
     Alignment,
@@ -316,6 +318,7 @@ def seamless_parameterization(
     cone_cancel_radius: float = 1.0,
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
+    features: npt.ArrayLike | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -363,6 +366,9 @@ def seamless_parameterization(
         (:mod:`fvf.numerics.progress`): each stage is reported as ``(message, 0, 1)``
         when it starts and ``(message, 1, 1)`` when it ends; the message names the stage
         and its size (the command prints them).
+    features : array_like of int (k,), optional
+        Sharp feature edges (indices into ``mesh.edges``; :mod:`fvf.param.features`): the
+        default field is held along them. Ignored when ``field`` is given.
 
     Returns
     -------
@@ -378,12 +384,7 @@ def seamless_parameterization(
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
     clock("cross field" if field is None else "reading the cross field")
-    rot = None
-    if field is None:
-        u = default_cross_field(mesh, align, edge_length=h)
-        rot = default_connection_rotations(mesh, align, h)
-    else:
-        u = unit_cross_field(mesh, field)
+    u, rot = _cross_field(mesh, field, align, h, features)
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
@@ -426,14 +427,7 @@ def seamless_parameterization(
     res_real = float(np.linalg.norm(fs.K @ y_real - b)) / bnorm
     res = float(np.linalg.norm(fs.K @ y - b)) / bnorm
     flipped = uv_flips(uv)
-    if flipped.size:
-        warnings.warn(
-            f"{flipped.size} uv triangles are flipped or degenerate (faces "
-            f"{format_indices(flipped)}); try another target (more quads resolve features "
-            "narrower than a quad edge, fewer let close cones cancel) or a smoother field",
-            FlippedParameterizationWarning,
-            stacklevel=2,
-        )
+    _warn_flipped(flipped)
     trans = _transitions(mesh, uv, fs.ss)
     trans[~cm.cut] = 0.0
     clock(None)
@@ -458,6 +452,34 @@ def seamless_parameterization(
         residual=res,
         info=info,
     )
+
+
+def _warn_flipped(flipped: np.ndarray) -> None:
+    if flipped.size:
+        warnings.warn(
+            f"{flipped.size} uv triangles are flipped or degenerate (faces "
+            f"{format_indices(flipped)}); try another target (more quads resolve features "
+            "narrower than a quad edge, fewer let close cones cancel) or a smoother field",
+            FlippedParameterizationWarning,
+            stacklevel=user_stacklevel(),
+        )
+
+
+def _cross_field(
+    mesh: TriMesh,
+    field: npt.ArrayLike | None,
+    align: Alignment,
+    h: float,
+    features: npt.ArrayLike | None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The unit cross field (m, 3) the fit follows and the connection's rotations (E,) its
+    cones are measured against (None: Levi-Civita): the user's field, or the default one
+    held along the feature edges."""
+    if field is not None:
+        return unit_cross_field(mesh, field), None
+    held = None if features is None else feature_constraints(mesh, features)
+    u = default_cross_field(mesh, align, edge_length=h, constraints=held)
+    return u, default_connection_rotations(mesh, align, h)
 
 
 class _Stages:

@@ -1,6 +1,5 @@
-"""``fvf quad``: a quad mesh along a cross field: the seamless parameterization
-(:func:`fvf.seamless_parameterization`), integer-grid extraction and its quality
-(:func:`fvf.quad_quality`)."""
+"""``fvf quad``: a valid quad mesh along a cross field (:func:`fvf.quad_mesh`: every
+component, retries, the validity gate) or a typed error and exit status 4, nothing written."""
 
 from __future__ import annotations
 
@@ -8,6 +7,7 @@ import argparse
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from ..common import (
     EXIT_OK,
@@ -25,7 +25,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="closed OBJ, OFF or PLY triangle mesh")
+    p.add_argument("mesh", help="closed triangle mesh (OBJ, OFF, PLY, STL; several parts allowed)")
     p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
     p.add_argument("--faces", type=integer, required=True, metavar="N", help="target quads")
     p.add_argument(
@@ -38,6 +38,26 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         "--field",
         metavar="KEY",
         help="cross field (m,3), one representative per face: a key of DATA or FILE.npz:KEY",
+    )
+    p.add_argument(
+        "--crease-angle",
+        type=float,
+        default=35.0,
+        metavar="DEG",
+        help="edges sharper than this dihedral angle are features the quads follow (35; "
+        "0 turns feature detection off)",
+    )
+    p.add_argument(
+        "--features",
+        metavar="FILE",
+        help='text file of feature edges, one "i j" vertex pair (0-based) per line',
+    )
+    p.add_argument(
+        "--remesh",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="remesh the input at the quad scale: when its triangles ask for it or an "
+        "attempt failed (auto), always, or never",
     )
     add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
@@ -73,38 +93,57 @@ def _stage_printer() -> Callable[[str, int, int], None]:
 def run(args: argparse.Namespace) -> int:
     """Write the quad mesh (and the parameterized mesh, the picture); print its quality."""
     import fvf
+    from fvf.io.inputfile import read_index_table
     from fvf.io.meshfile import check_writable, write_uv_mesh
 
     check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
     check_writable(args.output, face_size=4)  # a format that holds quads, before the work
     mesh = load_mesh(args.mesh)
     field = Sources(args, mesh).field(args.field) if args.field else None
-    progress = _stage_printer()
-
-    from fvf.param.extraction import extract_quads
-
-    param = fvf.seamless_parameterization(
-        mesh, target_faces=args.faces, field=field, align=args.align, progress=progress
+    features = None
+    if args.features:
+        features = read_index_table(args.features, 2, "feature edges", fvf.ParameterError)
+    made = fvf.quad_mesh(
+        mesh,
+        target_faces=args.faces,
+        field=field,
+        align=args.align,
+        crease_angle=args.crease_angle if args.crease_angle > 0 else None,
+        features=features,
+        remesh=_REMESH[args.remesh],
+        progress=_stage_printer(),
     )
-    progress("quad extraction", 0, 1)
-    qm = extract_quads(mesh, param.uv)
-    V, Q = qm.vertices, qm.quads
-    fvf.write_mesh(args.output, V, Q)
-    q = fvf.quad_quality(mesh, V, Q, parameterization=param)
-    print(
-        f"wrote {args.output}: {Q.shape[0]} quads, {V.shape[0]} vertices, "
-        f"{q.n_irregular} irregular ({q.irregular_fraction:.1%}), corner angle deviation "
-        f"median {q.angle_deviation_median:.1f} deg, 95% {q.angle_deviation_p95:.1f} deg"
-    )
+    fvf.write_mesh(args.output, made.vertices, made.quads)
+    print(f"wrote {args.output}: {made.summary()}")
     if args.uv:
-        write_uv_mesh(args.uv, mesh.vertices, mesh.faces, param.uv)
+        _write_uv(args.uv, made, write_uv_mesh)
         print(f"wrote {args.uv}: the parameterized triangle mesh (vt per corner)")
     if args.png:
         viz = load_viz()
+        Q = made.quads
         try:
             title = f"{Path(args.mesh).name}: {Q.shape[0]} quads"
-            info = viz.render_quads(V, Q, args.png, title=title, **picture_options(args))
+            info = viz.render_quads(
+                made.vertices, Q, args.png, title=title, **picture_options(args)
+            )
         except ImportError as exc:
             raise unavailable(exc) from exc
         print(f"wrote {info.path}")
     return EXIT_OK
+
+
+_REMESH: dict[str, bool | str] = {"auto": "auto", "always": True, "never": "never"}
+
+
+def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
+    """The triangle meshes the parameterizations live on, one file (components side by
+    side, each in its own uv chart)."""
+    import numpy as np
+
+    Vs, Fs, uvs, offset = [], [], [], 0
+    for surface, param in zip(made.surfaces, made.parameterizations, strict=True):
+        Vs.append(surface.vertices)
+        Fs.append(surface.faces + offset)
+        uvs.append(param.uv)
+        offset += surface.n_vertices
+    write_uv_mesh(path, np.concatenate(Vs), np.concatenate(Fs), np.concatenate(uvs))

@@ -1,0 +1,205 @@
+r"""Open surfaces quad-meshed as closed ones: each hole capped by a dome, the dome's quads cut off.
+
+The seamless parameterization needs a closed surface. An open component M is closed by a
+**dome** over each boundary loop :math:`P_0, \dots, P_{k-1}` (in the order M's faces
+traverse it): with :math:`c` the loop's centroid, :math:`r` its mean distance to
+:math:`c` and :math:`n` the mean normal of M's faces along the loop, ring :math:`j` of
+:math:`R` is
+
+.. math::
+
+    Q_{j,i} = c + (1 - t_j)(P_i - c) + r \sin\!\big(\tfrac{\pi}{2} t_j\big)\, n,
+    \qquad t_j = j / R,
+
+closed by a fan to :math:`c + r n`. The dome leaves the loop at 57° to its plane, so the
+loop is a sharp edge of the closed surface: the quad mesher's field is held along it
+(:mod:`fvf.param.features`) and quad edges run beside it. The quads of the closed surface
+whose centres lie on a dome are then cut off, and the remaining quad vertices put on M at
+their closest points, and the vertices on the quads' boundary moved to their closest
+points on M's boundary loops (:func:`snap_boundary`). The result has M's
+boundary loops; :func:`fvf.param.quad_validity.check_quad_mesh` judges it against M.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import ParameterizationInputError, format_indices
+from ..mesh.trimesh import TriMesh
+from .quad_folds import closest_surface_points
+
+__all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
+
+#: Dome height over the loop's mean radius (57.5° at the rim, a sharp feature).
+DOME_HEIGHT = 1.0
+
+
+@dataclass(frozen=True)
+class Capped:
+    """An open mesh closed by domes (module docstring).
+
+    Attributes
+    ----------
+    mesh : TriMesh
+        The closed mesh: the open mesh's vertices and faces first, then the domes'.
+    is_cap : bool (m',)
+        Faces of the domes.
+    rim : int64 (k,)
+        Edge ids (of ``mesh.edges``) of the boundary loops the domes close.
+    """
+
+    mesh: TriMesh
+    is_cap: np.ndarray
+    rim: np.ndarray
+
+
+def boundary_loops(mesh: TriMesh) -> list[np.ndarray]:
+    """The boundary loops of ``mesh``, each an int64 array of vertices in the order the
+    faces traverse them. Raises :class:`fvf.ParameterizationInputError` at a vertex where
+    two loops touch (a pinched boundary)."""
+    e = mesh.boundary_edges
+    ef = mesh.edge_faces[e]
+    a = np.where(ef[:, 0] >= 0, mesh.edges[e, 0], mesh.edges[e, 1])
+    b = np.where(ef[:, 0] >= 0, mesh.edges[e, 1], mesh.edges[e, 0])
+    count = np.bincount(a, minlength=mesh.n_vertices)
+    pinched = np.flatnonzero(count > 1)
+    if pinched.size:
+        raise ParameterizationInputError(
+            f"boundary vertices {format_indices(pinched)} are shared by two boundary loops; "
+            "split them first (fvf.split_nonmanifold_vertices or fvf repair)"
+        )
+    nxt = np.full(mesh.n_vertices, -1, dtype=np.int64)
+    nxt[a] = b
+    seen = np.zeros(mesh.n_vertices, dtype=bool)
+    loops = []
+    for start in a:  # a loop over loops: each vertex is visited once
+        if seen[start]:
+            continue
+        loop = [start]
+        seen[start] = True
+        v = nxt[start]
+        while v != start:
+            loop.append(v)
+            seen[v] = True
+            v = nxt[v]
+        loops.append(np.array(loop, dtype=np.int64))
+    return loops
+
+
+def _dome_direction(P: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """The unit normal of the loop's plane (Newell's) on the side the surface along the
+    loop faces (``normals``: its vertex normals, (k, 3)) and away from the mesh's
+    ``centre`` — the second decides where the first cancels (the open end of a tube)."""
+    n = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    n = n / max(float(np.linalg.norm(n)), 1e-300)
+    c = P.mean(axis=0)
+    r = max(float(np.linalg.norm(P - c, axis=1).mean()), 1e-300)
+    facing = float(n @ normals.sum(axis=0)) / max(
+        float(np.linalg.norm(normals, axis=1).sum()), 1e-300
+    )
+    away = float(n @ (c - centre)) / r
+    return n if facing + away >= 0 else -n
+
+
+def _dome(P: np.ndarray, n: np.ndarray, spacing: float) -> tuple:
+    """The rings of one dome over loop points P (k, 3): float64 ((R-1) k, 3) ring points
+    (ring by ring), the apex (3,), and R."""
+    c = P.mean(axis=0)
+    r = float(np.linalg.norm(P - c, axis=1).mean())
+    rings = max(1, int(np.ceil(r / spacing)))
+    t = np.arange(1, rings)[:, None, None] / rings
+    ring_pts = c + (1 - t) * (P - c) + DOME_HEIGHT * r * np.sin(0.5 * np.pi * t) * n
+    apex = c + DOME_HEIGHT * r * n
+    return ring_pts.reshape(-1, 3), apex, rings
+
+
+def capped(mesh: TriMesh, spacing: float) -> Capped:
+    """``mesh`` with every boundary loop closed by a dome (module docstring).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+        One component with boundary loops.
+    spacing : float
+        About the length of the domes' ring steps (the quad edge length / 2 suits).
+    """
+    V, F = [mesh.vertices], [mesh.faces]
+    offset = mesh.n_vertices
+    rim = []
+    AN = mesh.face_areas[:, None] * mesh.face_normals
+    vn = np.zeros((mesh.n_vertices, 3))
+    np.add.at(vn, mesh.faces.ravel(), np.repeat(AN, 3, axis=0))
+    centre = mesh.vertices.mean(axis=0)
+    for loop in boundary_loops(mesh):
+        P = mesh.vertices[loop]
+        n = _dome_direction(P, vn[loop], centre)
+        pts, apex, rings = _dome(P, n, spacing)
+        k = loop.size
+        ids = [loop] + [offset + j * k + np.arange(k) for j in range(rings - 1)]
+        for A, B in zip(ids[:-1], ids[1:], strict=True):
+            A1, B1 = np.roll(A, -1), np.roll(B, -1)
+            F.append(np.stack([A1, A, B], axis=1))
+            F.append(np.stack([A1, B, B1], axis=1))
+        top = offset + (rings - 1) * k
+        last = ids[-1]
+        F.append(np.stack([np.roll(last, -1), last, np.full(k, top)], axis=1))
+        V += [pts, apex[None]]
+        offset = top + 1
+        rim.append(np.stack([loop, np.roll(loop, -1)], axis=1))
+    W = np.concatenate(V)
+    G = np.concatenate(F).astype(np.int64)
+    closed = TriMesh(W, G)
+    is_cap = np.arange(G.shape[0]) >= mesh.n_faces
+    pairs = np.sort(np.concatenate(rim), axis=1)
+    keys = closed.edges[:, 0] * closed.n_vertices + closed.edges[:, 1]
+    rim_ids = np.searchsorted(keys, pairs[:, 0] * closed.n_vertices + pairs[:, 1])
+    return Capped(closed, is_cap, rim_ids.astype(np.int64))
+
+
+def cut_caps(cap: Capped, vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The quads whose centres lie on the open part (not on a dome), with their vertices
+    renumbered: float64 (k', 3), int64 (q', 4)."""
+    face, _ = closest_surface_points(cap.mesh, vertices[quads].mean(axis=1))
+    Q = quads[~cap.is_cap[face]]
+    used = np.unique(Q)
+    remap = np.full(vertices.shape[0], -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    return vertices[used], remap[Q]
+
+
+def snap_boundary(
+    mesh: TriMesh, vertices: np.ndarray, quads: np.ndarray, vertex_faces: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The quads' boundary vertices moved to their closest points on ``mesh``'s boundary.
+
+    Returns the vertices float64 (k, 3) and the input face of each, int64 (k,). The
+    quads' boundary then lies on the input's boundary loops (their edges are chords of
+    them), not beside them.
+    """
+    Q = np.asarray(quads)
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    rim = np.unique(edges[uses == 1])
+    b = mesh.boundary_edges
+    if rim.size == 0 or b.size == 0:
+        return vertices, vertex_faces
+    A, B = mesh.vertices[mesh.edges[b, 0]], mesh.vertices[mesh.edges[b, 1]]
+    x = vertices[rim]
+    mids = 0.5 * (A + B)
+    cand = cKDTree(mids).query(x, k=min(16, b.size))[1].reshape(x.shape[0], -1)
+    a, d = A[cand], (B - A)[cand]  # (r, c, 3)
+    t = np.einsum("rcd,rcd->rc", x[:, None] - a, d) / np.maximum(
+        np.einsum("rcd,rcd->rc", d, d), 1e-300
+    )
+    p = a + np.clip(t, 0.0, 1.0)[..., None] * d
+    j = np.argmin(np.einsum("rcd,rcd->rc", p - x[:, None], p - x[:, None]), axis=1)
+    rows = np.arange(x.shape[0])
+    V = vertices.copy()
+    V[rim] = p[rows, j]
+    vf = vertex_faces.copy()
+    ef = mesh.edge_faces[b[cand[rows, j]]]
+    vf[rim] = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1])
+    return V, vf

@@ -1,0 +1,213 @@
+r"""Sharp features: the edges a quad mesh of a CAD part must follow.
+
+An interior edge e with faces s, t is **sharp** when its dihedral angle — the angle
+between the face normals, :math:`\theta_e = \arccos \langle N_s, N_t \rangle` — exceeds
+the crease angle (default :data:`CREASE_ANGLE` degrees, suited to CAD: a 90° edge of a
+box is sharp, the facets of a cylinder tessellated with 32 sections, 11.25° apart, are
+not). Users may give the feature edges themselves.
+
+Scans have sharp edges too — noise, coarse fingers — amid other rough edges: an edge is a
+feature only when the other edges of its two faces are smooth (dihedral below
+:data:`SMOOTH_SIDES` × the crease angle; the CAD corpus's crease edges have at most 4°
+beside them, the shared scans' 5–30°), and only chains of such edges at least
+:data:`MIN_CHAIN` quad edges long count.
+
+The default cross field is constrained on every face next to a feature edge to the
+direction of that edge (hard constraints of :func:`fvf.design_field`; the longest
+feature edge of a face wins), so that quad edges run along the features. The measure of
+success is the **feature coverage** (:func:`feature_coverage`): the fraction of the
+features' length within a quarter quad edge of a quad edge.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from ..errors import ParameterError, format_indices
+from ..mesh.trimesh import TriMesh
+
+__all__ = [
+    "CREASE_ANGLE",
+    "dihedral_angles",
+    "sharp_edges",
+    "feature_edge_ids",
+    "feature_constraints",
+    "feature_coverage",
+    "transferred_features",
+]
+
+#: Default crease angle in degrees (an edge sharper than this is a feature).
+CREASE_ANGLE = 35.0
+#: A chain of sharp edges shorter than this many quad edges is no feature.
+MIN_CHAIN = 2.0
+#: A sharp edge is a feature only when the other edges of its two faces are flatter than
+#: this fraction of the crease angle (CAD: ≤ 4° beside 90° edges; scans: 5–30°).
+SMOOTH_SIDES = 1.0 / 6.0
+
+
+def dihedral_angles(mesh: TriMesh) -> np.ndarray:
+    """Angle between the normals of each edge's two faces, degrees, float64 (E,); 0 on
+    boundary edges."""
+    ef = mesh.edge_faces
+    both = (ef >= 0).all(axis=1)
+    out = np.zeros(ef.shape[0])
+    N = mesh.face_normals
+    cos = np.einsum("kd,kd->k", N[ef[both, 0]], N[ef[both, 1]])
+    out[both] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return out
+
+
+def sharp_edges(
+    mesh: TriMesh, crease_angle: float = CREASE_ANGLE, min_length: float = 0.0
+) -> np.ndarray:
+    """Indices into ``mesh.edges`` of the sharp edges, int64 (k,).
+
+    With ``min_length`` > 0, only chains of sharp edges (connected through shared
+    vertices) at least that long are kept: a CAD crease runs on, the creases of a scan's
+    noise or of a coarse organic mesh are short and scattered.
+    """
+    a = float(crease_angle)
+    if not (0.0 < a < 180.0):
+        raise ParameterError(f"crease_angle must be in (0, 180) degrees; got {crease_angle!r}")
+    d = dihedral_angles(mesh)
+    sharp = np.flatnonzero((d > a) & (_side_roughness(mesh, d > a, d) < SMOOTH_SIDES * a))
+    if min_length <= 0 or sharp.size == 0:
+        return sharp
+    E = mesh.edges[sharp]
+    n = mesh.n_vertices
+    graph = sp.coo_matrix((np.ones(sharp.size), (E[:, 0], E[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    length = np.linalg.norm(mesh.vertices[E[:, 1]] - mesh.vertices[E[:, 0]], axis=1)
+    chain = np.bincount(label[E[:, 0]], weights=length, minlength=n)
+    return sharp[chain[label[E[:, 0]]] >= min_length]
+
+
+def _side_roughness(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Per edge (E,): the largest dihedral angle of the other, not sharp, edges of its two
+    faces (0 where there is none)."""
+    fe = mesh.face_edges
+    other = np.where(sharp[fe], 0.0, d[fe]).max(axis=1)  # (m,) per face
+    ef = mesh.edge_faces
+    both = np.where(ef >= 0, other[np.maximum(ef, 0)], 0.0)
+    return both.max(axis=1)
+
+
+def feature_edge_ids(mesh: TriMesh, pairs: npt.ArrayLike) -> np.ndarray:
+    """Edge ids of vertex pairs ``pairs`` int (k, 2) (either order), int64 (k,).
+
+    Raises :class:`fvf.ParameterError` naming the pairs that are not edges of the mesh.
+    """
+    P = np.asarray(pairs)
+    if P.size == 0:
+        return np.empty(0, dtype=np.int64)
+    if P.ndim != 2 or P.shape[1] != 2 or not np.issubdtype(P.dtype, np.integer):
+        raise ParameterError(f"feature edges must be integer vertex pairs (k, 2); got {P.shape}")
+    P = np.sort(P.astype(np.int64), axis=1)
+    n = mesh.n_vertices
+    keys = mesh.edges[:, 0] * n + mesh.edges[:, 1]
+    want = P[:, 0] * n + P[:, 1]
+    pos = np.searchsorted(keys, want)
+    pos = np.minimum(pos, keys.size - 1)
+    bad = np.flatnonzero((keys[pos] != want) | (P.min(axis=1) < 0) | (P.max(axis=1) >= n))
+    if bad.size:
+        raise ParameterError(
+            f"feature edges {format_indices(bad)} are not edges of the mesh (vertex pairs "
+            "joined by a triangle side, 0-based)"
+        )
+    return pos.astype(np.int64)
+
+
+def feature_constraints(mesh: TriMesh, edges: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Faces next to feature edges and the directions they are held to.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    edges : int (k,)
+        Indices into ``mesh.edges``.
+
+    Returns
+    -------
+    faces : int64 (c,)
+        Each face with a feature edge, once.
+    directions : float64 (c, 3)
+        The unit direction of its longest feature edge.
+    """
+    e = np.asarray(edges, dtype=np.int64)
+    if e.size == 0:
+        return np.empty(0, dtype=np.int64), np.empty((0, 3))
+    ef = mesh.edge_faces[e]
+    face = ef.ravel()
+    edge = np.repeat(e, 2)
+    keep = face >= 0
+    face, edge = face[keep], edge[keep]
+    d = mesh.vertices[mesh.edges[edge, 1]] - mesh.vertices[mesh.edges[edge, 0]]
+    length = np.linalg.norm(d, axis=1)
+    order = np.lexsort((-length, face))  # per face, the longest edge first
+    face, d, length = face[order], d[order], length[order]
+    first = np.concatenate([[True], face[1:] != face[:-1]])
+    return face[first], d[first] / length[first, None]
+
+
+def feature_coverage(
+    mesh: TriMesh, edges: npt.ArrayLike, vertices: npt.ArrayLike, quads: npt.ArrayLike
+) -> float:
+    """Fraction of the feature length within a quarter quad edge of a quad edge.
+
+    The features are sampled every 1/16 of the mean quad edge, the quad edges densely
+    (every 1/16 as well); a feature sample is covered when a quad-edge sample lies within
+    a quarter of the mean quad edge. Returns 1.0 when there is no feature.
+    """
+    e = np.asarray(edges, dtype=np.int64)
+    if e.size == 0:
+        return 1.0
+    V = np.asarray(vertices, dtype=np.float64)
+    Q = np.asarray(quads, dtype=np.int64)
+    qa, qb = V[Q].reshape(-1, 3), V[np.roll(Q, -1, axis=1)].reshape(-1, 3)
+    h = float(np.linalg.norm(qb - qa, axis=1).mean())
+    quad_pts = _segment_samples(qa, qb, h / 16)
+    fa = mesh.vertices[mesh.edges[e, 0]]
+    fb = mesh.vertices[mesh.edges[e, 1]]
+    pts, weight = _segment_samples(fa, fb, h / 16, weights=True)
+    near = cKDTree(quad_pts).query(pts, distance_upper_bound=0.25 * h)[0] <= 0.25 * h
+    return float(weight[near].sum() / weight.sum())
+
+
+def _segment_samples(a: np.ndarray, b: np.ndarray, step: float, weights: bool = False) -> Any:
+    """Points along segments a→b (k, 3) about ``step`` apart; with ``weights`` also the
+    length each point stands for."""
+    length = np.linalg.norm(b - a, axis=1)
+    count = np.clip(np.ceil(length / step).astype(np.int64), 1, 4096)
+    seg = np.repeat(np.arange(a.shape[0]), count)
+    start = np.repeat(np.cumsum(count) - count, count)
+    t = (np.arange(seg.size) - start + 0.5) / count[seg]
+    pts = a[seg] + t[:, None] * (b - a)[seg]
+    if not weights:
+        return pts
+    return pts, (length / count)[seg]
+
+
+def transferred_features(
+    mesh: TriMesh, edges: npt.ArrayLike, surface: TriMesh, crease_angle: float, spacing: float
+) -> np.ndarray:
+    """The sharp edges of a remeshed ``surface`` that lie on ``mesh``'s feature ``edges``.
+
+    An edge of ``surface`` is kept when it is sharper than ``crease_angle`` and its
+    midpoint lies within ``spacing / 4`` of a feature edge of ``mesh`` (so that the
+    coarse facets a remeshing creates on a smooth surface are no features). int64 (k,).
+    """
+    e = np.asarray(edges, dtype=np.int64)
+    cand = sharp_edges(surface, crease_angle)
+    if e.size == 0 or cand.size == 0:
+        return np.empty(0, dtype=np.int64)
+    a, b = mesh.vertices[mesh.edges[e, 0]], mesh.vertices[mesh.edges[e, 1]]
+    pts = _segment_samples(a, b, spacing / 16)
+    mid = surface.vertices[surface.edges[cand]].mean(axis=1)
+    d = cKDTree(pts).query(mid, distance_upper_bound=0.25 * spacing)[0]
+    return cand[d <= 0.25 * spacing]

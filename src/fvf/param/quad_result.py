@@ -1,0 +1,109 @@
+"""The result of :func:`fvf.quad_mesh`: the quads and everything a user asks of them."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ..mesh.trimesh import TriMesh
+from .quad_validity import QuadValidity
+from .quality import QuadQuality, quad_quality
+from .seamless import SeamlessParameterization
+
+__all__ = ["QuadMeshResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class QuadMeshResult:
+    """A valid quad mesh made by :func:`fvf.quad_mesh` (``V, Q = result`` unpacks it).
+
+    Attributes
+    ----------
+    vertices : float64 (k, 3)
+        On the input surface.
+    quads : int64 (q, 4)
+        Counter-clockwise about the input's outward normal.
+    vertex_faces : int64 (k,)
+        The input face each quad vertex lies on.
+    mesh : TriMesh
+        The input triangle mesh.
+    validity : QuadValidity
+        The gate's verdict (always valid: an invalid mesh is never returned).
+    parameterizations : tuple of SeamlessParameterization
+        One per meshed component, each on the triangle mesh in ``surfaces``.
+    surfaces : tuple of TriMesh
+        The triangle mesh each parameterization lives on: the component itself, or its
+        copy remeshed at the quad scale (:mod:`fvf.param.remesh`).
+    components : int64 (c,)
+        Input component (label of ``mesh.vertex_components``) of each entry above.
+    dropped_components : int64 (d,)
+        Components left out as too small for the quad size (a
+        :class:`fvf.SmallComponentWarning` named them).
+    attempts : tuple of str
+        What was tried, in order, and how each try ended.
+    edge_length : float
+        The target quad edge length h.
+    """
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    vertex_faces: np.ndarray
+    mesh: TriMesh
+    validity: QuadValidity
+    parameterizations: tuple[SeamlessParameterization, ...]
+    surfaces: tuple[TriMesh, ...]
+    components: np.ndarray
+    dropped_components: np.ndarray
+    attempts: tuple[str, ...]
+    edge_length: float
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        """``V, Q = fvf.quad_mesh(mesh)``: the vertices, then the quads."""
+        yield self.vertices
+        yield self.quads
+
+    def __len__(self) -> int:
+        return 2
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        """``result[0]`` the vertices, ``result[1]`` the quads (as a pair)."""
+        return (self.vertices, self.quads)[i]
+
+    def __repr__(self) -> str:
+        return (
+            f"QuadMeshResult({self.vertices.shape[0]} vertices, {self.quads.shape[0]} quads, "
+            f"{len(self.parameterizations)} component(s), {self.validity})"
+        )
+
+    @property
+    def parameterization(self) -> SeamlessParameterization:
+        """The parameterization, when one component was meshed on the input itself."""
+        if len(self.parameterizations) != 1 or self.surfaces[0] is not self.mesh:
+            from ..errors import ParameterError
+
+            raise ParameterError(
+                "this quad mesh has several parameterizations (several components or a "
+                "remeshed surface): read .parameterizations and .surfaces"
+            )
+        return self.parameterizations[0]
+
+    @cached_property
+    def quality(self) -> QuadQuality:
+        """:func:`fvf.quad_quality` of the quads against the input (computed once; with the
+        parameterization's figures when it lives on the input itself)."""
+        on_input = len(self.parameterizations) == 1 and self.surfaces[0] is self.mesh
+        p = self.parameterizations[0] if on_input else None
+        return quad_quality(self.mesh, self.vertices, self.quads, parameterization=p)
+
+    def summary(self) -> str:
+        """One line: quads, irregular vertices, corner angles, Hausdorff distance, folds."""
+        q = self.quality
+        return (
+            f"{q.n_quads} quads, {q.n_vertices} vertices, {100 * q.irregular_fraction:.1f} % "
+            f"irregular, corner angle error median {q.angle_deviation_median:.1f}° "
+            f"(p95 {q.angle_deviation_p95:.1f}°), Hausdorff "
+            f"{self.validity.hausdorff:.2f} quad edges, {q.n_folded} folded, valid"
+        )

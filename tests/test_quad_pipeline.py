@@ -1,0 +1,234 @@
+"""The parts of fvf.quad_mesh that make it hold on meshes users bring: the validity gate,
+components, remeshing, sharp features, open surfaces (domes), the result object."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import fvf
+from fvf.param.caps import boundary_loops, capped, cut_caps
+from fvf.param.features import (
+    feature_constraints,
+    feature_coverage,
+    feature_edge_ids,
+    sharp_edges,
+)
+from fvf.param.quad_validity import check_quad_mesh, topology_signature
+from fvf.param.remesh import needs_remesh, remesh_for_quads, subdivide_midpoints
+
+
+def box(a=2.0, b=1.0, c=0.5):
+    """A 12-triangle box, as CAD exports one: (V, F)."""
+    V = np.array([[x, y, z] for x in (0, a) for y in (0, b) for z in (0, c)], dtype=float)
+    F = np.array(
+        [
+            [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+            [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
+        ]
+    )  # fmt: skip
+    return V, F
+
+
+def grid_quads(n):
+    """A flat n × n quad grid on the unit square: (V, Q)."""
+    x, y = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1), indexing="ij")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    return V, np.stack([a, a + n + 1, a + n + 2, a + 1], axis=1)
+
+
+# ---------------------------------------------------------------------------- the gate
+def test_the_gate_passes_a_grid_and_names_each_planted_defect():
+    V, Q = grid_quads(6)
+    T = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
+    mesh = fvf.TriMesh(V, T)
+    assert check_quad_mesh(mesh, V, Q).valid
+    flipped = Q.copy()
+    flipped[7] = flipped[7, ::-1]
+    assert "oriented" in str(check_quad_mesh(mesh, V, flipped))
+    assert "topology" in str(check_quad_mesh(mesh, V, np.delete(Q, 14, axis=0)))
+    twice = np.concatenate([Q, Q[:1]])
+    assert "bound > 2 quads" in str(check_quad_mesh(mesh, V, twice))
+    lifted = V.copy()
+    lifted[Q[20], 2] = 5.0
+    assert "Hausdorff" in str(check_quad_mesh(mesh, lifted, Q))
+
+
+def test_the_gate_finds_a_pinched_vertex():
+    """Two grids sharing one corner: every edge is manifold, the corner is not."""
+    V, Q = grid_quads(2)
+    W = np.concatenate([V, V[1:] + [1.0, 1.0, 0.0]])
+    remap = np.concatenate([[8], np.arange(9, 17)])  # the second grid's vertex 0 is vertex 8
+    Q2 = np.concatenate([Q, remap[Q]])
+    T = np.concatenate([Q2[:, [0, 1, 2]], Q2[:, [0, 2, 3]]])
+    verdict = check_quad_mesh(fvf.TriMesh(*fvf.split_nonmanifold_vertices(W, T)[:2]), W, Q2)
+    assert "not manifold" in str(verdict) and "[8]" in str(verdict)
+
+
+def test_topology_signature_counts_components_and_loops():
+    V, Q = grid_quads(3)
+    assert topology_signature(V.shape[0], Q) == [(1, 1)]
+    assert topology_signature(V.shape[0] * 2, np.concatenate([Q, Q + V.shape[0]])) == [
+        (1, 1),
+        (1, 1),
+    ]
+
+
+# ---------------------------------------------------------------------------- features
+def test_a_box_has_twelve_sharp_edges_and_its_quads_follow_them():
+    V, F = box()
+    mesh = fvf.TriMesh(V, F)
+    sharp = sharp_edges(mesh)
+    assert sharp.size == 12  # the face diagonals are flat
+    faces, dirs = feature_constraints(mesh, sharp)
+    assert faces.size == 12 and np.allclose(np.linalg.norm(dirs, axis=1), 1.0)
+    made = fvf.quad_mesh(mesh, target_faces=300)
+    assert feature_coverage(mesh, sharp, made.vertices, made.quads) > 0.85  # 0.89 measured
+
+
+def test_user_feature_edges_must_be_edges():
+    mesh = fvf.icosphere(1)
+    assert feature_edge_ids(mesh, mesh.edges[[3, 1]][:, ::-1]).tolist() == [3, 1]
+    with pytest.raises(fvf.ParameterError, match=r"feature edges \[1\] \(1 in all\)"):
+        feature_edge_ids(mesh, np.array([mesh.edges[0], [0, 0]]))
+
+
+# ---------------------------------------------------------------------------- remeshing
+def test_midpoint_subdivision_keeps_the_surface_and_quadruples_the_faces():
+    V, F = box()
+    W, G = subdivide_midpoints(V, F)
+    mesh = fvf.TriMesh(W, G)
+    assert G.shape[0] == 48 and mesh.euler_characteristic == 2
+    assert np.isclose(mesh.total_area, fvf.TriMesh(V, F).total_area)
+
+
+@pytest.mark.parametrize("method", ["subdivide", "pymeshlab"])
+def test_a_coarse_box_is_remeshed_then_quad_meshed(method):
+    if method == "pymeshlab":
+        pytest.importorskip("pymeshlab")
+    V, F = box()
+    mesh = fvf.TriMesh(V, F)
+    h = np.sqrt(mesh.total_area / 200)
+    assert "longer than" in needs_remesh(mesh, h)
+    S = remesh_for_quads(mesh, h, method=method)
+    assert S.euler_characteristic == 2 and S.mean_edge_length < h
+    made = fvf.quad_mesh(mesh, target_faces=200, remesher=method, remesh=True)
+    assert made.validity.valid and made.surfaces[0].n_faces > mesh.n_faces
+    faces, closest = fvf.param.quad_folds.closest_surface_points(mesh, made.vertices)
+    assert np.abs(closest - made.vertices).max() < 1e-9  # on the input surface
+    assert np.array_equal(made.vertex_faces, faces) or made.vertex_faces.shape == faces.shape
+
+
+# ---------------------------------------------------------------------------- components
+def test_every_component_is_meshed_and_a_tiny_one_is_left_out_with_a_warning(monkeypatch):
+    from fvf.param import quadmesh
+
+    a = fvf.icosphere(3)
+    tiny = fvf.icosphere(1)
+    V = np.concatenate([a.vertices, 0.02 * tiny.vertices + 3.0])
+    F = np.concatenate([a.faces, tiny.faces + a.n_vertices])
+    mesh = fvf.TriMesh(V, F)
+    made = fvf.quad_mesh(mesh, target_faces=300)  # meshed at its own, smaller quad size
+    assert made.components.tolist() == [0, 1] and made.dropped_components.size == 0
+    assert (made.quads >= np.flatnonzero(made.vertex_faces >= a.n_faces).min()).all(1).sum() >= 6
+    real = quadmesh._mesh_part
+
+    def tiny_fails(part, *args):
+        if part.label == 1:
+            raise fvf.QuadMeshError("planted")
+        return real(part, *args)
+
+    monkeypatch.setattr(quadmesh, "_mesh_part", tiny_fails)
+    with pytest.warns(fvf.SmallComponentWarning, match=r"components \[1\]"):
+        made = fvf.quad_mesh(mesh, target_faces=300)
+    assert made.dropped_components.tolist() == [1] and made.components.tolist() == [0]
+    monkeypatch.undo()
+    two = fvf.TriMesh(
+        np.concatenate([a.vertices, a.vertices + 3.0]),
+        np.concatenate([a.faces, a.faces + a.n_vertices]),
+    )
+    made = fvf.quad_mesh(two, target_faces=300)
+    assert made.components.tolist() == [0, 1] and len(made.parameterizations) == 2
+    assert topology_signature(made.vertices.shape[0], made.quads) == [(2, 0), (2, 0)]
+
+
+# ---------------------------------------------------------------------------- open surfaces
+def test_domes_close_every_hole_and_their_quads_are_cut_off():
+    mesh = fvf.disk(8, 24)
+    n = mesh.boundary_vertices.size
+    assert [loop.size for loop in boundary_loops(mesh)] == [n]
+    cap = capped(mesh, 0.2)
+    assert cap.mesh.is_closed and cap.mesh.euler_characteristic == 2
+    assert cap.rim.size == n and cap.is_cap.sum() == cap.mesh.n_faces - mesh.n_faces
+    made = fvf.quad_mesh(mesh, target_faces=100)
+    assert topology_signature(made.vertices.shape[0], made.quads) == [(1, 1)]
+    V, Q = cut_caps(cap, *_all_cap_quads(cap))
+    assert Q.shape[0] == 0 and V.shape[0] == 0
+
+
+def _all_cap_quads(cap):
+    """A quad on a dome (its centre lies on the dome): cut off."""
+    top = cap.mesh.vertices[-1]
+    P = top + 0.01 * np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    return P, np.array([[0, 1, 2, 3]])
+
+
+def test_a_cylinder_open_at_both_ends_keeps_its_two_loops():
+    t = np.linspace(0, 2 * np.pi, 33)[:-1]
+    z = np.linspace(0, 2, 17)
+    X = np.stack(
+        [np.cos(t)[None].repeat(17, 0), np.sin(t)[None].repeat(17, 0), z[:, None].repeat(32, 1)],
+        axis=2,
+    ).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(16), np.arange(32), indexing="ij")
+    a, b = (i * 32 + j).ravel(), (i * 32 + (j + 1) % 32).ravel()
+    F = np.concatenate([np.stack([a, b, b + 32], 1), np.stack([a, b + 32, a + 32], 1)])
+    made = fvf.quad_mesh(fvf.TriMesh(X, F), target_faces=200)
+    assert topology_signature(made.vertices.shape[0], made.quads) == [(0, 2)]
+
+
+# ---------------------------------------------------------------------------- the result
+def test_the_result_unpacks_and_says_what_it_is():
+    made = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    V, Q = made
+    assert V is made.vertices and Q is made.quads and made[1] is Q
+    assert "quads" in repr(made) and len(repr(made)) < 200
+    assert "valid" in made.summary() and made.quality.n_quads == Q.shape[0]
+    assert made.parameterization is made.parameterizations[0]
+    with pytest.warns(DeprecationWarning, match="parameterization"):
+        V2, Q2, p = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150, return_parameterization=True)
+    assert np.array_equal(Q2, Q) and p.uv.shape == (fvf.torus(24, 12).n_faces, 3, 2)
+
+
+def test_an_invalid_attempt_is_never_returned(monkeypatch):
+    from fvf.param import quadmesh
+    from fvf.param.quad_validity import QuadValidity
+
+    bad = QuadValidity(False, ("planted",), np.empty(0, np.int64), np.nan)
+    monkeypatch.setattr(quadmesh, "check_quad_mesh", lambda *a, **k: bad)
+    with pytest.raises(fvf.QuadMeshError, match="planted") as info:
+        fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    assert len(info.value.attempts) >= 3 and info.value.best is not None
+
+
+def test_a_backend_failure_ends_an_attempt_not_the_call(monkeypatch):
+    from fvf.param import quadmesh
+
+    calls = []
+    real = quadmesh.seamless_parameterization
+
+    def failing_once(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("Failed to resize matrix arrays!")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(quadmesh, "seamless_parameterization", failing_once)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        made = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    assert "RuntimeError: Failed to resize" in made.attempts[0] and made.validity.valid
