@@ -321,6 +321,24 @@ def _check_work(unknowns: int, steps: int, save_every: int) -> None:
 
 
 @takes_mesh
+def _area_norm(a: np.ndarray, x: np.ndarray) -> float:
+    """The A_V-norm √(xᵀ[A_V]x) of x (n,), scaled so that |x| up to the float64 limit
+    cannot overflow; a (n,) the vertex areas."""
+    big = float(np.abs(x).max())
+    if not 0.0 < big < np.inf:
+        return big
+    y = x / big
+    return big * float(np.sqrt(a @ (y * y)))
+
+
+def _time_step(dt: object) -> float:
+    """``dt`` as a finite nonzero float, else :class:`fvf.ParameterError`."""
+    step = float(dt) if isinstance(dt, numbers.Real) and not isinstance(dt, bool) else np.nan
+    if not (np.isfinite(step) and step != 0.0):
+        raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
+    return step
+
+
 def ideal_fluid(
     mesh: TriMesh,
     omega0: npt.ArrayLike,
@@ -402,10 +420,7 @@ def ideal_fluid(
     steps, save_every = as_count(steps, "steps"), as_count(save_every, "save_every", 1)
     max_iterations, tol = as_count(max_iterations, "max_iterations", 1), as_positive(tol, "tol")
     k = as_count(k, "k", 2) if basis is None else k
-    step = float(dt) if isinstance(dt, numbers.Real) and not isinstance(dt, bool) else np.nan
-    if not (np.isfinite(step) and step != 0.0):
-        raise ParameterError(f"dt must be a finite nonzero number; got {dt!r}")
-    dt = step
+    dt = _time_step(dt)
     _check_work(
         mesh.n_vertices if method == "midpoint" else _basis_size(basis, k), steps, save_every
     )
@@ -425,12 +440,8 @@ def ideal_fluid(
     h2 = 0.5 * dt
     info = {"factorizations": 0}
 
-    def norm(x):  # A_V-norm, scaled so that |x| up to the float64 limit cannot overflow
-        big = float(np.abs(x).max())
-        if not 0.0 < big < np.inf:
-            return big
-        y = x / big
-        return big * float(np.sqrt(a @ (y * y)))
+    def norm(x: np.ndarray) -> float:
+        return _area_norm(a, x)
 
     psi = solve_psi(omega)
     energy, enstrophy = [0.5 * psi @ (W @ psi)], [a @ omega**2]
