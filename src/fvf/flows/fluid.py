@@ -320,7 +320,6 @@ def _check_work(unknowns: int, steps: int, save_every: int) -> None:
         )
 
 
-@takes_mesh
 def _area_norm(a: np.ndarray, x: np.ndarray) -> float:
     """The A_V-norm √(xᵀ[A_V]x) of x (n,), scaled so that |x| up to the float64 limit
     cannot overflow; a (n,) the vertex areas."""
@@ -339,6 +338,7 @@ def _time_step(dt: object) -> float:
     return step
 
 
+@takes_mesh
 def ideal_fluid(
     mesh: TriMesh,
     omega0: npt.ArrayLike,
