@@ -29,6 +29,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import ParameterizationInputError, format_indices
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .quad_folds import closest_surface_points
 
 __all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
@@ -54,6 +55,8 @@ class Capped:
     mesh: TriMesh
     is_cap: np.ndarray
     rim: np.ndarray
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
 
 def boundary_loops(mesh: TriMesh) -> list[np.ndarray]:

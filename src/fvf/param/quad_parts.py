@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .caps import Capped
 from .quad_result import QuadMeshResult
 from .quad_validity import QuadValidity, check_quad_mesh
@@ -37,6 +38,8 @@ class Part:
     vertices: np.ndarray
     mesh: TriMesh
     cap: Capped | None = None
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     @property
     def closed(self) -> TriMesh:

@@ -9,6 +9,7 @@ from functools import cached_property
 import numpy as np
 
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .quad_validity import QuadValidity
 from .quality import QuadQuality, quad_quality
 from .seamless import SeamlessParameterization
@@ -60,6 +61,8 @@ class QuadMeshResult:
     attempts: tuple[str, ...]
     edge_length: float
 
+    __repr__ = short_repr  # arrays by dtype and shape
+
     def __iter__(self) -> Iterator[np.ndarray]:
         """``V, Q = fvf.quad_mesh(mesh)``: the vertices, then the quads."""
         yield self.vertices
@@ -71,12 +74,6 @@ class QuadMeshResult:
     def __getitem__(self, i: int) -> np.ndarray:
         """``result[0]`` the vertices, ``result[1]`` the quads (as a pair)."""
         return (self.vertices, self.quads)[i]
-
-    def __repr__(self) -> str:
-        return (
-            f"QuadMeshResult({self.vertices.shape[0]} vertices, {self.quads.shape[0]} quads, "
-            f"{len(self.parameterizations)} component(s), {self.validity})"
-        )
 
     @property
     def parameterization(self) -> SeamlessParameterization:

@@ -29,6 +29,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import short_repr
 from .quad_folds import folded_quads
 from .quality import surface_samples
 
@@ -57,6 +58,8 @@ class QuadValidity:
     problems: tuple[str, ...]
     folded: np.ndarray
     hausdorff: float
+
+    __repr__ = short_repr  # arrays by dtype and shape
 
     def __str__(self) -> str:
         return "valid" if self.valid else "; ".join(self.problems)
