@@ -37,10 +37,15 @@ VALID_XFAIL_SLOW = dict(VALID_XFAIL)
 CLI_XFAIL: dict[str, str] = {}
 
 
+#: Corpus meshes whose quad meshing takes over a minute (the ribbon runs every attempt
+#: before its typed error): in the slow suite only.
+SLOW = {"tiny_strip"}
+
+
 def _cases(xfails: dict[str, str], slow: bool = False) -> list:
     out = []
     for name in wc.names():
-        marks = [pytest.mark.slow] if slow else []
+        marks = [pytest.mark.slow] if slow or name in SLOW else []
         if name in xfails:
             marks.append(pytest.mark.xfail(strict=False, reason=xfails[name]))
         out.append(pytest.param(name, marks=marks, id=name))
@@ -137,7 +142,7 @@ def _cli(name: str, tmp_path, capsys) -> None:
         assert err.strip() and not out.exists()
 
 
-CLI_DEFAULT = ["cad_box_hole", "scan_torus", "tiny_strip"]
+CLI_DEFAULT = ["cad_box_hole", "scan_torus", "tiny_two_triangles"]
 
 
 @pytest.mark.parametrize(
