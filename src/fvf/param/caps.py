@@ -31,6 +31,7 @@ from ..errors import ParameterizationInputError, format_indices
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import short_repr
 from .quad_folds import closest_surface_points
+from .quality import quad_boundary_vertices
 
 __all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
 
@@ -182,10 +183,7 @@ def snap_boundary(
     quads' boundary then lies on the input's boundary loops (their edges are chords of
     them), not beside them.
     """
-    Q = np.asarray(quads)
-    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    edges, uses = np.unique(e, axis=0, return_counts=True)
-    rim = np.unique(edges[uses == 1])
+    rim = quad_boundary_vertices(quads)
     b = mesh.boundary_edges
     if rim.size == 0 or b.size == 0:
         return vertices, vertex_faces

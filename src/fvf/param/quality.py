@@ -32,7 +32,7 @@ from ..mesh.trimesh import TriMesh
 from .quad_folds import folded_quads
 from .seamless import SeamlessParameterization
 
-__all__ = ["QuadQuality", "quad_quality", "quad_topology"]
+__all__ = ["QuadQuality", "quad_quality", "quad_topology", "quad_boundary_vertices"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,14 @@ def quad_topology(n_vertices: int, quads: np.ndarray) -> tuple[bool, bool, int, 
     valence = np.bincount(ue.ravel(), minlength=n_vertices)
     chi = int(n_vertices - ue.shape[0] + Q.shape[0])
     return closed, manifold, chi, valence
+
+
+def quad_boundary_vertices(quads: np.ndarray) -> np.ndarray:
+    """Sorted vertices on boundary edges (edges of one quad) of a quad mesh, int64 (b,)."""
+    Q = np.asarray(quads, dtype=np.int64)
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    return np.unique(edges[uses == 1])
 
 
 def _corner_angles(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
@@ -181,10 +189,8 @@ def quad_quality(
     closed, manifold, chi, valence = quad_topology(V.shape[0], Q)
     used = np.zeros(V.shape[0], dtype=bool)
     used[Q.ravel()] = True
-    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    edges, uses = np.unique(e, axis=0, return_counts=True)
     on_boundary = np.zeros(V.shape[0], dtype=bool)
-    on_boundary[edges[uses == 1].ravel()] = True
+    on_boundary[quad_boundary_vertices(Q)] = True
     irr = used & (valence != np.where(on_boundary, 3, 4))  # regular: 4 inside, 3 on the rim
     vals, counts = np.unique(valence[irr], return_counts=True)
     dev = np.abs(_corner_angles(V, Q) - 90.0).ravel()
