@@ -134,9 +134,10 @@ def figures(folder: Path, maps: dict, errors: dict) -> None:
 
 def planted() -> int:
     """Mean and max geodesic error against the identity of the planted pairs of
-    ``tests/test_correspondence_flips.py`` (generated body; FAUST frame when present),
+    ``tests/spectral/test_correspondence_flips.py`` (generated body; FAUST frame when present),
     with ``check_symmetry`` on and off, and the confidence of the choice."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    tests = Path(__file__).resolve().parents[1] / "tests"
+    sys.path[:0] = [str(tests), str(tests / "spectral")]
     from test_correspondence_flips import displaced, mirror_image, near_symmetric_body
 
     shapes = {"body": (near_symmetric_body(), dict(k=40, k_fit=15))}

@@ -185,7 +185,7 @@ def format_row(r, lo, hi):
 
 # ---------------------------------------------------------------------------- fluid
 def vortices(mesh):
-    """Three Gaussian vortices of mixed sign (as in tests/test_fluid.py)."""
+    """Three Gaussian vortices of mixed sign (as in tests/flows/test_fluid.py)."""
     X = mesh.vertices - mesh.vertices.mean(0)
     X = X / np.linalg.norm(X, axis=1).max()
     centres = X[np.argmax(X[:, 2])], X[np.argmin(X[:, 0])], X[np.argmax(X[:, 1])]

@@ -23,14 +23,14 @@ Goals (PASS/MISS per mesh): irregular fraction ≤ ½ of Instant Meshes', angle 
 (median and p95) no worse, zero flipped uv triangles and a valid closed output, time
 ≤ 5 × Instant Meshes'.
 
-``--wild``: the meshes people bring (``tests/wild_corpus.py``: CAD solids as STL soups,
+``--wild``: the meshes people bring (``tests/param/wild_corpus.py``: CAD solids as STL soups,
 noisy scans with holes, several parts, y-up and scaled copies, hostile tiny inputs; built
 here, no shared meshes needed), each written in its natural format and read back as a
 user would. fvf, Instant Meshes (as ``fvf.param.peer`` calls it: defaults, pure quads by
 1-to-4 subdivision) and QuadriFlow (``pip install pyquadriflow``, optional; default
 flags) each run in a child process with BLAS pinned to one thread, on the same arrays, at
 ``--quads`` (2,000) quads. Every output is judged by the independent checker
-``tests/quadcheck.py`` (valid, or the failed checks; a typed fvf error, a foreign
+``tests/param/quadcheck.py`` (valid, or the failed checks; a typed fvf error, a foreign
 exception, a crash or a timeout is reported as such) and measured by
 ``quadcheck.metrics``: irregular vertices (interior valence ≠ 4, boundary ∉ {2, 3}),
 |corner angle − 90°| median, coverage of the sharp edges (dihedral > 30°) by quad edges
@@ -216,7 +216,7 @@ def _wild_child(method: str, mesh_path: str, target: int, out: str) -> None:
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    sys.path.insert(0, str(ROOT / "tests"))
+    sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
     import fvf
     import wild_corpus
 
@@ -355,7 +355,7 @@ def _wild_summary(names: list[str], res: dict, methods: list[str]) -> None:
 def wild(target: int, only: list[str] | None, tmp: Path, timeout: float) -> None:
     import platform
 
-    sys.path.insert(0, str(ROOT / "tests"))
+    sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
     import wild_corpus
 
     methods = ["fvf"]
@@ -393,7 +393,11 @@ def main() -> None:
     ap.add_argument("--meshes", nargs="+", default=MESHES)
     ap.add_argument("--ratio", type=float, default=0.25, help="target quads per input face")
     ap.add_argument("--scaling", action="store_true", help="fvf alone on 86k..750k faces")
-    ap.add_argument("--wild", action="store_true", help="the wild corpus (tests/wild_corpus.py)")
+    ap.add_argument(
+        "--wild",
+        action="store_true",
+        help="the wild corpus (tests/param/wild_corpus.py)",
+    )
     ap.add_argument("--quads", type=int, default=2000, help="--wild: quads asked")
     ap.add_argument("--only", nargs="+", help="--wild: these corpus meshes only")
     ap.add_argument("--timeout", type=float, default=600.0, help="--wild: seconds per run")

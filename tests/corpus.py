@@ -33,6 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 import fvf
 from fvf import errors
@@ -56,6 +57,32 @@ def annulus(n_rings: int = 3, n_sectors: int = 24, inner: float = 0.5) -> fvf.Tr
         ]
     )
     return fvf.TriMesh(X, F)
+
+
+# Shapes with an exact or a near symmetry (correspondence and symmetric design).
+REFLECT = np.array([-1.0, 1.0, 1.0])
+
+
+def blob(level: int = 3, symmetric: bool = False) -> fvf.TriMesh:
+    """An icosphere stretched to (2, 1.2, 0.8) with smooth bumps: no symmetry at all, or
+    (``symmetric``) exactly the reflection x -> -x, which maps vertices to vertices."""
+    sphere = fvf.icosphere(level)
+    x, y, z = sphere.vertices.T
+    r = 1 + 0.25 * y + 0.2 * z + 0.15 * np.cos(2.5 * y) * z
+    r += 0.3 * x**2 * y if symmetric else 0.3 * x * y + 0.2 * x**3
+    return fvf.TriMesh(sphere.vertices * np.array([2.0, 1.2, 0.8]) * r[:, None], sphere.faces)
+
+
+def mirror_index(mesh: fvf.TriMesh) -> np.ndarray:
+    """The vertex at the mirror position (x -> -x) of each vertex, exact for blob(symmetric)."""
+    d, idx = cKDTree(mesh.vertices).query(mesh.vertices * REFLECT)
+    assert d.max() < 1e-12
+    return idx
+
+
+def mirror_image(mesh: fvf.TriMesh) -> fvf.TriMesh:
+    """The reflected copy, faces flipped so that normals still point outwards."""
+    return fvf.TriMesh(mesh.vertices * REFLECT, mesh.faces[:, [0, 2, 1]])
 
 
 def grid_arrays(k: int = 6, bump: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

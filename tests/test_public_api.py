@@ -1189,7 +1189,7 @@ SPECS: dict[str, Spec] = {
         error=_quad_mesh_input_error,
         max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
     ),
-    # -- shape correspondence (tests/test_correspondence.py has the known answers)
+    # -- shape correspondence (tests/spectral/test_correspondence.py has the known answers)
     "match": Spec(
         lambda fn, mesh, c: fn(mesh, mesh, k=8, k_fit=4, zoomout_samples=None),
         lambda r, mesh, c: _check_p2p(r, mesh),

@@ -25,7 +25,7 @@ function::
 
 The example runs as written: each of its lines whose first word is ``fvf`` is a command
 line (text after three spaces is a comment; `` [...]`` marks optional arguments), and
-``tests/test_cli_front.py`` runs every one of them on meshes and data files of the names
+``tests/cli/test_cli_front.py`` runs every one of them on meshes and data files of the names
 it uses.
 
 ``fvf --help`` lists the commands in registration order: the order in which

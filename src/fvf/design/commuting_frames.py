@@ -296,7 +296,7 @@ def rescale_frame(
     One sparse symmetric positive definite solve of size 2n (module docstring). The
     bracket energy after is not guaranteed to be below the one before (the model is the
     continuous product rule; the discrete bracket follows it up to discretization error),
-    so both are returned; ``tests/test_commuting_frames.py`` measures the decrease.
+    so both are returned; ``tests/design/test_commuting_frames.py`` measures the decrease.
     """
     alpha = as_nonnegative(alpha, "alpha")
     u, v = _check_frame(mesh, u, v)

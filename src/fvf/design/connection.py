@@ -65,7 +65,7 @@ than usual — it behaves as one quadrilateral cell, which is again a consistent
 scheme (torus spectrum within 1.5e-4 of the separated-variables reference) — and a
 non-Delaunay edge (ℓ* < 0) uses |ℓ*|, which is *not* consistent: on meshes with a fixed
 fraction of non-Delaunay edges (the jittered spheres of the tests) the energies and
-eigenvalues keep an O(1) bias of a few percent (measured in ``tests/test_connection.py``).
+eigenvalues keep an O(1) bias of a few percent (measured in ``tests/design/test_connection.py``).
 On an equilateral mesh w_e = √3.
 
 ``"singer_wu"`` has about 12 couplings per face, enough freedom to match moments face by

@@ -18,7 +18,7 @@ Vertex normals are weighted as in Max (1999, "Weights for computing vertex norma
 facet normals": each face normal by sin(angle) / (|e_1| |e_2|) at the corner), which are
 exact for vertices on a sphere; on an icosphere-based ellipsoid they gave a 2-3x smaller
 error in κ_2 and the principal directions than corner-angle weights. Measured on analytic
-surfaces (``tests/test_curvature.py``): exact on a cylinder grid, first order in the mean
+surfaces (``tests/mesh/test_curvature.py``): exact on a cylinder grid, first order in the mean
 edge length pointwise on a torus of revolution; on an icosphere-based ellipsoid (irregular
 valences) the RMS error converges while the maximum does not.
 

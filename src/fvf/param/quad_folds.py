@@ -47,7 +47,7 @@ positions are kept (and :func:`warn_folded` names the quads).
 
 Closest points are searched among the :data:`CANDIDATES` input triangles whose centroids
 are nearest the query point: the exact closest point whenever its triangle is one of them
-(checked against brute force in ``tests/test_quad_folds.py``); a result always lies on the
+(checked against brute force in ``tests/param/test_quad_folds.py``); a result always lies on the
 surface.
 """
 

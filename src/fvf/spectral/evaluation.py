@@ -20,7 +20,7 @@ Geodesic distances are approximated on the mesh, three ways:
   direction field is noise there: use it for local distances on fine meshes.
 
 Measured against exact polyhedral geodesics (MMP, pygeodesic) on a camel frame of the
-correspondence data, from 20 random sources (``tests/test_correspondence.py``;
+correspondence data, from 20 random sources (``tests/spectral/test_correspondence.py``;
 ``docs/correspondence.md``): mean relative excess of ``"unfolded"`` +3 to +4 % within six
 edges of the source and +2 % beyond; ``"edges"`` +9 to +12 % and +4 to +6 %.
 """

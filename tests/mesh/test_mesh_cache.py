@@ -20,7 +20,7 @@ from fvf.operators.directional import D_V, extract_field
 from fvf.param.quad_folds import closest_surface_points
 from fvf.spectral.evaluation import geodesic_distances
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "fvf"
+SRC = Path(__file__).resolve().parents[2] / "src" / "fvf"
 
 
 def cache_keys_in_source() -> list[tuple[str, int, str | None]]:

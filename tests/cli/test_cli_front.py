@@ -147,7 +147,7 @@ def example_inputs(tmp_path_factory) -> Path:
     return folder
 
 
-#: Examples run only by the slow job: ``fvf demo`` runs the whole story (tests/test_demo.py
+#: Examples run only by the slow job: ``fvf demo`` runs the whole story (tests/cli/test_demo.py
 #: runs it in the default suite on a small mesh).
 SLOW = ("demo",)
 

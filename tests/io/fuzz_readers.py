@@ -17,14 +17,14 @@ Two engines:
   ``.ply``, ``.stl``), the rest is the file; arguments starting with ``-`` go to
   libFuzzer, the others are corpus directories (seeded when empty)::
 
-      python tests/fuzz_readers.py corpus/ -atheris_runs=500000 -max_len=4096
+      python tests/io/fuzz_readers.py corpus/ -atheris_runs=500000 -max_len=4096
 
-* hypothesis (no extra install): the byte mutations of ``tests/test_io.py`` applied to the
+* hypothesis (no extra install): the byte mutations of ``tests/io/test_io.py`` applied to the
   same seeds, with many more examples than the test suite runs::
 
-      python tests/fuzz_readers.py --hypothesis 20000
+      python tests/io/fuzz_readers.py --hypothesis 20000
 
-Seeds are the fuzz bases of ``tests/test_io.py`` and ``tests/test_formats.py`` (STL), a
+Seeds are the fuzz bases of ``tests/io/test_io.py`` and ``tests/io/test_formats.py`` (STL), a
 few extra shapes of each format, and the byte-level entries of ``tests/corpus.py``'s
 :func:`hostile_files` (byte order marks, CR-only lines, 4OFF, Python-only number
 spellings, binary junk).
@@ -42,7 +42,7 @@ import warnings
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path[:0] = [str(HERE), str(HERE.parent)]  # tests/io and tests (corpus.py)
 
 SUFFIXES = [".obj", ".off", ".ply", ".stl"]
 COUNTS = {"runs": 0, "loaded": 0, "fvf_errors": 0, "repair_errors": 0, "findings": 0}

@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 
 import fvf
 from conftest import SHARED_MESHES, rel, shared_mesh_path
+from corpus import REFLECT, blob, mirror_image, mirror_index
 from fvf.design.symmetric import consistency_residual, map_consistent_field
 from fvf.mesh.prepared import prepare_mesh
 from fvf.spectral import (
@@ -31,31 +32,6 @@ from fvf.spectral import (
     wks_energies,
 )
 from fvf.spectral.evaluation import cumulative_error_curve
-
-REFLECT = np.array([-1.0, 1.0, 1.0])
-
-
-# ---------------------------------------------------------------------------- shapes
-def blob(level: int = 3, symmetric: bool = False) -> fvf.TriMesh:
-    """An icosphere stretched to (2, 1.2, 0.8) with smooth bumps: no symmetry at all, or
-    (``symmetric``) exactly the reflection x -> -x, which maps vertices to vertices."""
-    sphere = fvf.icosphere(level)
-    x, y, z = sphere.vertices.T
-    r = 1 + 0.25 * y + 0.2 * z + 0.15 * np.cos(2.5 * y) * z
-    r += 0.3 * x**2 * y if symmetric else 0.3 * x * y + 0.2 * x**3
-    return fvf.TriMesh(sphere.vertices * np.array([2.0, 1.2, 0.8]) * r[:, None], sphere.faces)
-
-
-def mirror_index(mesh: fvf.TriMesh) -> np.ndarray:
-    """The vertex at the mirror position (x -> -x) of each vertex, exact for blob(symmetric)."""
-    d, idx = cKDTree(mesh.vertices).query(mesh.vertices * REFLECT)
-    assert d.max() < 1e-12
-    return idx
-
-
-def mirror_image(mesh: fvf.TriMesh) -> fvf.TriMesh:
-    """The reflected copy, faces flipped so that normals still point outwards."""
-    return fvf.TriMesh(mesh.vertices * REFLECT, mesh.faces[:, [0, 2, 1]])
 
 
 def bent(mesh: fvf.TriMesh, radius: float = 10.0) -> fvf.TriMesh:

@@ -229,7 +229,7 @@ def test_examples_write_to_a_temporary_folder_by_default(monkeypatch):
     import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     monkeypatch.syspath_prepend(str(root / "examples"))
     import _common
 

@@ -225,7 +225,7 @@ def test_agrees_with_direct_at_94k_faces():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_core import spot_level
 
     mesh = fvf.TriMesh(*spot_level(2))

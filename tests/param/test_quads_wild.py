@@ -1,5 +1,5 @@
-"""fvf.quad_mesh and ``fvf quad`` on meshes people actually have (tests/wild_corpus.py),
-judged by an independent checker (tests/quadcheck.py).
+"""fvf.quad_mesh and ``fvf quad`` on meshes people actually have (tests/param/wild_corpus.py),
+judged by an independent checker (tests/param/quadcheck.py).
 
 The promise (``test_promise``): for every corpus mesh, read from its file as a user would,
 ``fvf.quad_mesh`` returns a quad mesh that quadcheck accepts, or raises an

@@ -1,4 +1,4 @@
-"""The independent quad-mesh judge (tests/quadcheck.py) passes good meshes and catches
+"""The independent quad-mesh judge (tests/param/quadcheck.py) passes good meshes and catches
 planted defects: each defect must flip the check it is about."""
 
 from __future__ import annotations

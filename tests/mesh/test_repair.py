@@ -606,7 +606,7 @@ def test_docs_repair_md_runs(capsys):
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "repair.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "repair.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
     assert len(blocks) == 2
     namespace: dict = {}

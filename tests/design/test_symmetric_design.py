@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import fvf
-from test_correspondence import REFLECT, blob, mirror_index
+from corpus import REFLECT, blob, mirror_index
 
 
 @pytest.fixture(scope="module")

@@ -481,7 +481,7 @@ def test_docs_session_runs(tmp_path, monkeypatch, capsys):
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "cli.md").read_text()
     (python,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
     (bash,) = re.findall(r"```bash\n(.*?)```", text, flags=re.S)
     monkeypatch.chdir(tmp_path)

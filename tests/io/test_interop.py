@@ -23,7 +23,7 @@ import fvf.viz
 from fvf import errors
 from fvf.cli.main import EXIT_BAD_INPUT, EXIT_OK, EXIT_PROBLEMS, main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SPOT = Path(fvf.mesh.spot_path()) if hasattr(fvf.mesh, "spot_path") else None
 
 

@@ -15,7 +15,7 @@ import fvf
 from fvf.mesh import convert
 from fvf.mesh.builtin import spot_path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

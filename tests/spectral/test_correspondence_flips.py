@@ -22,9 +22,8 @@ import pytest
 
 import fvf
 from conftest import load_shared
+from corpus import mirror_image
 from fvf.spectral import orientation_agreement
-
-REFLECT = np.array([-1.0, 1.0, 1.0])
 
 
 def near_symmetric_body(level: int = 3, asym: float = 0.05) -> fvf.TriMesh:
@@ -35,11 +34,6 @@ def near_symmetric_body(level: int = 3, asym: float = 0.05) -> fvf.TriMesh:
     r = 1 + 0.25 * y + 0.2 * z + 0.15 * np.cos(2.5 * y) * z + 0.3 * x**2 * y + 0.5 * x**4
     r += asym * (x * y + x**3)
     return fvf.TriMesh(sphere.vertices * np.array([2.0, 1.2, 0.8]) * r[:, None], sphere.faces)
-
-
-def mirror_image(mesh: fvf.TriMesh) -> fvf.TriMesh:
-    """Reflected through x = 0, faces reversed (normals still outwards)."""
-    return fvf.TriMesh(mesh.vertices * REFLECT, mesh.faces[:, [0, 2, 1]])
 
 
 def displaced(mesh: fvf.TriMesh, amplitude: float = 0.03, seed: int = 0) -> fvf.TriMesh:

@@ -475,7 +475,7 @@ def test_fuzzed_files_that_load_go_through_report_and_repair(fuzz_dir, name, mut
 
     The path of a user's file: read_mesh, then ``fvf info`` (mesh_report, never raises) and
     repair_mesh (an FvfError at worst), then TriMesh on the result (an FvfError at worst).
-    tests/fuzz_readers.py runs the same contract coverage-guided under atheris.
+    tests/io/fuzz_readers.py runs the same contract coverage-guided under atheris.
     """
     from fvf import TriMesh
     from fvf.mesh.diagnostics import mesh_report
