@@ -43,6 +43,7 @@ from ..errors import (
     user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.nfield import require_order
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
@@ -383,6 +384,7 @@ def seamless_parameterization(
     if scaling not in SCALINGS:
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
+    require_order(field, 4, "seamless_parameterization")
     clock("cross field" if field is None else "reading the cross field")
     u, rot = _cross_field(mesh, field, align, h, features)
     if cone_cancel_radius > 0:

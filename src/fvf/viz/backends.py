@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from ..errors import FvfError
 from ..mesh.convert import takes_mesh
+from ..mesh.nfield import FROM_FIELD, FromField, fields_order
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
 from .style import BACKENDS, MAX_SIZE, RenderStyle, as_style, check_render_options
@@ -160,7 +161,7 @@ def render(
     singularities: tuple | None = None,
     streamlines: list | None = None,
     texture: Any = None,
-    n: int = 1,
+    n: int | FromField = FROM_FIELD,
     field_labels: list | tuple | None = None,
     singularity_kind: str = "index",
     style: RenderStyle | None = None,
@@ -201,8 +202,9 @@ def render(
         A grey texture: a :class:`fvf.viz.LicTexture` (:func:`fvf.viz.surface_lic`,
         drawn on its own finer canvas) or values per vertex / face, histogram-equalized.
         With ``function`` too, it darkens the colormap's colours.
-    n : int
-        Directions per face of ``field``: 1 draws arrows; N ≥ 2 draws the N directions
+    n : int, optional
+        Directions per face of ``field`` (default: the ``n`` of an :class:`fvf.NField`
+        ``field``, else 1): 1 draws arrows; N ≥ 2 draws the N directions
         (the representative turned by 2πk/N about the face normal,
         :func:`fvf.viz.arrows.direction_set`) as N strokes from the centroid, each half an
         arrow long.
@@ -255,6 +257,7 @@ def render(
     from .scene import build_scene
 
     t0 = time.perf_counter()
+    n = fields_order(field, n)
     style = as_style(style, options, "render")
     scene = build_scene(
         mesh,
