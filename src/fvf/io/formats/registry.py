@@ -49,6 +49,7 @@ def register_format(fmt: MeshFormat) -> MeshFormat:
 
 for _module in (obj, off, ply, stl, vtk):
     register_format(_module.FORMAT)
+register_format(vtk.LEGACY)
 
 
 def readable_suffixes() -> tuple[str, ...]:
