@@ -514,7 +514,7 @@ def display_arrays(args, mesh):
     return kwargs, args.data
 
 
-def _stored_n(data) -> int:
+def _stored_n(data: Any) -> int:
     """The key ``n`` of the data files (what ``fvf design`` writes), else 1."""
     return int(data.numbers("n", ())) if data is not None and "n" in data else 1
 

@@ -163,7 +163,7 @@ class NField(np.ndarray):
     def __copy__(self) -> NField:
         return NField(self.view(np.ndarray).copy(), self._n)
 
-    def __deepcopy__(self, memo: dict) -> NField:
+    def __deepcopy__(self, memo: dict[int, Any] | None = None, /) -> NField:
         return self.__copy__()
 
     # ---------------------------------------------------------------- display
