@@ -262,3 +262,35 @@ def test_cli_render_takes_n_from_the_file(tmp_path, torus, monkeypatch):
     assert seen["n"] == 4 and seen["field"].n == 4
     assert len(seen["singularities"][1]) == len(fvf.singularities(torus, seen["field"])[0])
     assert main([*args, "--n", "2", "-o", png]) == 2  # contradicts the file's n = 4
+
+
+# ---------------------------------------------------------------------------- notebooks
+def _filled(cls: type):
+    """An instance of the dataclass ``cls``, every array field 10000 x 3, the rest None."""
+    import dataclasses
+
+    obj = object.__new__(cls)
+    for f in dataclasses.fields(cls):
+        value = np.arange(30_000.0).reshape(-1, 3) if "ndarray" in str(f.type) else None
+        object.__setattr__(obj, f.name, value)
+    return obj
+
+
+def test_results_show_a_table_in_a_notebook(torus, cross):
+    classes = [fvf.SeamlessParameterization, fvf.MatchResult, fvf.TransportResult]
+    classes += [fvf.FluidResult, fvf.mesh.PrincipalCurvatures, fvf.design.nfields.CutGraph]
+    for cls in classes:
+        html = _filled(cls)._repr_html_()
+        assert html.startswith("<table>") and cls.__name__ in html, cls
+        assert "float64(10000, 3)" in html and "29999" not in html, cls
+    html = fvf.repair_mesh(torus.vertices, torus.faces)._repr_html_()
+    assert "RepairResult" in html and "vertices" in html
+    assert "n=4" in fvf.numerics.summary.short_value(cross)
+
+
+def test_render_without_a_path_shows_the_picture_in_a_notebook(torus, cross):
+    viz = pytest.importorskip("fvf.viz")
+    pytest.importorskip("matplotlib")
+    info = viz.render(torus, field=cross, size=(160, 120), backend="matplotlib")
+    assert info.path is None and info.png.startswith(b"\x89PNG")
+    assert info._repr_png_() == info.png and "png" not in repr(info)

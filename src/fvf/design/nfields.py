@@ -59,7 +59,7 @@ from ..mesh.geometry import cross_rows
 from ..mesh.inputs import as_direction_count, as_face_field
 from ..mesh.nfield import FROM_FIELD, FromField, NField, field_order
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .indices import ZERO_RTOL, as_connection_rotations, vertex_indices
 
 __all__ = [
@@ -273,6 +273,7 @@ class CutGraph:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     mask: np.ndarray
     edges: np.ndarray

@@ -47,7 +47,7 @@ from ..mesh.nfield import require_order
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .cutmesh import CutMesh, cut_mesh
 from .features import feature_constraints
 from .frame_field import (
@@ -107,6 +107,7 @@ class SeamlessParameterization:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     uv: np.ndarray
     field: np.ndarray
