@@ -12,6 +12,7 @@ uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
 | `u`        | float, (m, 3)         | a second field: bracket partner, or transported|
 | `u1`       | float, (m, 3)         | end field of an interpolation (eq. 68)         |
 | `t`        | float, () or (T,)     | times, when the command line gives none        |
+| `n_<key>`  | int, ()               | the N of the N-field under `key` (`n` for `v`) |
 | `vertices` | float, (n, 3)         | optional copy of the mesh's vertices           |
 | `faces`    | int, (m, 3)           | optional copy of the mesh's faces (0-based)    |
 
