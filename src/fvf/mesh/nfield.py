@@ -132,6 +132,9 @@ class NField(np.ndarray):
         obj._n = order
         return obj
 
+    def __init__(self, field: npt.ArrayLike, n: int) -> None:
+        """Checked and set by ``__new__`` (an ndarray is made there)."""
+
     def __array_finalize__(self, obj: Any) -> None:
         self._n = getattr(obj, "_n", 1)
 
