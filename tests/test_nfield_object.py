@@ -294,3 +294,45 @@ def test_render_without_a_path_shows_the_picture_in_a_notebook(torus, cross):
     info = viz.render(torus, field=cross, size=(160, 120), backend="matplotlib")
     assert info.path is None and info.png.startswith(b"\x89PNG")
     assert info._repr_png_() == info.png and "png" not in repr(info)
+
+
+# ---------------------------------------------------------------------------- glTF
+def test_gltf_round_trip_and_seams_welded(tmp_path, torus):
+    pytest.importorskip("trimesh")
+
+    V = torus.vertices.astype(np.float32).astype(np.float64)  # glTF stores float32
+    for suffix in (".glb", ".gltf"):
+        fvf.write_mesh(tmp_path / f"t{suffix}", V, torus.faces)
+        V2, F2 = fvf.read_mesh(tmp_path / f"t{suffix}")
+        np.testing.assert_array_equal(V2, V)
+        np.testing.assert_array_equal(F2, torus.faces)
+    # a seam: vertex 0 stored twice (as glTF does where normals or uvs jump)
+    Vs = np.vstack([V, V[:1]])
+    Fs = torus.faces.copy()
+    Fs[Fs[:, 0] == 0, 0] = len(V)
+    fvf.write_mesh(tmp_path / "seam.glb", Vs, Fs)
+    with pytest.warns(fvf.VerticesWeldedWarning, match="welded 1 glTF vertices"):
+        V3, F3 = fvf.read_mesh(tmp_path / "seam.glb")
+    np.testing.assert_array_equal(V3, V)
+    np.testing.assert_array_equal(F3, torus.faces)
+    assert fvf.as_mesh(tmp_path / "t.glb").n_faces == torus.n_faces
+    with pytest.raises(fvf.MeshFormatError):
+        fvf.write_mesh(tmp_path / "q.glb", V, torus.faces, face_data={"v": torus.face_normals})
+
+
+def test_gltf_without_trimesh_names_the_package(tmp_path, torus, monkeypatch):
+    pytest.importorskip("trimesh")
+    from fvf.io.formats import gltf
+
+    fvf.write_mesh(tmp_path / "t.glb", torus.vertices, torus.faces)
+
+    def missing(path):
+        raise fvf.MissingExtraError(f"{path}: needs trimesh: pip install trimesh")
+
+    monkeypatch.setattr(gltf, "requires", missing)
+    with pytest.raises(fvf.MissingExtraError, match="trimesh"):
+        fvf.read_mesh(tmp_path / "t.glb")
+    (tmp_path / "bad.glb").write_bytes(b"glTF nonsense")
+    monkeypatch.undo()
+    with pytest.raises(fvf.MeshReadError):
+        fvf.read_mesh(tmp_path / "bad.glb")

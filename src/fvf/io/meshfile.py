@@ -82,7 +82,7 @@ _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
 def read_mesh(
     path: str | os.PathLike, *, faces: str = "triangles"
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """Read a mesh from an OBJ, OFF, PLY, STL or VTK file.
+    """Read a mesh from an OBJ, OFF, PLY, STL, VTK or glTF file.
 
     Parameters
     ----------
@@ -91,7 +91,8 @@ def read_mesh(
         ``.ply`` (ascii, binary_little_endian or binary_big_endian), ``.stl`` (ascii or
         binary), or VTK: ``.vtu``, ``.vtp`` (XML) and legacy ``.vtk``, read through
         PyVista, else meshio (``pip install 'fvf[vtk]'``; :mod:`fvf.io.formats.vtk`),
-        their triangle, quad and polygon cells.
+        their triangle, quad and polygon cells, or glTF ``.glb`` / ``.gltf`` through
+        trimesh (:mod:`fvf.io.formats.gltf`: the scene's triangles, welded at seams).
     faces : {"triangles", "quads", "any"}
         ``"triangles"`` (default): every face a triangle, polygons ``(v0, ..., vk)``
         fan-triangulated into ``(v0, vi, vi+1)``. ``"quads"``: the faces as stored, which
@@ -119,7 +120,8 @@ def read_mesh(
     fvf.errors.ParameterError
         ``faces`` is not one of the three values.
     fvf.errors.MissingExtraError
-        A VTK file without PyVista or meshio (``.vtp``: without PyVista).
+        A VTK file without PyVista or meshio (``.vtp``: without PyVista), a glTF file
+        without trimesh.
 
     Warns
     -----
@@ -259,7 +261,8 @@ def write_mesh(
     face_data: Mapping[str, npt.ArrayLike] | None = None,
     comments: tuple[str, ...] = (),
 ) -> None:
-    """Write a triangle or quad mesh as OBJ, OFF (ascii), PLY (binary), STL (binary) or VTK.
+    """Write a triangle or quad mesh as OBJ, OFF (ascii), PLY (binary), STL (binary), VTK
+    or glTF.
 
     The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`), and
     everything is checked (:func:`check_writable` among others) before it is written.
@@ -269,8 +272,10 @@ def write_mesh(
     path : str or os.PathLike
         Output file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off``,
         ``.ply``, ``.stl`` (binary, float32 coordinates, triangles only), or VTK XML for
-        ParaView: ``.vtu`` (through meshio, else PyVista) or ``.vtp`` (through PyVista);
-        both are optional (``pip install 'fvf[vtk]'``). Text formats print coordinates
+        ParaView: ``.vtu`` (through meshio, else PyVista) or ``.vtp`` (through PyVista),
+        legacy ``.vtk`` (binary, through PyVista); all optional
+        (``pip install 'fvf[vtk]'``); glTF ``.glb`` / ``.gltf`` (triangles, float32
+        positions, through trimesh). Text formats print coordinates
         with ``%.17g`` and PLY stores doubles, so reading the file back with
         :func:`read_mesh` gives exactly the same arrays.
     vertices : array_like of float, shape (n, 3)
