@@ -336,3 +336,17 @@ def test_gltf_without_trimesh_names_the_package(tmp_path, torus, monkeypatch):
     monkeypatch.undo()
     with pytest.raises(fvf.MeshReadError):
         fvf.read_mesh(tmp_path / "bad.glb")
+
+
+def test_a_stack_of_fields_keeps_n(tmp_path, torus):
+    _, stack = fvf.smoothest_fields(torus, 2, n=4)
+    path = write_data(tmp_path / "s.npz", {"fields": stack}, mesh=torus,
+                      mesh_path=tmp_path / "t.obj", command="test")  # fmt: skip
+    back = read_data(path, torus)["fields"]
+    assert back.n == 4 and back[1].n == 4
+    np.testing.assert_array_equal(back, stack)
+    ply = write_data(tmp_path / "s.ply", {"fields": stack}, mesh=torus,
+                     mesh_path=tmp_path / "t.obj", command="test")  # fmt: skip
+    data = read_data(ply, torus)
+    assert data["fields_1"].n == 4
+    np.testing.assert_array_equal(data["fields_1"], stack[1])

@@ -204,7 +204,7 @@ class DataFile(Mapping):
 
     def _with_order(self, key: str, a: np.ndarray) -> np.ndarray:
         """``a`` as an :class:`fvf.NField` when it is a field whose N the file stores."""
-        if a.ndim != 2 or a.shape[1] != 3 or a.dtype.kind not in "biuf":
+        if a.ndim not in (2, 3) or a.shape[-1] != 3 or a.dtype.kind not in "biuf":
             return a
         n = self.order(key)
         return a if n is None else NField(a, n)
