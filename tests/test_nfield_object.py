@@ -95,6 +95,11 @@ def test_arithmetic_reductions_and_slices_are_plain_arrays(cross):
     ):
         assert type(value) is np.ndarray
     assert type(cross.sum()) is np.float64 and type(cross[0, 0]) is np.float64
+    doubled = cross.copy()
+    alias = doubled
+    doubled *= 2  # in place: the field itself, still an NField
+    assert doubled is alias and doubled.n == 4
+    np.testing.assert_array_equal(doubled, 2 * np.asarray(cross))
     assert np.array_equal(cross * 1.0, np.asarray(cross))
     assert cross.copy().n == 4 and cross.astype(np.float32).n == 4
     for twin in (pickle.loads(pickle.dumps(cross)), copy.deepcopy(cross), copy.copy(cross)):

@@ -13,7 +13,8 @@ Only the whole field is an N-field: arithmetic, ufuncs, reductions, indexing and
 (``u[mask]``, ``u[:, 0]``, ``2 * u``, ``u.sum(0)``, ``np.concatenate``) give plain
 ndarrays, so ``n`` is never carried silently into a value that is not the field. The
 exceptions are the views and copies of the whole array (``u.copy()``, ``u.view()``,
-``u.astype(...)``, pickling), and a stack of fields ``(k, m, 3)`` (the smoothest fields),
+``u.astype(...)``, pickling), in-place operations (``u *= 2`` changes the field itself,
+which stays what it was), and a stack of fields ``(k, m, 3)`` (the smoothest fields),
 whose ``stack[i]`` is the i-th field, an :class:`NField` too.
 
 A consumer given both an :class:`NField` and an explicit ``n`` that differs from
@@ -145,9 +146,12 @@ class NField(np.ndarray):
 
     # ---------------------------------------------------------------- plain results
     def __array_ufunc__(self, ufunc: Any, method: str, *inputs: Any, **kwargs: Any) -> Any:
-        if "out" in kwargs:
-            kwargs["out"] = _plain(kwargs["out"])
+        out = kwargs.get("out")
+        if out is not None:
+            kwargs["out"] = _plain(out)
         result = getattr(ufunc, method)(*_plain(inputs), **kwargs)
+        if out is not None and method == "__call__":  # in place (u *= 2): the arrays given
+            return out[0] if len(out) == 1 else out
         return _plain(result)
 
     def __array_function__(self, func: Any, types: Any, args: Any, kwargs: Any) -> Any:
