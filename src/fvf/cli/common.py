@@ -148,7 +148,8 @@ def add_display_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--n",
         type=int,
-        help="directions per face of --field: draw N strokes (default: key n, else 1)",
+        help="directions per face of --field: draw N strokes (default: the n stored with "
+        "the field, else key n, else 1)",
     )
 
 
@@ -488,8 +489,9 @@ def display_arrays(args, mesh):
     if args.field:
         kwargs["field"] = _numbers_of(src, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
     n = args.n
+    own = getattr(kwargs.get("field"), "n", None)  # a field whose file stores its n
     if n is None:
-        n = int(data.numbers("n", ())) if data is not None and "n" in data else 1
+        n = own if own is not None else _stored_n(data)
     if n != 1:
         kwargs["n"] = n
     if args.singularities:
@@ -510,6 +512,11 @@ def display_arrays(args, mesh):
             )
         kwargs["singularities"] = (pos, idx)
     return kwargs, args.data
+
+
+def _stored_n(data: Any) -> int:
+    """The key ``n`` of the data files (what ``fvf design`` writes), else 1."""
+    return int(data.numbers("n", ())) if data is not None and "n" in data else 1
 
 
 def _numbers_of(src, spec, shapes):

@@ -64,7 +64,7 @@ from scipy.spatial import cKDTree
 from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 
 __all__ = [
     "FoldRepair",
@@ -312,6 +312,7 @@ class FoldRepair:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     vertices: np.ndarray
     vertex_face: np.ndarray
