@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 PEERS = {"igl": "libigl", "potpourri3d": "potpourri3d", "pyFM": "pyFM", "trimesh": "trimesh"}
 PEERS["pyvista"] = "PyVista"
 
