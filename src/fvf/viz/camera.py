@@ -23,6 +23,7 @@ from ..errors import FvfError, ParameterError
 __all__ = [
     "UP_AXES",
     "View",
+    "aim",
     "as_view",
     "as_views",
     "camera_frame",
@@ -125,6 +126,13 @@ def two_sides(view: View | tuple | dict | None = None) -> list[View]:
     """
     v = as_view(view)
     return [v, replace(v, turn=v.turn + 180.0)]
+
+
+def aim(view: object, azimuth: float, elevation: float) -> list[View]:
+    """``view`` (one view or a list, as :func:`as_views` takes) looking from ``azimuth``
+    and ``elevation`` degrees, each view keeping its ``turn``, ``up`` and ``zoom``: the
+    two views of :func:`two_sides` stay opposite (``fvf demo --view AZ EL``)."""
+    return [replace(v, azimuth=float(azimuth), elevation=float(elevation)) for v in as_views(view)]
 
 
 def resolve_up(
