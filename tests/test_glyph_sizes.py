@@ -1,0 +1,49 @@
+"""Glyphs and singularity markers no larger than the detail they sit on
+(fvf.viz.overlay.feature_factors)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fvf
+
+overlay = pytest.importorskip("fvf.viz.overlay")
+scene_mod = pytest.importorskip("fvf.viz.scene")
+
+
+def ball_and_finger() -> fvf.TriMesh:
+    """A unit sphere beside a thin ellipsoid (radius 0.03, 1.8 long): a body and a finger."""
+    ball = fvf.icosphere(4)
+    finger = ball.vertices * [0.03, 0.03, 0.9] + [1.5, 0.0, 0.0]
+    V = np.vstack([ball.vertices, finger])
+    F = np.vstack([ball.faces, ball.faces + ball.n_vertices])
+    return fvf.TriMesh(V, F)
+
+
+def test_feature_factors_follow_the_curvature():
+    mesh = ball_and_finger()
+    c = np.array([[0.0, 0.0, 1.0], [1.53, 0.0, 0.0]])  # on the ball, on the finger's side
+    n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    f = overlay.feature_factors(mesh.vertices, c, n, np.array([0.1, 0.1]))
+    assert f[0] == 1.0  # 0.1 on a unit sphere is flat
+    assert f[1] <= 0.5  # 0.1 across a finger 0.06 wide is not
+
+
+def test_crosses_and_markers_shrink_on_thin_parts():
+    mesh = ball_and_finger()
+    c = mesh.face_centroids
+    u = mesh.project_tangent(np.cross(c - [0.7, 0, 0], [0.0, 1.0, 0.0]) + [0.0, 0.0, 0.3])
+    markers = np.array([[0.0, 0.0, -1.0], [1.5, 0.0, -0.9]])  # on the ball, the finger tip
+    scene = scene_mod.build_scene(
+        mesh, field=u, n=4, singularities=(markers, np.array([0.25, -0.25])), view=(90.0, 0.0, "z")
+    )
+    ov = overlay.panel_overlay(scene, scene.frame, 1.0, 600, 450)
+    g = ov.glyphs[0]
+    k = g.anchors.shape[0] // 4
+    length = np.linalg.norm(g.polygons - g.anchors[:, None], axis=2).max(1)[:k]
+    on_finger = g.anchors[:k, 0] > 1.3
+    assert on_finger.sum() >= 3 and (~on_finger).sum() >= 20
+    assert np.median(length[on_finger]) < 0.6 * np.median(length[~on_finger])
+    assert ov.marker_radii[1] < 0.6 * ov.marker_radii[0]
+    assert ov.marker_radii[1] * ov.pixel_scale > 2.0 - 1e-9  # never below 2 pixels
