@@ -47,3 +47,26 @@ def test_crosses_and_markers_shrink_on_thin_parts():
     assert np.median(length[on_finger]) < 0.6 * np.median(length[~on_finger])
     assert ov.marker_radii[1] < 0.6 * ov.marker_radii[0]
     assert ov.marker_radii[1] * ov.pixel_scale > 2.0 - 1e-9  # never below 2 pixels
+
+
+def test_legend_counts_are_never_cut_off(tmp_path):
+    """A legend line as long as "index +1/4 (1650)" widens the side column: nothing is
+    drawn in the picture's last pixels (it was cut at "(165")."""
+    pytest.importorskip("matplotlib")
+    Image = pytest.importorskip("PIL.Image")
+    import fvf.viz
+    from fvf.viz.compose import LEGEND_WIDTH, legend_width
+
+    mesh = fvf.icosphere(3)
+    rng = np.random.default_rng(3)
+    k = 1650 + 1250
+    pos = mesh.vertices[rng.choice(mesh.n_vertices, k)]
+    idx = np.r_[np.full(1650, 0.25), np.full(1250, -0.25)]
+    scene = scene_mod.build_scene(mesh, singularities=(pos, idx))
+    assert legend_width(scene, 960) > LEGEND_WIDTH
+    for size in ((960, 450), (500, 400)):
+        info = fvf.viz.render(
+            mesh, tmp_path / "s.png", singularities=(pos, idx), size=size, backend="matplotlib"
+        )
+        img = np.asarray(Image.open(info.path).convert("RGB")).astype(int)
+        assert (img[:, -3:] > 245).all(), size
