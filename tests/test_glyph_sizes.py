@@ -70,3 +70,27 @@ def test_legend_counts_are_never_cut_off(tmp_path):
         )
         img = np.asarray(Image.open(info.path).convert("RGB")).astype(int)
         assert (img[:, -3:] > 245).all(), size
+
+
+def test_fields_and_markers_stay_apart_for_colour_blind_readers():
+    """Each overlay is named by its colour in the legend: two fields, and a field and the
+    singularity markers, differ by ΔE* > 30 also as deuteranopes and protanopes see them
+    (the second field was orange beside a green first one: ΔE* 14 for them)."""
+    from fvf.viz.colors import simulate_color_blindness, srgb_to_lab
+
+    mesh = fvf.icosphere(2)
+    rng = np.random.default_rng(4)
+    v, w = (mesh.project_tangent(rng.standard_normal((mesh.n_faces, 3))) for _ in range(2))
+    pos, idx = mesh.vertices[:2], np.array([0.25, -0.25])
+    for kwargs in ({}, {"function": mesh.vertices[:, 1]}, {"singularities": (pos, idx)}):
+        scene = scene_mod.build_scene(mesh, field=[v, w], **kwargs)
+        colors = [f.color for f in scene.fields]
+        if scene.markers is not None:
+            colors += [fvf.viz.index_color(i) for i in idx]
+        for i in range(len(colors)):
+            for j in range(i):
+                for kind in (None, "deuteranopia", "protanopia"):
+                    a, b = colors[i], colors[j]
+                    if kind:
+                        a, b = simulate_color_blindness(a, kind), simulate_color_blindness(b, kind)
+                    assert np.linalg.norm(srgb_to_lab(a) - srgb_to_lab(b)) > 30, (kwargs, kind)
