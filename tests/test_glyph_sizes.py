@@ -94,3 +94,21 @@ def test_fields_and_markers_stay_apart_for_colour_blind_readers():
                     if kind:
                         a, b = simulate_color_blindness(a, kind), simulate_color_blindness(b, kind)
                     assert np.linalg.norm(srgb_to_lab(a) - srgb_to_lab(b)) > 30, (kwargs, kind)
+
+
+def test_checkerboard_squares_are_cut_exactly():
+    """The checkerboard's pieces each lie in one square of the uv grid (straight edges,
+    not sub-triangles coloured one by one) and tile the triangles they come from."""
+    from fvf.viz.quads import _cut_at_integers
+
+    mesh = fvf.icosphere(2)
+    rng = np.random.default_rng(6)
+    X = mesh.vertices[mesh.faces]
+    W = X[..., :2] * 7.3 + rng.uniform(-0.2, 0.2, (mesh.n_faces, 1, 2))
+    for axis in (0, 1):
+        X, W = _cut_at_integers(X, W, axis)
+    cell = np.floor(W.mean(axis=1))
+    assert (W >= cell[:, None] - 1e-9).all() and (W <= cell[:, None] + 1 + 1e-9).all()
+    area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(mesh.total_area, rel=1e-12)
+    assert X.shape[0] > 3 * mesh.n_faces  # the grid is finer than the mesh: many cuts
