@@ -12,13 +12,14 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError
+from ..errors import DuplicateVertexWarning, FvfError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .backends import RenderInfo, render
@@ -97,9 +98,15 @@ def render_checkerboard(
     X, W = mesh.vertices[mesh.faces], T
     for axis in (0, 1):
         X, W = _cut_at_integers(X, W, axis)
+    e = X - np.roll(X, 1, axis=1)  # drop the slivers of a corner on a line: no area
+    area2 = np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1)
+    keep = area2 > 1e-10 * (e * e).sum(2).max(1)
+    X, W = X[keep], W[keep]
     checker = (np.floor(W.mean(axis=1)).sum(axis=1) % 2).astype(float)
     k = X.shape[0]
-    soup = TriMesh(X.reshape(-1, 3), np.arange(3 * k).reshape(k, 3))
+    with warnings.catch_warnings():  # a soup by construction: one piece per triangle
+        warnings.simplefilter("ignore", DuplicateVertexWarning)
+        soup = TriMesh(X.reshape(-1, 3), np.arange(3 * k).reshape(k, 3))
     return render(soup, path, texture=0.35 + 0.5 * checker, **kwargs)
 
 
