@@ -112,3 +112,12 @@ def test_checkerboard_squares_are_cut_exactly():
     area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
     assert area.sum() == pytest.approx(mesh.total_area, rel=1e-12)
     assert X.shape[0] > 3 * mesh.n_faces  # the grid is finer than the mesh: many cuts
+
+
+def test_equal_texture_values_share_one_grey():
+    from fvf.viz.colors import equalize
+
+    g = equalize(np.array([0.35, 0.85, 0.35, 0.85, 0.35]), np.array([1.0, 1, 1, 1, 2]))
+    np.testing.assert_allclose(g, [1 / 3, 5 / 6, 1 / 3, 5 / 6, 1 / 3])
+    r = np.random.default_rng(0).random(50)  # distinct values: the ranks, as before
+    np.testing.assert_allclose(equalize(r), (np.argsort(np.argsort(r)) + 0.5) / 50)

@@ -317,12 +317,18 @@ def equalize(values: np.ndarray, weights: np.ndarray | None = None) -> np.ndarra
     """Histogram equalization: each value's weighted rank, float64 in [0, 1].
 
     The contrast normalization of LIC textures: averaging noise along streamlines shrinks
-    its spread, and ranks spread it over the whole grey range again.
+    its spread, and ranks spread it over the whole grey range again. Equal values get
+    one rank, the middle of their group's weight.
     """
     v = np.asarray(values, dtype=float)
     w = np.ones_like(v) if weights is None else np.asarray(weights, dtype=float)
     order = np.argsort(v, kind="stable")
-    cw = np.cumsum(w[order])
+    ws = w[order]
+    cw = np.cumsum(ws)
+    # equal values share one rank (the middle of their group): a checkerboard's two
+    # values stay two grey levels, not a ramp over the faces' order
+    _, start, inverse = np.unique(v[order], return_index=True, return_inverse=True)
+    middle = cw[start] - ws[start] + 0.5 * np.add.reduceat(ws, start)
     out = np.empty_like(v)
-    out[order] = (cw - 0.5 * w[order]) / max(cw[-1], 1e-300)
+    out[order] = middle[inverse.ravel()] / max(cw[-1], 1e-300)
     return out
