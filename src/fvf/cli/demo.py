@@ -573,7 +573,7 @@ def _quads(s, story):
         st,
         "quads.png",
         mesh,
-        f"{Q.shape[0]} quads; irregular vertices: +1 valence 3, −1 valence 5",
+        f"{Q.shape[0]} quads; irregular vertices by valence (3 and 5)",
         draw=functools.partial(_quad_picture, V, Q),
         view=_both_sides(),
         wide=True,
