@@ -66,8 +66,8 @@ def _rgb(canvas: Any) -> np.ndarray:
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
 
-def _points(px: float) -> float:
-    """Pixels to points at 100 dpi."""
+def _points(px: Any) -> Any:
+    """Pixels to points at 100 dpi (a number or an array of them)."""
     return 0.72 * px
 
 
