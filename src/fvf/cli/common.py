@@ -360,13 +360,23 @@ UP_CHOICES = ("auto", "x", "y", "z", "-x", "-y", "-z")
 
 
 def add_picture_options(p: argparse.ArgumentParser, size: bool = True) -> None:
-    """``--up``, ``--size W H`` and ``--dpi`` of every command that makes a picture."""
+    """``--up``, ``--view AZ EL``, ``--size W H`` and ``--dpi`` of every command that
+    makes a picture."""
     p.add_argument(
         "--up",
         choices=UP_CHOICES,
         default="auto",
-        help="mesh axis pointing up in the picture (default auto: y, or z for a shape "
-        "standing on its -z side)",
+        help="mesh axis pointing up in the picture (default auto: y, or the side the "
+        "shape stands on: z, or x for a left-right symmetric body turned x-up)",
+    )
+    p.add_argument(
+        "--view",
+        nargs=2,
+        type=real,
+        metavar=("AZ", "EL"),
+        help="camera azimuth about the up axis and elevation, degrees (default: a "
+        "three-quarter view from 20 degrees up; pictures of both sides keep their "
+        "second view opposite)",
     )
     if size:
         p.add_argument(
@@ -385,6 +395,8 @@ def picture_options(args: argparse.Namespace) -> dict:
     out: dict[str, Any] = {}
     if getattr(args, "up", "auto") not in (None, "auto"):
         out["up"] = args.up
+    if getattr(args, "view", None):
+        out["view"] = tuple(args.view)
     if getattr(args, "size", None):
         out["size"] = tuple(args.size)
     if getattr(args, "dpi", None) is not None:

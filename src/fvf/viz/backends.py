@@ -261,7 +261,7 @@ def render(
     the camera, window size, background colour and scene extents are restored afterwards
     (the ground plane stays off: polyscope cannot report its mode).
     """
-    from .compose import compose, has_colorbar, has_legend, layout
+    from .compose import compose, has_colorbar, layout, legend_width
     from .scene import build_scene
 
     t0 = time.perf_counter()
@@ -282,9 +282,8 @@ def render(
         singularity_kind=singularity_kind,
     )
     width, height = style.width, style.height
-    lay = layout(
-        width, height, style.title, has_colorbar(scene), has_legend(scene), len(scene.frames)
-    )
+    side = legend_width(scene, width)
+    lay = layout(width, height, style.title, has_colorbar(scene), side, len(scene.frames))
     pw, ph = lay.panel_width, lay.panel_height
     if pw < 32 or ph < 32:
         raise FvfError(f"size {style.size!r} leaves panels of {pw} x {ph} pixels; make it larger")
