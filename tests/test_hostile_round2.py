@@ -407,3 +407,96 @@ def test_repair_vertex_at_float_limit(alarm):
         except errors.MeshError:  # a typed refusal is acceptable; a SciPy crash is not
             return
     assert result.vertex_map.shape == (len(V),)
+
+
+# ---------------------------------------------------------------------------- own results
+def _rounded_cube(level: int = 3) -> fvf.TriMesh:
+    """An icosphere pushed onto |x|^8 + |y|^8 + |z|^8 = 1: symmetric about the cube's
+    diagonals, so the smoothest cross field vanishes on the faces at its 8 corners."""
+    s = fvf.icosphere(level)
+    V = s.vertices / (np.sum(s.vertices**8, axis=1) ** (1 / 8))[:, None]
+    return fvf.TriMesh(V, s.faces)
+
+
+def test_designed_cross_field_of_a_symmetric_shape_is_accepted_everywhere():
+    mesh = _rounded_cube()
+    u = fvf.design_field(mesh, n=4)
+    length = np.linalg.norm(u, axis=1)
+    assert length.min() > 1e-10 * length.max()  # every face has a direction
+    ids, index = fvf.singularities(mesh, u, n=4)
+    assert index.tolist() == [0.25] * 8  # the cube's corners
+    corners = np.abs(mesh.vertices[ids])
+    assert (corners > 0.6).all()
+    cut = fvf.cut_graph(mesh, u, 4)
+    fvf.comb(mesh, u, 4, cut)
+    fvf.period_jumps(mesh, u, 4)
+
+
+def test_zero_fill_reports_a_cone_on_a_zero_face():
+    mesh = fvf.disk(6, 8)
+    u = mesh.face_centroids * [1, 1, 0]  # a source at vertex 0
+    fan = np.flatnonzero((mesh.faces == 0).any(axis=1))
+    u[fan[0]] = 0.0  # a zero next to the source
+    with pytest.raises(errors.FieldShapeError, match="zero='fill'"):
+        fvf.singularities(mesh, u)
+    ids, index = fvf.singularities(mesh, u, zero="fill")
+    assert index.sum() == 1 and ids.size == 1
+    assert ids[0] in mesh.faces[fan[0]]
+    with pytest.warns(fvf.ZeroFieldWarning):  # nothing to fill from: as "warn"
+        assert fvf.singularities(mesh, np.zeros((mesh.n_faces, 3)), zero="fill")[0].size == 0
+
+
+def test_demo_reports_a_section_it_cannot_do(tmp_path, monkeypatch):
+    from fvf.cli import demo as demo_module
+
+    def fails(s, story):
+        """A section this mesh does not allow."""
+        story.begin("cannot", fails)
+        raise errors.FieldShapeError("u is (numerically) zero at faces [1]")
+
+    def needs_it(s, story):
+        """A section that needs the failed section's result."""
+        return s.missing
+
+    mesh = _mesh_file(tmp_path / "m.off")
+    stages = (demo_module.STAGES[0], fails, needs_it)
+    report = demo_module.demo(str(mesh), tmp_path / "o", pictures=False, stages=stages)
+    assert report["sections_not_done"] == [
+        "cannot (not done)",
+        "A section that needs the failed section's result (not done)",
+    ]
+    assert (tmp_path / "o" / "summary.json").exists()
+    assert "FieldShapeError" in (tmp_path / "o" / "index.html").read_text()
+
+
+def _float32_ply(path: Path, mesh: fvf.TriMesh) -> Path:
+    V, F = mesh.vertices.astype("<f4"), mesh.faces
+    header = (
+        f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    faces = np.zeros(len(F), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    faces["n"], faces["i"] = 3, F
+    path.write_bytes(header.encode() + V.tobytes() + faces.tobytes())
+    return path
+
+
+def test_float32_input_gives_the_float64_answer(tmp_path):
+    sphere = fvf.icosphere(3)
+    tet = fvf.TriMesh(
+        np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float32),
+        np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]),
+    )
+    for mesh in (sphere, tet):
+        read = fvf.TriMesh(*fvf.read_mesh(_float32_ply(tmp_path / "f.ply", mesh)))
+        assert read.vertices.dtype == np.float64
+        for n in (1, 4):
+            u = fvf.design_field(read, n=n)
+            length = np.linalg.norm(u, axis=1)
+            assert length.min() > 1e-3 * length.max(), (mesh.n_faces, n)
+            ids, index = fvf.singularities(read, u, n=n)
+            assert index.sum() == pytest.approx(2.0)
+    u32 = fvf.design_field(tet, n=4)
+    u64 = fvf.design_field(fvf.TriMesh(tet.vertices.astype(np.float64), tet.faces), n=4)
+    np.testing.assert_allclose(u32, u64, atol=1e-6)

@@ -497,7 +497,7 @@ def display_arrays(args, mesh):
             pos = data.numbers("singularity_positions", (None, 3))
             idx = data.numbers("singularity_indices", (pos.shape[0],))
         elif "field" in kwargs and kwargs["field"].shape[0] == mesh.n_faces:
-            ids, idx = fvf.singularities(mesh, kwargs["field"], n=n, zero="warn")
+            ids, idx = fvf.singularities(mesh, kwargs["field"], n=n, zero="fill")
             pos = fvf.singularity_positions(mesh, ids, "vertex")
         elif "field" in kwargs:
             ids, idx = fvf.face_singularities(mesh, kwargs["field"], zero="warn")
