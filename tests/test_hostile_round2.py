@@ -500,3 +500,39 @@ def test_float32_input_gives_the_float64_answer(tmp_path):
     u32 = fvf.design_field(tet, n=4)
     u64 = fvf.design_field(fvf.TriMesh(tet.vertices.astype(np.float64), tet.faces), n=4)
     np.testing.assert_allclose(u32, u64, atol=1e-6)
+
+
+def test_batch_task_failure_keeps_the_other_results(tmp_path, monkeypatch):
+    from fvf.batch import registry
+    from fvf.batch.runner import MeshJob, run_job
+    from fvf.batch.store import options_text
+
+    def boom(ctx):
+        raise errors.QuadExtractionError("no quads here")
+
+    quad = registry.lookup_task("quad")
+    monkeypatch.setitem(registry._REGISTRY, "quad", registry.Task("quad", boom))
+    late = registry.Task("late", lambda ctx: registry.TaskOutput(figures={"x": 1}), needs=("quad",))
+    mesh = _mesh_file(tmp_path / "dog2.off")
+    tasks = ("info", "fields", "singularities", "quad", late)
+    opts = {"k": 5}
+    result = tmp_path / "meshes" / "dog2.npz"
+    job = MeshJob("dog2", str(mesh), str(result), tasks, opts, options_text(tasks[:4], opts), "t")
+    row = run_job(job)
+    assert row["status"] == "failed"
+    assert row["error"] == (
+        "task quad: QuadExtractionError: no quads here; task late: needs quad, which failed"
+    )
+    assert row["result"] == str(result) and result.exists()
+    assert row["singularities_index_sum"] == pytest.approx(2.0) and row["info_problems"] == 0
+    with np.load(result) as data:
+        assert {"v", "singularity_indices", "info_report"} <= set(data.files)
+        assert "quad_quads" not in data.files
+    assert run_job(job)["status"] == "failed"  # a failed task is tried again, not skipped
+    monkeypatch.setitem(registry._REGISTRY, "quad", quad)
+
+    broken = tmp_path / "broken.off"
+    broken.write_text("OFF\n3 1 0\n0 0 0\n")
+    job = MeshJob("b", str(broken), str(tmp_path / "meshes" / "b.npz"), ("info",), {}, "{}", "t")
+    row = run_job(job)
+    assert row["status"] == "failed" and row["result"] == ""  # no file is named

@@ -397,7 +397,7 @@ def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -
         "error": f"{type(exc).__name__}: {text}",
         "kind": "mesh" if isinstance(job, MeshJob) else "pair",
         "path": job.path if isinstance(job, MeshJob) else f"{job.source} -> {job.target}",
-        "result": job.result,
+        "result": "",  # nothing was written for it
     }
 
 
