@@ -536,3 +536,27 @@ def test_batch_task_failure_keeps_the_other_results(tmp_path, monkeypatch):
     job = MeshJob("b", str(broken), str(tmp_path / "meshes" / "b.npz"), ("info",), {}, "{}", "t")
     row = run_job(job)
     assert row["status"] == "failed" and row["result"] == ""  # no file is named
+
+
+@pytest.mark.parametrize("level, quads", [(3, 10**8), (0, 10**6)])
+def test_quad_count_bounded_by_the_input(level, quads, tmp_path, alarm, capsys):
+    mesh = _mesh_file(tmp_path / "m.off", fvf.icosphere(level))
+    code = main(["quad", str(mesh), "--faces", str(quads), "-o", str(tmp_path / "q.obj")])
+    assert code == EXIT_BAD_INPUT
+    assert "quads per input triangle" in capsys.readouterr().err
+    assert not (tmp_path / "q.obj").exists()
+
+
+def test_quad_count_bounded_by_the_machine(monkeypatch, alarm):
+    from fvf.numerics import budget
+
+    monkeypatch.setattr(budget, "available_memory", lambda: 2**20)  # 1 MiB
+    with pytest.raises(errors.ProblemSizeError, match="GiB of memory"):
+        fvf.quad_mesh(fvf.icosphere(2), target_faces=1000)
+
+
+def test_available_memory_is_a_positive_size():
+    from fvf.numerics.budget import available_memory
+
+    free = available_memory()
+    assert free is None or free > 0

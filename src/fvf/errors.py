@@ -34,6 +34,7 @@ __all__ = [
     "NonTangentFieldWarning",
     "ZeroFieldWarning",
     "ParameterError",
+    "ProblemSizeError",
     "FlowOverflowError",
     "FlowGrowthWarning",
     "ExpmInputError",
@@ -190,6 +191,12 @@ class ParameterError(FvfError):
     """A scalar or option argument is invalid: a non-finite or out-of-range time, step,
     weight, tolerance or count, or an unknown option name (the message lists the valid
     ones)."""
+
+
+class ProblemSizeError(ParameterError):
+    """A requested size (quads, vertices, eigenpairs) would need more memory than the
+    machine has, or more than the input can carry; refused before anything is allocated
+    (the message gives the estimate and what to change)."""
 
 
 # ---------------------------------------------------------------------------- flows
