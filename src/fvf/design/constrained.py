@@ -598,11 +598,15 @@ def design_field(
 
     if f.size == 0 and align is None:
         return smoothest()
-    report("assemble", 0, 1)
+    report("assemble", 0, 1)  # its parts reported as they start: minutes on 2M faces
+    report("assemble: connection Laplacian", 0, 1)
     L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     A = mesh.face_areas
+    if align is not None:
+        report("assemble: alignment targets", 0, 1)
     pen, rhs = _alignment_terms(mesh, n, align, align_weights, align_strength)
     if align_smoothing is not None:
+        report("assemble: smoothing the alignment", 0, 1)
         pen, rhs = _smoothed_alignment(mesh, L, pen, rhs, align_smoothing, backend)
     seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
     if f.size:
