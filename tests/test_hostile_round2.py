@@ -597,3 +597,30 @@ def test_quad_cross_field_stage_reports_its_parts():
     assert "cross field: assemble: connection Laplacian" in parts
     assert "cross field: solve" in parts
     assert seen.index("cross field") < seen.index(parts[0])
+
+
+def test_silent_scheduler_times_out(tmp_path, monkeypatch, alarm):
+    """A server that accepts the connection and never answers: BatchInputError after the
+    connect timeout (was: silent for minutes)."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+    import time
+
+    from fvf.batch import driver
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
+    monkeypatch.setattr(driver, "CONNECT_TIMEOUT", 1.0)
+    mesh = _mesh_file(tmp_path / "m.off")
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    start = time.perf_counter()
+    try:
+        with pytest.raises(errors.BatchInputError, match="no answer within 1 s"):
+            fvf.batch.run([mesh], tmp_path / "out", scheduler=address, progress=False)
+    finally:
+        server.close()
+    assert time.perf_counter() - start < 15

@@ -303,6 +303,7 @@ def _connected(
         return
     if scheduler is not None:
         try:
+            _probe_scheduler(scheduler, CONNECT_TIMEOUT)
             c = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError, ValueError) as exc:
             raise BatchInputError(
@@ -333,6 +334,48 @@ def _connected(
                 yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
         finally:
             cluster.close()
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Ask a plain TCP scheduler who it is, within ``timeout`` seconds in all: a server
+    that accepts the connection and never answers would hold ``distributed.Client`` for
+    ever (its own timeout covers the connection, not the handshake). Raises TimeoutError
+    or OSError; other protocols (tls://, inproc://) are left to the client."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    if "://" in address and not address.startswith("tcp://"):
+        return
+
+    async def identity() -> None:
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            await comm.read()
+        finally:
+            comm.abort()
+
+    async def bounded() -> None:
+        await asyncio.wait_for(identity(), timeout)
+
+    import threading
+
+    failure: list[BaseException] = []
+
+    def probe() -> None:  # in a thread of its own: the caller may run an event loop
+        try:
+            asyncio.run(bounded())
+        except BaseException as exc:  # handed to the caller
+            failure.append(exc)
+
+    thread = threading.Thread(target=probe, name="fvf-scheduler-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 5.0)
+    if thread.is_alive() or (failure and isinstance(failure[0], asyncio.TimeoutError)):
+        raise TimeoutError(f"no answer within {timeout:g} s")
+    if failure:
+        raise failure[0]
 
 
 def _warm() -> str | None:
