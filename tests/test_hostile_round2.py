@@ -624,3 +624,77 @@ def test_silent_scheduler_times_out(tmp_path, monkeypatch, alarm):
     finally:
         server.close()
     assert time.perf_counter() - start < 15
+
+
+@pytest.fixture
+def read_only(tmp_path):
+    """A folder nobody can write into: a read-only tmpfs (root), else mode 0o555."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    mounted = False
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        done = subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(folder)],
+            capture_output=True,
+        )
+        if done.returncode != 0:
+            pytest.skip("root, and cannot mount a read-only tmpfs here")
+        mounted = True
+    else:
+        folder.chmod(0o555)
+    try:
+        yield folder
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(folder)], capture_output=True)
+        else:
+            folder.chmod(0o755)
+
+
+def _commands_writing_to(ro: Path, mesh: Path, data: Path) -> list[list[str]]:
+    m, d, here = str(mesh), str(data), mesh.parent
+    k = ["--k", "20", "--k-fit", "8"]
+    return [
+        ["repair", m, "-o", f"{ro}/r.off"],
+        ["flow", m, d, "--t", "0.1", "-o", f"{ro}/f.npz"],
+        ["flow", m, d, "--t", "0.1", "-o", f"{mesh.parent}/f.npz", "--png", f"{ro}/f.png"],
+        ["bracket", m, d, "--first", "v", "--second", "u", "-o", f"{ro}/b.npz"],
+        ["transport", m, d, "--t", "0.1", "--field", "v", "--transported", "u", "-o", f"{ro}/t"],
+        ["design", m, "-o", f"{ro}/d.npz"],
+        ["quad", m, "--faces", "300", "-o", f"{ro}/q.obj"],
+        ["quad", m, "--faces", "300", "-o", f"{mesh.parent}/q.obj", "--uv", f"{ro}/uv.obj"],
+        ["match", m, m, *k, "-o", f"{ro}/m.npz"],
+        ["match", m, m, *k, "-o", f"{here}/m.npz", "--png", f"{ro}/m.png"],
+        ["symmetry", m, *k, "-o", f"{ro}/y.npz"],
+        ["symmetry", m, *k, "-o", f"{here}/y.npz", "--png", f"{ro}/y.png"],
+        ["render", m, d, "--field", "v", "-o", f"{ro}/p.png"],
+        ["demo", "--mesh", m, "--out", f"{ro}/demo"],
+        ["demo", "--mesh", m, "--out", str(ro)],
+        ["batch", m, "-o", f"{ro}/out", "--workers", "1", "--quiet"],
+        ["batch", m, "-o", str(ro), "--workers", "1", "--quiet"],
+    ]  # fmt: skip
+
+
+def test_read_only_output_folder_exits_5_for_every_command(read_only, tmp_path, capsys, alarm):
+    from fvf.cli.registry import registered_commands
+
+    work = tmp_path / "in"
+    work.mkdir()
+    mesh = _mesh_file(work / "s.off", fvf.icosphere(2))
+    sphere = fvf.icosphere(2)
+    c = sphere.face_centroids
+    data = work / "d.npz"
+    np.savez(
+        data,
+        v=sphere.project_tangent(np.cross(c, [0, 0, 1])),
+        u=sphere.project_tangent(np.cross(c, [1, 0, 0])),
+        f=sphere.vertices[:, 0],
+    )
+    runs = _commands_writing_to(read_only, mesh, data)
+    writing = set(registered_commands()) - {"info", "view"}
+    assert writing == {argv[0] for argv in runs}  # a new command joins this sweep
+    before = sorted(work.iterdir())
+    for argv in runs:
+        assert main(argv) == EXIT_WRITE_FAILED, (argv, capsys.readouterr().err)
+        assert "OutputWriteError" in capsys.readouterr().err
+        assert list(read_only.iterdir()) == [] and sorted(work.iterdir()) == before, argv

@@ -28,13 +28,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import FvfError
+from ..errors import FvfError, OutputError
 from .report import Story, fmt, render_html
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh  # noqa: F401
     from ..param.seamless import SeamlessParameterization  # noqa: F401
-from ..io.atomic import atomic_path, atomic_write_text
+from ..io.atomic import atomic_path, atomic_write_text, writable_folder
 
 __all__ = ["demo"]
 
@@ -695,10 +695,9 @@ def demo(
     """
     import fvf
 
+    out = writable_folder(out, "the demo's report")  # before any work: exit 5 at once
     t0 = _stage("loading mesh")
     mesh = fvf.TriMesh(*fvf.read_mesh(mesh_path)) if mesh_path else fvf.mesh.builtin.spot()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     report: dict = {
         "mesh": mesh_path or "built-in spot.obj",
         "n_vertices": mesh.n_vertices,
@@ -724,8 +723,8 @@ def demo(
         try:
             fn(s, story)
         except (FvfError, AttributeError) as exc:
-            if isinstance(exc, AttributeError) and not not_done:
-                raise  # a bug, not a section needing the result of one that was not done
+            if isinstance(exc, OutputError) or (isinstance(exc, AttributeError) and not not_done):
+                raise  # an output lost, or a bug (not a section needing one not done)
             not_done.append(_section_not_done(story, fn, title, begun, exc))
         story.stages[-1].seconds = time.perf_counter() - t
     if not_done:

@@ -35,6 +35,7 @@ __all__ = [
     "deferred_fsync",
     "fsync_directory",
     "same_file",
+    "writable_folder",
 ]
 
 #: errno values that mean "the output could not be written" (not "bad content").
@@ -331,3 +332,29 @@ def check_not_input(
                 "write to another path, or pass --force (overwrite_inputs=True) to "
                 "replace it (a link is then replaced, never written through)."
             )
+
+
+def writable_folder(path: str | os.PathLike, what: str = "the outputs") -> Path:
+    """``path`` as a folder that can be written into: created (with its parents) when
+    missing, checked before any work.
+
+    Raises
+    ------
+    OutputWriteError
+        The folder cannot be created or written into (a read-only file system or folder,
+        a file in the way); nothing was written. The command line exits with status 5.
+    """
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputWriteError(
+            f"{folder}: cannot create the folder for {what} ({exc.strerror or exc}); "
+            "nothing was written. Fix: give a folder you can write to"
+        ) from exc
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputWriteError(
+            f"{folder}: the folder for {what} is not writable; nothing was written. Fix: "
+            "give a folder you can write to"
+        )
+    return folder
