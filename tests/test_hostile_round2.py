@@ -22,7 +22,7 @@ import fvf
 from fvf import errors
 from fvf.batch import store
 from fvf.cli.main import EXIT_BAD_INPUT, EXIT_WRITE_FAILED, main
-from fvf.io.datafile import read_data, write_data
+from fvf.io.datafile import data_path, read_data, write_data
 
 
 @pytest.fixture
@@ -698,3 +698,95 @@ def test_read_only_output_folder_exits_5_for_every_command(read_only, tmp_path, 
         assert main(argv) == EXIT_WRITE_FAILED, (argv, capsys.readouterr().err)
         assert "OutputWriteError" in capsys.readouterr().err
         assert list(read_only.iterdir()) == [] and sorted(work.iterdir()) == before, argv
+
+
+def _sweep_inputs(folder: Path) -> dict[str, Path]:
+    """Every kind of input a command reads, generated: a PLY mesh (a PLY is also a data
+    output, so ``-o`` can name it), a data file, constraints, features, landmarks, truth."""
+    sphere = fvf.icosphere(2)
+    c = sphere.face_centroids
+    paths = {
+        "mesh": _mesh_file(folder / "s.ply", sphere),
+        "mesh2": _mesh_file(folder / "s2.ply", sphere),
+        "data": folder / "d.npz",
+        "constraints": folder / "c.npz",
+        "features": folder / "feat.txt",
+        "landmarks": folder / "lmk.txt",
+        "truth": folder / "t.txt",
+    }
+    v = sphere.project_tangent(np.cross(c, [0, 0, 1]))
+    np.savez(paths["data"], v=v, u=sphere.project_tangent(np.cross(c, [1, 0, 0])))
+    np.savez(paths["constraints"], constraint_faces=np.array([0]), directions=v[:1])
+    e = sphere.edges[0]
+    paths["features"].write_text(f"{e[0]} {e[1]}\n")
+    paths["landmarks"].write_text("0 0\n5 5\n")
+    paths["truth"].write_text("\n".join(map(str, range(sphere.n_vertices))) + "\n")
+    return paths
+
+
+def _sweep_commands(p: dict[str, Path], out: Path) -> list[tuple[list[str], dict[str, str]]]:
+    """(argv with its inputs, {output option: a fresh path}) of every writing command."""
+    m, d = str(p["mesh"]), str(p["data"])
+    k = ["--k", "20", "--k-fit", "8"]
+    return [
+        (["repair", m], {"-o": f"{out}/r.ply"}),
+        (["flow", m, d, "--t", "0.1"], {"-o": f"{out}/f.npz", "--png": f"{out}/f.png"}),
+        (["bracket", m, d, "--first", "v", "--second", "u"], {"-o": f"{out}/b.npz"}),
+        (["transport", m, d, "--t", "0.1", "--field", "v", "--transported", "u"],
+         {"-o": f"{out}/t.npz"}),
+        (["design", m, "--constraints", str(p["constraints"])], {"-o": f"{out}/d.npz"}),
+        (["quad", m, d, "--faces", "300", "--field", "v", "--features", str(p["features"])],
+         {"-o": f"{out}/q.obj", "--uv": f"{out}/uv.obj", "--png": f"{out}/q.png"}),
+        (["match", m, str(p["mesh2"]), *k, "--landmarks", str(p["landmarks"]), "--truth",
+          str(p["truth"])], {"-o": f"{out}/m.npz", "--png": f"{out}/m.png"}),
+        (["symmetry", m, *k], {"-o": f"{out}/y.npz", "--png": f"{out}/y.png"}),
+        (["render", m, d, "--field", "v"], {"-o": f"{out}/p.png"}),
+    ]  # fmt: skip
+
+
+#: Commands whose -o is a data file: ``.npz`` is appended to a name without a data suffix.
+_DATA_OUTPUTS = {"flow", "bracket", "transport", "design", "match", "symmetry"}
+
+
+def test_every_output_named_after_every_input_is_refused(tmp_path, capsys, alarm):
+    """Each output option of each command, named after each of its inputs (a derived
+    name too: ``--png NAME`` writes NAME_errors beside NAME), is refused before any work
+    (exit 2), and every input keeps its bytes."""
+    from fvf.cli.registry import registered_commands
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    p = _sweep_inputs(folder)
+    out = tmp_path / "out"
+    out.mkdir()
+    commands = _sweep_commands(p, out)
+    assert {argv[0] for argv, _ in commands} == set(registered_commands()) - {
+        "info", "view", "demo", "batch"  # no outputs; a folder of own names; own tests
+    }  # fmt: skip
+    before = {path: path.read_bytes() for path in p.values()}
+    cases = 0
+    for argv, outputs in commands:
+        used = [path for path in p.values() if str(path) in argv]
+        for option in outputs:
+            for path in used:
+                if option == "-o" and argv[0] in _DATA_OUTPUTS and data_path(path) != path:
+                    continue  # -o lmk.txt writes lmk.txt.npz: another file
+                named = {**outputs, option: str(path)}
+                full = argv + [x for o, name in named.items() for x in (o, name)]
+                assert main(full) == EXIT_BAD_INPUT, (full, capsys.readouterr().err)
+                assert "replace an input" in capsys.readouterr().err, full
+                assert {q: q.read_bytes() for q in p.values()} == before, full
+                assert list(out.iterdir()) == [], full
+                cases += 1
+    # derived names: match's --png NAME also writes NAME_errors.SUFFIX
+    for victim in ("truth", "landmarks"):
+        argv, outputs = commands[6]
+        twin = p[victim].with_name("x_errors.png")
+        p[victim].rename(twin)
+        full = [twin if a == str(p[victim]) else a for a in argv]
+        full = [str(a) for a in full] + ["-o", outputs["-o"], "--png", str(folder / "x.png")]
+        assert main(full) == EXIT_BAD_INPUT, full
+        assert "replace an input" in capsys.readouterr().err
+        twin.rename(p[victim])
+        assert {q: q.read_bytes() for q in p.values()} == before
+    assert cases > 25
