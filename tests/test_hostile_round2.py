@@ -790,3 +790,20 @@ def test_every_output_named_after_every_input_is_refused(tmp_path, capsys, alarm
         twin.rename(p[victim])
         assert {q: q.read_bytes() for q in p.values()} == before
     assert cases > 25
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e-300, 1e200])
+def test_repair_at_extreme_scales_keeps_every_face(scale):
+    """1e300-scaled coordinates overflowed the area test (faces removed as "zero area")
+    and 1e-300 underflowed it (every face removed); the rule is scale-free."""
+    mesh = fvf.icosphere(1)
+    with _no_warning():
+        reference = fvf.repair_mesh(mesh.vertices, mesh.faces)
+        result = fvf.repair_mesh(mesh.vertices * scale, mesh.faces)
+    np.testing.assert_array_equal(result.faces, reference.faces)
+    assert result.log == reference.log == ()
+    inside_out = mesh.faces[:, ::-1]
+    with _no_warning():
+        expected = fvf.repair_mesh(mesh.vertices, inside_out, ["orient_faces"]).faces
+        flipped = fvf.repair_mesh(mesh.vertices * scale, inside_out, ["orient_faces"]).faces
+    np.testing.assert_array_equal(flipped, expected)
