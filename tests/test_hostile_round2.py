@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -807,3 +808,86 @@ def test_repair_at_extreme_scales_keeps_every_face(scale):
         expected = fvf.repair_mesh(mesh.vertices, inside_out, ["orient_faces"]).faces
         flipped = fvf.repair_mesh(mesh.vertices * scale, inside_out, ["orient_faces"]).faces
     np.testing.assert_array_equal(flipped, expected)
+
+
+def test_progress_with_the_wrong_signature_is_refused_before_work():
+    with pytest.raises(errors.ParameterError, match=r"progress\(stage, done, total\)"):
+        fvf.SpectralBasis(fvf.icosphere(2), 5, progress=lambda stage: None)
+    fvf.SpectralBasis(fvf.icosphere(2), 5, progress=lambda *a, **k: None)  # any (s, d, t)
+
+
+def test_pyvista_triangle_strips_are_triangles():
+    pv = pytest.importorskip("pyvista")
+    sphere = pv.Sphere()
+    mesh = fvf.as_mesh(sphere.strip())
+    assert mesh.n_faces == sphere.n_cells and mesh.is_closed
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".off", ".stl"])
+def test_non_ascii_output_paths(suffix, tmp_path):
+    mesh = _mesh_file(tmp_path / "s.off")
+    folder = tmp_path / "résumé"
+    folder.mkdir()
+    out = folder / f"fïxé_ü{suffix}"
+    assert main(["repair", str(mesh), "-o", str(out)]) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fvf.VerticesWeldedWarning)  # STL's corners
+        V, F = fvf.read_mesh(out)
+    assert F.shape == (80, 3)
+    if suffix == ".ply":
+        data = folder / "dé.ply"
+        assert main(["design", str(out), "-o", str(data)]) == 0
+        assert read_data(data, fvf.TriMesh(V, F)).field("v", fvf.TriMesh(V, F)).shape == (80, 3)
+
+
+def _fvf_command(*argv: str) -> list[str]:
+    return [sys.executable, "-m", "fvf", *argv]
+
+
+def _env() -> dict:
+    return {**os.environ, "PYTHONPATH": str(Path(fvf.__file__).parents[1])}
+
+
+def test_full_stdout_and_closed_pipe_keep_the_work(tmp_path):
+    """`fvf repair … >/dev/full` and `fvf quad … 2>&1 | head -1` lose their messages,
+    not their files, and exit with the status of the work."""
+    mesh = _mesh_file(tmp_path / "s.off", fvf.icosphere(2))
+    if os.path.exists("/dev/full"):
+        with open("/dev/full", "w") as full:
+            done = subprocess.run(
+                _fvf_command("repair", str(mesh), "-o", str(tmp_path / "r.off")),
+                stdout=full, stderr=subprocess.PIPE, env=_env(), timeout=120,
+            )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / "r.off").exists() and (tmp_path / "r.maps.npz").exists()
+    out = tmp_path / "q.obj"
+    proc = subprocess.Popen(
+        _fvf_command("quad", str(mesh), "--faces", "300", "-o", str(out)),
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=_env(),
+    )  # fmt: skip
+    assert proc.stdout is not None
+    proc.stdout.readline()  # head -1
+    proc.stdout.close()
+    assert proc.wait(timeout=120) == 0
+    assert sum(line.startswith("f ") for line in out.read_text().splitlines()) > 200
+
+
+def test_batch_results_folder_that_is_a_file(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    mesh = _mesh_file(tmp_path / "s.off")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "meshes").write_text("mine")
+    argv = ["batch", str(mesh), "-o", str(out), "--workers", "1", "--quiet"]
+    assert main(argv) == EXIT_BAD_INPUT
+    assert "meshes is a file" in capsys.readouterr().err
+    assert (out / "meshes").read_text() == "mine"
+
+
+def test_long_output_names_are_written(tmp_path):
+    """A 250-character name is valid; its temporary (``.NAME.<hex>.npz``) was not."""
+    name = "a" * 250
+    mesh = _mesh_file(tmp_path / f"{name}.off")
+    assert main(["design", str(mesh), "-o", str(tmp_path / f"{name}.npz")]) == 0
+    assert (tmp_path / f"{name}.npz").exists()
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

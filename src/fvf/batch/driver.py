@@ -22,7 +22,14 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import BatchInputError, BatchWarning, MissingExtraError, ParameterError
+from ..errors import (
+    BatchInputError,
+    BatchOutputError,
+    BatchWarning,
+    MissingExtraError,
+    ParameterError,
+)
+from ..io.atomic import writable_folder
 from .inputs import MeshInput, PairInput, plan_inputs
 from .progress import Progress
 from .registry import Task, registered_tasks, resolve_tasks
@@ -334,6 +341,19 @@ def _connected(
                 yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
         finally:
             cluster.close()
+
+
+def _result_folders(jobs: Sequence[MeshJob | PairJob]) -> None:
+    """Create the folders the results go to (``OUT/meshes``, ``OUT/pairs``) before any
+    work: :class:`fvf.BatchOutputError` when a file is in the way, OutputWriteError when
+    they cannot be created or written."""
+    for folder in sorted({Path(job.result).parent for job in jobs}):
+        if folder.exists() and not folder.is_dir():
+            raise BatchOutputError(
+                f"{folder} is a file, where the batch puts its results; move it away or "
+                "give -o another folder"
+            )
+        writable_folder(folder, "the batch results")
 
 
 def _probe_scheduler(address: str, timeout: float) -> None:
@@ -685,6 +705,7 @@ def run(
 
     with output_lock(out):
         remove_temporaries(out)
+        _result_folders(jobs)
         try:
             with _connected(client, scheduler, workers, memory_limit, retries) as (c, where):
                 local = client is None and scheduler is None

@@ -170,6 +170,20 @@ def _create(tmp: Path, mode: int, target: Path) -> bool:
     return True
 
 
+#: Bytes of a file name on common file systems (ext4, APFS, NTFS in UTF-16 units).
+NAME_MAX = 255
+
+
+def _short_name(target: Path, suffix: str) -> str:
+    """``target``'s name for its temporary, shortened (stem cut to 120 characters, the
+    suffix kept) when ``.NAME.<16 hex>SUFFIX`` would be longer than :data:`NAME_MAX`: a
+    250-character output name is valid, its temporary must be too."""
+    name = target.name
+    if len(f".{name}.{'0' * 16}{suffix}".encode()) <= NAME_MAX:
+        return name
+    return target.stem[:120] + target.suffix[:40]
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """A temporary path beside ``path``; on success it is fsynced and renamed to ``path``.
@@ -189,7 +203,8 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     Yields
     ------
     pathlib.Path
-        Where to write: ``.<name>.<16 hex digits><suffix>`` beside ``path``. The file
+        Where to write: ``.<name>.<16 hex digits><suffix>`` beside ``path`` (a name too
+        long for that is cut to 120 characters and its suffix). The file
         exists (empty) when the block starts; it has the mode of the file it will
         replace, or the default mode of new files (umask).
 
@@ -220,9 +235,10 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     suffix = target.suffix if suffix is None else suffix
     mode = _mode(target)
     tmp: Path | None = None  # named before it is created: the cleanup below always knows it
+    name = _short_name(target, suffix)
     try:
         for _ in range(100):
-            tmp = directory / f".{target.name}.{secrets.token_hex(8)}{suffix}"
+            tmp = directory / f".{name}.{secrets.token_hex(8)}{suffix}"
             if _create(tmp, mode, target):
                 break
             tmp = None  # another writer's file: never removed here
