@@ -891,3 +891,28 @@ def test_long_output_names_are_written(tmp_path):
     assert main(["design", str(mesh), "-o", str(tmp_path / f"{name}.npz")]) == 0
     assert (tmp_path / f"{name}.npz").exists()
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_ply_times_are_times_when_there_are_as_many_as_vertices(tmp_path):
+    """A flow with T = n times wrote ``f_t_j`` as vertex j's history and the times as a
+    vertex function; (n, 3) functions came out as a vector ``fx fy fz``."""
+    mesh = _strip()
+    n = mesh.n_vertices
+    fvf.write_mesh(tmp_path / "m.off", mesh.vertices, mesh.faces)
+    v = mesh.project_tangent(np.cross(mesh.face_centroids, [0, 0, 1]))
+    np.savez(tmp_path / "d.npz", v=v, f=mesh.vertices[:, 2].copy())
+    times = [str(x) for x in np.linspace(0, 0.5, n)]
+    base = ["flow", str(tmp_path / "m.off"), str(tmp_path / "d.npz"), "--t", *times]
+    assert main([*base, "-o", str(tmp_path / "a.npz")]) == 0
+    assert main([*base, "-o", str(tmp_path / "a.ply")]) == 0
+    vertex, face = fvf.io.read_ply_properties(tmp_path / "a.ply")
+    assert "t" not in vertex and set(face) == {"vx", "vy", "vz"}
+    with np.load(tmp_path / "a.npz") as ref:
+        for i in (0, 3, n - 1):
+            np.testing.assert_array_equal(vertex[f"f_t_{i}"], ref["f_t"][i])  # time i
+    np.savez(tmp_path / "f3.npz", f=np.arange(3.0 * n).reshape(n, 3), v=v)
+    three = ["flow", str(tmp_path / "m.off"), str(tmp_path / "f3.npz"), "--t", "0.1"]
+    assert main([*three, "-o", str(tmp_path / "b.ply")]) == 0
+    vertex, _ = fvf.io.read_ply_properties(tmp_path / "b.ply")
+    assert {"f_0", "f_1", "f_2", "f_t_0_0", "f_t_0_1", "f_t_0_2"} <= set(vertex)
+    np.testing.assert_array_equal(vertex["f_1"], np.arange(3.0 * n).reshape(n, 3)[:, 1])
