@@ -916,3 +916,40 @@ def test_ply_times_are_times_when_there_are_as_many_as_vertices(tmp_path):
     vertex, _ = fvf.io.read_ply_properties(tmp_path / "b.ply")
     assert {"f_0", "f_1", "f_2", "f_t_0_0", "f_t_0_1", "f_t_0_2"} <= set(vertex)
     np.testing.assert_array_equal(vertex["f_1"], np.arange(3.0 * n).reshape(n, 3)[:, 1])
+
+
+def test_info_tells_touching_from_cut_and_names_needles(tmp_path, capsys):
+    s = fvf.icosphere(2)
+    touching = tmp_path / "touch.off"  # two closed spheres meeting at one point
+    fvf.write_mesh(touching, np.vstack([s.vertices, s.vertices + [2, 0, 0]]),
+                   np.vstack([s.faces, s.faces + s.n_vertices]))  # fmt: skip
+    assert main(["info", str(touching)]) == 0
+    out = capsys.readouterr().out
+    assert "touches itself" in out and "To weld them" not in out
+    soup = tmp_path / "soup.off"  # a cut: an unwelded disk
+    d = fvf.disk(3, 6)
+    fvf.write_mesh(
+        soup, d.vertices[d.faces].reshape(-1, 3), np.arange(3 * d.n_faces).reshape(-1, 3)
+    )
+    main(["info", str(soup)])
+    assert "To weld them" in capsys.readouterr().out
+    V = s.vertices.copy()
+    a, b, c = s.faces[0]
+    V[c] = 0.5 * (V[a] + V[b]) + 0.0035 * (V[c] - 0.5 * (V[a] + V[b]))  # a 0.4 degree needle
+    needle = tmp_path / "needle.off"
+    fvf.write_mesh(needle, V, s.faces)
+    main(["info", str(needle)])
+    assert "faces [0] (1 in all) are needles" in capsys.readouterr().out
+
+
+def test_info_fix_for_a_nonmanifold_edge_is_what_repair_does(tmp_path, capsys):
+    t = fvf.icosphere(0)
+    a, b, _ = t.faces[0]
+    fin = tmp_path / "fin.off"  # a third face on edge (a, b)
+    fvf.write_mesh(fin, np.vstack([t.vertices, [[3, 3, 3]]]),
+                   np.vstack([t.faces, [[a, b, t.n_vertices]]]))  # fmt: skip
+    assert main(["info", str(fin)]) == 1
+    assert "Fixed by `fvf repair` (step split_nonmanifold_edges)" in capsys.readouterr().out
+    fixed = tmp_path / "fin_fixed.off"
+    assert main(["repair", str(fin), "-o", str(fixed)]) == 0
+    assert main(["info", str(fixed)]) == 0
