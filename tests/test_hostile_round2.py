@@ -953,3 +953,24 @@ def test_info_fix_for_a_nonmanifold_edge_is_what_repair_does(tmp_path, capsys):
     fixed = tmp_path / "fin_fixed.off"
     assert main(["repair", str(fin), "-o", str(fixed)]) == 0
     assert main(["info", str(fixed)]) == 0
+
+
+@pytest.mark.parametrize("text", ["0.5", "nan", "1e3", "99999999999999999999999"])
+def test_non_integer_truth_and_pair_maps_name_file_and_line(text, tmp_path, capsys):
+    from fvf.batch.registry import PairContext
+
+    n = fvf.icosphere(1).n_vertices
+    bad = tmp_path / "t.txt"
+    bad.write_text("# truth\n" + "0\n" * 3 + f"{text}\n" + "0\n" * (n - 4))
+    assert main([*_match_args(tmp_path), "--truth", str(bad)]) == EXIT_BAD_INPUT
+    assert f"{bad}: the ground truth must be 1 integer(s) per line; line 5 is" in (
+        capsys.readouterr().err
+    )
+    mesh = fvf.icosphere(1)
+
+    class Side:
+        def __init__(self):
+            self.mesh, self.path = mesh, tmp_path / "a.off"
+
+    with pytest.raises(ValueError, match="line 5"):
+        PairContext(Side(), Side(), str(bad), {}).point_map()

@@ -22,6 +22,7 @@ import importlib.util
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -773,7 +774,9 @@ def demo(
     return report
 
 
-def _section_not_done(story: Story, fn, title: str, begun: int, exc: Exception) -> str:
+def _section_not_done(
+    story: Story, fn: Callable[..., Any], title: str, begun: int, exc: Exception
+) -> str:
     """Record that a section could not be done on this mesh (a typed fvf error, or the
     result of an earlier section that was not done) in its report section; the demo goes
     on with the next one. Returns the section's title."""
