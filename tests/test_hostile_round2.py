@@ -974,3 +974,27 @@ def test_non_integer_truth_and_pair_maps_name_file_and_line(text, tmp_path, caps
 
     with pytest.raises(ValueError, match="line 5"):
         PairContext(Side(), Side(), str(bad), {}).point_map()
+
+
+def test_cannot_start_a_thread_is_explained(tmp_path, monkeypatch, capsys):
+    """Under a small ``ulimit -v`` Python says "can't start new thread"; fvf says which
+    limit and what to do, on the command line and in batch rows."""
+    from fvf.batch import runner
+
+    def no_thread(*args, **kwargs):
+        raise RuntimeError("can't start new thread")
+
+    mesh = _mesh_file(tmp_path / "m.off")
+    monkeypatch.setattr(fvf, "design_field", no_thread)
+    assert main(["design", str(mesh), "-o", str(tmp_path / "d.npz")]) == 4
+    assert "ulimit -v" in capsys.readouterr().err
+    assert "ulimit -v" in runner._one_line(RuntimeError("can't start new thread"))
+
+
+def test_laplace_basis_counts_a_tiny_components_zero_eigenvalue():
+    s, t = fvf.icosphere(2), fvf.icosphere(0)
+    V = np.vstack([s.vertices, t.vertices * 1e-3 + [5, 0, 0]])
+    F = np.vstack([s.faces, t.faces + s.n_vertices])
+    basis = fvf.laplace_basis(fvf.TriMesh(V, F), 5)
+    lam = np.asarray(basis.eigenvalues if hasattr(basis, "eigenvalues") else basis[0])
+    assert np.abs(lam[:2]).max() < 1e-8 and lam[2] > 1.0

@@ -28,6 +28,7 @@ from ..errors import (
     BatchWarning,
     MissingExtraError,
     ParameterError,
+    thread_limit_text,
 )
 from ..io.atomic import writable_folder
 from .inputs import MeshInput, PairInput, plan_inputs
@@ -447,7 +448,7 @@ def _prepare(client: Any, note: Callable[[str], None], local: bool) -> dict | No
 
 def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -> dict:
     """The row of a job whose worker died too often (or whose future failed otherwise)."""
-    text = " ".join(str(exc).split())
+    text = thread_limit_text(exc) or " ".join(str(exc).split())
     if type(exc).__name__ == "KilledWorker":
         limit = "" if retries is None else f" (--retries {retries})"
         text = (

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import OutputWriteError
+from ..errors import OutputWriteError, thread_limit_text
 from ..io.atomic import atomic_path, deferred_fsync
 from ..io.datafile import write_data
 from ..io.meshfile import read_mesh
@@ -114,7 +114,7 @@ def _peak_mb(reset: bool) -> float:
 
 # ---------------------------------------------------------------------------- helpers
 def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
+    text = thread_limit_text(exc) or " ".join(str(exc).split())
     if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
         text = f"{exc.filename}: {exc.strerror}"
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

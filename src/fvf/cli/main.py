@@ -142,6 +142,10 @@ def parser() -> argparse.ArgumentParser:
 
 # ---------------------------------------------------------------------------- main
 def _one_line(exc: BaseException) -> str:
+    from fvf.errors import thread_limit_text
+
+    if thread_limit_text(exc):
+        return str(thread_limit_text(exc))
     if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
         text = f"{exc.filename}: {exc.strerror}"
     else:
