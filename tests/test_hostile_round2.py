@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -22,7 +23,7 @@ import fvf
 from fvf import errors
 from fvf.batch import store
 from fvf.cli.main import EXIT_BAD_INPUT, EXIT_WRITE_FAILED, main
-from fvf.io.datafile import read_data, write_data
+from fvf.io.datafile import data_path, read_data, write_data
 
 
 @pytest.fixture
@@ -407,3 +408,593 @@ def test_repair_vertex_at_float_limit(alarm):
         except errors.MeshError:  # a typed refusal is acceptable; a SciPy crash is not
             return
     assert result.vertex_map.shape == (len(V),)
+
+
+# ---------------------------------------------------------------------------- own results
+def _rounded_cube(level: int = 3) -> fvf.TriMesh:
+    """An icosphere pushed onto |x|^8 + |y|^8 + |z|^8 = 1: symmetric about the cube's
+    diagonals, so the smoothest cross field vanishes on the faces at its 8 corners."""
+    s = fvf.icosphere(level)
+    V = s.vertices / (np.sum(s.vertices**8, axis=1) ** (1 / 8))[:, None]
+    return fvf.TriMesh(V, s.faces)
+
+
+def test_designed_cross_field_of_a_symmetric_shape_is_accepted_everywhere():
+    mesh = _rounded_cube()
+    u = fvf.design_field(mesh, n=4)
+    length = np.linalg.norm(u, axis=1)
+    assert length.min() > 1e-10 * length.max()  # every face has a direction
+    ids, index = fvf.singularities(mesh, u, n=4)
+    assert index.tolist() == [0.25] * 8  # the cube's corners
+    corners = np.abs(mesh.vertices[ids])
+    assert (corners > 0.6).all()
+    cut = fvf.cut_graph(mesh, u, 4)
+    fvf.comb(mesh, u, 4, cut)
+    fvf.period_jumps(mesh, u, 4)
+
+
+def test_zero_fill_reports_a_cone_on_a_zero_face():
+    mesh = fvf.disk(6, 8)
+    u = mesh.face_centroids * [1, 1, 0]  # a source at vertex 0
+    fan = np.flatnonzero((mesh.faces == 0).any(axis=1))
+    u[fan[0]] = 0.0  # a zero next to the source
+    with pytest.raises(errors.FieldShapeError, match="zero='fill'"):
+        fvf.singularities(mesh, u)
+    ids, index = fvf.singularities(mesh, u, zero="fill")
+    assert index.sum() == 1 and ids.size == 1
+    assert ids[0] in mesh.faces[fan[0]]
+    with pytest.warns(fvf.ZeroFieldWarning):  # nothing to fill from: as "warn"
+        assert fvf.singularities(mesh, np.zeros((mesh.n_faces, 3)), zero="fill")[0].size == 0
+
+
+def test_demo_reports_a_section_it_cannot_do(tmp_path, monkeypatch):
+    from fvf.cli import demo as demo_module
+
+    def fails(s, story):
+        """A section this mesh does not allow."""
+        story.begin("cannot", fails)
+        raise errors.FieldShapeError("u is (numerically) zero at faces [1]")
+
+    def needs_it(s, story):
+        """A section that needs the failed section's result."""
+        return s.missing
+
+    mesh = _mesh_file(tmp_path / "m.off")
+    stages = (demo_module.STAGES[0], fails, needs_it)
+    report = demo_module.demo(str(mesh), tmp_path / "o", pictures=False, stages=stages)
+    assert report["sections_not_done"] == [
+        "cannot (not done)",
+        "A section that needs the failed section's result (not done)",
+    ]
+    assert (tmp_path / "o" / "summary.json").exists()
+    assert "FieldShapeError" in (tmp_path / "o" / "index.html").read_text()
+
+
+def _float32_ply(path: Path, mesh: fvf.TriMesh) -> Path:
+    V, F = mesh.vertices.astype("<f4"), mesh.faces
+    header = (
+        f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    faces = np.zeros(len(F), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    faces["n"], faces["i"] = 3, F
+    path.write_bytes(header.encode() + V.tobytes() + faces.tobytes())
+    return path
+
+
+def test_float32_input_gives_the_float64_answer(tmp_path):
+    sphere = fvf.icosphere(3)
+    tet = fvf.TriMesh(
+        np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float32),
+        np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]),
+    )
+    for mesh in (sphere, tet):
+        read = fvf.TriMesh(*fvf.read_mesh(_float32_ply(tmp_path / "f.ply", mesh)))
+        assert read.vertices.dtype == np.float64
+        for n in (1, 4):
+            u = fvf.design_field(read, n=n)
+            length = np.linalg.norm(u, axis=1)
+            assert length.min() > 1e-3 * length.max(), (mesh.n_faces, n)
+            ids, index = fvf.singularities(read, u, n=n)
+            assert index.sum() == pytest.approx(2.0)
+    u32 = fvf.design_field(tet, n=4)
+    u64 = fvf.design_field(fvf.TriMesh(tet.vertices.astype(np.float64), tet.faces), n=4)
+    np.testing.assert_allclose(u32, u64, atol=1e-6)
+
+
+def test_batch_task_failure_keeps_the_other_results(tmp_path, monkeypatch):
+    from fvf.batch import registry
+    from fvf.batch.runner import MeshJob, run_job
+    from fvf.batch.store import options_text
+
+    def boom(ctx):
+        raise errors.QuadExtractionError("no quads here")
+
+    quad = registry.lookup_task("quad")
+    monkeypatch.setitem(registry._REGISTRY, "quad", registry.Task("quad", boom))
+    late = registry.Task("late", lambda ctx: registry.TaskOutput(figures={"x": 1}), needs=("quad",))
+    mesh = _mesh_file(tmp_path / "dog2.off")
+    tasks = ("info", "fields", "singularities", "quad", late)
+    opts = {"k": 5}
+    result = tmp_path / "meshes" / "dog2.npz"
+    job = MeshJob("dog2", str(mesh), str(result), tasks, opts, options_text(tasks[:4], opts), "t")
+    row = run_job(job)
+    assert row["status"] == "failed"
+    assert row["error"] == (
+        "task quad: QuadExtractionError: no quads here; task late: needs quad, which failed"
+    )
+    assert row["result"] == str(result) and result.exists()
+    assert row["singularities_index_sum"] == pytest.approx(2.0) and row["info_problems"] == 0
+    with np.load(result) as data:
+        assert {"v", "singularity_indices", "info_report"} <= set(data.files)
+        assert "quad_quads" not in data.files
+    assert run_job(job)["status"] == "failed"  # a failed task is tried again, not skipped
+    monkeypatch.setitem(registry._REGISTRY, "quad", quad)
+
+    broken = tmp_path / "broken.off"
+    broken.write_text("OFF\n3 1 0\n0 0 0\n")
+    job = MeshJob("b", str(broken), str(tmp_path / "meshes" / "b.npz"), ("info",), {}, "{}", "t")
+    row = run_job(job)
+    assert row["status"] == "failed" and row["result"] == ""  # no file is named
+
+
+@pytest.mark.parametrize("level, quads", [(3, 10**8), (0, 10**6)])
+def test_quad_count_bounded_by_the_input(level, quads, tmp_path, alarm, capsys):
+    mesh = _mesh_file(tmp_path / "m.off", fvf.icosphere(level))
+    code = main(["quad", str(mesh), "--faces", str(quads), "-o", str(tmp_path / "q.obj")])
+    assert code == EXIT_BAD_INPUT
+    assert "quads per input triangle" in capsys.readouterr().err
+    assert not (tmp_path / "q.obj").exists()
+
+
+def test_quad_count_bounded_by_the_machine(monkeypatch, alarm):
+    from fvf.numerics import budget
+
+    monkeypatch.setattr(budget, "available_memory", lambda: 2**20)  # 1 MiB
+    with pytest.raises(errors.ProblemSizeError, match="GiB of memory"):
+        fvf.quad_mesh(fvf.icosphere(2), target_faces=1000)
+
+
+def test_available_memory_is_a_positive_size():
+    from fvf.numerics.budget import available_memory
+
+    free = available_memory()
+    assert free is None or free > 0
+
+
+def test_symmetry_operators_memory_scales_with_k_not_descriptors(monkeypatch, rng):
+    """The reduced operators of p descriptors on m faces once took (m, 3, p) and
+    (m, p, k) arrays at once (5.6 GB on 1M vertices whatever --k); now blocks."""
+    import tracemalloc
+
+    from fvf.spectral import fmap_fit
+
+    mesh = fvf.icosphere(4)
+    basis = fvf.SpectralBasis(mesh, 10)
+    F = rng.normal(size=(mesh.n_vertices, 40))
+    whole = [fmap_fit.orientation_operators(basis, F), fmap_fit.descriptor_operators(basis, F)]
+    monkeypatch.setattr(fmap_fit, "BLOCK_BYTES", 2**20)
+    tracemalloc.start()
+    try:
+        blocked = []
+        for op in (fmap_fit.orientation_operators, fmap_fit.descriptor_operators):
+            tracemalloc.reset_peak()
+            base = tracemalloc.get_traced_memory()[0]
+            blocked.append(op(basis, F))
+            peak = tracemalloc.get_traced_memory()[1] - base
+            assert peak < mesh.n_faces * 40 * 10 * 8 / 2, (op.__name__, peak)
+    finally:
+        tracemalloc.stop()
+    for a, b in zip(whole, blocked, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(a).max())
+
+
+def test_quad_cross_field_stage_reports_its_parts():
+    """On 2M faces the cross field took 2 minutes with one line; its parts are reported."""
+    seen = []
+    fvf.quad_mesh(fvf.icosphere(3), target_faces=200, progress=lambda *a: seen.append(a[0]))
+    parts = [s for s in seen if s.startswith("cross field: ")]
+    assert "cross field: assemble: connection Laplacian" in parts
+    assert "cross field: solve" in parts
+    assert seen.index("cross field") < seen.index(parts[0])
+
+
+def test_silent_scheduler_times_out(tmp_path, monkeypatch, alarm):
+    """A server that accepts the connection and never answers: BatchInputError after the
+    connect timeout (was: silent for minutes)."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+    import time
+
+    from fvf.batch import driver
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
+    monkeypatch.setattr(driver, "CONNECT_TIMEOUT", 1.0)
+    mesh = _mesh_file(tmp_path / "m.off")
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    start = time.perf_counter()
+    try:
+        with pytest.raises(errors.BatchInputError, match="no answer within 1 s"):
+            fvf.batch.run([mesh], tmp_path / "out", scheduler=address, progress=False)
+    finally:
+        server.close()
+    assert time.perf_counter() - start < 15
+
+
+@pytest.fixture
+def read_only(tmp_path):
+    """A folder nobody can write into: a read-only tmpfs (root), else mode 0o555."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    mounted = False
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        done = subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(folder)],
+            capture_output=True,
+        )
+        if done.returncode != 0:
+            pytest.skip("root, and cannot mount a read-only tmpfs here")
+        mounted = True
+    else:
+        folder.chmod(0o555)
+    try:
+        yield folder
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(folder)], capture_output=True)
+        else:
+            folder.chmod(0o755)
+
+
+def _commands_writing_to(ro: Path, mesh: Path, data: Path) -> list[list[str]]:
+    m, d, here = str(mesh), str(data), mesh.parent
+    k = ["--k", "20", "--k-fit", "8"]
+    return [
+        ["repair", m, "-o", f"{ro}/r.off"],
+        ["flow", m, d, "--t", "0.1", "-o", f"{ro}/f.npz"],
+        ["flow", m, d, "--t", "0.1", "-o", f"{mesh.parent}/f.npz", "--png", f"{ro}/f.png"],
+        ["bracket", m, d, "--first", "v", "--second", "u", "-o", f"{ro}/b.npz"],
+        ["transport", m, d, "--t", "0.1", "--field", "v", "--transported", "u", "-o", f"{ro}/t"],
+        ["design", m, "-o", f"{ro}/d.npz"],
+        ["quad", m, "--faces", "300", "-o", f"{ro}/q.obj"],
+        ["quad", m, "--faces", "300", "-o", f"{mesh.parent}/q.obj", "--uv", f"{ro}/uv.obj"],
+        ["match", m, m, *k, "-o", f"{ro}/m.npz"],
+        ["match", m, m, *k, "-o", f"{here}/m.npz", "--png", f"{ro}/m.png"],
+        ["symmetry", m, *k, "-o", f"{ro}/y.npz"],
+        ["symmetry", m, *k, "-o", f"{here}/y.npz", "--png", f"{ro}/y.png"],
+        ["render", m, d, "--field", "v", "-o", f"{ro}/p.png"],
+        ["demo", "--mesh", m, "--out", f"{ro}/demo"],
+        ["demo", "--mesh", m, "--out", str(ro)],
+        ["batch", m, "-o", f"{ro}/out", "--workers", "1", "--quiet"],
+        ["batch", m, "-o", str(ro), "--workers", "1", "--quiet"],
+    ]  # fmt: skip
+
+
+def test_read_only_output_folder_exits_5_for_every_command(read_only, tmp_path, capsys, alarm):
+    from fvf.cli.registry import registered_commands
+
+    work = tmp_path / "in"
+    work.mkdir()
+    mesh = _mesh_file(work / "s.off", fvf.icosphere(2))
+    sphere = fvf.icosphere(2)
+    c = sphere.face_centroids
+    data = work / "d.npz"
+    np.savez(
+        data,
+        v=sphere.project_tangent(np.cross(c, [0, 0, 1])),
+        u=sphere.project_tangent(np.cross(c, [1, 0, 0])),
+        f=sphere.vertices[:, 0],
+    )
+    runs = _commands_writing_to(read_only, mesh, data)
+    writing = set(registered_commands()) - {"info", "view"}
+    assert writing == {argv[0] for argv in runs}  # a new command joins this sweep
+    before = sorted(work.iterdir())
+    for argv in runs:
+        assert main(argv) == EXIT_WRITE_FAILED, (argv, capsys.readouterr().err)
+        assert "OutputWriteError" in capsys.readouterr().err
+        assert list(read_only.iterdir()) == [] and sorted(work.iterdir()) == before, argv
+
+
+def _sweep_inputs(folder: Path) -> dict[str, Path]:
+    """Every kind of input a command reads, generated: a PLY mesh (a PLY is also a data
+    output, so ``-o`` can name it), a data file, constraints, features, landmarks, truth."""
+    sphere = fvf.icosphere(2)
+    c = sphere.face_centroids
+    paths = {
+        "mesh": _mesh_file(folder / "s.ply", sphere),
+        "mesh2": _mesh_file(folder / "s2.ply", sphere),
+        "data": folder / "d.npz",
+        "constraints": folder / "c.npz",
+        "features": folder / "feat.txt",
+        "landmarks": folder / "lmk.txt",
+        "truth": folder / "t.txt",
+    }
+    v = sphere.project_tangent(np.cross(c, [0, 0, 1]))
+    np.savez(paths["data"], v=v, u=sphere.project_tangent(np.cross(c, [1, 0, 0])))
+    np.savez(paths["constraints"], constraint_faces=np.array([0]), directions=v[:1])
+    e = sphere.edges[0]
+    paths["features"].write_text(f"{e[0]} {e[1]}\n")
+    paths["landmarks"].write_text("0 0\n5 5\n")
+    paths["truth"].write_text("\n".join(map(str, range(sphere.n_vertices))) + "\n")
+    return paths
+
+
+def _sweep_commands(p: dict[str, Path], out: Path) -> list[tuple[list[str], dict[str, str]]]:
+    """(argv with its inputs, {output option: a fresh path}) of every writing command."""
+    m, d = str(p["mesh"]), str(p["data"])
+    k = ["--k", "20", "--k-fit", "8"]
+    return [
+        (["repair", m], {"-o": f"{out}/r.ply"}),
+        (["flow", m, d, "--t", "0.1"], {"-o": f"{out}/f.npz", "--png": f"{out}/f.png"}),
+        (["bracket", m, d, "--first", "v", "--second", "u"], {"-o": f"{out}/b.npz"}),
+        (["transport", m, d, "--t", "0.1", "--field", "v", "--transported", "u"],
+         {"-o": f"{out}/t.npz"}),
+        (["design", m, "--constraints", str(p["constraints"])], {"-o": f"{out}/d.npz"}),
+        (["quad", m, d, "--faces", "300", "--field", "v", "--features", str(p["features"])],
+         {"-o": f"{out}/q.obj", "--uv": f"{out}/uv.obj", "--png": f"{out}/q.png"}),
+        (["match", m, str(p["mesh2"]), *k, "--landmarks", str(p["landmarks"]), "--truth",
+          str(p["truth"])], {"-o": f"{out}/m.npz", "--png": f"{out}/m.png"}),
+        (["symmetry", m, *k], {"-o": f"{out}/y.npz", "--png": f"{out}/y.png"}),
+        (["render", m, d, "--field", "v"], {"-o": f"{out}/p.png"}),
+    ]  # fmt: skip
+
+
+#: Commands whose -o is a data file: ``.npz`` is appended to a name without a data suffix.
+_DATA_OUTPUTS = {"flow", "bracket", "transport", "design", "match", "symmetry"}
+
+
+def test_every_output_named_after_every_input_is_refused(tmp_path, capsys, alarm):
+    """Each output option of each command, named after each of its inputs (a derived
+    name too: ``--png NAME`` writes NAME_errors beside NAME), is refused before any work
+    (exit 2), and every input keeps its bytes."""
+    from fvf.cli.registry import registered_commands
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    p = _sweep_inputs(folder)
+    out = tmp_path / "out"
+    out.mkdir()
+    commands = _sweep_commands(p, out)
+    assert {argv[0] for argv, _ in commands} == set(registered_commands()) - {
+        "info", "view", "demo", "batch"  # no outputs; a folder of own names; own tests
+    }  # fmt: skip
+    before = {path: path.read_bytes() for path in p.values()}
+    cases = 0
+    for argv, outputs in commands:
+        used = [path for path in p.values() if str(path) in argv]
+        for option in outputs:
+            for path in used:
+                if option == "-o" and argv[0] in _DATA_OUTPUTS and data_path(path) != path:
+                    continue  # -o lmk.txt writes lmk.txt.npz: another file
+                named = {**outputs, option: str(path)}
+                full = argv + [x for o, name in named.items() for x in (o, name)]
+                assert main(full) == EXIT_BAD_INPUT, (full, capsys.readouterr().err)
+                assert "replace an input" in capsys.readouterr().err, full
+                assert {q: q.read_bytes() for q in p.values()} == before, full
+                assert list(out.iterdir()) == [], full
+                cases += 1
+    # derived names: match's --png NAME also writes NAME_errors.SUFFIX
+    for victim in ("truth", "landmarks"):
+        argv, outputs = commands[6]
+        twin = p[victim].with_name("x_errors.png")
+        p[victim].rename(twin)
+        full = [twin if a == str(p[victim]) else a for a in argv]
+        full = [str(a) for a in full] + ["-o", outputs["-o"], "--png", str(folder / "x.png")]
+        assert main(full) == EXIT_BAD_INPUT, full
+        assert "replace an input" in capsys.readouterr().err
+        twin.rename(p[victim])
+        assert {q: q.read_bytes() for q in p.values()} == before
+    assert cases > 25
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e-300, 1e200])
+def test_repair_at_extreme_scales_keeps_every_face(scale):
+    """1e300-scaled coordinates overflowed the area test (faces removed as "zero area")
+    and 1e-300 underflowed it (every face removed); the rule is scale-free."""
+    mesh = fvf.icosphere(1)
+    with _no_warning():
+        reference = fvf.repair_mesh(mesh.vertices, mesh.faces)
+        result = fvf.repair_mesh(mesh.vertices * scale, mesh.faces)
+    np.testing.assert_array_equal(result.faces, reference.faces)
+    assert result.log == reference.log == ()
+    inside_out = mesh.faces[:, ::-1]
+    with _no_warning():
+        expected = fvf.repair_mesh(mesh.vertices, inside_out, ["orient_faces"]).faces
+        flipped = fvf.repair_mesh(mesh.vertices * scale, inside_out, ["orient_faces"]).faces
+    np.testing.assert_array_equal(flipped, expected)
+
+
+def test_progress_with_the_wrong_signature_is_refused_before_work():
+    with pytest.raises(errors.ParameterError, match=r"progress\(stage, done, total\)"):
+        fvf.SpectralBasis(fvf.icosphere(2), 5, progress=lambda stage: None)
+    fvf.SpectralBasis(fvf.icosphere(2), 5, progress=lambda *a, **k: None)  # any (s, d, t)
+
+
+def test_pyvista_triangle_strips_are_triangles():
+    pv = pytest.importorskip("pyvista")
+    sphere = pv.Sphere()
+    mesh = fvf.as_mesh(sphere.strip())
+    assert mesh.n_faces == sphere.n_cells and mesh.is_closed
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".off", ".stl"])
+def test_non_ascii_output_paths(suffix, tmp_path):
+    mesh = _mesh_file(tmp_path / "s.off")
+    folder = tmp_path / "résumé"
+    folder.mkdir()
+    out = folder / f"fïxé_ü{suffix}"
+    assert main(["repair", str(mesh), "-o", str(out)]) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fvf.VerticesWeldedWarning)  # STL's corners
+        V, F = fvf.read_mesh(out)
+    assert F.shape == (80, 3)
+    if suffix == ".ply":
+        data = folder / "dé.ply"
+        assert main(["design", str(out), "-o", str(data)]) == 0
+        assert read_data(data, fvf.TriMesh(V, F)).field("v", fvf.TriMesh(V, F)).shape == (80, 3)
+
+
+def _fvf_command(*argv: str) -> list[str]:
+    return [sys.executable, "-m", "fvf", *argv]
+
+
+def _env() -> dict:
+    return {**os.environ, "PYTHONPATH": str(Path(fvf.__file__).parents[1])}
+
+
+def test_full_stdout_and_closed_pipe_keep_the_work(tmp_path):
+    """`fvf repair … >/dev/full` and `fvf quad … 2>&1 | head -1` lose their messages,
+    not their files, and exit with the status of the work."""
+    mesh = _mesh_file(tmp_path / "s.off", fvf.icosphere(2))
+    if os.path.exists("/dev/full"):
+        with open("/dev/full", "w") as full:
+            done = subprocess.run(
+                _fvf_command("repair", str(mesh), "-o", str(tmp_path / "r.off")),
+                stdout=full, stderr=subprocess.PIPE, env=_env(), timeout=120,
+            )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / "r.off").exists() and (tmp_path / "r.maps.npz").exists()
+    out = tmp_path / "q.obj"
+    proc = subprocess.Popen(
+        _fvf_command("quad", str(mesh), "--faces", "300", "-o", str(out)),
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=_env(),
+    )  # fmt: skip
+    assert proc.stdout is not None
+    proc.stdout.readline()  # head -1
+    proc.stdout.close()
+    assert proc.wait(timeout=120) == 0
+    assert sum(line.startswith("f ") for line in out.read_text().splitlines()) > 200
+
+
+def test_batch_results_folder_that_is_a_file(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    mesh = _mesh_file(tmp_path / "s.off")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "meshes").write_text("mine")
+    argv = ["batch", str(mesh), "-o", str(out), "--workers", "1", "--quiet"]
+    assert main(argv) == EXIT_BAD_INPUT
+    assert "meshes is a file" in capsys.readouterr().err
+    assert (out / "meshes").read_text() == "mine"
+
+
+def test_long_output_names_are_written(tmp_path):
+    """A 250-character name is valid; its temporary (``.NAME.<hex>.npz``) was not."""
+    name = "a" * 250
+    mesh = _mesh_file(tmp_path / f"{name}.off")
+    assert main(["design", str(mesh), "-o", str(tmp_path / f"{name}.npz")]) == 0
+    assert (tmp_path / f"{name}.npz").exists()
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_ply_times_are_times_when_there_are_as_many_as_vertices(tmp_path):
+    """A flow with T = n times wrote ``f_t_j`` as vertex j's history and the times as a
+    vertex function; (n, 3) functions came out as a vector ``fx fy fz``."""
+    mesh = _strip()
+    n = mesh.n_vertices
+    fvf.write_mesh(tmp_path / "m.off", mesh.vertices, mesh.faces)
+    v = mesh.project_tangent(np.cross(mesh.face_centroids, [0, 0, 1]))
+    np.savez(tmp_path / "d.npz", v=v, f=mesh.vertices[:, 2].copy())
+    times = [str(x) for x in np.linspace(0, 0.5, n)]
+    base = ["flow", str(tmp_path / "m.off"), str(tmp_path / "d.npz"), "--t", *times]
+    assert main([*base, "-o", str(tmp_path / "a.npz")]) == 0
+    assert main([*base, "-o", str(tmp_path / "a.ply")]) == 0
+    vertex, face = fvf.io.read_ply_properties(tmp_path / "a.ply")
+    assert "t" not in vertex and set(face) == {"vx", "vy", "vz"}
+    with np.load(tmp_path / "a.npz") as ref:
+        for i in (0, 3, n - 1):
+            np.testing.assert_array_equal(vertex[f"f_t_{i}"], ref["f_t"][i])  # time i
+    np.savez(tmp_path / "f3.npz", f=np.arange(3.0 * n).reshape(n, 3), v=v)
+    three = ["flow", str(tmp_path / "m.off"), str(tmp_path / "f3.npz"), "--t", "0.1"]
+    assert main([*three, "-o", str(tmp_path / "b.ply")]) == 0
+    vertex, _ = fvf.io.read_ply_properties(tmp_path / "b.ply")
+    assert {"f_0", "f_1", "f_2", "f_t_0_0", "f_t_0_1", "f_t_0_2"} <= set(vertex)
+    np.testing.assert_array_equal(vertex["f_1"], np.arange(3.0 * n).reshape(n, 3)[:, 1])
+
+
+def test_info_tells_touching_from_cut_and_names_needles(tmp_path, capsys):
+    s = fvf.icosphere(2)
+    touching = tmp_path / "touch.off"  # two closed spheres meeting at one point
+    fvf.write_mesh(touching, np.vstack([s.vertices, s.vertices + [2, 0, 0]]),
+                   np.vstack([s.faces, s.faces + s.n_vertices]))  # fmt: skip
+    assert main(["info", str(touching)]) == 0
+    out = capsys.readouterr().out
+    assert "touches itself" in out and "To weld them" not in out
+    soup = tmp_path / "soup.off"  # a cut: an unwelded disk
+    d = fvf.disk(3, 6)
+    fvf.write_mesh(
+        soup, d.vertices[d.faces].reshape(-1, 3), np.arange(3 * d.n_faces).reshape(-1, 3)
+    )
+    main(["info", str(soup)])
+    assert "To weld them" in capsys.readouterr().out
+    V = s.vertices.copy()
+    a, b, c = s.faces[0]
+    V[c] = 0.5 * (V[a] + V[b]) + 0.0035 * (V[c] - 0.5 * (V[a] + V[b]))  # a 0.4 degree needle
+    needle = tmp_path / "needle.off"
+    fvf.write_mesh(needle, V, s.faces)
+    main(["info", str(needle)])
+    assert "faces [0] (1 in all) are needles" in capsys.readouterr().out
+
+
+def test_info_fix_for_a_nonmanifold_edge_is_what_repair_does(tmp_path, capsys):
+    t = fvf.icosphere(0)
+    a, b, _ = t.faces[0]
+    fin = tmp_path / "fin.off"  # a third face on edge (a, b)
+    fvf.write_mesh(fin, np.vstack([t.vertices, [[3, 3, 3]]]),
+                   np.vstack([t.faces, [[a, b, t.n_vertices]]]))  # fmt: skip
+    assert main(["info", str(fin)]) == 1
+    assert "Fixed by `fvf repair` (step split_nonmanifold_edges)" in capsys.readouterr().out
+    fixed = tmp_path / "fin_fixed.off"
+    assert main(["repair", str(fin), "-o", str(fixed)]) == 0
+    assert main(["info", str(fixed)]) == 0
+
+
+@pytest.mark.parametrize("text", ["0.5", "nan", "1e3", "99999999999999999999999"])
+def test_non_integer_truth_and_pair_maps_name_file_and_line(text, tmp_path, capsys):
+    from fvf.batch.registry import PairContext
+
+    n = fvf.icosphere(1).n_vertices
+    bad = tmp_path / "t.txt"
+    bad.write_text("# truth\n" + "0\n" * 3 + f"{text}\n" + "0\n" * (n - 4))
+    assert main([*_match_args(tmp_path), "--truth", str(bad)]) == EXIT_BAD_INPUT
+    assert f"{bad}: the ground truth must be 1 integer(s) per line; line 5 is" in (
+        capsys.readouterr().err
+    )
+    mesh = fvf.icosphere(1)
+
+    class Side:
+        def __init__(self):
+            self.mesh, self.path = mesh, tmp_path / "a.off"
+
+    with pytest.raises(ValueError, match="line 5"):
+        PairContext(Side(), Side(), str(bad), {}).point_map()
+
+
+def test_cannot_start_a_thread_is_explained(tmp_path, monkeypatch, capsys):
+    """Under a small ``ulimit -v`` Python says "can't start new thread"; fvf says which
+    limit and what to do, on the command line and in batch rows."""
+    from fvf.batch import runner
+
+    def no_thread(*args, **kwargs):
+        raise RuntimeError("can't start new thread")
+
+    mesh = _mesh_file(tmp_path / "m.off")
+    monkeypatch.setattr(fvf, "design_field", no_thread)
+    assert main(["design", str(mesh), "-o", str(tmp_path / "d.npz")]) == 4
+    assert "ulimit -v" in capsys.readouterr().err
+    assert "ulimit -v" in runner._one_line(RuntimeError("can't start new thread"))
+
+
+def test_laplace_basis_counts_a_tiny_components_zero_eigenvalue():
+    s, t = fvf.icosphere(2), fvf.icosphere(0)
+    V = np.vstack([s.vertices, t.vertices * 1e-3 + [5, 0, 0]])
+    F = np.vstack([s.faces, t.faces + s.n_vertices])
+    basis = fvf.laplace_basis(fvf.TriMesh(V, F), 5)
+    lam = np.asarray(basis.eigenvalues if hasattr(basis, "eigenvalues") else basis[0])
+    assert np.abs(lam[:2]).max() < 1e-8 and lam[2] > 1.0

@@ -34,6 +34,7 @@ __all__ = [
     "NonTangentFieldWarning",
     "ZeroFieldWarning",
     "ParameterError",
+    "ProblemSizeError",
     "FlowOverflowError",
     "FlowGrowthWarning",
     "ExpmInputError",
@@ -191,6 +192,25 @@ class ParameterError(FvfError):
     """A scalar or option argument is invalid: a non-finite or out-of-range time, step,
     weight, tolerance or count, or an unknown option name (the message lists the valid
     ones)."""
+
+
+def thread_limit_text(exc: BaseException) -> str | None:
+    """The message for Python's ``RuntimeError("can't start new thread")`` (an address-space
+    or process limit, ``ulimit -v`` / ``ulimit -u``, too small for the threads of a
+    solver or of Dask), else None."""
+    if isinstance(exc, RuntimeError) and "can't start new thread" in str(exc):
+        return (
+            "cannot start another thread: the memory (ulimit -v) or process (ulimit -u) "
+            "limit is too small for the threads of the solvers and of Dask. Fix: raise the "
+            "limit, or run fewer workers (--workers 1) with OMP_NUM_THREADS=1"
+        )
+    return None
+
+
+class ProblemSizeError(ParameterError):
+    """A requested size (quads, vertices, eigenpairs) would need more memory than the
+    machine has, or more than the input can carry; refused before anything is allocated
+    (the message gives the estimate and what to change)."""
 
 
 # ---------------------------------------------------------------------------- flows

@@ -22,7 +22,15 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import BatchInputError, BatchWarning, MissingExtraError, ParameterError
+from ..errors import (
+    BatchInputError,
+    BatchOutputError,
+    BatchWarning,
+    MissingExtraError,
+    ParameterError,
+    thread_limit_text,
+)
+from ..io.atomic import writable_folder
 from .inputs import MeshInput, PairInput, plan_inputs
 from .progress import Progress
 from .registry import Task, registered_tasks, resolve_tasks
@@ -303,6 +311,7 @@ def _connected(
         return
     if scheduler is not None:
         try:
+            _probe_scheduler(scheduler, CONNECT_TIMEOUT)
             c = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError, ValueError) as exc:
             raise BatchInputError(
@@ -333,6 +342,61 @@ def _connected(
                 yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
         finally:
             cluster.close()
+
+
+def _result_folders(jobs: Sequence[MeshJob | PairJob]) -> None:
+    """Create the folders the results go to (``OUT/meshes``, ``OUT/pairs``) before any
+    work: :class:`fvf.BatchOutputError` when a file is in the way, OutputWriteError when
+    they cannot be created or written."""
+    for folder in sorted({Path(job.result).parent for job in jobs}):
+        if folder.exists() and not folder.is_dir():
+            raise BatchOutputError(
+                f"{folder} is a file, where the batch puts its results; move it away or "
+                "give -o another folder"
+            )
+        writable_folder(folder, "the batch results")
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Ask a plain TCP scheduler who it is, within ``timeout`` seconds in all: a server
+    that accepts the connection and never answers would hold ``distributed.Client`` for
+    ever (its own timeout covers the connection, not the handshake). Raises TimeoutError
+    or OSError; other protocols (tls://, inproc://) are left to the client."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    if "://" in address and not address.startswith("tcp://"):
+        return
+
+    async def identity() -> None:
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            await comm.read()
+        finally:
+            comm.abort()
+
+    async def bounded() -> None:
+        await asyncio.wait_for(identity(), timeout)
+
+    import threading
+
+    failure: list[BaseException] = []
+
+    def probe() -> None:  # in a thread of its own: the caller may run an event loop
+        try:
+            asyncio.run(bounded())
+        except BaseException as exc:  # handed to the caller
+            failure.append(exc)
+
+    thread = threading.Thread(target=probe, name="fvf-scheduler-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 5.0)
+    if thread.is_alive() or (failure and isinstance(failure[0], asyncio.TimeoutError)):
+        raise TimeoutError(f"no answer within {timeout:g} s")
+    if failure:
+        raise failure[0]
 
 
 def _warm() -> str | None:
@@ -384,7 +448,7 @@ def _prepare(client: Any, note: Callable[[str], None], local: bool) -> dict | No
 
 def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -> dict:
     """The row of a job whose worker died too often (or whose future failed otherwise)."""
-    text = " ".join(str(exc).split())
+    text = thread_limit_text(exc) or " ".join(str(exc).split())
     if type(exc).__name__ == "KilledWorker":
         limit = "" if retries is None else f" (--retries {retries})"
         text = (
@@ -397,7 +461,7 @@ def _lost_row(job: MeshJob | PairJob, exc: BaseException, retries: int | None) -
         "error": f"{type(exc).__name__}: {text}",
         "kind": "mesh" if isinstance(job, MeshJob) else "pair",
         "path": job.path if isinstance(job, MeshJob) else f"{job.source} -> {job.target}",
-        "result": job.result,
+        "result": "",  # nothing was written for it
     }
 
 
@@ -642,6 +706,7 @@ def run(
 
     with output_lock(out):
         remove_temporaries(out)
+        _result_folders(jobs)
         try:
             with _connected(client, scheduler, workers, memory_limit, retries) as (c, where):
                 local = client is None and scheduler is None

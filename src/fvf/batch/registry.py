@@ -291,7 +291,7 @@ class PairContext:
             The map file is not a regular file (a FIFO, a device).
         """
         from ..errors import BatchInputError, FieldShapeError
-        from ..io.inputfile import regular_file
+        from ..io.inputfile import read_index_table, regular_file
         from ..spectral.fmaps import check_p2p
 
         n_s, n_t = self.source.mesh.n_vertices, self.target.mesh.n_vertices
@@ -305,7 +305,16 @@ class PairContext:
             return np.arange(n_s)
         regular_file(self.map_path, BatchInputError)  # a FIFO or /dev/zero would never end
         if self.map_path.suffix.lower() == ".npy":
-            raw = np.load(self.map_path, allow_pickle=False)
-        else:
-            raw = np.loadtxt(self.map_path, dtype=np.int64, ndmin=1)
-        return check_p2p(np.asarray(raw).reshape(-1), n_t, n_s)
+            try:
+                raw = np.load(self.map_path, allow_pickle=False)
+            except (ValueError, OSError, EOFError) as exc:
+                raise BatchInputError(
+                    f"{self.map_path}: the vertex map is not a readable .npy array ({exc})"
+                ) from None
+        else:  # one integer per line, # comments: the message names the file and the line
+            # (a ValueError, as the rows of batches have always said for a bad map)
+            raw = read_index_table(self.map_path, 1, "the vertex map", ValueError)
+        try:
+            return check_p2p(np.asarray(raw).reshape(-1), n_t, n_s)
+        except FieldShapeError as exc:
+            raise FieldShapeError(f"{self.map_path}: {exc}") from None

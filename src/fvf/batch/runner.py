@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import OutputWriteError
+from ..errors import OutputWriteError, thread_limit_text
 from ..io.atomic import atomic_path, deferred_fsync
 from ..io.datafile import write_data
 from ..io.meshfile import read_mesh
@@ -114,7 +114,7 @@ def _peak_mb(reset: bool) -> float:
 
 # ---------------------------------------------------------------------------- helpers
 def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
+    text = thread_limit_text(exc) or " ".join(str(exc).split())
     if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
         text = f"{exc.filename}: {exc.strerror}"
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
@@ -160,7 +160,10 @@ def _provenance(
 
 
 # ---------------------------------------------------------------------------- jobs
-def _run_mesh(job: MeshJob, row: dict, figures: dict) -> tuple[MeshContext, list]:
+def _run_mesh(job: MeshJob, row: dict, figures: dict) -> tuple[MeshContext, list[str]]:
+    """Read, repair/validate and run the tasks of one mesh. A task that fails on a valid
+    mesh does not lose the others: its failure (and that of the tasks needing it) is
+    returned as ``"task NAME: ExceptionType: message"`` and the rest run."""
     ctx = _read(job.path, job.options)
     row.update(n=len(ctx.vertices), m=len(ctx.faces))
     tasks = [lookup_task(t) for t in job.tasks]
@@ -168,9 +171,17 @@ def _run_mesh(job: MeshJob, row: dict, figures: dict) -> tuple[MeshContext, list
         _apply(task, ctx, figures)
     mesh = ctx.mesh  # validation: a mesh that is not valid fails here
     row.update(n=mesh.n_vertices, m=mesh.n_faces, chi=int(mesh.euler_characteristic))
+    failed: dict[str, str] = {}
     for task in (t for t in tasks if not t.raw):
-        _apply(task, ctx, figures)
-    return ctx, tasks
+        lost = [name for name in task.needs if name in failed]
+        if lost:
+            failed[task.name] = f"needs {', '.join(lost)}, which failed"
+            continue
+        try:
+            _apply(task, ctx, figures)
+        except Exception as exc:  # the other tasks' results are kept
+            failed[task.name] = _one_line(exc)
+    return ctx, [f"task {name}: {why}" for name, why in failed.items()]
 
 
 def _write_mesh(job: MeshJob, ctx: MeshContext, extra: dict) -> None:
@@ -229,9 +240,12 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
     dict
         The row of ``summary.csv``: ``mesh``, ``status`` (``ok``; ``skipped`` when a result
         with the same key exists, then with the stored figures; ``failed`` with ``error``
-        = ``"<ExceptionType>: <message>"``), ``n``, ``m``, ``chi``, ``seconds`` (reading,
+        = ``"<ExceptionType>: <message>"``, or ``"task NAME: <ExceptionType>: <message>"``
+        for each task that failed on a valid mesh, the other tasks' results being written
+        all the same), ``n``, ``m``, ``chi``, ``seconds`` (reading,
         computing and writing), ``peak_mb`` (peak resident size of this process while the
-        job ran), ``kind``, ``path``, ``result``, ``warnings`` (the distinct warnings
+        job ran), ``kind``, ``path``, ``result`` (the result file; empty when none was
+        written), ``warnings`` (the distinct warnings
         raised) and the figures ``<task>_<figure>``.
     """
     start = time.perf_counter()
@@ -249,15 +263,17 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
         hashes = [file_sha256(p) for p in _inputs_of(job)]
         key = result_key(hashes, job.options_json)
         stored = stored_row(job.result, key)
-        if stored is not None:
+        if stored is not None and stored.get("status") == "ok":  # a failed task: again
             return {**stored, "status": "skipped"}
+        failed: list[str] = []
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             if isinstance(job, PairJob):
                 pair_ctx = _run_pair(job, row, figures)
             else:
-                mesh_ctx = _run_mesh(job, row, figures)[0]
-        row.update(status="ok", warnings=_warning_text(caught), **figures)
+                mesh_ctx, failed = _run_mesh(job, row, figures)
+        row.update(status="failed" if failed else "ok", warnings=_warning_text(caught))
+        row.update(error="; ".join(failed), **figures)
         row.update(seconds=time.perf_counter() - start, peak_mb=_peak_mb(reset))
         extra = _provenance(job, key, hashes, row)
         if isinstance(job, PairJob):
@@ -265,7 +281,7 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
         else:
             _write_mesh(job, mesh_ctx, extra)
     except Exception as exc:  # every failure of one mesh is a row, never a stopped batch
-        row.update(status="failed", error=_one_line(exc), **figures)
+        row.update(status="failed", error=_one_line(exc), result="", **figures)
     row["seconds"] = time.perf_counter() - start
     row["peak_mb"] = _peak_mb(reset)
     return row
@@ -290,5 +306,5 @@ def run_jobs(jobs: Sequence[MeshJob | PairJob]) -> list[dict[str, Any]]:
             if row["status"] == "ok":
                 with contextlib.suppress(OSError):
                     Path(row["result"]).unlink()
-                row.update(status="failed", error=_one_line(exc))
+                row.update(status="failed", error=_one_line(exc), result="")
     return rows

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import BatchOutputError
-from ..io.atomic import atomic_path
+from ..errors import BatchOutputError, OutputWriteError
+from ..io.atomic import atomic_path, writable_folder
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -208,18 +208,26 @@ def output_lock(folder: str | os.PathLike) -> Iterator[Path]:
     BatchOutputError
         Another process holds the lock (its host and process id are named), or ``folder``
         exists and is not a folder.
+    OutputWriteError
+        ``folder`` cannot be created or written into (read-only).
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise BatchOutputError(f"{folder} is not a folder; give -o a folder for the results")
-    folder.mkdir(parents=True, exist_ok=True)
+    writable_folder(folder, "the batch results")
     path = folder / ".fvf-batch.lock"
     try:
         import fcntl
     except ImportError:  # pragma: no cover (Windows)
         yield path
         return
-    fh = open(path, "a+")
+    try:
+        fh = open(path, "a+")
+    except OSError as exc:
+        raise OutputWriteError(
+            f"{path}: cannot create the batch's lock ({exc.strerror or exc}); nothing was "
+            "written. Fix: give -o a folder you can write to"
+        ) from exc
     try:
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -139,7 +139,7 @@ def fields(ctx: MeshContext) -> TaskOutput:
 def singularities(ctx: MeshContext) -> TaskOutput:
     """Singular vertices of ``fields``' v, their indices and positions."""
     kw = _n_keywords(fvf.singularities, ctx.options, "singularities")
-    ids, index = fvf.singularities(ctx.mesh, ctx.arrays["v"], zero="warn", **kw)
+    ids, index = fvf.singularities(ctx.mesh, ctx.arrays["v"], zero="fill", **kw)
     arrays = {
         "singularity_vertices": ids,
         "singularity_indices": index,

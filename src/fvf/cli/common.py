@@ -293,8 +293,9 @@ def progress_option(args: argparse.Namespace) -> Any:
 
 # ---------------------------------------------------------------------------- outputs
 def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
-    """Refuse, before any work, outputs that are inputs (unless --force) and two outputs
-    that name one file (the second would replace the first)."""
+    """Refuse, before any work, outputs that are inputs (unless --force), two outputs
+    that name one file (the second would replace the first), and outputs that cannot be
+    written (:func:`check_output_places`: a read-only folder is exit status 5 at once)."""
     from fvf.errors import OutputError
     from fvf.io.atomic import check_not_input
 
@@ -309,6 +310,7 @@ def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) ->
                     "replace the first; give them different names"
                 )
             seen[key] = option
+    check_output_places(*(path for _, path in outputs if path is not None))
 
 
 def check_output_places(*paths: str | Path) -> None:
@@ -511,7 +513,7 @@ def display_arrays(args, mesh):
             pos = data.numbers("singularity_positions", (None, 3))
             idx = data.numbers("singularity_indices", (pos.shape[0],))
         elif "field" in kwargs and kwargs["field"].shape[0] == mesh.n_faces:
-            ids, idx = fvf.singularities(mesh, kwargs["field"], n=n, zero="warn")
+            ids, idx = fvf.singularities(mesh, kwargs["field"], n=n, zero="fill")
             pos = fvf.singularity_positions(mesh, ids, "vertex")
         elif "field" in kwargs:
             ids, idx = fvf.face_singularities(mesh, kwargs["field"], zero="warn")

@@ -22,18 +22,20 @@ import importlib.util
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import FvfError, OutputError
 from .report import Story, fmt, render_html
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh  # noqa: F401
     from ..param.seamless import SeamlessParameterization  # noqa: F401
-from ..io.atomic import atomic_path, atomic_write_text
+from ..io.atomic import atomic_path, atomic_write_text, writable_folder
 
 __all__ = ["demo"]
 
@@ -385,7 +387,7 @@ def _fig11(s, story):
     s.acap = fvf.acap_fields(mesh, s.v, 1e-2, 2)
     counts, sums = [], []
     for i, u in enumerate(s.acap):
-        ids, ind = fvf.singularities(mesh, u)
+        ids, ind = fvf.singularities(mesh, u, zero="fill")
         counts.append(len(ids))
         sums.append(float(np.sum(ind)))
         story.picture(
@@ -692,14 +694,15 @@ def demo(
         The content of ``summary.json``: the mesh, every number by its label, ``checks``
         (each number with what it should be and whether it is), ``checks_failed``,
         ``sections`` (the report's data), ``pictures`` (the pictures shown), ``files`` (all
-        the pictures written), and ``skipped`` (pictures not made, and why).
+        the pictures written), ``skipped`` (pictures not made, and why) and
+        ``sections_not_done`` (sections this mesh did not allow: a typed fvf error, shown
+        in the section's row "section not done"; the other sections still run).
     """
     import fvf
 
+    out = writable_folder(out, "the demo's report")  # before any work: exit 5 at once
     t0 = _stage("loading mesh")
     mesh = fvf.TriMesh(*fvf.read_mesh(mesh_path)) if mesh_path else fvf.mesh.builtin.spot()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     report: dict = {
         "mesh": mesh_path or "built-in spot.obj",
         "n_vertices": mesh.n_vertices,
@@ -720,10 +723,19 @@ def demo(
     else:
         print(f"[fvf demo] pictures skipped: {story.skip_reason}", flush=True)
     s = SimpleNamespace(mesh=mesh)
+    not_done: list[str] = []
     for fn in STAGES if stages is None else stages:
-        t = _stage((fn.__doc__ or fn.__name__).splitlines()[0].rstrip("."))
-        fn(s, story)
+        title = (fn.__doc__ or fn.__name__).splitlines()[0].rstrip(".")
+        t, begun = _stage(title), len(story.stages)
+        try:
+            fn(s, story)
+        except (FvfError, AttributeError) as exc:
+            if isinstance(exc, OutputError) or (isinstance(exc, AttributeError) and not not_done):
+                raise  # an output lost, or a bug (not a section needing one not done)
+            not_done.append(_section_not_done(story, fn, title, begun, exc))
         story.stages[-1].seconds = time.perf_counter() - t
+    if not_done:
+        report["sections_not_done"] = not_done
     checks = []
     for st in story.stages:
         for n in st.numbers:
@@ -766,6 +778,22 @@ def demo(
     _print_numbers(story)
     sys.stdout.flush()
     return report
+
+
+def _section_not_done(
+    story: Story, fn: Callable[..., Any], title: str, begun: int, exc: Exception
+) -> str:
+    """Record that a section could not be done on this mesh (a typed fvf error, or the
+    result of an earlier section that was not done) in its report section; the demo goes
+    on with the next one. Returns the section's title."""
+    if len(story.stages) == begun:
+        story.begin(title, fn)
+    st = story.stages[-1]
+    st.title = f"{st.title} (not done)"
+    why = f"{type(exc).__name__}: {exc}"[:300]
+    st.info("section not done", "not done", note=why)
+    print(f"[fvf demo] {title}: not done on this mesh ({why})", flush=True)
+    return st.title
 
 
 def _json_default(x):

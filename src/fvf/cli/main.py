@@ -30,6 +30,7 @@ through a link) unless given ``--force``.
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import shlex
 import signal
@@ -141,6 +142,10 @@ def parser() -> argparse.ArgumentParser:
 
 # ---------------------------------------------------------------------------- main
 def _one_line(exc: BaseException) -> str:
+    from fvf.errors import thread_limit_text
+
+    if thread_limit_text(exc):
+        return str(thread_limit_text(exc))
     if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
         text = f"{exc.filename}: {exc.strerror}"
     else:
@@ -258,27 +263,38 @@ def _run(argv: list[str]) -> int:
 
 
 class _ClosedPipeQuiet:
-    """While the command runs, ``sys.stdout`` drops what it is given once its reader has
-    closed the pipe (:class:`_PipeWriter`); on leaving, the rest is flushed (or dropped) so
-    that the interpreter's last flush finds nothing to complain about."""
+    """While the command runs, ``sys.stdout`` and ``sys.stderr`` drop what they are given
+    once their reader has closed the pipe or the device is full (:class:`_PipeWriter`:
+    ``fvf quad … 2>&1 | head -1`` still writes its mesh, ``fvf repair … >/dev/full`` its
+    files, with the exit status of the work); on leaving, the rest is flushed (or
+    dropped) so that the interpreter's last flush finds nothing to complain about."""
 
     def __enter__(self):
-        self.previous = sys.stdout
-        if self.previous is not None:
-            sys.stdout = _PipeWriter(self.previous)
+        self.previous = sys.stdout, sys.stderr
+        if sys.stdout is not None:
+            sys.stdout = _PipeWriter(sys.stdout)
+        if sys.stderr is not None:
+            sys.stderr = _PipeWriter(sys.stderr)
         return self
 
     def __exit__(self, *exc):
-        writer, sys.stdout = sys.stdout, self.previous
-        if isinstance(writer, _PipeWriter):
-            writer.flush()
+        writers = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = self.previous
+        for writer in writers:
+            if isinstance(writer, _PipeWriter):
+                writer.flush()
         return False
+
+
+#: errno values of a standard stream whose reader is gone or whose device is full: the
+#: command's messages are lost, its work and its files are not.
+_STREAM_GONE = {errno.EPIPE, errno.ENOSPC, errno.EIO}
 
 
 class _PipeWriter:
     """A text stream over ``stream`` for which a closed pipe (:class:`BrokenPipeError`)
-    is the end of the output, not an error: the file descriptor is pointed at the null
-    device and further text is dropped."""
+    or a full device (``ENOSPC``, ``EIO``) is the end of the output, not an error: the
+    file descriptor is pointed at the null device and further text is dropped."""
 
     def __init__(self, stream: Any) -> None:
         self._stream = stream
@@ -288,7 +304,9 @@ class _PipeWriter:
         if not self.reader_left:
             try:
                 return self._stream.write(text)
-            except BrokenPipeError:
+            except OSError as exc:
+                if exc.errno not in _STREAM_GONE:
+                    raise
                 self._left()
         return len(text)
 
@@ -296,7 +314,9 @@ class _PipeWriter:
         if not self.reader_left:
             try:
                 self._stream.flush()
-            except BrokenPipeError:
+            except OSError as exc:
+                if exc.errno not in _STREAM_GONE:
+                    raise
                 self._left()
 
     def _left(self) -> None:

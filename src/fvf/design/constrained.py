@@ -61,6 +61,7 @@ from ..numerics.progress import ProgressCallback, make_progress
 from .alignment import ALIGN_STRENGTH, alignment_targets
 from .connection import ConnectionKind, check_kind, connection_laplacian, smoothest_fields
 from .holonomy import smoothing_length
+from .indices import fill_vanishing_faces
 
 __all__ = [
     "design_field",
@@ -530,7 +531,12 @@ def design_field(
         constrained face as the direction of the set nearest to the given one (so a hard
         constraint is returned exactly). With no constraints and no alignment: the
         smoothest field of unit L2 norm, Σ A_F |u|² = 1, the lowest eigenfield of
-        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`).
+        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`). Where the
+        minimiser vanishes (a cone at the centre of a face of a symmetric shape, or
+        round-off where an N-field localises), the face gets the direction of a
+        neighbour at length ``FILL_RTOL`` (1e-6) times the largest
+        (:func:`fvf.design.indices.fill_vanishing_faces`): the cone sits on a vertex
+        and :func:`fvf.singularities` reports it.
 
     Raises
     ------
@@ -589,15 +595,19 @@ def design_field(
             progress=progress,
             curvature_smoothing=curvature_smoothing,
         )[1]
-        return NField(fields[0], n)
+        return NField(_with_directions(mesh, fields[0]), n)
 
     if f.size == 0 and align is None:
         return smoothest()
-    report("assemble", 0, 1)
+    report("assemble", 0, 1)  # its parts reported as they start: minutes on 2M faces
+    report("assemble: connection Laplacian", 0, 1)
     L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
     A = mesh.face_areas
+    if align is not None:
+        report("assemble: alignment targets", 0, 1)
     pen, rhs = _alignment_terms(mesh, n, align, align_weights, align_strength)
     if align_smoothing is not None:
+        report("assemble: smoothing the alignment", 0, 1)
         pen, rhs = _smoothed_alignment(mesh, L, pen, rhs, align_smoothing, backend)
     seeds = np.concatenate([f, np.flatnonzero(pen > 0)])
     if f.size:
@@ -628,7 +638,7 @@ def design_field(
     report("solve", 0, 1)
     z = _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend)
     report("solve", 1, 1)
-    return _field_from_power(mesh, z, n, f, tau, hard)
+    return _with_directions(mesh, _field_from_power(mesh, z, n, f, tau, hard))
 
 
 def _alignment_terms(
@@ -691,6 +701,12 @@ def _given_constraints(
     if faces is None or directions is None:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=complex)
     return constraint_targets(mesh, faces, directions, normalize)
+
+
+def _with_directions(mesh: TriMesh, u: np.ndarray) -> np.ndarray:
+    """u (m, 3) with a direction on every face where it vanishes (a cone at a face's
+    centre on a symmetric shape), so every function of fvf accepts the design."""
+    return fill_vanishing_faces(mesh, u)
 
 
 def _field_from_power(

@@ -58,15 +58,22 @@ __all__ = [
     "face_indices",
     "face_singularities",
     "singularity_positions",
+    "FILL_RTOL",
+    "fill_vanishing_faces",
 ]
 
 #: A vector whose (tangential) length is at most this times the field's largest vector
 #: counts as zero: its direction, and hence any angle measured from it, is undefined.
 ZERO_RTOL = 1e-10
 
+#: Length, relative to the field's largest vector, that :func:`fill_vanishing_faces` gives
+#: to a face where a designed field vanishes: far above :data:`ZERO_RTOL` (its direction
+#: is defined), far below any length that matters (the field still nearly vanishes there).
+FILL_RTOL = 1e-6
+
 TWO_PI = 2.0 * np.pi
 
-ZeroPolicy = Literal["raise", "warn"]
+ZeroPolicy = Literal["raise", "warn", "fill"]
 
 
 def _wrap(d: np.ndarray) -> np.ndarray:
@@ -74,9 +81,9 @@ def _wrap(d: np.ndarray) -> np.ndarray:
     return np.pi - np.mod(np.pi - d, TWO_PI)
 
 
-def _check_zero_policy(zero: str) -> None:
-    if zero not in ("raise", "warn"):
-        raise ParameterError(f"zero must be 'raise' or 'warn'; got {zero!r}")
+def _check_zero_policy(zero: str, policies: tuple[str, ...] = ("raise", "warn")) -> None:
+    if zero not in policies:
+        raise ParameterError(f"zero must be one of {policies}; got {zero!r}")
 
 
 def _zero_mask(length: np.ndarray, scale: float, rtol: float) -> np.ndarray:
@@ -154,14 +161,18 @@ def vertex_indices(
     n : int, optional
         Symmetry order N ≥ 1 of the field. Default: the ``n`` of an :class:`fvf.NField`
         (what :func:`fvf.design_field` returns), else 1 (a vector field).
-    zero : {"raise", "warn"}
+    zero : {"raise", "warn", "fill"}
         What to do when some faces have a zero vector (tangential length at most
         ``zero_rtol`` times the largest one; an all-zero field counts as zero
         everywhere). The direction is then undefined, so no loop through such a face
         has an index. ``"raise"`` (default): raise :class:`FieldShapeError` naming the
         faces. ``"warn"``: emit :class:`ZeroFieldWarning` and return 0 at every vertex
         of those faces (a singularity sitting on a zero face is therefore not
-        reported; perturb or re-sample the field to locate it).
+        reported; perturb or re-sample the field to locate it). ``"fill"``: give each
+        zero face the direction of a neighbour (:func:`fill_vanishing_faces`), so that a
+        singularity sitting on it is reported at one of its vertices with its whole
+        index; faces left zero (a component where the field vanishes everywhere) are
+        then treated as with ``"warn"``.
     zero_rtol : float
         Relative threshold for a zero vector, default :data:`ZERO_RTOL`.
     tangent : {"project", "raise", "ignore"}
@@ -205,7 +216,7 @@ def vertex_indices(
     >>> int(vertex_indices(mesh, c * [1, -1, 0])[0])  # a saddle at the origin
     -1
     """
-    _check_zero_policy(zero)
+    _check_zero_policy(zero, ("raise", "warn", "fill"))
     order = field_order(u, n, 1, "u")
     u = as_face_field(mesh, u, "u", tangent=tangent)
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
@@ -215,6 +226,8 @@ def vertex_indices(
     # size: scale it to unit size (exactly, by a power of two) so that no product overflows.
     ut = u - np.einsum("ij,ij->i", u, N)[:, None] * N
     ut = ut / unit_scale(ut)
+    if zero == "fill":
+        ut = fill_vanishing_faces(mesh, ut, zero_rtol)
     length = np.sqrt(np.einsum("ij,ij->i", ut, ut))
     is_zero = _zero_mask(length, float(length.max()), zero_rtol)
 
@@ -257,8 +270,9 @@ def vertex_indices(
         )
         if zero == "raise":
             raise FieldShapeError(
-                msg + ". Fix: perturb or re-sample the field there, or pass zero='warn' to "
-                "get index 0 at those vertices."
+                msg + ". Fix: perturb or re-sample the field there, pass zero='fill' to "
+                "give those faces a neighbour's direction (a cone there is then reported "
+                "at one of their vertices), or zero='warn' to get index 0 at those vertices."
             )
         warnings.warn(msg + "; their index was set to 0.", ZeroFieldWarning, stacklevel=2)
         index[verts] = 0
@@ -499,3 +513,65 @@ def singularity_positions(
             f"{what} ids {format_indices(ids[bad])} are outside [0, {P.shape[0]})."
         )
     return np.array(P[ids], dtype=np.float64)
+
+
+def fill_vanishing_faces(mesh: TriMesh, u: np.ndarray, rtol: float = ZERO_RTOL) -> np.ndarray:
+    """A per-face field whose (numerically) zero vectors are given a direction.
+
+    A smoothest field vanishes exactly on a face that holds a cone at its centre when the
+    shape is symmetric about it (the eight corners of a rounded cube), and drops to
+    round-off level where the smoothest N-field localises; there it has no direction and
+    :func:`vertex_indices`, :func:`fvf.period_jumps`, :func:`fvf.cut_graph` and
+    :func:`fvf.comb` could not use it. Each such face (tangential length at most
+    :data:`ZERO_RTOL` times the largest) takes, in breadth-first rounds from the faces
+    that have a direction, the direction of its longest neighbour across an interior
+    edge e, transported by discrete Levi-Civita transport (the angle measured from e is
+    kept, so the field does not turn across e), with length :data:`FILL_RTOL` times the
+    largest. A per-face field can carry a singularity only at vertices: this puts the
+    cone of a vanishing face on one of its vertices, with the same total index.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : ndarray, float64 (m, 3)
+        Tangent per-face field (one representative per face for an N-field).
+    rtol : float
+        A vector counts as zero when its length is at most rtol times the largest
+        (default :data:`ZERO_RTOL`); the filled length is ``max(FILL_RTOL, 2 rtol)``
+        times the largest.
+
+    Returns
+    -------
+    ndarray, float64 (m, 3)
+        u itself when no vector is zero or all are; else a copy with the zero vectors
+        replaced. Components of the dual graph on which u is zero everywhere stay zero.
+    """
+    length = np.sqrt(np.einsum("ij,ij->i", u, u))
+    scale = float(length.max(initial=0.0))
+    zero = _zero_mask(length, scale, rtol)
+    if not (scale > 0.0 and zero.any()):
+        return u
+    fill = max(FILL_RTOL, 2.0 * rtol) * scale
+    u, length = u.copy(), length.copy()
+    X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
+    interior = np.flatnonzero((EF >= 0).all(axis=1))
+    ev = X[E[interior, 1]] - X[E[interior, 0]]
+    ev = ev / np.linalg.norm(ev, axis=1)[:, None]
+    target = np.concatenate([EF[interior, 0], EF[interior, 1]])
+    source = np.concatenate([EF[interior, 1], EF[interior, 0]])
+    ev = np.vstack([ev, ev])
+    while True:
+        pick = np.flatnonzero(zero[target] & ~zero[source])
+        if pick.size == 0:
+            return u
+        pick = pick[np.lexsort((source[pick], -length[source[pick]], target[pick]))]
+        pick = pick[np.unique(target[pick], return_index=True)[1]]  # longest neighbour
+        t, s, e = target[pick], source[pick], ev[pick]
+        us = u[s] / length[s][:, None]
+        cos = np.einsum("ij,ij->i", e, us)
+        sin = np.einsum("ij,ij->i", cross_rows(N[s], e), us)
+        turned = cos[:, None] * e + sin[:, None] * cross_rows(N[t], e)
+        turned /= np.linalg.norm(turned, axis=1)[:, None]
+        u[t] = fill * turned
+        length[t] = fill
+        zero[t] = False

@@ -35,6 +35,7 @@ __all__ = [
     "deferred_fsync",
     "fsync_directory",
     "same_file",
+    "writable_folder",
 ]
 
 #: errno values that mean "the output could not be written" (not "bad content").
@@ -169,6 +170,20 @@ def _create(tmp: Path, mode: int, target: Path) -> bool:
     return True
 
 
+#: Bytes of a file name on common file systems (ext4, APFS, NTFS in UTF-16 units).
+NAME_MAX = 255
+
+
+def _short_name(target: Path, suffix: str) -> str:
+    """``target``'s name for its temporary, shortened (stem cut to 120 characters, the
+    suffix kept) when ``.NAME.<16 hex>SUFFIX`` would be longer than :data:`NAME_MAX`: a
+    250-character output name is valid, its temporary must be too."""
+    name = target.name
+    if len(f".{name}.{'0' * 16}{suffix}".encode()) <= NAME_MAX:
+        return name
+    return target.stem[:120] + target.suffix[:40]
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """A temporary path beside ``path``; on success it is fsynced and renamed to ``path``.
@@ -188,7 +203,8 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     Yields
     ------
     pathlib.Path
-        Where to write: ``.<name>.<16 hex digits><suffix>`` beside ``path``. The file
+        Where to write: ``.<name>.<16 hex digits><suffix>`` beside ``path`` (a name too
+        long for that is cut to 120 characters and its suffix). The file
         exists (empty) when the block starts; it has the mode of the file it will
         replace, or the default mode of new files (umask).
 
@@ -219,9 +235,10 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     suffix = target.suffix if suffix is None else suffix
     mode = _mode(target)
     tmp: Path | None = None  # named before it is created: the cleanup below always knows it
+    name = _short_name(target, suffix)
     try:
         for _ in range(100):
-            tmp = directory / f".{target.name}.{secrets.token_hex(8)}{suffix}"
+            tmp = directory / f".{name}.{secrets.token_hex(8)}{suffix}"
             if _create(tmp, mode, target):
                 break
             tmp = None  # another writer's file: never removed here
@@ -331,3 +348,29 @@ def check_not_input(
                 "write to another path, or pass --force (overwrite_inputs=True) to "
                 "replace it (a link is then replaced, never written through)."
             )
+
+
+def writable_folder(path: str | os.PathLike, what: str = "the outputs") -> Path:
+    """``path`` as a folder that can be written into: created (with its parents) when
+    missing, checked before any work.
+
+    Raises
+    ------
+    OutputWriteError
+        The folder cannot be created or written into (a read-only file system or folder,
+        a file in the way); nothing was written. The command line exits with status 5.
+    """
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputWriteError(
+            f"{folder}: cannot create the folder for {what} ({exc.strerror or exc}); "
+            "nothing was written. Fix: give a folder you can write to"
+        ) from exc
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputWriteError(
+            f"{folder}: the folder for {what} is not writable; nothing was written. Fix: "
+            "give a folder you can write to"
+        )
+    return folder

@@ -753,6 +753,15 @@ def element_of(key: str, kinds: Mapping[str, str] | None = None) -> str:
     return "face" if base in FACE_KEYS or base.endswith("_face") else "vertex"
 
 
+#: Keys that are never mesh properties, whatever their length: the times ``t`` (T,)
+#: (when T = n they would pass for a vertex function).
+NOT_PROPERTIES = frozenset({"t"})
+
+#: Keys of vertex functions: an (n, k) array is k functions ``key_<j>``, also for k = 3
+#: (which would otherwise be written as a vector ``keyx keyy keyz``).
+FUNCTION_KEYS = frozenset({"f", "functions", "eigenfunctions"})
+
+
 def mesh_properties(
     arrays: Mapping[str, np.ndarray], mesh: TriMesh, kinds: Mapping[str, str] | None = None
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list[str]]:
@@ -760,7 +769,9 @@ def mesh_properties(
 
     (n,) and (n, 3) arrays become vertex properties, (m,) and (m, 3) face properties (a
     3-vector ``p`` is ``px py pz``); arrays with a leading time (and function) axis are
-    split into ``key_<i>`` (``key_<i>_<j>``); ``singularity_vertices`` with
+    split into ``key_<i>`` (``key_<i>_<j>``; a key ending ``_t`` is split along its time
+    axis first, even when T = n); the functions of :data:`FUNCTION_KEYS` (n, k) into
+    ``key_<j>``; the times ``t`` are never a property; ``singularity_vertices`` with
     ``singularity_indices`` become the vertex property ``singularity_index`` (0 elsewhere).
     When n = m the length cannot tell: the element is :func:`element_of` the key (``kinds``,
     else the per-face keys :data:`FACE_KEYS` and ``*_face``; every other key per vertex).
@@ -772,8 +783,14 @@ def mesh_properties(
     left: list[str] = []
 
     def put(name: str, a: np.ndarray) -> bool:
-        if a.dtype.kind not in "biuf":
+        base = re.sub(r"(_\d+)+$", "", name)
+        if a.dtype.kind not in "biuf" or name in NOT_PROPERTIES:
             return False
+        if base.endswith("_t") and a.ndim >= 2 and name == base:  # (T, ...): times first
+            return all(put(f"{name}_{i}", a[i]) for i in range(a.shape[0]))
+        functions = base in FUNCTION_KEYS or base.removesuffix("_t") in FUNCTION_KEYS
+        if functions and a.ndim == 2 and a.shape[0] == n:  # (n, k) functions
+            return all(put(f"{name}_{j}", a[:, j]) for j in range(a.shape[1]))
         if a.shape in ((n,), (n, 3)) and a.shape in ((m,), (m, 3)):  # n = m
             (face if element_of(name, kinds) == "face" else vertex)[name] = a
         elif a.shape in ((n,), (n, 3)):

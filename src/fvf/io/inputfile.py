@@ -15,8 +15,6 @@ import stat
 
 import numpy as np
 
-from ..errors import FvfError
-
 __all__ = ["regular_file", "read_bytes", "read_index_table", "describe_mode", "MAX_TABLE_BYTES"]
 
 
@@ -35,7 +33,7 @@ def describe_mode(mode: int) -> str:
     return "not a regular file"
 
 
-def regular_file(path: str | os.PathLike, error: type[FvfError]) -> os.stat_result:
+def regular_file(path: str | os.PathLike, error: type[ValueError]) -> os.stat_result:
     """``os.stat(path)`` (following links) when ``path`` is a regular file.
 
     Raises
@@ -55,7 +53,7 @@ def regular_file(path: str | os.PathLike, error: type[FvfError]) -> os.stat_resu
     return st
 
 
-def read_bytes(path: str | os.PathLike, error: type[FvfError], head: int = 0) -> bytes:
+def read_bytes(path: str | os.PathLike, error: type[ValueError], head: int = 0) -> bytes:
     """The content of a regular file, read with a size check.
 
     Parameters
@@ -94,7 +92,7 @@ MAX_TABLE_BYTES = 1 << 30
 
 
 def read_index_table(
-    path: str | os.PathLike, columns: int, what: str, error: type[FvfError]
+    path: str | os.PathLike, columns: int, what: str, error: type[ValueError]
 ) -> np.ndarray:
     """A text table of integers (vertex indices): ``columns`` per line, ``#`` comments.
 
@@ -107,7 +105,7 @@ def read_index_table(
         Integers per line; 1 gives a flat table.
     what : str
         What the file holds, for messages (``"landmarks"``, ``"the ground truth"``).
-    error : FvfError subclass
+    error : ValueError subclass (an FvfError)
         Raised for a file that is not a regular file, too large, not UTF-8 text, or not
         ``columns`` integers per line; the message names ``path``.
 
@@ -126,8 +124,12 @@ def read_index_table(
         text = read_bytes(path, error).decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise error(f"{path}: {what} must be text (integers), not binary data ({exc})") from None
-    rows = [line.split("#", 1)[0].replace(",", " ").split() for line in text.splitlines()]
-    rows = [r for r in rows if r]
+    numbered = [
+        (i + 1, line.split("#", 1)[0].replace(",", " ").split())
+        for i, line in enumerate(text.splitlines())
+    ]
+    numbered = [(i, r) for i, r in numbered if r]
+    rows = [r for _, r in numbered]
     bad = next((r for r in rows if len(r) != columns), None)
     if bad is not None:
         raise error(
@@ -136,6 +138,18 @@ def read_index_table(
         )
     try:
         table = np.array(rows, dtype=np.int64).reshape(-1, columns)
-    except (ValueError, OverflowError) as exc:
-        raise error(f"{path}: {what} must be {columns} integer(s) per line ({exc})") from None
+    except (ValueError, OverflowError):
+        line, row = next((i, r) for i, r in numbered if not all(_is_int(x) for x in r))
+        raise error(
+            f"{path}: {what} must be {columns} integer(s) per line; line {line} is "
+            f"{' '.join(row)[:80]!r}"
+        ) from None
     return table[:, 0] if columns == 1 else table
+
+
+def _is_int(token: str) -> bool:
+    """Whether ``token`` is an integer that fits int64."""
+    try:
+        return -(2**63) <= int(token) < 2**63
+    except ValueError:
+        return False

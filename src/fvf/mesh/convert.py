@@ -125,6 +125,8 @@ def _pyvista(obj: Any) -> tuple[np.ndarray, np.ndarray]:
             f"as_mesh: a PyVista {type(obj).__name__} is not a surface; use "
             "mesh.extract_surface().triangulate() and pass that PolyData"
         )
+    if getattr(obj, "n_strips", 0) and hasattr(obj, "triangulate"):
+        obj = obj.triangulate()  # triangle strips are not in .faces: as triangles
     faces = np.asarray(obj.faces, dtype=np.int64)
     counts, flat, at = [], [], 0
     if faces.size and getattr(obj, "is_all_triangles", False):

@@ -87,6 +87,12 @@ def zero_area_faces(V: np.ndarray, F: np.ndarray, area_rtol: float) -> np.ndarra
     uses). Faces with non-finite corners are not flagged.
     """
     P = V[F]
+    # the test is scale-free: bring each face to unit size by a power of two (exact), so
+    # coordinates of 1e300 do not overflow the products, nor those of 1e-300 underflow
+    big = np.abs(P).max(axis=(1, 2), initial=0.0)
+    ok = (big > 0) & np.isfinite(big)
+    scale = np.exp2(np.floor(np.log2(np.where(ok, big, 1.0))))
+    P = P / scale[:, None, None]
     e = P[:, [2, 0, 1]] - P[:, [1, 2, 0]]  # edge opposite each corner, (m, 3, 3)
     area = 0.5 * np.linalg.norm(np.cross(e[:, 2], -e[:, 1]), axis=1)
     return area <= area_rtol * np.einsum("tij,tij->ti", e, e).max(axis=1, initial=0.0)

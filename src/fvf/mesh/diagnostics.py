@@ -71,12 +71,36 @@ def _vertex_problems(X: np.ndarray, F: np.ndarray, report: dict) -> list[str]:
     dup_v = np.flatnonzero(welded.vertex_origin[welded.vertex_map] != np.arange(n))
     report["duplicate_vertices"] = int(dup_v.size)
     if dup_v.size:  # legitimate after a split, so a hint and not a problem
-        report["hints"] = [
-            f"vertices {format_indices(dup_v)} coincide with a lower-index vertex: the "
-            "surface is cut there (an unwelded soup, a seam, or a split vertex). To weld them: "
-            "fvf.remove_duplicate_vertices(V, F), then run fvf info again"
-        ]
+        report["hints"] = _coincident_hints(F, dup_v, welded.vertex_origin[welded.vertex_map])
     return problems
+
+
+def _coincident_hints(F: np.ndarray, dup: np.ndarray, rep: np.ndarray) -> list[str]:
+    """What coincident vertices ``dup`` (each at the position of ``rep[dup]``) mean: a cut
+    (both on a boundary: welding closes it) or a surface touching itself (welding would
+    make a non-manifold vertex)."""
+    edges = np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    size = max(int(F.max(initial=-1)), int(rep.max()), int(dup.max())) + 1
+    boundary = np.zeros(size, dtype=bool)
+    boundary[unique[count == 1].ravel()] = True
+    cut = boundary[dup] & boundary[rep[dup]]
+    hints = []
+    if cut.any():
+        hints.append(
+            f"vertices {format_indices(dup[cut])} coincide with a lower-index vertex on "
+            "the boundary: the surface is cut there (an unwelded soup, a seam, or a split "
+            "vertex). To weld them: fvf.remove_duplicate_vertices(V, F), then run fvf "
+            "info again"
+        )
+    if (~cut).any():
+        hints.append(
+            f"vertices {format_indices(dup[~cut])} coincide with a lower-index vertex, "
+            "not both on a boundary: the surface touches itself there (two parts of a "
+            "closed scan meeting at a point, or a split non-manifold vertex or edge); "
+            "welding would make them non-manifold, so leave them as they are"
+        )
+    return hints
 
 
 def _face_problems(X: np.ndarray, F: np.ndarray, report: dict, problems: list[str]) -> np.ndarray:
@@ -219,6 +243,12 @@ def mesh_report(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> dict:
     report["needle_faces"] = int(needles.size)
     if needles.size:
         report["needle_face_ids"] = needles[:20].tolist()
+        report.setdefault("hints", []).append(
+            f"faces {format_indices(needles)} are needles (a corner angle below "
+            f"{NEEDLE_ANGLE_DEG:g} degree, the smallest {report['min_angle_deg']:.2g}): "
+            "gradients and cotangent weights on them are ill-conditioned, so fields and "
+            "flows can be inaccurate there. Fix: remesh, or collapse their short edges"
+        )
     if any(not p.startswith("UnreferencedVertexError") for p in problems):
         report["manifold"] = not (
             report.get("nonmanifold_edges") or report.get("nonmanifold_vertices")

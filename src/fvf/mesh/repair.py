@@ -30,6 +30,7 @@ from .defects import (
     repeats_vertex,
     zero_area_faces,
 )
+from .inputs import unit_scale
 from .trimesh import DEGENERATE_AREA_RTOL
 
 __all__ = [
@@ -502,8 +503,9 @@ def orient_faces(
         open_face = np.zeros(m, dtype=bool)
         open_face[halfedges.faces_of_edges(runs, np.flatnonzero(runs.counts == 1))] = True
         closed = np.bincount(comp, weights=open_face, minlength=n_labels) == 0
-        c = V[F[:, 0]].mean(axis=0)  # volumes about a point near the mesh, for precision
-        a, b, d = (V[F[:, i]] - c for i in range(3))
+        U = V / unit_scale(V)  # a power of two: 1e300 or 1e-300 coordinates stay finite
+        c = U[F[:, 0]].mean(axis=0)  # volumes about a point near the mesh, for precision
+        a, b, d = (U[F[:, i]] - c for i in range(3))
         det = (
             a[:, 0] * (b[:, 1] * d[:, 2] - b[:, 2] * d[:, 1])
             + a[:, 1] * (b[:, 2] * d[:, 0] - b[:, 0] * d[:, 2])

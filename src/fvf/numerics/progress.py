@@ -76,6 +76,25 @@ def raised_by_callback(exc: BaseException) -> bool:
     return bool(getattr(exc, _FROM_CALLBACK, False))
 
 
+def _check_signature(callback: Callable[..., Any]) -> None:
+    """:class:`fvf.ParameterError` for a callable that cannot be called as
+    ``(stage, done, total)`` (checked before any work, not as a TypeError mid-solve);
+    callables whose signature Python cannot read pass."""
+    import inspect
+
+    try:
+        signature = inspect.signature(callback)
+    except (TypeError, ValueError):
+        return
+    try:
+        signature.bind("stage", 0, 1)
+    except TypeError as exc:
+        raise ParameterError(
+            f"progress must be callable as progress(stage, done, total); {callback!r} "
+            f"is not ({exc})"
+        ) from None
+
+
 def make_progress(
     progress: bool | ProgressCallback | None, *, delay: float = 0.0
 ) -> ProgressCallback:
@@ -108,6 +127,7 @@ def make_progress(
     if isinstance(progress, (_UserProgress, _TqdmProgress)) or progress is _silent:
         return progress
     if callable(progress):
+        _check_signature(progress)
         return _UserProgress(progress)
     raise ParameterError(
         f"progress must be None, True/False or a callable (stage, done, total); got {progress!r}"

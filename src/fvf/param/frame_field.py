@@ -43,6 +43,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
+from ..numerics.progress import ProgressCallback
 from .cutmesh import CutMesh
 
 __all__ = [
@@ -73,6 +74,7 @@ def default_cross_field(
     align: Alignment = "curvature",
     edge_length: float | None = None,
     constraints: tuple[np.ndarray, np.ndarray] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> NField:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
@@ -92,6 +94,8 @@ def default_cross_field(
     constraints : (int64 (c,), float64 (c, 3)), optional
         Faces and the directions the field is held to there (hard constraints of
         :func:`fvf.design_field`; the sharp features of :mod:`fvf.param.features`).
+    progress : callable, optional
+        ``(stage, done, total)``: the stages of :func:`fvf.design_field`.
 
     Returns
     -------
@@ -105,7 +109,7 @@ def default_cross_field(
     faces, dirs = constraints if constraints is not None and len(constraints[0]) else (None, None)
     hard = faces is not None
     if align == "smooth":
-        u = design_field(mesh, faces, dirs, hard=hard, n=4)
+        u = design_field(mesh, faces, dirs, hard=hard, n=4, progress=progress)
     else:
         h = edge_length
         u = design_field(
@@ -117,6 +121,7 @@ def default_cross_field(
             align="curvature",
             curvature_smoothing=h,
             align_smoothing=None if h is None else ALIGN_SMOOTHING * h,
+            progress=progress,
         )
     # a cone at a face's centroid (e.g. by symmetry) makes the power exactly 0 there: any
     # direction is as good as another, take the face's first basis vector

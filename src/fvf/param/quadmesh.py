@@ -19,6 +19,7 @@ import numpy.typing as npt
 
 from ..errors import (
     ParameterError,
+    ProblemSizeError,
     QuadMeshError,
     SmallComponentWarning,
     UndeclaredCacheKeyError,
@@ -28,6 +29,7 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.nfield import require_order
 from ..mesh.trimesh import TriMesh
+from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
 from .caps import capped, cut_caps, snap_boundary
 from .extraction import extract_quads
@@ -52,7 +54,7 @@ from .quad_validity import check_quad_mesh, topology_signature
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 
-__all__ = ["quad_mesh", "MIN_COMPONENT_QUADS"]
+__all__ = ["quad_mesh", "MIN_COMPONENT_QUADS", "MAX_QUADS_PER_FACE", "QUAD_BYTES"]
 
 #: A component smaller than this many target quads (area / h²) is meshed at its own,
 #: smaller edge length √(area / MIN_COMPONENT_QUADS); if that fails, it is left out.
@@ -61,6 +63,33 @@ MIN_COMPONENT_QUADS = 8
 CAP_SPACING = 0.5
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
 MORE_QUADS = 1.0 / np.sqrt(1.5)
+#: At most this many quads per input triangle (area / h² over the face count): finer quads
+#: only resample the flat triangles (a 12-triangle cube still gets 120,000 quads).
+MAX_QUADS_PER_FACE = 10_000
+#: Peak memory per target quad, bytes, measured on an icosphere at 1k-50k quads (0.85 GB
+#: at 50k: remeshing at the quad scale, parameterization, extraction).
+QUAD_BYTES = 16_384
+
+
+def _check_quad_count(mesh: TriMesh, h: float, target_faces: int | None) -> None:
+    """Refuse, before any work, a quad count beyond what the input carries
+    (:data:`MAX_QUADS_PER_FACE`) or the machine's memory holds (:data:`QUAD_BYTES` each):
+    :class:`fvf.ProblemSizeError`."""
+    quads = mesh.total_area / (h * h)
+    asked = f"target_faces={target_faces}" if target_faces is not None else f"edge_length={h:g}"
+    limit = MAX_QUADS_PER_FACE * mesh.n_faces
+    if quads > limit:
+        raise ProblemSizeError(
+            f"fvf.quad_mesh with {asked} asks for about {quads:.3g} quads from {mesh.n_faces} "
+            f"triangles; at most {MAX_QUADS_PER_FACE} quads per input triangle ({limit}) "
+            "are made, finer quads would only resample the flat triangles. Fix: ask for "
+            f"at most {limit} quads, or subdivide the input first"
+        )
+    check_memory(
+        f"fvf.quad_mesh with {asked} (about {quads:.3g} quads)",
+        quads * QUAD_BYTES,
+        "ask for fewer quads, or run on a machine with more memory",
+    )
 
 
 @dataclass(frozen=True)
@@ -331,6 +360,9 @@ def quad_mesh(
         A component has boundary loops, or (``retry=False``) a cone the fit refuses.
     ParameterError
         A bad option (``fold_repair_steps`` negative or not an integer, …).
+    ProblemSizeError
+        More than :data:`MAX_QUADS_PER_FACE` quads per input triangle, or more than the
+        available memory holds at :data:`QUAD_BYTES` per quad (checked before any work).
 
     Warns
     -----
@@ -343,6 +375,7 @@ def quad_mesh(
     user_edges = None if features is None else feature_edge_ids(mesh, features)
     h = edge_length_for(mesh, target_faces, edge_length)
     require_order(field, 4, "quad_mesh")
+    _check_quad_count(mesh, h, target_faces)
     f = None if field is None else np.asarray(field, dtype=np.float64)
     if f is not None and f.shape != (mesh.n_faces, 3):
         from ..mesh.inputs import as_face_field

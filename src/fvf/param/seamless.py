@@ -387,7 +387,7 @@ def seamless_parameterization(
     sc = None if scale is None else _user_scale(mesh, scale)
     require_order(field, 4, "seamless_parameterization")
     clock("cross field" if field is None else "reading the cross field")
-    u, rot = _cross_field(mesh, field, align, h, features)
+    u, rot = _cross_field(mesh, field, align, h, features, clock.substages("cross field"))
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
@@ -474,6 +474,7 @@ def _cross_field(
     align: Alignment,
     h: float,
     features: npt.ArrayLike | None,
+    progress: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The unit cross field (m, 3) the fit follows and the connection's rotations (E,) its
     cones are measured against (None: Levi-Civita): the user's field, or the default one
@@ -481,7 +482,7 @@ def _cross_field(
     if field is not None:
         return unit_cross_field(mesh, field), None
     held = None if features is None else feature_constraints(mesh, features)
-    u = default_cross_field(mesh, align, edge_length=h, constraints=held)
+    u = default_cross_field(mesh, align, edge_length=h, constraints=held, progress=progress)
     return u, default_connection_rotations(mesh, align, h)
 
 
@@ -511,6 +512,16 @@ class _Stages:
     def detail(self, message: str) -> None:
         """A message within the running stage (a round of fold repair)."""
         self.report(message, 1, 1)
+
+    def substages(self, prefix: str) -> ProgressCallback:
+        """A ``progress`` for a function the running stage calls: each of its stages, as
+        it starts, becomes the detail ``"prefix: stage"`` (so a long stage is not silent)."""
+
+        def progress(stage: str, done: int, total: int) -> None:
+            if done == 0:
+                self.detail(f"{prefix}: {stage}")
+
+        return progress
 
 
 def _user_scale(mesh: TriMesh, scale: npt.ArrayLike) -> np.ndarray:

@@ -96,8 +96,22 @@ def descriptor_operators(basis: SpectralBasis, descriptors: npt.ArrayLike) -> np
     phi = basis.eigenvectors  # (n, k)
     n, k, p = phi.shape[0], phi.shape[1], F.shape[1]
     Aphi = basis.mesh.vertex_areas[:, None] * phi  # (n, k)
-    weighted = (phi[:, :, None] * F[:, None, :]).reshape(n, k * p)  # φ_j f_p
-    return (Aphi.T @ weighted).reshape(k, k, p).transpose(2, 0, 1)
+    out = np.zeros((k, k * p))
+    for rows in column_blocks(n, 8 * k * p):  # blocks of vertices: memory bounded
+        weighted = (phi[rows, :, None] * F[rows, None, :]).reshape(-1, k * p)  # φ_j f_p
+        out += Aphi[rows].T @ weighted
+    return out.reshape(k, k, p).transpose(2, 0, 1)
+
+
+#: Bytes of work arrays per block of descriptor columns (:func:`column_blocks`).
+BLOCK_BYTES = 64 * 2**20
+
+
+def column_blocks(p: int, column_bytes: int) -> list[slice]:
+    """Slices of ``range(p)`` (columns or rows) whose work arrays (``column_bytes`` per
+    index) stay within :data:`BLOCK_BYTES` (at least one index per block)."""
+    step = max(1, BLOCK_BYTES // max(column_bytes, 1))
+    return [slice(i, min(i + step, p)) for i in range(0, p, step)]
 
 
 def orientation_operators(
@@ -124,12 +138,17 @@ def orientation_operators(
     mesh = basis.mesh
     F = as_vertex_function(mesh, descriptors, "descriptors", columns=True)
     F = F.reshape(F.shape[0], -1)
-    JG = (rotation(mesh) @ (grad(mesh) @ F)).reshape(mesh.n_faces, 3, -1)  # (m, 3, p)
-    fields = np.ascontiguousarray(np.moveaxis(JG, 2, 0))  # (p, m, 3)
-    if normalize:
-        norm = np.linalg.norm(fields, axis=2, keepdims=True)
-        fields = np.divide(fields, norm, out=np.zeros_like(fields), where=norm > 0)
-    return basis.reduced_D_many(fields)
+    JGrad = rotation(mesh) @ grad(mesh)
+    m, k, p = mesh.n_faces, basis.k, F.shape[1]
+    out = np.empty((p, k, k))
+    for cols in column_blocks(p, 8 * m * (k + 9)):  # memory bounded whatever m, k and p
+        JG = (JGrad @ F[:, cols]).reshape(m, 3, -1)  # (m, 3, q)
+        fields = np.ascontiguousarray(np.moveaxis(JG, 2, 0))  # (q, m, 3)
+        if normalize:
+            norm = np.linalg.norm(fields, axis=2, keepdims=True)
+            fields = np.divide(fields, norm, out=np.zeros_like(fields), where=norm > 0)
+        out[cols] = basis.reduced_D_many(fields)
+    return out
 
 
 def laplacian_mask(

@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
         if args.align_strength is not None:
             kwargs["align_strength"] = args.align_strength
     v = fvf.design_field(mesh, **kwargs)
-    ids, index = fvf.singularities(mesh, v, n=n, zero="warn")
+    ids, index = fvf.singularities(mesh, v, n=n, zero="fill")
     arrays.update(
         v=v,
         singularity_vertices=ids,

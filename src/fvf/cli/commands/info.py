@@ -42,11 +42,11 @@ def info(path: str, as_json: bool = False) -> dict:
 
 def _shell_fix(problem: str) -> str:
     """A problem line whose Python fix names repair steps, told for the shell instead."""
-    from fvf.mesh.repair import REPAIR_STEPS
+    from .repair import cli_repair_steps
 
     text, sep, fix = problem.partition(" Fix: ")
     steps = re.findall(r"fvf\.(\w+)\(", fix)
-    if not sep or not steps or not all(step in REPAIR_STEPS for step in steps):
+    if not sep or not steps or not all(step in cli_repair_steps() for step in steps):
         return problem
     return f"{text} Fixed by `fvf repair` (step {', '.join(dict.fromkeys(steps))})."
 

@@ -23,6 +23,19 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     add_output(p, "repaired mesh (.obj, .off, .ply); the maps go to <stem>.maps.npz beside it")
 
 
+def cli_repair_steps() -> tuple[str, ...]:
+    """The steps of ``fvf repair``: :data:`fvf.DEFAULT_REPAIR_STEPS` with non-manifold
+    edges split too, before the vertices (what ``fvf info`` proposes for them)."""
+    from fvf.mesh.repair import DEFAULT_REPAIR_STEPS
+
+    steps: list[str] = []
+    for name in DEFAULT_REPAIR_STEPS:
+        if name == "split_nonmanifold_vertices":
+            steps.append("split_nonmanifold_edges")
+        steps.append(name)
+    return tuple(steps)
+
+
 @register_command(
     "repair",
     help="repair a mesh (fvf.repair_mesh): weld, drop unreferenced vertices, degenerate and "
@@ -42,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     check_output_places(out, maps)
     fvf.io.check_writable(out)
     V, F = fvf.read_mesh(args.mesh)
-    result = fvf.repair_mesh(V, F, tol=args.tol)
+    result = fvf.repair_mesh(V, F, cli_repair_steps(), tol=args.tol)
     mesh = result.mesh  # the repaired mesh must be valid (else: what is left, status 2)
     # the maps are written to their temporary file first and renamed last: a failure of
     # either file leaves both outputs as they were

@@ -204,9 +204,10 @@ def fan_triangulate(counts: np.ndarray, flat: np.ndarray) -> tuple[np.ndarray, i
 
 
 def write_text(path: Path, text: str) -> None:
-    """Write ASCII text to ``path`` whole or not at all."""
+    """Write ASCII text to ``path`` whole or not at all (other characters, in a comment
+    naming a path, as backslash escapes)."""
     with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="ascii")
+        tmp.write_text(text, encoding="ascii", errors="backslashreplace")
 
 
 def rows_text(prefix: str, values: np.ndarray, spec: str) -> str:

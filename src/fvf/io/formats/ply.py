@@ -310,6 +310,12 @@ def _binary_element_slow(
     return out, pos
 
 
+def _ascii(text: str) -> str:
+    """``text`` for the ASCII header: other characters (a path ``résumé.ply``) as
+    backslash escapes (``r\\xe9sum\\xe9.ply``)."""
+    return text.encode("ascii", "backslashreplace").decode("ascii")
+
+
 def ply_bytes(
     V: np.ndarray,
     F: np.ndarray,
@@ -335,7 +341,7 @@ def ply_bytes(
     vcols = [("x", V[:, 0]), ("y", V[:, 1]), ("z", V[:, 2]), *columns(vertex_data)]
     fcols = columns(face_data)
     lines = ["ply", "format binary_little_endian 1.0", "comment written by fvf"]
-    lines += [f"comment {' '.join(c.split())}" for c in comments]
+    lines += [f"comment {_ascii(' '.join(c.split()))}" for c in comments]
     lines += [f"element vertex {len(V)}", *[f"property double {n}" for n, _ in vcols]]
     lines += [f"element face {len(F)}", "property list uchar int vertex_indices"]
     lines += [f"property double {n}" for n, _ in fcols]
