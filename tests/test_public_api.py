@@ -747,6 +747,14 @@ SPECS: dict[str, Spec] = {
         hostile_run=lambda fn, mesh, c, bad: fn(mesh, bad),
     ),
     # -- fields
+    "NField": Spec(
+        lambda fn, mesh, c: fn(c.u, 4),
+        lambda r, mesh, c: (
+            np.testing.assert_array_equal(r, c.u),
+            (r.n == 4 and type(r * 1) is np.ndarray) or pytest.fail("n"),
+        ),
+        non_tangent="ok",
+    ),
     "as_face_field": Spec(
         lambda fn, mesh, c: fn(mesh, c.u),
         lambda r, mesh, c: np.testing.assert_array_equal(r, c.u),

@@ -70,6 +70,7 @@ __all__ = [
     "QuadMeshError",
     "SmallComponentWarning",
     "DirectionCountError",
+    "DirectionCountConflictError",
     "CutGraphError",
     "FrameError",
     "CorrespondenceError",
@@ -276,6 +277,11 @@ class UnconstrainedComponentWarning(FvfWarning):
 class DirectionCountError(ParameterError):
     """The symmetry order N of an N-direction field is not an integer >= 1, or does not
     fit the request (curvature alignment needs an even N)."""
+
+
+class DirectionCountConflictError(DirectionCountError):
+    """An explicit ``n=`` contradicts the N that an :class:`fvf.NField` carries (or a file
+    stores for it); drop ``n=``, or pass the bare array ``np.asarray(field)``."""
 
 
 class CutGraphError(FvfError):

@@ -148,7 +148,8 @@ def add_display_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--n",
         type=int,
-        help="directions per face of --field: draw N strokes (default: key n, else 1)",
+        help="directions per face of --field: draw N strokes (default: the n stored with "
+        "the field, else key n, else 1)",
     )
 
 
@@ -359,13 +360,23 @@ UP_CHOICES = ("auto", "x", "y", "z", "-x", "-y", "-z")
 
 
 def add_picture_options(p: argparse.ArgumentParser, size: bool = True) -> None:
-    """``--up``, ``--size W H`` and ``--dpi`` of every command that makes a picture."""
+    """``--up``, ``--view AZ EL``, ``--size W H`` and ``--dpi`` of every command that
+    makes a picture."""
     p.add_argument(
         "--up",
         choices=UP_CHOICES,
         default="auto",
-        help="mesh axis pointing up in the picture (default auto: y, or z for a shape "
-        "standing on its -z side)",
+        help="mesh axis pointing up in the picture (default auto: y, or the side the "
+        "shape stands on: z, or x for a left-right symmetric body turned x-up)",
+    )
+    p.add_argument(
+        "--view",
+        nargs=2,
+        type=real,
+        metavar=("AZ", "EL"),
+        help="camera azimuth about the up axis and elevation, degrees (default: a "
+        "three-quarter view from 20 degrees up; pictures of both sides keep their "
+        "second view opposite)",
     )
     if size:
         p.add_argument(
@@ -384,6 +395,8 @@ def picture_options(args: argparse.Namespace) -> dict:
     out: dict[str, Any] = {}
     if getattr(args, "up", "auto") not in (None, "auto"):
         out["up"] = args.up
+    if getattr(args, "view", None):
+        out["view"] = tuple(args.view)
     if getattr(args, "size", None):
         out["size"] = tuple(args.size)
     if getattr(args, "dpi", None) is not None:
@@ -488,8 +501,9 @@ def display_arrays(args, mesh):
     if args.field:
         kwargs["field"] = _numbers_of(src, args.field, [(mesh.n_faces, 3), (mesh.n_vertices, 3)])
     n = args.n
+    own = getattr(kwargs.get("field"), "n", None)  # a field whose file stores its n
     if n is None:
-        n = int(data.numbers("n", ())) if data is not None and "n" in data else 1
+        n = own if own is not None else _stored_n(data)
     if n != 1:
         kwargs["n"] = n
     if args.singularities:
@@ -510,6 +524,11 @@ def display_arrays(args, mesh):
             )
         kwargs["singularities"] = (pos, idx)
     return kwargs, args.data
+
+
+def _stored_n(data: Any) -> int:
+    """The key ``n`` of the data files (what ``fvf design`` writes), else 1."""
+    return int(data.numbers("n", ())) if data is not None and "n" in data else 1
 
 
 def _numbers_of(src, spec, shapes):

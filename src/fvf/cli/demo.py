@@ -573,7 +573,7 @@ def _quads(s, story):
         st,
         "quads.png",
         mesh,
-        f"{Q.shape[0]} quads; irregular vertices: +1 valence 3, −1 valence 5",
+        f"{Q.shape[0]} quads; irregular vertices by valence (3 and 5)",
         draw=functools.partial(_quad_picture, V, Q),
         view=_both_sides(),
         wide=True,
@@ -659,6 +659,7 @@ def demo(
     stages: tuple | None = None,
     up: str | None = None,
     dpi: int | None = None,
+    view: tuple[float, float] | None = None,
 ) -> dict:
     """Run the chapter's story on a mesh; write ``summary.json``, pictures and ``index.html``.
 
@@ -681,6 +682,9 @@ def demo(
         :func:`fvf.viz.camera.detect_up_axis`).
     dpi : int, optional
         Dots per inch recorded in the pictures (default 100).
+    view : (float, float), optional
+        Azimuth and elevation in degrees of every picture's camera (a picture of both
+        sides keeps its second view opposite the first); default: each picture's own.
 
     Returns
     -------
@@ -702,7 +706,9 @@ def demo(
         "n_faces": mesh.n_faces,
         "euler_characteristic": mesh.euler_characteristic,
     }
-    options = {k: v for k, v in (("up", up), ("dpi", dpi)) if v not in (None, "auto")}
+    options = {
+        k: v for k, v in (("up", up), ("dpi", dpi), ("view", view)) if v not in (None, "auto")
+    }
     story = Story(out, pictures, size, _viz_missing(), options)
     if story.skip_reason is None:
         import fvf.viz

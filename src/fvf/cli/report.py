@@ -244,7 +244,10 @@ class Story:
         w, h = self.size
         kwargs.setdefault("size", (int(1.6 * w), h) if wide else (w, h))
         for key, value in self.options.items():
-            kwargs.setdefault(key, value)
+            if key == "view":  # the camera angles, each view keeping its turn
+                kwargs["view"] = fvf.viz.camera.aim(kwargs.get("view"), *value)
+            else:
+                kwargs.setdefault(key, value)
         if draw is None:
             info = fvf.viz.render(mesh, self.out / name, title=caption, **kwargs)
         else:

@@ -61,7 +61,8 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.geometry import cross_rows
-from ..mesh.inputs import as_direction_count, as_face_field
+from ..mesh.inputs import as_face_field
+from ..mesh.nfield import FROM_FIELD, FromField, NField, field_order
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from .connection import connection_pairs
@@ -257,14 +258,14 @@ class _Reanglers:
 def _checked(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int,
+    n: int | FromField,
     radius: float,
     rounds: int,
     rotations: npt.ArrayLike | None,
 ) -> tuple[int, float, np.ndarray, np.ndarray | None]:
     """The checked N, radius, unit field and ``connection_rotations`` (float64 (E,) or
     None) of the public entrances."""
-    n = as_direction_count(n)
+    n = field_order(u, n, 4, "u")
     radius = float(radius)
     if not (np.isfinite(radius) and radius >= 0):
         raise ParameterError(f"radius must be a finite number >= 0; got {radius!r}")
@@ -279,7 +280,7 @@ def _checked(
 def _checked_edits(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int,
+    n: int | FromField,
     radius: float,
     rounds: int,
     backend: Backend,
@@ -292,14 +293,14 @@ def _checked_edits(
     reanglers = _Reanglers(mesh, radius, backend)
     for rules in rules_at:
         u = _edit(mesh, u, n, radius, rounds, reanglers, *rules(radius), rot)
-    return u
+    return NField(u, n)
 
 
 @takes_mesh
 def cancel_close_singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int = 4,
+    n: int | FromField = FROM_FIELD,
     *,
     radius: float,
     rounds: int = 3,
@@ -313,8 +314,8 @@ def cancel_close_singularities(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face, non-zero on every face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1. Default: the ``n`` of an :class:`fvf.NField` ``u``, else 4.
     radius : float
         3D distance below which a +1/N, −1/N pair cancels. For a quad mesh the target
         edge length.
@@ -452,7 +453,7 @@ def close_equal_pairs(
 def separate_close_singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int = 4,
+    n: int | FromField = FROM_FIELD,
     *,
     radius: float,
     rounds: int = 3,
@@ -474,8 +475,8 @@ def separate_close_singularities(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face, non-zero on every face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1. Default: the ``n`` of an :class:`fvf.NField` ``u``, else 4.
     radius : float
         3D distance below which a pair of equal singularities is separated.
     rounds : int
@@ -613,7 +614,7 @@ def _splitting(mesh: TriMesh, radius: float, max_step: int) -> tuple[Callable, C
 def tidy_close_singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int = 4,
+    n: int | FromField = FROM_FIELD,
     *,
     radius: float,
     max_step: int = 2,
@@ -635,8 +636,8 @@ def tidy_close_singularities(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face, non-zero on every face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1. Default: the ``n`` of an :class:`fvf.NField` ``u``, else 4.
     radius : float
         3D distance at which singularities count as close.
     max_step : int

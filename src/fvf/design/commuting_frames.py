@@ -50,7 +50,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field, as_nonnegative, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from ..operators.brackets import commutator_field
 from ..operators.directional import D_V
 from .nfields import period_jumps
@@ -93,6 +93,7 @@ class FrameReport:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     bracket_energy: float
     curl_u: float
@@ -113,6 +114,7 @@ class FrameRescaling:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     a: np.ndarray
     b: np.ndarray

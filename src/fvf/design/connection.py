@@ -115,6 +115,7 @@ from ..errors import (
 from ..mesh.convert import takes_mesh
 from ..mesh.geometry import centered_vertices, cross_rows, readonly, readonly_csr
 from ..mesh.inputs import as_direction_count, as_face_field
+from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.inverse_iteration import inverse_iteration
@@ -654,7 +655,7 @@ def smoothest_fields(
     -------
     energies : float64 (count,)
         Ascending eigenvalues λ_k = E_n(z_k) (≈ ∫|∇ z_k|²) with ∫|z_k|² = 1.
-    fields : float64 (count, m, 3)
+    fields : NField, float64 (count, m, 3)
         For n = 1 the eigenfields as ambient per-face vectors, unit L2 norm
         (Σ_t A_F(t) |u_k(t)|² = 1), mutually orthogonal in the complex sense
         (Σ A_F z̄_j z_k = 0), phase fixed so that the first coefficient of (within 1e-6)
@@ -736,4 +737,4 @@ def smoothest_fields(
         mag = np.abs(Z)
         Z = mag * np.exp(1j * np.angle(Z) / n)
     fields = np.einsum("tij,kti->ktj", mesh.face_bases, np.stack([Z.T.real, Z.T.imag], -1))
-    return np.asarray(lam, dtype=float), fields
+    return np.asarray(lam, dtype=float), NField(fields, n)

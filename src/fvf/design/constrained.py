@@ -54,6 +54,7 @@ from ..errors import (  # noqa: F401 (re-exported)
 )
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_direction_count, as_nonnegative
+from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
 from ..numerics.progress import ProgressCallback, make_progress
@@ -451,7 +452,7 @@ def design_field(
     progress: bool | ProgressCallback | None = None,
     curvature_smoothing: float | None = None,
     align_smoothing: float | None = None,
-) -> np.ndarray:
+) -> NField:
     """The smoothest tangent N-field meeting direction constraints (Knöppel et al. 2013).
 
     Minimises the connection energy E(z) = z^* L_N z (:func:`fvf.connection_laplacian`
@@ -521,8 +522,10 @@ def design_field(
 
     Returns
     -------
-    ndarray, float64 (m, 3)
-        The field as ambient per-face vectors (tangent); for n ≥ 2 one representative per
+    NField, float64 (m, 3)
+        The field as ambient per-face vectors (tangent), an :class:`fvf.NField` that
+        carries ``n`` (an ndarray; consumers such as :func:`fvf.singularities` read ``n``
+        from it); for n ≥ 2 one representative per
         face (:func:`fvf.design.nfields.from_power`), of length |z_t|, chosen on each
         constrained face as the direction of the set nearest to the given one (so a hard
         constraint is returned exactly). With no constraints and no alignment: the
@@ -576,8 +579,8 @@ def design_field(
             "align_smoothing diffuses an alignment target: pass align= too, or drop it"
         )
 
-    def smoothest() -> np.ndarray:  # nothing to meet: the smoothest N-field
-        return smoothest_fields(
+    def smoothest() -> NField:  # nothing to meet: the smoothest N-field
+        fields = smoothest_fields(
             mesh,
             1,
             kind,
@@ -585,7 +588,8 @@ def design_field(
             backend=backend,
             progress=progress,
             curvature_smoothing=curvature_smoothing,
-        )[1][0]
+        )[1]
+        return NField(fields[0], n)
 
     if f.size == 0 and align is None:
         return smoothest()
@@ -691,13 +695,13 @@ def _given_constraints(
 
 def _field_from_power(
     mesh: TriMesh, z: np.ndarray, n: int, f: np.ndarray, tau: np.ndarray, hard: bool
-) -> np.ndarray:
+) -> NField:
     """Ambient (m, 3) field of the power representation z (complex (m,)): for n ≥ 2 the
     N-th root, taken on each constrained face f as the root nearest to its target tau
     (exactly the target for hard constraints)."""
     if n == 1:
-        return mesh.from_complex(z)
+        return NField(mesh.from_complex(z), 1)
     root = np.abs(z) * np.exp(1j * np.angle(z) / n)
     if f.size:
         root[f] = tau if hard else _nearest_root(z[f], tau, n)
-    return mesh.from_complex(root)
+    return NField(mesh.from_complex(root), n)

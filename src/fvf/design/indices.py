@@ -41,12 +41,12 @@ from ..mesh.convert import takes_mesh
 from ..mesh.geometry import angle_defects, cross_rows
 from ..mesh.inputs import (
     TangentPolicy,
-    as_direction_count,
     as_face_field,
     as_vertex_function,
     unit_scale,
     vector_rows,
 )
+from ..mesh.nfield import FROM_FIELD, FromField, field_order
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh
@@ -107,7 +107,7 @@ def vertex_indices(
     mesh: TriMesh,
     u: npt.ArrayLike,
     *,
-    n: int = 1,
+    n: int | FromField = FROM_FIELD,
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
@@ -151,8 +151,9 @@ def vertex_indices(
     u : array_like, float (m, 3) or (3m,)
         One tangent vector per face (for n ≥ 2, one representative per face). Only the
         tangential part enters the angles.
-    n : int
-        Symmetry order N ≥ 1 of the field (default 1: a vector field).
+    n : int, optional
+        Symmetry order N ≥ 1 of the field. Default: the ``n`` of an :class:`fvf.NField`
+        (what :func:`fvf.design_field` returns), else 1 (a vector field).
     zero : {"raise", "warn"}
         What to do when some faces have a zero vector (tangential length at most
         ``zero_rtol`` times the largest one; an all-zero field counts as zero
@@ -205,7 +206,7 @@ def vertex_indices(
     -1
     """
     _check_zero_policy(zero)
-    order = as_direction_count(n)
+    order = field_order(u, n, 1, "u")
     u = as_face_field(mesh, u, "u", tangent=tangent)
     X, N, E, EF = mesh.vertices, mesh.face_normals, mesh.edges, mesh.edge_faces
     n = mesh.n_vertices
@@ -269,7 +270,7 @@ def singularities(
     mesh: TriMesh,
     u: npt.ArrayLike,
     *,
-    n: int = 1,
+    n: int | FromField = FROM_FIELD,
     zero: ZeroPolicy = "raise",
     zero_rtol: float = ZERO_RTOL,
     tangent: TangentPolicy = "project",
@@ -282,8 +283,9 @@ def singularities(
     mesh : TriMesh
     u : array_like, float (m, 3) or (3m,)
         One tangent vector per face (one representative per face for n ≥ 2).
-    n : int
-        Symmetry order N ≥ 1 (1 vector, 2 line, 4 cross, …).
+    n : int, optional
+        Symmetry order N ≥ 1 (1 vector, 2 line, 4 cross, …). Default: the ``n`` of an
+        :class:`fvf.NField` (what :func:`fvf.design_field` returns), else 1.
     zero, zero_rtol, tangent, connection_rotations
         As in :func:`vertex_indices`.
 

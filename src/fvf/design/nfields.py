@@ -57,8 +57,9 @@ from ..errors import CutGraphError, FieldShapeError, format_indices
 from ..mesh.convert import takes_mesh
 from ..mesh.geometry import cross_rows
 from ..mesh.inputs import as_direction_count, as_face_field
+from ..mesh.nfield import FROM_FIELD, FromField, NField, field_order
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .indices import ZERO_RTOL, as_connection_rotations, vertex_indices
 
 __all__ = [
@@ -76,7 +77,7 @@ TWO_PI = 2.0 * np.pi
 
 # ---------------------------------------------------------------------------- representation
 @takes_mesh
-def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
+def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int | FromField = FROM_FIELD) -> np.ndarray:
     """The power representation w = |z| (z/|z|)^N of an N-field, complex128 (m,).
 
     Parameters
@@ -85,8 +86,9 @@ def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     u : array_like, float (m, 3) or (3m,)
         One representative vector per face (normal parts are projected away, with a
         :class:`fvf.NonTangentFieldWarning` when they are not round-off).
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1; default: the ``n`` of an :class:`fvf.NField` ``u``
+        (required for a bare array).
 
     Returns
     -------
@@ -101,7 +103,7 @@ def to_power(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
     FieldShapeError, FieldValueError
         Wrong shape or non-finite values.
     """
-    n = as_direction_count(n)
+    n = field_order(u, n, None, "u")
     u = as_face_field(mesh, u, "u")
     z = mesh.to_complex(u)
     if n == 1:
@@ -125,7 +127,7 @@ def from_power(mesh: TriMesh, w: npt.ArrayLike, n: int) -> np.ndarray:
 
     Returns
     -------
-    float64 (m, 3)
+    NField, float64 (m, 3)
         Ambient tangent vectors of length |w| (zero where w is zero);
         ``to_power(mesh, from_power(mesh, w, n), n) == w`` up to round-off.
 
@@ -148,16 +150,18 @@ def from_power(mesh: TriMesh, w: npt.ArrayLike, n: int) -> np.ndarray:
     if bad.size:
         raise FieldShapeError(f"w has NaN or inf at faces {format_indices(bad)}.")
     z = w if n == 1 else np.abs(w) * np.exp(1j * np.angle(w) / n)
-    return mesh.from_complex(z)
+    return NField(mesh.from_complex(z), n)
 
 
-def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int) -> np.ndarray:
+def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int | FromField = FROM_FIELD) -> np.ndarray:
     """The N directions of each face: u rotated by 2πj/N, float64 (N, m, 3).
+
+    ``n`` defaults to the ``n`` of an :class:`fvf.NField` ``u`` (required for a bare array).
 
     ``out[j, t]`` is ``cos(2πj/N) u_t + sin(2πj/N) N_t × u_t`` (counter-clockwise about
     the face normal); ``out[0]`` is the tangent part of u.
     """
-    n = as_direction_count(n)
+    n = field_order(u, n, None, "u")
     u = as_face_field(mesh, u, "u")
     Ju = cross_rows(mesh.face_normals, u)
     ang = TWO_PI * np.arange(n) / n
@@ -207,7 +211,7 @@ def check_nonzero(mesh: TriMesh, u: np.ndarray, what: str) -> None:
 def period_jumps(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int,
+    n: int | FromField = FROM_FIELD,
     *,
     connection_rotations: npt.ArrayLike | None = None,
 ) -> np.ndarray:
@@ -218,8 +222,9 @@ def period_jumps(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1; default: the ``n`` of an :class:`fvf.NField` ``u``
+        (required for a bare array).
     connection_rotations : float (E,), optional
         Angles x_e added to the Levi-Civita transport across each edge (``mesh.edges``
         order; :func:`fvf.design.holonomy.holonomy_rotations`): the field is measured
@@ -240,7 +245,7 @@ def period_jumps(
     DirectionCountError
         n not an integer ≥ 1.
     """
-    n = as_direction_count(n)
+    n = field_order(u, n, None, "u")
     u = as_face_field(mesh, u, "u")
     check_nonzero(mesh, u, "the period jumps of its edges")
     out = np.zeros(mesh.n_edges, dtype=np.int64)
@@ -268,6 +273,7 @@ class CutGraph:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     mask: np.ndarray
     edges: np.ndarray
@@ -322,7 +328,7 @@ def _prune(E: np.ndarray, active: np.ndarray, keep: np.ndarray, n_vertices: int)
 def cut_graph(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int,
+    n: int | FromField = FROM_FIELD,
     *,
     connection_rotations: npt.ArrayLike | None = None,
 ) -> CutGraph:
@@ -333,8 +339,9 @@ def cut_graph(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face, non-zero on every face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1; default: the ``n`` of an :class:`fvf.NField` ``u``
+        (required for a bare array).
     connection_rotations : float (E,), optional
         As in :func:`period_jumps`: the singularities are measured against that connection.
 
@@ -370,7 +377,7 @@ def cut_graph(
     DirectionCountError
         n not an integer ≥ 1.
     """
-    n = as_direction_count(n)
+    n = field_order(u, n, None, "u")
     u = as_face_field(mesh, u, "u")
     check_nonzero(mesh, u, "the cut graph through its singularities")
     E, EF = mesh.edges, mesh.edge_faces
@@ -444,7 +451,7 @@ def _tree_sums(parent: np.ndarray, delta: np.ndarray) -> np.ndarray:
 def comb(
     mesh: TriMesh,
     u: npt.ArrayLike,
-    n: int,
+    n: int | FromField = FROM_FIELD,
     cut: CutGraph | npt.ArrayLike | None = None,
     *,
     connection_rotations: npt.ArrayLike | None = None,
@@ -456,8 +463,9 @@ def comb(
     mesh : TriMesh
     u : array_like, float (m, 3)
         One representative vector per face, non-zero on every face.
-    n : int
-        Symmetry order N ≥ 1.
+    n : int, optional
+        Symmetry order N ≥ 1; default: the ``n`` of an :class:`fvf.NField` ``u``
+        (required for a bare array).
     cut : CutGraph, bool (E,) or int (k, 2), optional
         The cut: a :func:`cut_graph` result, a mask over ``mesh.edges`` or vertex pairs.
         Default: ``cut_graph(mesh, u, n)``. Boundary edges are never crossed.
@@ -491,7 +499,7 @@ def comb(
     component of the cut surface); each face's rotation is the sum of the jumps along its
     tree path to the root, accumulated by pointer doubling (O(m log depth), vectorised).
     """
-    n = as_direction_count(n)
+    n = field_order(u, n, None, "u")
     u = as_face_field(mesh, u, "u")
     check_nonzero(mesh, u, "its combing")
     rot = connection_rotations

@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import FieldShapeError, ParameterError
 from ..mesh.inputs import as_direction_count
+from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from ..numerics.eigen import smallest_eigenpairs
 from ..spectral.basis import SpectralBasis
@@ -124,7 +125,7 @@ def map_consistent_field(
     v = np.einsum("r,rtc->tc", a[:, 0], psi)
     flat = v.ravel()
     v *= np.sign(flat[np.abs(flat).argmax()])
-    return v, consistency_residual(basis, C, v)
+    return NField(v, 1), consistency_residual(basis, C, v)
 
 
 # ---------------------------------------------------------------------------- N-fields

@@ -40,7 +40,7 @@ from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import as_times, check_options, expm_action
 from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from ..operators.brackets import ad
 from .functional import GROWTH_LIMIT
 
@@ -60,6 +60,7 @@ class TransportResult:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     fields: np.ndarray
     normal_part: float | np.ndarray

@@ -57,7 +57,7 @@ from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_count, as_positive, as_vertex_function
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from ..operators.directional import D_V
 
 __all__ = [
@@ -214,6 +214,7 @@ class FluidResult:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     mesh: TriMesh
     times: np.ndarray

@@ -12,6 +12,7 @@ uncompressed or compressed NumPy ``.npz`` archive (``numpy.savez``), read with
 | `u`        | float, (m, 3)         | a second field: bracket partner, or transported|
 | `u1`       | float, (m, 3)         | end field of an interpolation (eq. 68)         |
 | `t`        | float, () or (T,)     | times, when the command line gives none        |
+| `n_<key>`  | int, ()               | the N of the N-field under `key` (`n` for `v`) |
 | `vertices` | float, (n, 3)         | optional copy of the mesh's vertices           |
 | `faces`    | int, (m, 3)           | optional copy of the mesh's faces (0-based)    |
 
@@ -92,9 +93,13 @@ from ..errors import (  # noqa: F401 (re-exported)
     MeshReadError,
     user_stacklevel,
 )
-from ..mesh.inputs import as_face_field, as_vertex_function
+from ..mesh.inputs import as_direction_count, as_face_field, as_vertex_function
+from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from .atomic import atomic_path, check_not_input
+from .fieldorder import order_key, orders_from_comments, orders_of
+from .formats.base import SNIFF_BYTES
+from .formats.ply import header_comments
 from .inputfile import read_bytes, regular_file
 
 __all__ = [
@@ -142,6 +147,9 @@ class DataFile(Mapping):
         self._arrays = {k: a if isinstance(a, _Lazy) else np.asarray(a) for k, a in arrays.items()}
         self._sources = {k: Path(v) for k, v in (sources or {}).items()}
         self._columns: set[Path] = set(columns)
+        for k, a in self._arrays.items():  # arrays given in memory (PLY, VTK properties)
+            if not isinstance(a, _Lazy):
+                self._arrays[k] = self._with_order(k, a)
 
     @classmethod
     def merged(cls, files: Sequence[DataFile]) -> DataFile:
@@ -175,8 +183,31 @@ class DataFile(Mapping):
             )
         a = self._arrays[key]
         if isinstance(a, _Lazy):
-            a = self._arrays[key] = a.load()
+            a = self._arrays[key] = self._with_order(key, a.load())
         return a
+
+    def order(self, key: str) -> int | None:
+        """The N stored for the field ``key`` (:mod:`fvf.io.fieldorder`: the key
+        ``n_<key>``, or ``n`` for ``v``), None when the file stores none."""
+        name = order_key(key)
+        if name in self._arrays:
+            value = np.asarray(self[name])
+            if value.shape not in ((), (1,)):
+                raise FieldShapeError(f"{self._at(name)} must be one integer, the N of {key!r}")
+            return as_direction_count(value.item(), self._at(name))
+        if key == "v" and "n" in self._arrays:  # what fvf design writes for its field v
+            value = np.asarray(self["n"])
+            if value.size == 1 and value.dtype.kind in "iuf" and float(value.item()) >= 1:
+                if float(value.item()).is_integer():
+                    return int(value.item())
+        return None
+
+    def _with_order(self, key: str, a: np.ndarray) -> np.ndarray:
+        """``a`` as an :class:`fvf.NField` when it is a field whose N the file stores."""
+        if a.ndim not in (2, 3) or a.shape[-1] != 3 or a.dtype.kind not in "biuf":
+            return a
+        n = self.order(key)
+        return a if n is None else NField(a, n)
 
     def __contains__(self, key: object) -> bool:
         return key in self._arrays
@@ -338,7 +369,8 @@ class DataFile(Mapping):
         return _legacy(self._at(key), a, np.swapaxes(a, -1, -2), str(want))
 
     def field(self, key: str, mesh: TriMesh) -> np.ndarray:
-        """A per-face tangent field under ``key``: float64 (m, 3), projected onto the faces.
+        """A per-face tangent field under ``key``: float64 (m, 3), projected onto the faces;
+        an :class:`fvf.NField` when the file stores its N (:meth:`order`).
 
         Raises
         ------
@@ -360,7 +392,9 @@ class DataFile(Mapping):
                 f"{self._at(key)} has shape {a.shape}, expected ({m}, 3): one ambient "
                 f"xyz vector per mesh face{hint}"
             )
-        return as_face_field(mesh, a, f"{self._at(key)}")
+        u = as_face_field(mesh, a, f"{self._at(key)}")
+        n = self.order(key)
+        return u if n is None else NField(u, n)
 
     def times(self, key: str = "t") -> np.ndarray:
         """Times under ``key``: float64 (T,) (a scalar becomes (1,)).
@@ -418,9 +452,11 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     Parameters
     ----------
     path : str or os.PathLike
-        An ``.npz`` archive with the keys of this module's schema, or a ``.ply`` file whose
-        vertex/face properties become functions and fields (see the module docstring). It
-        must be a regular file (not a FIFO or a device).
+        An ``.npz`` archive with the keys of this module's schema, a ``.ply`` file whose
+        vertex/face properties become functions and fields (see the module docstring), or
+        a VTK file (``.vtu``, ``.vtp``, ``.vtk``; PyVista or meshio) whose point and cell
+        data do. It must be a regular file (not a FIFO or a device). A field whose N the
+        file stores (:mod:`fvf.io.fieldorder`) is read as an :class:`fvf.NField`.
     mesh : TriMesh, optional
         When given, the stored mesh copies (``vertices``, ``faces``) must match it.
 
@@ -444,6 +480,8 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     if path.suffix.lower() == ".ply":
         arrays: dict[str, Any] = _ply_arrays(path)
         columns = [path]  # PLY properties are columns
+    elif path.suffix.lower() in (".vtu", ".vtp", ".vtk"):
+        arrays, columns = _vtk_arrays(path), [path]
     else:
         members = _npz_members(path)
         arrays = dict(members)
@@ -556,6 +594,9 @@ def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
         raise DataFileError(str(exc)) from exc
     arrays: dict[str, np.ndarray] = dict(vertex)
     arrays.update(vertices=X, faces=F)  # the PLY's own mesh: checked against the mesh used
+    comments = header_comments(read_bytes(path, DataFileError, head=SNIFF_BYTES))
+    for name, n in orders_from_comments(comments).items():
+        arrays[order_key(name)] = np.asarray(n, dtype=np.int64)
     for name, values in face.items():
         arrays.setdefault(name, values)
     for name in list(face):
@@ -564,6 +605,33 @@ def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
             triple = [base + c for c in "xyz"]
             if all(k in face for k in triple) and base not in vertex:
                 arrays[base] = np.column_stack([face[k] for k in triple])
+    return arrays
+
+
+def _vtk_arrays(path: Path) -> dict[str, np.ndarray]:
+    """Functions and fields from the point, cell and field data of a VTK file: each array
+    under its name, rows aligned with :func:`fvf.read_mesh`'s vertices and faces (a
+    polygon's row repeated for each of its fan triangles), ``vertices`` and ``faces``."""
+    from .formats.vtk import read_arrays
+    from .meshfile import PolygonTriangulatedWarning, read_mesh
+
+    try:
+        vtk = read_arrays(path)
+        with warnings.catch_warnings():  # reported when the file is read as the mesh
+            warnings.simplefilter("ignore", PolygonTriangulatedWarning)
+            X, F = read_mesh(path)
+    except MeshReadError as exc:
+        raise DataFileError(str(exc)) from exc
+    rows = vtk.polygons.counts - 2  # read_mesh's fan triangles per polygon
+    arrays: dict[str, np.ndarray] = {}
+    for name, a in vtk.point_data.items():
+        arrays[name] = np.asarray(a)
+    for name, a in vtk.cell_data.items():
+        arrays.setdefault(name, np.repeat(np.asarray(a), rows, axis=0))
+    for name, a in vtk.field_data.items():
+        if name.startswith("n_") and np.asarray(a).size == 1:
+            arrays[name] = np.asarray(a).reshape(())
+    arrays.update(vertices=X, faces=F)  # the file's own mesh: checked against the mesh used
     return arrays
 
 
@@ -625,7 +693,7 @@ def write_data(
     inputs = list(inputs)
     check_not_input(path, [mesh_path, *inputs], force=overwrite_inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
-    out = {k: np.asarray(a) for k, a in arrays.items()}
+    out = {k: a if isinstance(a, NField) else np.asarray(a) for k, a in arrays.items()}
     provenance = dict(
         fvf_version=__version__,
         command=command,
@@ -634,6 +702,9 @@ def write_data(
     )
     if path.suffix.lower() != ".npz":
         return _write_mesh_data(path, out, mesh, provenance, kinds)
+    for key, n in orders_of(out).items():  # the N of each N-field (fvf.io.fieldorder)
+        out[key] = out[key].view(np.ndarray)
+        out[order_key(key)] = np.asarray(n, dtype=np.int64)
     out.update(
         vertices=np.asarray(mesh.vertices, dtype=np.float64),
         faces=np.asarray(mesh.faces, dtype=np.int64),
@@ -650,7 +721,7 @@ def write_data(
 
 
 #: Suffixes of the mesh formats :func:`write_data` writes results into, as properties.
-MESH_DATA_SUFFIXES = (".ply", ".vtp", ".vtu")
+MESH_DATA_SUFFIXES = (".ply", ".vtp", ".vtu", ".vtk")
 
 
 def data_path(path: str | os.PathLike) -> Path:
@@ -725,7 +796,7 @@ def mesh_properties(
             mark = np.zeros(n)
             mark[np.asarray(arrays["singularity_vertices"], dtype=np.int64)] = a
             vertex["singularity_index"] = mark
-        elif not put(key, np.asarray(a)):
+        elif not put(key, a if isinstance(a, NField) else np.asarray(a)):
             left.append(key)
     return vertex, face, left
 

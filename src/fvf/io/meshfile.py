@@ -41,6 +41,7 @@ from ..errors import (
     PolygonTriangulatedWarning,
     user_stacklevel,
 )
+from .fieldorder import order_comments, orders_of
 from .formats import obj as _obj
 from .formats import ply as _ply
 from .formats._text import strict as _strict  # noqa: F401 (tests time it)
@@ -70,8 +71,9 @@ __all__ = [
 
 #: Suffixes :func:`read_mesh` reads (the registry's readable formats).
 SUFFIXES = readable_suffixes()
-#: Formats :func:`write_mesh` writes besides :data:`SUFFIXES` (through meshio or PyVista).
-VTK_SUFFIXES = tuple(s for s, f in FORMATS.items() if f.read is None and f.write is not None)
+#: The VTK XML formats :func:`write_mesh` writes and :func:`read_mesh` reads (through
+#: meshio or PyVista); :func:`read_mesh` also reads legacy ``.vtk``.
+VTK_SUFFIXES = tuple(s for s, f in FORMATS.items() if f.name == "VTK")
 #: The values of ``faces=`` of :func:`read_mesh` and :func:`read_ply_properties`.
 FACE_MODES = ("triangles", "quads", "any")
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
@@ -80,14 +82,17 @@ _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
 def read_mesh(
     path: str | os.PathLike, *, faces: str = "triangles"
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """Read a mesh from an OBJ, OFF, PLY or STL file.
+    """Read a mesh from an OBJ, OFF, PLY, STL, VTK or glTF file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off``,
-        ``.ply`` (ascii, binary_little_endian or binary_big_endian) or ``.stl`` (ascii or
-        binary).
+        ``.ply`` (ascii, binary_little_endian or binary_big_endian), ``.stl`` (ascii or
+        binary), or VTK: ``.vtu``, ``.vtp`` (XML) and legacy ``.vtk``, read through
+        PyVista, else meshio (``pip install 'fvf[vtk]'``; :mod:`fvf.io.formats.vtk`),
+        their triangle, quad and polygon cells, or glTF ``.glb`` / ``.gltf`` through
+        trimesh (:mod:`fvf.io.formats.gltf`: the scene's triangles, welded at seams).
     faces : {"triangles", "quads", "any"}
         ``"triangles"`` (default): every face a triangle, polygons ``(v0, ..., vk)``
         fan-triangulated into ``(v0, vi, vi+1)``. ``"quads"``: the faces as stored, which
@@ -114,6 +119,9 @@ def read_mesh(
         range; with ``faces="quads"``, a face that is not a quad.
     fvf.errors.ParameterError
         ``faces`` is not one of the three values.
+    fvf.errors.MissingExtraError
+        A VTK file without PyVista or meshio (``.vtp``: without PyVista), a glTF file
+        without trimesh.
 
     Warns
     -----
@@ -253,7 +261,8 @@ def write_mesh(
     face_data: Mapping[str, npt.ArrayLike] | None = None,
     comments: tuple[str, ...] = (),
 ) -> None:
-    """Write a triangle or quad mesh as OBJ, OFF (ascii), PLY (binary), STL (binary) or VTK.
+    """Write a triangle or quad mesh as OBJ, OFF (ascii), PLY (binary), STL (binary), VTK
+    or glTF.
 
     The file is written whole or not at all (:func:`fvf.io.atomic.atomic_path`), and
     everything is checked (:func:`check_writable` among others) before it is written.
@@ -263,8 +272,10 @@ def write_mesh(
     path : str or os.PathLike
         Output file; its suffix (case-insensitive) selects the format: ``.obj``, ``.off``,
         ``.ply``, ``.stl`` (binary, float32 coordinates, triangles only), or VTK XML for
-        ParaView: ``.vtu`` (through meshio, else PyVista) or ``.vtp`` (through PyVista);
-        both are optional (``pip install 'fvf[vtk]'``). Text formats print coordinates
+        ParaView: ``.vtu`` (through meshio, else PyVista) or ``.vtp`` (through PyVista),
+        legacy ``.vtk`` (binary, through PyVista); all optional
+        (``pip install 'fvf[vtk]'``); glTF ``.glb`` / ``.gltf`` (triangles, float32
+        positions, through trimesh). Text formats print coordinates
         with ``%.17g`` and PLY stores doubles, so reading the file back with
         :func:`read_mesh` gives exactly the same arrays.
     vertices : array_like of float, shape (n, 3)
@@ -280,7 +291,10 @@ def write_mesh(
         ``vx vy vz`` is the field ``v``). In VTK they are point and cell data of those
         names (3-vectors as vectors). Names: letters, digits, ``_ . -``.
     comments : tuple of str
-        PLY ``comment`` lines (provenance).
+        PLY ``comment`` lines (provenance). The N of each :class:`fvf.NField` in the
+        data is stored too (a PLY comment ``fvf n_<name>: N``, VTK field data
+        ``n_<name>``; :mod:`fvf.io.fieldorder`), and :func:`fvf.io.read_data` gives the
+        field back as an NField.
 
     Raises
     ------
@@ -303,6 +317,8 @@ def write_mesh(
     path = Path(path)
     writer_for(path)  # an unknown suffix first, whatever the arrays
     V, F = _checked_mesh(vertices, faces, "faces", (3, 4))
+    orders = orders_of({**(vertex_data or {}), **(face_data or {})})
+    comments = (*comments, *order_comments(orders))
     vdata = _checked_data(vertex_data, len(V), "vertex_data", ("x", "y", "z"))
     fdata = _checked_data(face_data, len(F), "face_data", ("vertex_indices",))
     fmt = check_writable(path, F.shape[1], vertex_data=bool(vdata), face_data=bool(fdata))

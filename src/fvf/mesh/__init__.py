@@ -10,6 +10,7 @@ from .convert import MeshLike, as_mesh, register_path_reader, takes_mesh
 from .curvature import PrincipalCurvatures, principal_curvatures, vertex_normals
 from .diagnostics import mesh_report
 from .inputs import as_face_field, as_face_function, as_vertex_function
+from .nfield import NField
 from .prepared import PreparedMesh, prepare_mesh
 from .repair import (
     RepairResult,
@@ -37,6 +38,7 @@ __all__ = [
     "as_vertex_function",
     "as_face_function",
     "as_face_field",
+    "NField",
     "PreparedMesh",
     "prepare_mesh",
     "RepairResult",

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .convert import takes_mesh
 from .geometry import cross_rows, readonly
 
@@ -60,6 +60,7 @@ class PrincipalCurvatures:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     k1: np.ndarray
     k2: np.ndarray

@@ -31,7 +31,7 @@ from ..errors import (
     MeshShapeError,
     NonFiniteError,
 )
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .repair import DEFAULT_REPAIR_STEPS, repair_mesh
 from .trimesh import TriMesh
 
@@ -66,6 +66,7 @@ class PreparedMesh:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     mesh: TriMesh
     n_input: int

@@ -113,6 +113,20 @@ class RepairResult:
             f"{int(self.flipped.sum())} flipped, log={list(self.log)})"
         )
 
+    def _repr_html_(self) -> str:
+        """A table for Jupyter: vertices and faces before and after, flips, the log."""
+        from ..numerics.summary import html_table
+
+        return html_table(
+            "RepairResult",
+            [
+                ("vertices", f"{self.vertex_map.size} → {self.vertices.shape[0]}"),
+                ("faces", f"{self.face_map.size} → {self.faces.shape[0]}"),
+                ("flipped faces", int(self.flipped.sum())),
+                *[("step", line) for line in self.log],
+            ],
+        )
+
     @property
     def mesh(self):
         """The repaired mesh as a :class:`fvf.TriMesh` (built on first use, then kept).

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ExpmInputError
-from .summary import short_repr
+from .summary import html_repr, short_repr
 
 __all__ = [
     "as_times",
@@ -204,6 +204,7 @@ class ExpmJob:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     B2: np.ndarray
     times: np.ndarray

@@ -2,7 +2,8 @@
 
 A result dataclass (:class:`fvf.MatchResult`, :class:`fvf.SeamlessParameterization`, …)
 sets ``__repr__ = short_repr``: its repr names each array by dtype and shape and shows
-the numbers, so printing a result in a notebook or a log is a few lines, never the arrays.
+the numbers, so printing a result in a notebook or a log is a few lines, never the arrays;
+``_repr_html_ = html_repr`` shows the same as a table in Jupyter.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["short_repr", "short_value", "html_table"]
+__all__ = ["short_repr", "short_value", "html_table", "html_repr"]
 
 #: A value whose own repr is longer than this is shown by its type (and size).
 _WIDTH = 60
@@ -24,7 +25,8 @@ def short_value(value: Any) -> str:
     ``dict(3 keys)``,
     ``list(12)``, else its repr when short, else its type name."""
     if isinstance(value, np.ndarray):
-        return f"{value.dtype}{value.shape}"
+        order = getattr(value, "n", None) if hasattr(value, "representation") else None
+        return f"{value.dtype}{value.shape}" + ("" if order is None else f" n={order}")
     if hasattr(value, "nnz") and hasattr(value, "shape"):  # scipy.sparse, not imported
         return f"{getattr(value, 'format', 'sparse')}{tuple(value.shape)} nnz={value.nnz}"
     if hasattr(value, "n_vertices") and hasattr(value, "n_faces"):  # a mesh
@@ -65,6 +67,17 @@ def short_repr(obj: Any) -> str:
         if f.repr and hasattr(obj, f.name)
     ]
     return f"{type(obj).__name__}({', '.join(parts)})"
+
+
+def html_repr(obj: Any) -> str:
+    """The fields of a result dataclass as a small HTML table (``_repr_html_``, how
+    Jupyter shows it), each value by :func:`short_value` like :func:`short_repr`."""
+    rows = [
+        (f.name, short_value(getattr(obj, f.name)))
+        for f in dataclasses.fields(obj)
+        if f.repr and hasattr(obj, f.name)
+    ]
+    return html_table(type(obj).__name__, rows)
 
 
 def html_table(title: str, rows: list[tuple[str, Any]]) -> str:

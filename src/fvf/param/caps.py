@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterizationInputError, format_indices
 from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .quad_folds import closest_surface_points
 from .quality import quad_boundary_vertices
 
@@ -59,6 +59,7 @@ class Capped:
     rim: np.ndarray
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
 
 def boundary_loops(mesh: TriMesh) -> list[np.ndarray]:

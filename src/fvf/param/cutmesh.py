@@ -23,7 +23,7 @@ from scipy.sparse.csgraph import connected_components
 from ..design.indices import vertex_indices
 from ..design.nfields import comb, cut_graph, period_jumps
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 
 __all__ = ["CutMesh", "cut_mesh"]
 
@@ -52,6 +52,7 @@ class CutMesh:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     field: np.ndarray
     angles: np.ndarray

@@ -34,7 +34,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import QuadExtractionError, format_indices
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .seams import ROTATIONS
 
 __all__ = ["QuadMesh", "extract_quads", "edge_transitions"]
@@ -68,6 +68,7 @@ class QuadMesh:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     vertices: np.ndarray
     quads: np.ndarray

@@ -41,6 +41,7 @@ from ..design.holonomy import holonomy_rotations
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
+from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from .cutmesh import CutMesh
 
@@ -72,7 +73,7 @@ def default_cross_field(
     align: Alignment = "curvature",
     edge_length: float | None = None,
     constraints: tuple[np.ndarray, np.ndarray] | None = None,
-) -> np.ndarray:
+) -> NField:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
     Parameters
@@ -94,7 +95,7 @@ def default_cross_field(
 
     Returns
     -------
-    float64 (m, 3)
+    NField, float64 (m, 3), n = 4
         One unit representative per face; the cross is {u, J u, −u, −J u}. On a face
         where the designed power vanishes (a cone at its centroid) the direction is the
         face's first basis vector.
@@ -122,7 +123,7 @@ def default_cross_field(
     length = np.linalg.norm(u, axis=1)
     zero = length <= 1e-9 * float(length.max(initial=0.0))
     u[zero] = mesh.face_bases[zero, 0]
-    return unit_cross_field(mesh, u)
+    return NField(unit_cross_field(mesh, u), 4)
 
 
 def default_connection_rotations(

@@ -65,7 +65,7 @@ from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
 from ..mesh.convert import takes_mesh
 from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 
 __all__ = [
     "FoldRepair",
@@ -310,6 +310,7 @@ class FoldRepair:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     vertices: np.ndarray
     vertex_face: np.ndarray

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .caps import Capped
 from .quad_result import QuadMeshResult
 from .quad_validity import QuadValidity, check_quad_mesh
@@ -40,6 +40,7 @@ class Part:
     cap: Capped | None = None
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     @property
     def closed(self) -> TriMesh:

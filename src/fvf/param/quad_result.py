@@ -9,7 +9,7 @@ from functools import cached_property
 import numpy as np
 
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .quad_validity import QuadValidity
 from .quality import QuadQuality, quad_quality
 from .seamless import SeamlessParameterization
@@ -62,6 +62,7 @@ class QuadMeshResult:
     edge_length: float
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     def __iter__(self) -> Iterator[np.ndarray]:
         """``V, Q = fvf.quad_mesh(mesh)``: the vertices, then the quads."""

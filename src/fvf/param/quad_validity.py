@@ -29,7 +29,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .quad_folds import folded_quads
 from .quality import surface_samples
 
@@ -60,6 +60,7 @@ class QuadValidity:
     hausdorff: float
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     def __str__(self) -> str:
         return "valid" if self.valid else "; ".join(self.problems)

@@ -26,6 +26,7 @@ from ..errors import (
     user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.nfield import require_order
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
 from .caps import capped, cut_caps, snap_boundary
@@ -347,6 +348,7 @@ def quad_mesh(
     remesh = "never" if remesh is False or features is not None else remesh
     user_edges = None if features is None else feature_edge_ids(mesh, features)
     h = edge_length_for(mesh, target_faces, edge_length)
+    require_order(field, 4, "quad_mesh")
     f = None if field is None else np.asarray(field, dtype=np.float64)
     if f is not None and f.shape != (mesh.n_faces, 3):
         from ..mesh.inputs import as_face_field

@@ -43,10 +43,11 @@ from ..errors import (
     user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
+from ..mesh.nfield import require_order
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend
 from ..numerics.progress import ProgressCallback, make_progress
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .cutmesh import CutMesh, cut_mesh
 from .features import feature_constraints
 from .frame_field import (
@@ -106,6 +107,7 @@ class SeamlessParameterization:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     uv: np.ndarray
     field: np.ndarray
@@ -402,6 +404,7 @@ def seamless_parameterization(
     if scaling not in SCALINGS:
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
+    require_order(field, 4, "seamless_parameterization")
     clock("cross field" if field is None else "reading the cross field")
     u, rot = _cross_field(mesh, field, align, h, features)
     if cone_cancel_radius > 0:

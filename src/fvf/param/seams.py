@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from ..mesh.trimesh import TriMesh
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .cutmesh import CutMesh
 
 __all__ = ["SeamSystem", "ROTATIONS", "rotation_blocks", "seam_system", "feature_rows"]
@@ -69,6 +69,7 @@ class SeamSystem:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     P: sp.csr_array
     closing: sp.csr_array

@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
+from ..mesh.nfield import NField, require_order
 from ..mesh.trimesh import TriMesh
 
 __all__ = ["face_map_from_vertex_map", "symmetrize_cross_field", "quad_symmetry_error"]
@@ -76,7 +77,7 @@ def _pushforward(mesh: TriMesh, pi: np.ndarray, sigma: np.ndarray, u: np.ndarray
 @takes_mesh
 def symmetrize_cross_field(
     mesh: TriMesh, u: npt.ArrayLike, vertex_map: npt.ArrayLike, iterations: int = 2
-) -> np.ndarray:
+) -> NField:
     """A cross field consistent with a self-map given by a vertex permutation.
 
     Parameters
@@ -92,9 +93,10 @@ def symmetrize_cross_field(
 
     Returns
     -------
-    float64 (m, 3)
+    NField, float64 (m, 3), n = 4
         Unit representatives of the averaged cross field.
     """
+    require_order(u, 4, "symmetrize_cross_field", "u")
     pi = np.asarray(vertex_map, dtype=np.int64)
     sigma = face_map_from_vertex_map(mesh, pi)
     v = as_face_field(mesh, u, "u")
@@ -104,7 +106,7 @@ def symmetrize_cross_field(
         zw = mesh.to_complex(w) ** 4
         avg = z / np.maximum(np.abs(z), 1e-300) + zw / np.maximum(np.abs(zw), 1e-300)
         v = mesh.from_complex(np.exp(0.25j * np.angle(avg)))
-    return v
+    return NField(v, 4)
 
 
 def quad_symmetry_error(

@@ -47,7 +47,7 @@ from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .candidates import MapCandidate, score_candidates
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
@@ -111,6 +111,7 @@ class MatchResult:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     p2p_21: np.ndarray
     C_12: np.ndarray

@@ -46,7 +46,7 @@ import scipy.optimize as so
 from ..calculus import grad, rotation
 from ..errors import BasisSizeError, ParameterError
 from ..mesh.inputs import as_vertex_function
-from ..numerics.summary import short_repr
+from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .fmaps import split_sizes
 
@@ -183,6 +183,7 @@ class FunctionalMapEnergy:
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     A: np.ndarray
     B: np.ndarray

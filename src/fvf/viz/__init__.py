@@ -29,6 +29,7 @@ missing. ``docs/viz.md`` documents the conventions.
 """
 
 from ..errors import MissingExtraError, NoDisplayError, RenderBackendWarning  # noqa: F401
+from . import camera, scene  # noqa: F401  (fvf.viz.scene.NO_DATA_COLOR, ...)
 from .arrows import (
     DEFAULT_ARROW_LENGTH,
     arrow_segments,

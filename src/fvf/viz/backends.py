@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from ..errors import FvfError
 from ..mesh.convert import takes_mesh
+from ..mesh.nfield import FROM_FIELD, FromField, NField, fields_order
 from ..mesh.trimesh import TriMesh
 from ._deps import INSTALL_HINT, MissingExtraError, NoDisplayError, RenderBackendWarning
 from .style import BACKENDS, MAX_SIZE, RenderStyle, as_style, check_render_options
@@ -63,8 +64,9 @@ class RenderInfo:
 
     Attributes
     ----------
-    path : Path
-        The PNG written.
+    path : Path or None
+        The picture written; None when :func:`render` was given no path (then ``png``
+        holds it, and a notebook shows it: ``_repr_png_``).
     backend : str
         ``"polyscope-egl"`` or ``"matplotlib"``.
     size : tuple of int
@@ -83,7 +85,7 @@ class RenderInfo:
         Panels, arrow spacing (pixels), arrow colours, capped arrows, the up axis used.
     """
 
-    path: Path
+    path: Path | None
     backend: str
     size: tuple[int, int]
     seconds: float = 0.0
@@ -94,6 +96,11 @@ class RenderInfo:
     clim: tuple[float, float] | None = None
     fallback: str | None = None
     extra: dict = field(default_factory=dict)
+    png: bytes | None = field(default=None, repr=False)
+
+    def _repr_png_(self) -> bytes | None:
+        """The picture, for Jupyter, when :func:`render` kept it in memory (no path)."""
+        return self.png
 
 
 def polyscope_status() -> str | None:
@@ -153,14 +160,14 @@ def _warn_once(reason: str) -> None:
 @takes_mesh
 def render(
     mesh: TriMesh,
-    path: str | Path,
+    path: str | Path | None = None,
     *,
     function: npt.ArrayLike | None = None,
     field: Any = None,
     singularities: tuple | None = None,
     streamlines: list | None = None,
     texture: Any = None,
-    n: int = 1,
+    n: int | FromField = FROM_FIELD,
     field_labels: list | tuple | None = None,
     singularity_kind: str = "index",
     style: RenderStyle | None = None,
@@ -178,9 +185,11 @@ def render(
     Parameters
     ----------
     mesh : TriMesh
-    path : str or Path
+    path : str or Path, optional
         Output picture: PNG, or PDF / SVG by the suffix (``.pdf``, ``.svg``: title,
         colorbar and legend as vector graphics, the rendered surface as an image).
+        Without a path the PNG is kept in memory (``RenderInfo.png``), and the returned
+        :class:`RenderInfo` shows it in a notebook.
     function : array_like (n,) or (m,), optional
         Vertex or face scalars, drawn with ``style.cmap`` and a labelled colorbar. NaN
         marks missing values, drawn in light grey (:data:`fvf.viz.scene.NO_DATA_COLOR`)
@@ -201,8 +210,9 @@ def render(
         A grey texture: a :class:`fvf.viz.LicTexture` (:func:`fvf.viz.surface_lic`,
         drawn on its own finer canvas) or values per vertex / face, histogram-equalized.
         With ``function`` too, it darkens the colormap's colours.
-    n : int
-        Directions per face of ``field``: 1 draws arrows; N ≥ 2 draws the N directions
+    n : int, optional
+        Directions per face of ``field`` (default: the ``n`` of an :class:`fvf.NField`
+        ``field``, else 1): 1 draws arrows; N ≥ 2 draws the N directions
         (the representative turned by 2πk/N about the face normal,
         :func:`fvf.viz.arrows.direction_set`) as N strokes from the centroid, each half an
         arrow long.
@@ -251,10 +261,13 @@ def render(
     the camera, window size, background colour and scene extents are restored afterwards
     (the ground plane stays off: polyscope cannot report its mode).
     """
-    from .compose import compose, has_colorbar, has_legend, layout
+    from .compose import compose, has_colorbar, layout, legend_width
     from .scene import build_scene
 
     t0 = time.perf_counter()
+    fields = field if isinstance(field, list | tuple) else [field]
+    if n is FROM_FIELD or any(isinstance(f, NField) for f in fields):
+        n = fields_order(field, n)  # else the scene checks the n given
     style = as_style(style, options, "render")
     scene = build_scene(
         mesh,
@@ -269,17 +282,25 @@ def render(
         singularity_kind=singularity_kind,
     )
     width, height = style.width, style.height
-    lay = layout(
-        width, height, style.title, has_colorbar(scene), has_legend(scene), len(scene.frames)
-    )
+    side = legend_width(scene, width)
+    lay = layout(width, height, style.title, has_colorbar(scene), side, len(scene.frames))
     pw, ph = lay.panel_width, lay.panel_height
     if pw < 32 or ph < 32:
         raise FvfError(f"size {style.size!r} leaves panels of {pw} x {ph} pixels; make it larger")
     overlays = _overlays(scene, pw, ph)
     used, fallback, images = _draw_panels(scene, overlays, pw, ph, style.backend)
-    path = Path(path)
-    compose(images, scene, path, width, height, style.title, int(style.dpi))
-    return _render_info(path, used, fallback, (width, height), t0, scene, overlays)
+    if path is not None:
+        out = Path(path)
+        compose(images, scene, out, width, height, style.title, int(style.dpi))
+        return _render_info(out, used, fallback, (width, height), t0, scene, overlays)
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:  # no path: the PNG kept in memory
+        out = Path(folder) / "render.png"
+        compose(images, scene, out, width, height, style.title, int(style.dpi))
+        info = _render_info(None, used, fallback, (width, height), t0, scene, overlays)
+        info.png = out.read_bytes()
+    return info
 
 
 def _overlays(scene: Scene, pw: int, ph: int) -> list[PanelOverlay]:
@@ -295,7 +316,7 @@ def _overlays(scene: Scene, pw: int, ph: int) -> list[PanelOverlay]:
 
 
 def _render_info(
-    path: Path,
+    path: Path | None,
     used: str,
     fallback: str | None,
     size: tuple[int, int],

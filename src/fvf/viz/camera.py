@@ -4,9 +4,10 @@ Both backends use the same frame, so a picture made by polyscope and one made by
 matplotlib show the mesh from the same side.
 
 The up axis (``View(up="auto")``, the default) is y, the OBJ convention, unless the mesh
-clearly stands on its −z side and not on its −y side (:func:`detect_up_axis`): scans such
-as Nefertiti are stored z-up, while the Stanford models, Spot and the TOSCA animals are
-y-up. Any axis, either way round, can be made up: ``View(up="-y")`` shows a y-up
+clearly stands on another side (:func:`detect_up_axis`): scans such as Nefertiti are
+stored z-up, while the Stanford models, Spot and the TOSCA animals are y-up; a
+mirror-symmetric shape (a body, an animal) stored x-up is found x-up.
+Any axis, either way round, can be made up: ``View(up="-y")`` shows a y-up
 picture upside down, ``up="x"`` stands an x-up file upright.
 """
 
@@ -22,10 +23,12 @@ from ..errors import FvfError, ParameterError
 __all__ = [
     "UP_AXES",
     "View",
+    "aim",
     "as_view",
     "as_views",
     "camera_frame",
     "detect_up_axis",
+    "mirror_axis",
     "resolve_up",
     "two_sides",
 ]
@@ -125,6 +128,13 @@ def two_sides(view: View | tuple | dict | None = None) -> list[View]:
     return [v, replace(v, turn=v.turn + 180.0)]
 
 
+def aim(view: object, azimuth: float, elevation: float) -> list[View]:
+    """``view`` (one view or a list, as :func:`as_views` takes) looking from ``azimuth``
+    and ``elevation`` degrees, each view keeping its ``turn``, ``up`` and ``zoom``: the
+    two views of :func:`two_sides` stay opposite (``fvf demo --view AZ EL``)."""
+    return [replace(v, azimuth=float(azimuth), elevation=float(elevation)) for v in as_views(view)]
+
+
 def resolve_up(
     view: View, points: np.ndarray, centroid: np.ndarray | None = None, up: str | None = None
 ) -> View:
@@ -161,21 +171,25 @@ def _stability(points: np.ndarray, centroid: np.ndarray, k: int) -> float:
     return inside / foot
 
 
-def detect_up_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> str:
-    """The axis that is up in a scan: ``"y"`` unless the shape stands clearly on −z.
+#: A shape is mirror-symmetric about the plane normal to an axis when reflecting it there
+#: moves its points by a median of less than this fraction of its bounding-box diagonal ...
+MIRROR_TOLERANCE = 0.01
+#: ... and less than this fraction of the same distance for the next most symmetric axis.
+MIRROR_CONTRAST = 0.4
+#: Points of a large mesh reflected to measure its symmetry.
+_MIRROR_SAMPLES = 4000
 
-    The rule: a shape "stands" on the side of an axis when the centroid's projection lies
-    well inside the convex hull of its lowest points along that axis (its support: feet,
-    paws, the flat base of a bust). ``"z"`` is returned when the shape stands on −z with a
-    margin of :data:`UP_MARGIN` footprint sizes more than on −y, and z is not the thinnest
-    extent of the bounding box (a flat object lying in the xy plane is looked at from +z,
-    which ``up="y"`` does); otherwise ``"y"``, the OBJ convention. x-up files need
-    ``View(up="x")``.
 
-    Measured on the shared meshes (stability on −y, −z): Nefertiti −0.02, +0.23 → z;
-    armadillo +0.08, −0.25; spot +0.16, −0.18; lion +0.24, −0.24; bunny +0.27, −0.49;
-    camel head +0.02, −0.23; bob +0.30, +0.03; FAUST +0.14, +0.05 → y. A sphere stands
-    equally on every side → y.
+def mirror_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> int | None:
+    """The axis normal to the shape's plane of mirror symmetry, if it clearly has one.
+
+    Bodies, animals, busts and most objects people scan are left-right symmetric, and the
+    axis across that plane is never their up axis. For each axis k the points (up to
+    4000 of them, a seeded sample) are reflected through the plane normal to k through the
+    centroid, and the median distance from a reflected point to the nearest point of the
+    shape, over the bounding-box diagonal, is the mirror error $e_k$. The axis is returned
+    when $e_k <$ :data:`MIRROR_TOLERANCE` and $e_k <$ :data:`MIRROR_CONTRAST` times the
+    other two (a sphere or a box, symmetric about every axis, has none).
 
     Parameters
     ----------
@@ -186,15 +200,88 @@ def detect_up_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> st
 
     Returns
     -------
-    {"y", "z"}
+    int or None
+        0, 1 or 2 (x, y, z), or None.
+    """
+    from scipy.spatial import cKDTree
+
+    P = np.asarray(points, dtype=float)
+    c = P.mean(0) if centroid is None else np.asarray(centroid, dtype=float)
+    diag = float(np.linalg.norm(np.ptp(P, axis=0)))
+    if P.shape[0] < 4 or not diag > 0:
+        return None
+    sample = P
+    if P.shape[0] > _MIRROR_SAMPLES:
+        rng = np.random.default_rng(0)
+        sample = P[rng.choice(P.shape[0], _MIRROR_SAMPLES, replace=False)]
+    tree = cKDTree(P)
+    errors = np.empty(3)
+    for k in range(3):
+        Q = sample.copy()
+        Q[:, k] = 2.0 * c[k] - Q[:, k]
+        errors[k] = np.median(tree.query(Q)[0]) / diag
+    order = np.argsort(errors)
+    best, second = errors[order[0]], errors[order[1]]
+    if best < MIRROR_TOLERANCE and best < MIRROR_CONTRAST * second:
+        return int(order[0])
+    return None
+
+
+def _stability_of(points: np.ndarray, centroid: np.ndarray, up: str) -> float:
+    """:func:`_stability` standing on the side opposite to ``up`` (``"-x"``: on +x)."""
+    k = _AXES[up[-1]]
+    if up.startswith("-"):
+        return _stability(-points, -centroid, k)
+    return _stability(points, centroid, k)
+
+
+def detect_up_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> str:
+    """The axis that is up in a scan: ``"y"`` unless the shape clearly stands on another.
+
+    The rule: a shape "stands" on the side of an axis when the centroid's projection lies
+    well inside the convex hull of its lowest points along that axis (its support: feet,
+    paws, the flat base of a bust); the *stability* is how far inside, in footprint sizes.
+    The candidates are y (the OBJ and glTF convention) and z (scans and CAD); y is kept
+    unless z stands with a positive stability larger than y's by :data:`UP_MARGIN`, and
+    z is never up when it is the thinnest extent of the bounding box or the axis across
+    the shape's mirror plane (a flat object lying in the xy plane is looked at from +z,
+    which ``up="y"`` does). A shape whose plane of mirror symmetry has the y normal
+    (:func:`mirror_axis`; bodies and animals are left-right symmetric, and the axis
+    across is never up) cannot be y-up: of z, x and −x (the thinnest extent left out)
+    the one it stands on best is up: a body or an animal stored x-up.
+
+    Measured on the shared meshes (stability on −y, −z): Nefertiti −0.02, +0.23 → z;
+    armadillo +0.08, −0.25; spot +0.16, −0.18; lion +0.24, −0.24; bunny +0.27, −0.49;
+    camel head +0.02, −0.23; bob +0.30, +0.03; FAUST +0.14, +0.05 → y. Turned x-up, spot,
+    lion, armadillo, FAUST, the knight and a generated body and four-legged animal are
+    found x-up (their mirror plane then has the y normal). A sphere stands equally on
+    every side → y.
+
+    Parameters
+    ----------
+    points : ndarray float64 (n, 3)
+        The mesh's vertices.
+    centroid : ndarray (3,), optional
+        The centre of mass (default: the mean of the points).
+
+    Returns
+    -------
+    {"y", "z", "x", "-x"}
     """
     P = np.asarray(points, dtype=float)
     c = P.mean(0) if centroid is None else np.asarray(centroid, dtype=float)
     ext = np.ptp(P, axis=0)
-    if ext[2] <= ext.min():
-        return "y"
-    sy, sz = _stability(P, c, 1), _stability(P, c, 2)
-    return "z" if sz > 0 and sz > sy + UP_MARGIN else "y"
+    mirror = mirror_axis(P, c)
+    if mirror == 1:  # y is across the mirror plane: the candidate standing best
+        candidates = [a for a in ("z", "x", "-x") if ext[_AXES[a[-1]]] > ext.min()]
+        return max(candidates, key=lambda a: _stability_of(P, c, a))
+    candidates = [a for a in ("z",) if _AXES[a] != mirror and ext[_AXES[a]] > ext.min()]
+    scores = {a: _stability_of(P, c, a) for a in candidates}
+    sy = _stability_of(P, c, "y")
+    best = max(candidates, key=scores.__getitem__, default=None)
+    if best is not None and scores[best] > 0 and scores[best] > sy + UP_MARGIN:
+        return best
+    return "y"
 
 
 def camera_frame(view: View, points: np.ndarray) -> np.ndarray:

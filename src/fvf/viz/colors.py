@@ -28,6 +28,7 @@ __all__ = [
     "outline_color",
     "resolve_clim",
     "robust_limits",
+    "simulate_color_blindness",
     "srgb_to_lab",
     "weighted_percentile",
 ]
@@ -178,6 +179,45 @@ def srgb_to_lab(rgb: npt.ArrayLike) -> np.ndarray:
     )
 
 
+#: Dichromat simulation in linear RGB (Machado, Oliveira and Fernandes 2009, severity 1).
+_DICHROMAT = {
+    "deuteranopia": np.array(
+        [
+            [0.367322, 0.860646, -0.227968],
+            [0.280085, 0.672501, 0.047413],
+            [-0.01182, 0.04294, 0.968881],
+        ]
+    ),
+    "protanopia": np.array(
+        [
+            [0.152286, 1.052583, -0.204868],
+            [0.114503, 0.786281, 0.099216],
+            [-0.003882, -0.048116, 1.051998],
+        ]
+    ),
+}
+
+
+def simulate_color_blindness(rgb: npt.ArrayLike, kind: str) -> np.ndarray:
+    """sRGB colours (..., 3) in [0, 1] as a reader with ``kind`` ("deuteranopia" or
+    "protanopia", the red-green dichromacies) sees them (Machado et al. 2009)."""
+    c = np.clip(np.asarray(rgb, dtype=float)[..., :3], 0.0, 1.0)
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    out = np.clip(lin @ _DICHROMAT[kind].T, 0.0, 1.0)
+    return np.where(out <= 0.0031308, 12.92 * out, 1.055 * out ** (1 / 2.4) - 0.055)
+
+
+def _distances(a: np.ndarray, b: npt.ArrayLike, color_blind: bool) -> np.ndarray:
+    """ΔE*76 from the colours ``a`` (k, 3) to ``b`` (3,); with ``color_blind``, the
+    smallest of the distances seen with normal vision, deuteranopia and protanopia."""
+    d = np.linalg.norm(srgb_to_lab(a) - srgb_to_lab(b), axis=1)
+    if color_blind:
+        for kind in _DICHROMAT:
+            sa, sb = simulate_color_blindness(a, kind), simulate_color_blindness(b, kind)
+            d = np.minimum(d, np.linalg.norm(srgb_to_lab(sa) - srgb_to_lab(sb), axis=1))
+    return d
+
+
 def contrast_color(
     surface: npt.ArrayLike,
     avoid: npt.ArrayLike | None = None,
@@ -191,7 +231,11 @@ def contrast_color(
         Colours the surface can show (e.g. a colormap sampled and multiplied by the range
         of shading factors), sRGB in [0, 1].
     avoid : array_like (j, 3), optional
-        Further colours to stay away from (singularity markers, other overlays).
+        Further colours to stay away from (singularity markers, other overlays): each
+        overlay is named by its colour in the legend, so these distances are the smallest
+        seen with normal vision and the two red-green dichromacies
+        (:func:`simulate_color_blindness`): a second field is never green beside an
+        orange one.
     exclude : tuple of str
         Candidate names (keys of :data:`OVERLAY_CANDIDATES`) not to use.
 
@@ -202,14 +246,16 @@ def contrast_color(
         (ΔE*76) to the surface and avoided colours is largest.
     """
     targets = np.asarray(surface, dtype=float).reshape(-1, 3)
+    others = np.zeros((0, 3))
     if avoid is not None and np.size(avoid):
-        targets = np.vstack([targets, np.asarray(avoid, dtype=float).reshape(-1, 3)])
-    lab = srgb_to_lab(targets)
+        others = np.asarray(avoid, dtype=float).reshape(-1, 3)
     best, best_d = OVERLAY_CANDIDATES["black"], -1.0
     for name, rgb in OVERLAY_CANDIDATES.items():
         if name in exclude:
             continue
-        d = float(np.linalg.norm(lab - srgb_to_lab(rgb), axis=1).min())
+        d = float(
+            np.concatenate([_distances(targets, rgb, False), _distances(others, rgb, True)]).min()
+        )
         if d > best_d + 1e-9:
             best, best_d = rgb, d
     return best
@@ -271,12 +317,18 @@ def equalize(values: np.ndarray, weights: np.ndarray | None = None) -> np.ndarra
     """Histogram equalization: each value's weighted rank, float64 in [0, 1].
 
     The contrast normalization of LIC textures: averaging noise along streamlines shrinks
-    its spread, and ranks spread it over the whole grey range again.
+    its spread, and ranks spread it over the whole grey range again. Equal values get
+    one rank, the middle of their group's weight.
     """
     v = np.asarray(values, dtype=float)
     w = np.ones_like(v) if weights is None else np.asarray(weights, dtype=float)
     order = np.argsort(v, kind="stable")
-    cw = np.cumsum(w[order])
+    ws = w[order]
+    cw = np.cumsum(ws)
+    # equal values share one rank (the middle of their group): a checkerboard's two
+    # values stay two grey levels, not a ramp over the faces' order
+    _, start, inverse = np.unique(v[order], return_index=True, return_inverse=True)
+    middle = cw[start] - ws[start] + 0.5 * np.add.reduceat(ws, start)
     out = np.empty_like(v)
-    out[order] = (cw - 0.5 * w[order]) / max(cw[-1], 1e-300)
+    out[order] = middle[inverse.ravel()] / max(cw[-1], 1e-300)
     return out

@@ -36,7 +36,10 @@ class Layout:
     def __init__(self, width, height, title, colorbar, legend, panels):
         self.width, self.height = width, height
         self.title = TITLE_HEIGHT if title else 0
-        self.side = LEGEND_WIDTH if legend else (COLORBAR_WIDTH if colorbar else 0)
+        if legend:  # True: the default width; a number: the pixels the legend needs
+            self.side = LEGEND_WIDTH if legend is True else max(LEGEND_WIDTH, int(legend))
+        else:
+            self.side = COLORBAR_WIDTH if colorbar else 0
         self.panels = max(1, int(panels))
         self.scene_width = width - self.side
         self.scene_height = height - self.title
@@ -51,6 +54,22 @@ def has_legend(scene: Scene) -> bool:
     return (
         scene.markers is not None or any(f.label for f in scene.fields) or scene.no_data is not None
     )
+
+
+def legend_width(scene: Scene, width: int) -> int:
+    """Pixels the side column needs for the legend of ``scene`` in a picture ``width``
+    wide (0 without a legend): its longest line measured in the legend's font, at least
+    :data:`LEGEND_WIDTH`, at most a third of the picture, so no count is cut off."""
+    if not has_legend(scene):
+        return 0
+    from matplotlib.textpath import TextPath
+
+    fontsize = 7.0 if width < 600 else 8.0  # as _legend
+    lines = [str(h.get_label()) for h in _legend_handles(scene)]
+    text = max(TextPath((0, 0), s, size=fontsize).get_extents().width for s in lines)
+    # the marker and the pads (handle 2 em, pad 0.3 em, borders 0.2 + 0.4 em) and a margin
+    need = (text + 2.9 * fontsize) * 100.0 / 72.0 + 8.0
+    return int(min(max(LEGEND_WIDTH, np.ceil(need)), width // 3))
 
 
 def has_colorbar(scene: Scene) -> bool:
@@ -71,10 +90,11 @@ def layout(
     height: int,
     title: str | None,
     colorbar: bool,
-    legend: bool = False,
+    legend: bool | int = False,
     panels: int = 1,
 ) -> Layout:
-    """Sizes of the title band, the panels and the side column, in pixels."""
+    """Sizes of the title band, the panels and the side column, in pixels (``legend``:
+    True for the default legend width, or the pixels it needs, :func:`legend_width`)."""
     return Layout(width, height, title, colorbar, legend, panels)
 
 
@@ -224,7 +244,7 @@ def compose(
 
     images = [panels] if isinstance(panels, np.ndarray) else list(panels)
     legend = has_legend(scene)
-    lay = layout(width, height, title, has_colorbar(scene), legend, len(images))
+    lay = layout(width, height, title, has_colorbar(scene), legend_width(scene, width), len(images))
     pt = 100.0 / dpi  # font points: sized for 100 dpi
     fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor="white")
     canvas = FigureCanvasAgg(fig)

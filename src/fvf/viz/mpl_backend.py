@@ -66,8 +66,8 @@ def _rgb(canvas: Any) -> np.ndarray:
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
 
-def _points(px: float) -> float:
-    """Pixels to points at 100 dpi."""
+def _points(px: Any) -> Any:
+    """Pixels to points at 100 dpi (a number or an array of them)."""
     return 0.72 * px
 
 
@@ -169,14 +169,15 @@ def _draw_markers(
     """The singularities that are seen, as discs coloured by index with a black rim."""
     ok = visible(markers)
     p, _ = project(markers[ok])
-    r_px = overlay.marker_radius * overlay.pixel_scale
+    radii = overlay.marker_radii
+    r_px = (overlay.marker_radius if radii is None else radii[ok]) * overlay.pixel_scale
     ax.scatter(
         p[:, 0],
         p[:, 1],
         s=_points(2 * r_px) ** 2,
         c=overlay.marker_colors[ok] if overlay.marker_colors is not None else None,
         edgecolors="black",
-        linewidths=_points(max(1.0, 0.18 * r_px)),
+        linewidths=_points(np.maximum(1.0, 0.18 * r_px)),
         zorder=5,
     )
 

@@ -9,8 +9,10 @@ curves have the same on-screen size on a 5k-face and on a 750k-face mesh:
   default arrow length (the robust longest arrow is :data:`ARROW_FILL` of the spacing) and
   the glyph's shaft, head and halo;
 - singularity markers have a radius of :data:`MARKER_RADIUS` spacings (at least 4.5 px),
-  but at most :data:`MARKER_GAP` of the typical distance between neighbouring markers
-  (at least 2 px), so dense irregular vertices stay apart;
+  but at most :data:`MARKER_GAP` of the distance to the nearest other marker (at least
+  2 px), so dense irregular vertices stay apart;
+- every glyph and marker is also no larger than the detail it sits on
+  (:func:`feature_factors`: a cross on a finger shrinks to the finger's width);
 - N-direction fields (N ≥ 2) are drawn as unit crosses (their directions, not their
   magnitudes) unless an absolute ``arrow_scale`` is given;
 - a wireframe (streamlines that are all single segments, e.g. quad edges) is drawn at
@@ -62,6 +64,62 @@ MARKER_GAP = 0.4
 WIRE_WIDTH = 0.1
 #: Margin around the mesh in a panel (1.06: 3% on each side).
 MARGIN = 1.06
+#: A glyph or marker of reach r stays flat on the surface when the surface within r of
+#: its centre leaves the tangent plane by at most this fraction of r.
+FLAT = 0.3
+#: The shrink factors tried, largest first, until a glyph is flat (the last one is kept).
+SHRINK = (1.0, 0.7, 0.5, 0.35, 0.25)
+
+
+def feature_factors(
+    points: np.ndarray, centres: np.ndarray, normals: np.ndarray, reach: np.ndarray
+) -> np.ndarray:
+    r"""How much each glyph shrinks to fit the detail it sits on (the local feature size).
+
+    A flat glyph (an arrow, a cross) or a marker of reach $r$ around a point $c$ with unit
+    normal $n$ fits the surface when the surface points $p$ within $r$ of $c$ stay near
+    the tangent plane: $\max |\langle p - c, n \rangle| \le$ :data:`FLAT` $r$. On a
+    cylinder of radius $\rho$ that holds up to $r \approx 0.55 \rho$ (the glyph spans
+    the arm, not beyond). The factor is the largest of :data:`SHRINK` for which the
+    shrunk glyph fits (the smallest when none does).
+
+    Parameters
+    ----------
+    points : ndarray float64 (n, 3)
+        Points of the surface (the mesh's vertices).
+    centres, normals : ndarray float64 (k, 3)
+        Each glyph's centre on the surface and unit normal there.
+    reach : ndarray float64 (k,)
+        Each glyph's radius (its farthest point from the centre), mesh units.
+
+    Returns
+    -------
+    ndarray float64 (k,)
+        Factors in :data:`SHRINK`.
+    """
+    from scipy.spatial import cKDTree
+
+    k = centres.shape[0]
+    out = np.full(k, SHRINK[-1])
+    if k == 0 or points.shape[0] == 0:
+        return np.ones(k)
+    tree = cKDTree(points)
+    todo = np.arange(k)
+    for f in SHRINK[:-1]:
+        r = f * reach[todo]
+        balls = tree.query_ball_point(centres[todo], r, return_sorted=False)
+        sizes = np.fromiter((len(b) for b in balls), dtype=np.int64, count=todo.size)
+        owner = np.repeat(np.arange(todo.size), sizes)
+        near = np.concatenate([np.asarray(b, dtype=np.int64) for b in balls])
+        height = np.abs(((points[near] - centres[todo][owner]) * normals[todo][owner]).sum(1))
+        worst = np.zeros(todo.size)
+        np.maximum.at(worst, owner, height)
+        fits = worst <= FLAT * r
+        out[todo[fits]] = f
+        todo = todo[~fits]
+        if todo.size == 0:
+            break
+    return out
 
 
 def default_spacing(width: int, height: int) -> float:
@@ -110,7 +168,8 @@ class PanelOverlay:
     n_arrows: int = 0
     n_capped: int = 0
     marker_colors: np.ndarray | None = None  # (s, 3)
-    marker_radius: float = 0.0  # mesh units
+    marker_radius: float = 0.0  # mesh units: the largest of marker_radii
+    marker_radii: np.ndarray | None = None  # (s,) mesh units, one per marker
     line_width: float = 1.0  # pixels
 
 
@@ -187,6 +246,7 @@ def _layer_glyphs(
         poly = stroke_glyphs(starts, vec, normals, STROKE * spacing_mesh)
         halo = stroke_glyphs(starts, vec, normals, STROKE * spacing_mesh, outline=halo_w)
         tris, anchors = STROKE_TRIANGLES, starts
+    poly, halo = _fit_to_features(scene, poly, halo, anchors, normals, faces.size)
     lift = 0.12 * float(np.minimum(length, cap).max(initial=0.0)) + 0.5 * halo_w
     glyphs = Glyphs(
         poly,
@@ -200,6 +260,19 @@ def _layer_glyphs(
         layer.label,
     )
     return glyphs, capped
+
+
+def _fit_to_features(scene, poly, halo, anchors, normals, k):
+    """Glyphs (k faces, each with ``len(poly) // k`` polygons) shrunk about their anchors
+    to the detail they sit on (:func:`feature_factors`); one factor per face."""
+    if k == 0:
+        return poly, halo
+    per = poly.shape[0] // k
+    reach = np.linalg.norm(halo - anchors[:, None], axis=2).max(1).reshape(per, k).max(0)
+    f = feature_factors(scene.field_mesh.vertices, anchors[:k], normals[:k], reach)
+    f = np.tile(f, per)[:, None, None]
+    a = anchors[:, None]
+    return a + f * (poly - a), a + f * (halo - a)
 
 
 def panel_overlay(
@@ -248,22 +321,29 @@ def panel_overlay(
     if scene.markers is not None:
         assert scene.marker_indices is not None  # set together with the markers
         out.marker_colors = np.array([index_color(i) for i in scene.marker_indices]).reshape(-1, 3)
-        out.marker_radius = _marker_radius(scene.markers, max(4.5, MARKER_RADIUS * spacing), s)
+        out.marker_radii = _marker_radii(scene, max(4.5, MARKER_RADIUS * spacing), s)
+        out.marker_radius = float(out.marker_radii.max(initial=0.0))
     out.line_width = _line_width(scene.lines, max(1.2, 0.08 * spacing), s)
     return out
 
 
-def _marker_radius(markers: np.ndarray, radius_px: float, s: float) -> float:
-    """Marker radius in mesh units: ``radius_px`` pixels, at most :data:`MARKER_GAP` of
-    the median nearest-marker distance (not below 2 pixels)."""
-    if markers.shape[0] >= 2:
-        from scipy.spatial import cKDTree
+def _marker_radii(scene: Scene, radius_px: float, s: float) -> np.ndarray:
+    """Each marker's radius in mesh units: ``radius_px`` pixels, at most :data:`MARKER_GAP`
+    of the distance to its nearest other marker and no larger than the detail it marks
+    (:func:`feature_factors`), and not below 2 pixels."""
+    from scipy.spatial import cKDTree
 
+    markers = scene.markers
+    assert markers is not None
+    r = np.full(markers.shape[0], radius_px)
+    if markers.shape[0] >= 2:
         dist, _ = cKDTree(markers).query(markers, k=2)
-        gap = float(np.median(dist[:, 1])) * s  # pixels
-        if gap > 0:
-            radius_px = min(radius_px, max(2.0, MARKER_GAP * gap))
-    return radius_px / s
+        gap = dist[:, 1] * s  # pixels
+        r = np.where(gap > 0, np.minimum(r, MARKER_GAP * gap), r)
+    mesh = scene.field_mesh
+    _, face = cKDTree(mesh.face_centroids).query(markers)
+    r = r * feature_factors(mesh.vertices, markers, mesh.face_normals[face], r / s)
+    return np.maximum(r, 2.0) / s
 
 
 def _line_width(lines: list[np.ndarray], width_px: float, s: float) -> float:

@@ -226,23 +226,36 @@ def _streamlines(ps: Any, lines: list[np.ndarray], color: tuple, radius: float) 
 def _markers(ps: Any, scene: Scene, frame: np.ndarray, overlay: PanelOverlay) -> list:
     """A black sphere per singularity with a smaller coloured one pushed toward the eye far
     enough to be in front of it over its whole disc: a coloured disc with a black rim."""
+    assert scene.markers is not None
     px = 1.0 / overlay.pixel_scale  # mesh units per pixel
-    r = overlay.marker_radius
-    inner = r - max(1.0 * px, 0.16 * r)
+    r = overlay.marker_radii
+    if r is None:
+        r = np.full(scene.markers.shape[0], overlay.marker_radius)
+    inner = r - np.maximum(1.0 * px, 0.16 * r)
     rims = ps.register_point_cloud(
         _name(ps, "points", "singularity rims"),
         scene.markers,
         color=(0.0, 0.0, 0.0),
         material="flat",
     )
-    rims.set_radius(r, relative=False)
+    _radii(rims, r)
     shift = 1.1 * np.sqrt(r * r - inner * inner) + px
     discs = ps.register_point_cloud(
-        _name(ps, "points", "singularities"), scene.markers + shift * frame[2], material="flat"
+        _name(ps, "points", "singularities"),
+        scene.markers + shift[:, None] * frame[2],
+        material="flat",
     )
-    discs.set_radius(inner, relative=False)
+    _radii(discs, inner)
     discs.add_color_quantity("index", overlay.marker_colors, enabled=True)
     return [rims, discs]
+
+
+def _radii(cloud: Any, r: np.ndarray) -> None:
+    """Each point's radius, mesh units (one radius when all are equal)."""
+    cloud.set_radius(float(r.max(initial=0.0)), relative=False)
+    if r.size and np.ptp(r) > 1e-9 * r.max():
+        cloud.add_scalar_quantity("radius", r)
+        cloud.set_point_radius_quantity("radius", autoscale=False)
 
 
 def populate(

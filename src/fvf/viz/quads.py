@@ -12,13 +12,14 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError
+from ..errors import DuplicateVertexWarning, FvfError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
 from .backends import RenderInfo, render
@@ -85,32 +86,64 @@ def render_checkerboard(
     path : str or Path
         Output picture (PNG, PDF or SVG by the suffix).
     subdivisions : int
-        Each triangle is split into 4^subdivisions for the texture.
+        Kept for compatibility and unused: each triangle is cut exactly along the integer
+        lines of u and v that cross it, so the squares have straight edges (they were
+        4^subdivisions sub-triangles coloured one by one, with jagged edges).
     **kwargs
         Passed to :func:`fvf.viz.render`.
     """
     T = np.asarray(uv, dtype=np.float64)
     if T.shape != (mesh.n_faces, 3, 2):
         raise FvfError(f"uv must have shape ({mesh.n_faces}, 3, 2); got {T.shape}")
-    k = 2 ** int(subdivisions)
-    i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
-    keep = i + j <= k
-    bary = np.stack([k - i[keep] - j[keep], i[keep], j[keep]], axis=1) / k  # (p, 3)
-    index = -np.ones((k + 1, k + 1), dtype=np.int64)
-    index[i[keep], j[keep]] = np.arange(keep.sum())
-    tris: list[list[int]] = []
-    for a in range(k):  # the k² sub-triangles of the reference triangle
-        for b in range(k - a):
-            tris.append([index[a, b], index[a + 1, b], index[a, b + 1]])
-            if a + b + 1 < k:
-                tris.append([index[a + 1, b], index[a + 1, b + 1], index[a, b + 1]])
-    small = np.array(tris)
-    X = mesh.vertices[mesh.faces]  # (m, 3, 3)
-    P = np.einsum("pc,mcd->mpd", bary, X)  # (m, p, 3)
-    W = np.einsum("pc,mcd->mpd", bary, T)  # (m, p, 2)
-    p = bary.shape[0]
-    faces = (small[None] + p * np.arange(mesh.n_faces)[:, None, None]).reshape(-1, 3)
-    centre = W.reshape(-1, 2)[faces].mean(axis=1)
-    checker = (np.floor(centre).sum(axis=1) % 2).astype(float)
-    soup = TriMesh(P.reshape(-1, 3), faces)
+    X, W = mesh.vertices[mesh.faces], T
+    for axis in (0, 1):
+        X, W = _cut_at_integers(X, W, axis)
+    e = X - np.roll(X, 1, axis=1)  # drop the slivers of a corner on a line: no area
+    area2 = np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1)
+    keep = area2 > 1e-10 * (e * e).sum(2).max(1)
+    X, W = X[keep], W[keep]
+    checker = (np.floor(W.mean(axis=1)).sum(axis=1) % 2).astype(float)
+    k = X.shape[0]
+    with warnings.catch_warnings():  # a soup by construction: one piece per triangle
+        warnings.simplefilter("ignore", DuplicateVertexWarning)
+        soup = TriMesh(X.reshape(-1, 3), np.arange(3 * k).reshape(k, 3))
     return render(soup, path, texture=0.35 + 0.5 * checker, **kwargs)
+
+
+def _cut_at_integers(X: np.ndarray, W: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles (t, 3, 3) with uv (t, 3, 2) cut along every line ``uv[axis] = integer``
+    that crosses them, so each piece lies in one square of the checkerboard and its
+    edges are straight: one cut per round for every triangle still crossed."""
+    done_X, done_W = [], []
+    for _ in range(100_000):  # each round cuts every crossed triangle once
+        f = W[..., axis]
+        line = np.floor(f.min(axis=1)) + 1.0
+        crossed = line < f.max(axis=1)
+        done_X.append(X[~crossed])
+        done_W.append(W[~crossed])
+        if not crossed.any():
+            break
+        X, W, s = X[crossed], W[crossed], f[crossed] - line[crossed, None]  # (c, 3)
+        neg = s < 0
+        # the lone corner: the one on its own side of the line
+        lone = np.where(neg.sum(1) == 1, np.argmax(neg, axis=1), np.argmax(~neg, axis=1))
+        order = (lone[:, None] + np.arange(3)[None]) % 3  # (l, p, q) keeps the orientation
+        rows = np.arange(X.shape[0])[:, None]
+        X, W, s = X[rows, order], W[rows, order], s[rows, order]
+        t1 = (s[:, 0] / (s[:, 0] - s[:, 1]))[:, None]
+        t2 = (s[:, 0] / (s[:, 0] - s[:, 2]))[:, None]
+        xe1, xe2 = X[:, 0] + t1 * (X[:, 1] - X[:, 0]), X[:, 0] + t2 * (X[:, 2] - X[:, 0])
+        we1, we2 = W[:, 0] + t1 * (W[:, 1] - W[:, 0]), W[:, 0] + t2 * (W[:, 2] - W[:, 0])
+        X = np.concatenate(
+            [
+                np.stack(c, 1)
+                for c in ((X[:, 0], xe1, xe2), (xe1, X[:, 1], X[:, 2]), (xe1, X[:, 2], xe2))
+            ]
+        )
+        W = np.concatenate(
+            [
+                np.stack(c, 1)
+                for c in ((W[:, 0], we1, we2), (we1, W[:, 1], W[:, 2]), (we1, W[:, 2], we2))
+            ]
+        )
+    return np.concatenate(done_X), np.concatenate(done_W)

@@ -27,5 +27,6 @@ def run(args: argparse.Namespace) -> int:
     from ..demo import demo
 
     size = (int(args.size[0]), int(args.size[1])) if args.size else (600, 450)
-    demo(args.mesh, Path(args.out), size=size, up=args.up, dpi=args.dpi)
+    view = tuple(args.view) if args.view else None
+    demo(args.mesh, Path(args.out), size=size, up=args.up, dpi=args.dpi, view=view)
     return EXIT_OK

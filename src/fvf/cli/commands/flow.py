@@ -11,11 +11,13 @@ from ..common import (
     PROGRESS,
     Sources,
     add_output,
+    add_picture_options,
     check_outputs,
     data_output,
     integer,
     load_mesh,
     load_viz,
+    picture_options,
     progress_option,
     real,
     real_or_inf,
@@ -51,7 +53,10 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--progress", action="store_true", help=PROGRESS)
     add_output(p, "output .npz (keys f_t (T,n)|(T,n,k)), or .ply/.vtp/.vtu")
-    p.add_argument("--png", help="also render f at the last time with the field (fvf.viz)")
+    p.add_argument(
+        "--png", help="also render f at the last time with the field (fvf.viz): .png, .pdf, .svg"
+    )
+    add_picture_options(p)
 
 
 def _method_options(args: argparse.Namespace) -> dict:
@@ -98,5 +103,6 @@ def run(args: argparse.Namespace) -> int:
     if viz is not None:
         last = f_t[-1] if f.ndim == 1 else f_t[-1, :, 0]
         title = f"flow ({args.method}) at t = {t[-1]:g}"
-        render_picture(viz, mesh, args.png, function=last, field=v, title=title)
+        options = picture_options(args)
+        render_picture(viz, mesh, args.png, function=last, field=v, title=title, **options)
     return EXIT_OK

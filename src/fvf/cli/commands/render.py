@@ -46,7 +46,6 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--arrow-scale", type=real, help="arrow length per unit field (absolute)")
     add_picture_options(p)
     p.add_argument("--title", help="picture title")
-    p.add_argument("--view", nargs=2, type=real, metavar=("AZ", "EL"), help="camera, degrees")
     p.add_argument("--max-arrows", type=integer, help="at most about this many arrows per view")
     p.add_argument(
         "--arrow-spacing", type=real, help="pixels between arrows (default: 1/22 of the view)"
@@ -70,8 +69,6 @@ def run(args: argparse.Namespace) -> int:
     if quads is not None:  # a quad mesh: shading, wireframe, irregular vertices by valence
         kwargs = {n: getattr(args, n) for n in ("title", "backend") if getattr(args, n)}
         kwargs.update(picture_options(args))
-        if args.view:
-            kwargs["view"] = tuple(args.view)
         try:
             info = viz.render_quads(*quads, args.output, **kwargs)
         except ImportError as exc:
@@ -84,8 +81,7 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, name) is not None:
             kwargs[name] = getattr(args, name)
     kwargs.update(picture_options(args))
-    for name in ("clim", "view"):
-        if getattr(args, name) is not None:
-            kwargs[name] = tuple(getattr(args, name))
+    if args.clim is not None:
+        kwargs["clim"] = tuple(args.clim)
     render_picture(viz, mesh, args.output, **kwargs)
     return EXIT_OK

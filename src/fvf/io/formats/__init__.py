@@ -6,7 +6,9 @@
 | `.off` | `fvf.io.formats.off` | polygons | triangles, quads | no |
 | `.ply` | `fvf.io.formats.ply` | polygons, scalar properties | triangles, quads | yes |
 | `.stl` | `fvf.io.formats.stl` | triangles (welded soup) | triangles (binary) | no |
-| `.vtu`, `.vtp` | `fvf.io.formats.vtk` | no | triangles, quads | yes |
+| `.vtu`, `.vtp` | `fvf.io.formats.vtk` | surface cells (PyVista, meshio) | triangles, quads | yes |
+| `.vtk` | `fvf.io.formats.vtk` | surface cells (PyVista, meshio) | triangles, quads | yes |
+| `.glb`, `.gltf` | `fvf.io.formats.gltf` | triangles (trimesh, welded) | triangles | no |
 
 The functions users call are in :mod:`fvf.io.meshfile` (:func:`fvf.read_mesh`,
 :func:`fvf.write_mesh`, :func:`fvf.io.check_writable`). A new format is a module here

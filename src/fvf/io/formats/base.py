@@ -18,7 +18,7 @@ from typing import NamedTuple, TypeVar
 
 import numpy as np
 
-from ...errors import MeshReadError
+from ...errors import MeshReadError, MissingExtraError
 from ..atomic import atomic_path
 from ..inputfile import read_bytes
 
@@ -141,7 +141,7 @@ def parsed(path: Path, parse: Callable[[Path, bytes], _T], fmt: MeshFormat) -> _
     suffix = path.suffix.lower()
     try:
         return parse(path, data)
-    except MeshReadError:
+    except (MeshReadError, MissingExtraError):
         raise
     except (ValueError, TypeError, IndexError, OverflowError, struct.error) as exc:
         raise MeshReadError(

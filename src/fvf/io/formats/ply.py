@@ -104,6 +104,15 @@ def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]
     return fmt, elements, pos, len(lines) + 1
 
 
+def header_comments(data: bytes) -> list[str]:
+    """The text of the ``comment`` lines of a PLY header (empty when there is no header)."""
+    end = data.find(b"end_header")
+    if end < 0:
+        return []
+    lines = data[:end].decode("latin-1").replace("\r", "\n").split("\n")
+    return [ln.strip()[7:].strip() for ln in lines if ln.strip().startswith("comment")]
+
+
 def read(path: Path, data: bytes) -> Polygons:
     """The vertices and polygons of a PLY file (see the module docstring)."""
     values, where, face_list = parse(path, data)

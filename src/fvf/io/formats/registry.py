@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 
 from ...errors import MeshFormatError, MeshReadError
-from . import obj, off, ply, stl, vtk
+from . import gltf, obj, off, ply, stl, vtk
 from .base import MeshFormat
 
 __all__ = [
@@ -47,8 +47,9 @@ def register_format(fmt: MeshFormat) -> MeshFormat:
     return fmt
 
 
-for _module in (obj, off, ply, stl, vtk):
-    register_format(_module.FORMAT)
+for _format in (obj.FORMAT, off.FORMAT, ply.FORMAT, stl.FORMAT, vtk.FORMAT, vtk.LEGACY):
+    register_format(_format)
+register_format(gltf.FORMAT)
 
 
 def readable_suffixes() -> tuple[str, ...]:

@@ -1,9 +1,17 @@
-"""VTK XML for ParaView: ``.vtu`` (unstructured grid) and ``.vtp`` (poly data), written only.
+"""VTK for ParaView: ``.vtu`` (unstructured grid) and ``.vtp`` (poly data) written and
+read, legacy ``.vtk`` read.
 
-``.vtu`` goes through meshio, else PyVista; ``.vtp`` through PyVista. Both are optional
-(``pip install 'fvf[vtk]'``). Triangles or quads are the cells; per-vertex and per-face
-arrays are point and cell data of their names (3-vectors as vectors). To read such a file,
-load it with meshio or PyVista and pass it to :func:`fvf.as_mesh`.
+Written: ``.vtu`` through meshio, else PyVista; ``.vtp`` through PyVista. Both are
+optional (``pip install 'fvf[vtk]'``). Triangles or quads are the cells; per-vertex and
+per-face arrays are point and cell data of their names (3-vectors as vectors), stored as
+float64 in binary, so reading them back is exact; the N of an :class:`fvf.NField` is the
+field data array ``n_<name>`` (:mod:`fvf.io.fieldorder`).
+
+Read (:func:`read`, :func:`read_arrays`): through PyVista, else meshio (``.vtu`` and
+``.vtk`` only); the surface cells (triangles, quads, polygons) in file order, their
+point, cell and field data. Other cells (lines, vertices, volume cells) are refused by
+name; a volume mesh's surface is ``pyvista.read(path).extract_surface()``, passed to
+:func:`fvf.as_mesh`.
 """
 
 from __future__ import annotations
@@ -12,15 +20,19 @@ import importlib.util
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from ...errors import MissingExtraError, OutputWriteError
+from ...errors import MeshReadError, MissingExtraError, OutputWriteError
 from ..atomic import atomic_path
-from .base import MeshFormat
+from ..fieldorder import orders_from_comments
+from .base import MeshFormat, Polygons
 
-__all__ = ["write", "requires", "FORMAT"]
+__all__ = ["write", "read", "read_arrays", "VtkArrays", "requires", "FORMAT", "LEGACY"]
+
+#: VTK cell types of surface cells: triangle, polygon, quad.
+_SURFACE_CELLS = {5: "triangle", 7: "polygon", 9: "quad"}
 
 
 def _have(module: str) -> bool:
@@ -29,7 +41,7 @@ def _have(module: str) -> bool:
 
 def requires(path: Path) -> None:
     """Raise :class:`fvf.errors.MissingExtraError` when ``path`` cannot be written here:
-    ``.vtu`` needs meshio or PyVista, ``.vtp`` PyVista."""
+    ``.vtu`` needs meshio or PyVista, ``.vtp`` and ``.vtk`` PyVista."""
     suffix = path.suffix.lower()
     if _have("pyvista") or (suffix == ".vtu" and _have("meshio")):
         return
@@ -45,10 +57,11 @@ def write(
     face_data: Mapping[str, np.ndarray],
     comments: tuple[str, ...] = (),
 ) -> None:
-    """``.vtu`` through meshio (else PyVista), ``.vtp`` through PyVista; ``F`` (m, 3) or
-    (m, 4) becomes triangle or quad cells."""
+    """``.vtu`` through meshio (else PyVista), ``.vtp`` and legacy ``.vtk`` (binary)
+    through PyVista; ``F`` (m, 3) or (m, 4) becomes triangle or quad cells."""
     requires(path)
     suffix = path.suffix.lower()
+    orders = orders_from_comments(comments)
     if suffix == ".vtu" and _have("meshio"):
         import meshio
 
@@ -61,6 +74,8 @@ def write(
         )
         with atomic_path(path) as tmp:
             meshio.write(tmp, mesh, file_format="vtu")
+            if orders:  # meshio writes no field data: add it to the XML
+                tmp.write_bytes(_with_field_data(tmp.read_bytes(), orders))
             _verify(path, tmp, len(V), len(F))
         return
     import pyvista
@@ -71,11 +86,27 @@ def write(
         poly.point_data[k] = a
     for k, a in face_data.items():
         poly.cell_data[k] = a
-    grid = poly if suffix == ".vtp" else poly.cast_to_unstructured_grid()
+    for k, n in orders.items():
+        poly.field_data[f"n_{k}"] = np.array([n], dtype=np.int64)
+    grid = poly if suffix in (".vtp", ".vtk") else poly.cast_to_unstructured_grid()
     data = _vtk_xml(grid, suffix, path)
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
         _verify(path, tmp, len(V), len(F))
+
+
+def _with_field_data(xml: bytes, orders: Mapping[str, int]) -> bytes:
+    """The VTK XML file ``xml`` with the field data arrays ``n_<key>`` (one Int64 each)."""
+    arrays = "".join(
+        f'<DataArray type="Int64" Name="n_{k}" NumberOfTuples="1" format="ascii">{n}</DataArray>\n'
+        for k, n in orders.items()
+    )
+    tag = b"<UnstructuredGrid>"
+    at = xml.find(tag)
+    if at < 0:  # not the file meshio writes: leave it (the fields stay, without n)
+        return xml
+    at += len(tag)
+    return xml[:at] + f"\n<FieldData>\n{arrays}</FieldData>".encode("ascii") + xml[at:]
 
 
 def _vtk_xml(grid: Any, suffix: str, path: Path) -> bytes:
@@ -85,6 +116,17 @@ def _vtk_xml(grid: Any, suffix: str, path: Path) -> bytes:
     pointer``); writing the bytes from Python turns that into an ``OSError`` that
     :func:`atomic_path` reports, leaving the previous file untouched.
     """
+    if suffix == ".vtk":
+        from vtkmodules.vtkIOLegacy import vtkPolyDataWriter
+
+        legacy = vtkPolyDataWriter()
+        legacy.SetInputData(grid)
+        legacy.SetFileTypeToBinary()
+        legacy.WriteToOutputStringOn()
+        if legacy.Write() != 1:
+            raise OutputWriteError(f"{path}: VTK could not format the file; nothing was written")
+        out = legacy.GetOutputStdString()
+        return out if isinstance(out, bytes) else out.encode("latin-1")
     from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter, vtkXMLUnstructuredGridWriter
 
     writer = vtkXMLPolyDataWriter() if suffix == ".vtp" else vtkXMLUnstructuredGridWriter()
@@ -140,12 +182,183 @@ def _verify(path: Path, tmp: Path, n: int, m: int) -> None:
 FORMAT = MeshFormat(
     name="VTK",
     suffixes=(".vtu", ".vtp"),
-    read=None,
+    read=lambda path, data: read(path),
     write=write,
     vertex_data=True,
     face_data=True,
     text_start=False,
     requires=requires,
-    description="VTK XML for ParaView (written only; optional extra [vtk]): triangles or "
-    "quads with point and cell data",
+    description="VTK XML for ParaView (optional extra [vtk]): triangles or quads with "
+    "point and cell data, written and read",
 )
+
+LEGACY = MeshFormat(
+    name="legacy VTK",
+    suffixes=(".vtk",),
+    read=lambda path, data: read(path),
+    write=write,
+    vertex_data=True,
+    face_data=True,
+    text_start=False,
+    requires=requires,
+    description="legacy VTK (optional extra [vtk]; written binary through PyVista): "
+    "surface cells with point and cell data",
+)
+
+
+# ---------------------------------------------------------------------------- reading
+class VtkArrays(NamedTuple):
+    """What :func:`read_arrays` finds in a VTK file."""
+
+    polygons: Polygons
+    point_data: dict[str, np.ndarray]  # (n,) or (n, k) each
+    cell_data: dict[str, np.ndarray]  # (c,) or (c, k) each, one row per polygon
+    field_data: dict[str, np.ndarray]
+
+
+def _reader(path: Path) -> str:
+    """ "pyvista" or "meshio": the library that reads ``path`` here, else raise."""
+    if _have("pyvista"):
+        return "pyvista"
+    if path.suffix.lower() in (".vtu", ".vtk") and _have("meshio"):
+        return "meshio"
+    need = "PyVista" if path.suffix.lower() == ".vtp" else "meshio or PyVista"
+    raise MissingExtraError(
+        f"{path}: reading {path.suffix} files needs {need}: pip install 'fvf[vtk]'"
+    )
+
+
+def _cells_pyvista(path: Path, grid: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(cell types, flat [k, i0, .., k, ...] connectivity) of a PyVista dataset."""
+    import pyvista
+
+    if isinstance(grid, pyvista.PolyData):
+        if grid.n_verts or grid.n_lines or grid.n_strips:
+            raise MeshReadError(
+                f"{path}: the file holds points, lines or strips besides polygons; "
+                "read_mesh reads surface meshes (triangles, quads, polygons)"
+            )
+        return np.full(grid.n_cells, 7), np.asarray(grid.faces, dtype=np.int64)
+    if not isinstance(grid, pyvista.UnstructuredGrid):
+        raise MeshReadError(
+            f"{path}: a VTK {type(grid).__name__}, not a surface mesh; load it with "
+            "pyvista, take .extract_surface().triangulate() and pass it to fvf.as_mesh"
+        )
+    return np.asarray(grid.celltypes, dtype=np.int64), np.asarray(grid.cells, dtype=np.int64)
+
+
+def _polygons(path: Path, V: np.ndarray, types: np.ndarray, flat: np.ndarray) -> Polygons:
+    """The polygons of a flat ``[k, i0, .., k, ...]`` array, after checking the cell types."""
+    bad = np.flatnonzero(~np.isin(types, list(_SURFACE_CELLS)))
+    if bad.size:
+        raise MeshReadError(
+            f"{path}: cell {bad[0]} has VTK cell type {types[bad[0]]} ({bad.size} cells that "
+            "are not triangles, quads or polygons): read_mesh reads surface meshes. Fix: "
+            "pyvista.read(path).extract_surface().triangulate(), passed to fvf.as_mesh"
+        )
+    counts = np.zeros(types.size, dtype=np.int64)
+    starts = np.zeros(types.size, dtype=np.int64)
+    pos = 0
+    if types.size:  # the counts lie every k+1 entries: walk them without a Python loop
+        heads = np.zeros(flat.size, dtype=bool)
+        while True:  # at most one pass per distinct cell size run
+            sizes = flat[pos : pos + 1]
+            if sizes.size == 0:
+                break
+            k = int(sizes[0])
+            if k < 1:
+                raise MeshReadError(f"{path}: a cell of {k} points in the connectivity")
+            run = flat[pos :: k + 1]
+            same = np.flatnonzero(run != k)
+            stop = run.size if same.size == 0 else int(same[0])
+            heads[pos : pos + stop * (k + 1) : k + 1] = True
+            pos += stop * (k + 1)
+        at = np.flatnonzero(heads)
+        counts, starts = flat[at], at + 1
+    if counts.size != types.size:
+        raise MeshReadError(f"{path}: the cell connectivity does not match the cell count")
+    index = np.repeat(starts - np.cumsum(np.r_[0, counts[:-1]]), counts) + np.arange(counts.sum())
+    verts = flat[index]
+    return Polygons(
+        np.ascontiguousarray(V, dtype=np.float64),
+        counts,
+        verts,
+        verts,
+        lambda i: f"cell {i}",
+        f"0..{len(V) - 1}",
+    )
+
+
+def _read_pyvista(path: Path) -> VtkArrays:
+    import pyvista
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        grid = pyvista.read(str(path))
+    types, flat = _cells_pyvista(path, grid)
+    poly = _polygons(path, np.asarray(grid.points), types, flat)
+    return VtkArrays(
+        poly,
+        {k: np.asarray(grid.point_data[k]) for k in grid.point_data.keys()},
+        {k: np.asarray(grid.cell_data[k]) for k in grid.cell_data.keys()},
+        {k: np.asarray(grid.field_data[k]) for k in grid.field_data.keys()},
+    )
+
+
+_MESHIO_TYPES = {"triangle": 5, "quad": 9, "polygon": 7}
+
+
+def _read_meshio(path: Path) -> VtkArrays:
+    import meshio
+
+    mesh = meshio.read(path)
+    types: list[np.ndarray] = []
+    flats: list[np.ndarray] = []
+    for block in mesh.cells:
+        data = np.asarray(block.data, dtype=np.int64)
+        code = 7 if block.type.startswith("polygon") else _MESHIO_TYPES.get(block.type, -1)
+        types.append(np.full(len(data), code))
+        flats.append(np.column_stack([np.full(len(data), data.shape[1]), data]).ravel())
+    flat = np.concatenate(flats) if flats else np.zeros(0, dtype=np.int64)
+    poly = _polygons(path, np.asarray(mesh.points), np.concatenate(types), flat)
+    if poly.vertices.shape[1] == 2:
+        flat2d = poly.vertices
+        poly = poly._replace(vertices=np.column_stack([flat2d, np.zeros(len(flat2d))]))
+    return VtkArrays(
+        poly,
+        {k: np.asarray(a) for k, a in mesh.point_data.items()},
+        {k: np.concatenate([np.asarray(b) for b in a]) for k, a in mesh.cell_data.items()},
+        {k: np.asarray(a) for k, a in mesh.field_data.items()},
+    )
+
+
+def read_arrays(path: Path) -> VtkArrays:
+    """The polygons and the point, cell and field data of a VTK file (``.vtu``, ``.vtp``,
+    ``.vtk``), through PyVista, else meshio (module docstring).
+
+    Raises
+    ------
+    MissingExtraError
+        Neither library is installed (``.vtp``: PyVista is not).
+    MeshReadError
+        The file cannot be read, or holds cells other than triangles, quads and polygons.
+    """
+    path = Path(path)
+    reader = _reader(path)
+    try:
+        out = _read_pyvista(path) if reader == "pyvista" else _read_meshio(path)
+    except (MeshReadError, MissingExtraError):
+        raise
+    except Exception as exc:  # the libraries raise anything on a damaged file
+        raise MeshReadError(
+            f"{path}: {reader} cannot read this file ({type(exc).__name__}: {exc}); check "
+            "that it is a valid VTK file, or re-export it"
+        ) from exc
+    if out.polygons.vertices.ndim != 2 or out.polygons.vertices.shape[1] != 3:
+        raise MeshReadError(f"{path}: the points are not 3-D ({out.polygons.vertices.shape})")
+    return out
+
+
+def read(path: Path) -> Polygons:
+    """The polygons of a VTK file (:func:`read_arrays`), for :func:`fvf.read_mesh`."""
+    return read_arrays(path).polygons
