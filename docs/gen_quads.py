@@ -90,7 +90,7 @@ def symmetric_pictures() -> None:
 WILD = (
     ("cad_plate_holes", 1500, (30, 35)),  # a CAD plate with holes, an STL soup
     ("cad_two_parts", 1500, (30, 30)),  # two parts in one file
-    ("scan_body_holes", 2000, (0, 10)),  # a scan with spikes and holes cut, y up
+    ("scan_body_holes", 2000, None),  # a scan with spikes and holes cut, y up: default view
 )
 
 
@@ -104,7 +104,7 @@ def wild_pictures() -> None:
         V, F = wild_corpus.mesh(name)
         made = fvf.quad_mesh((V, F), target_faces=target)
         q = made.quality
-        kw = {"size": (640, 480), "view": view}
+        kw = {"size": (640, 480)} | ({"view": view} if view else {})
         welded = fvf.remove_duplicate_vertices(V, F)  # an STL soup
         mesh = fvf.TriMesh(welded.vertices, welded.faces)
         title = f"{name}: input, {len(F)} triangles"
