@@ -16,6 +16,7 @@ from fvf import calculus
 from fvf.design import connection, holonomy
 from fvf.mesh import geometry
 from fvf.mesh.cache import CACHED_QUANTITIES, quantity_name, value_nbytes
+from fvf.mesh.geometry import vertex_vector_areas
 from fvf.operators.directional import D_V, extract_field
 from fvf.param.quad_folds import closest_surface_points
 from fvf.spectral.evaluation import geodesic_distances
@@ -105,6 +106,7 @@ def fill_cache(mesh: fvf.TriMesh) -> dict[str, object]:
     for method in ("unfolded", "edges", "heat"):
         results[method] = geodesic_distances(mesh, [0, 5], method=method)
     results["closest"] = closest_surface_points(mesh, 1.01 * mesh.vertices)
+    results["vector areas"] = vertex_vector_areas(mesh)
     return results
 
 
@@ -168,3 +170,18 @@ def test_peek_cached_never_builds():
     assert mesh.peek_cached("centered_vertices") is None
     X = geometry.centered_vertices(mesh)
     assert mesh.peek_cached("centered_vertices") is X and not X.flags.writeable
+
+
+def test_vertex_vector_areas_sum_to_the_enclosed_surface_vector_area():
+    """Σ_i Σ_{t∋i} A_t n_t = 3 Σ_t A_t n_t = 0 on a closed surface; on a flat square
+    every vertex's vector area is normal to the plane with length the area around it."""
+    sphere = fvf.jittered_sphere(2, seed=1)
+    N = vertex_vector_areas(sphere)
+    assert N.shape == (sphere.n_vertices, 3) and not N.flags.writeable
+    assert np.abs(N.sum(axis=0)).max() < 1e-12
+    assert np.all(np.einsum("ij,ij->i", N, sphere.vertices) > 0)  # outwards
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    square = fvf.TriMesh(V, np.array([[0, 1, 2], [0, 2, 3]]))
+    assert np.allclose(
+        vertex_vector_areas(square), [[0, 0, 1], [0, 0, 0.5], [0, 0, 1], [0, 0, 0.5]]
+    )

@@ -87,7 +87,30 @@ def test_a_box_has_twelve_sharp_edges_and_its_quads_follow_them():
     faces, dirs = feature_constraints(mesh, sharp)
     assert faces.size == 12 and np.allclose(np.linalg.norm(dirs, axis=1), 1.0)
     made = fvf.quad_mesh(mesh, target_faces=300)
-    assert feature_coverage(mesh, sharp, made.vertices, made.quads) > 0.85  # 0.89 measured
+    assert feature_coverage(mesh, sharp, made.vertices, made.quads) > 0.99  # 1.0 measured
+
+
+def test_feature_edges_are_integer_iso_lines_of_the_parameterization():
+    """Each sharp edge of a box keeps one uv coordinate, exactly, at an integer value
+    (the conditions are part of the integer lattice, so rounding and fold repair keep
+    them); the other coordinate moves along it."""
+    V, F = box()
+    for _ in range(3):
+        V, F = subdivide_midpoints(V, F)
+    mesh = fvf.TriMesh(V, F)
+    sharp = sharp_edges(mesh)
+    p = fvf.seamless_parameterization(mesh, features=sharp, target_faces=300)
+    t = np.where(mesh.edge_faces[sharp, 0] >= 0, *mesh.edge_faces[sharp].T)
+    ends = [np.argmax(mesh.faces[t] == mesh.edges[sharp, i][:, None], axis=1) for i in (0, 1)]
+    ua, ub = p.uv[t, ends[0]], p.uv[t, ends[1]]  # (k, 2) each
+    const = np.argmin(np.abs(ua - ub), axis=1)
+    k = np.arange(sharp.size)
+    assert np.array_equal(ua[k, const], ub[k, const])
+    assert np.array_equal(ua[k, const], np.round(ua[k, const]))
+    assert np.abs(ua[k, 1 - const] - ub[k, 1 - const]).min() > 0.1  # 0.35 measured
+    free = fvf.seamless_parameterization(mesh, target_faces=300)  # no features given
+    fa, fb = free.uv[t, ends[0]], free.uv[t, ends[1]]
+    assert np.abs(fa - fb).min(axis=1).max() > 1e-3  # not iso-lines by themselves
 
 
 def test_user_feature_edges_must_be_edges():
@@ -232,3 +255,15 @@ def test_a_backend_failure_ends_an_attempt_not_the_call(monkeypatch):
         warnings.simplefilter("error")
         made = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
     assert "RuntimeError: Failed to resize" in made.attempts[0] and made.validity.valid
+
+
+def test_features_are_iso_lines_in_the_first_attempts_then_hold_the_field_only():
+    from fvf.param import quadmesh
+    from fvf.param.quad_parts import component_parts
+
+    part = component_parts(fvf.icosphere(2))[0]
+    plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
+    iso = [p.isolines for p in plans]
+    assert iso[:2] == [True, True] and not any(iso[2:])
+    assert [(p.remeshed, p.h) for p in plans[:2]] == [(p.remeshed, p.h) for p in plans[2:4]]
+    assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))

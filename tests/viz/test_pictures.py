@@ -237,3 +237,17 @@ def test_examples_write_to_a_temporary_folder_by_default(monkeypatch):
     out = Path(_common.parse_args("x").out)
     assert out.is_dir() and root not in out.resolve().parents
     out.rmdir()
+
+
+def test_a_quad_with_three_collinear_corners_is_drawn(tmp_path):
+    """A valid quad mesh may hold a quad with three corners on a line (on a boundary): its
+    zero-area half is left out of the shading instead of failing the TriMesh check."""
+    from fvf.viz.quads import _shading_mesh
+
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [5, 5, 5]], float)
+    Q = np.array([[0, 1, 2, 4]])  # 0, 1, 2 collinear: the split along 0-2 has a zero half
+    mesh = _shading_mesh(V, Q)
+    assert mesh.n_faces == 2 and np.isclose(mesh.total_area, 1.0)  # split along 1-4
+    assert mesh.n_vertices == 4  # vertices 3 and 5, in no quad, dropped
+    info = viz.render_quads(V, np.array([[0, 1, 2, 4]]), tmp_path / "q.png", **MPL)
+    assert (tmp_path / "q.png").stat().st_size > 0 and info is not None

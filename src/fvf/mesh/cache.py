@@ -87,11 +87,17 @@ CACHED_QUANTITIES: Mapping[str, CachedQuantity] = _declare(
     ),
     CachedQuantity(
         "surface_sample_tree",
-        "a cKDTree of points spread over every triangle and the triangle of each, "
-        "int64 (p,)",
+        "a cKDTree of points spread over every triangle and the triangle of each, int64 (p,)",
         "about 56p bytes, p ≤ m · 1225 points (≈ 4m on a mesh of even triangles)",
         "fvf.param.quad_folds.surface_sample_tree",
         "closest_surface_points (quad fold repair, quad vertices put back on the input)",
+    ),
+    CachedQuantity(
+        "vertex_vector_areas",
+        "the area-weighted sum of the face normals at each vertex, float64 (n, 3)",
+        "24n bytes",
+        "fvf.mesh.geometry.vertex_vector_areas",
+        "fvf.param.quad_folds (the surface's side under a quad), fvf.param.caps (domes)",
     ),
     CachedQuantity(
         "corner_angles",

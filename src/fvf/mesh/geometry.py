@@ -27,8 +27,10 @@ __all__ = [
     "edge_components",
     "sorted_corners",
     "centered_vertices",
+    "vertex_vector_areas",
     "corner_angles",
     "angle_defects",
+    "segment_points",
 ]
 
 
@@ -135,6 +137,25 @@ def centered_vertices(mesh: TriMesh) -> np.ndarray:
     )
 
 
+def vertex_vector_areas(mesh: TriMesh) -> np.ndarray:
+    r"""\sum_{t \ni i} A_t n_t at each vertex i, float64 (n, 3), cached, read-only.
+
+    The area-weighted sum of the normals of the faces around a vertex (not normalized):
+    its direction is the area-weighted vertex normal, its length how much surface faces
+    that way (zero where the faces around a vertex cancel, as on a crumpled scan).
+    """
+
+    def build():
+        AN = mesh.face_areas[:, None] * mesh.face_normals
+        F, nv = mesh.faces.ravel(), mesh.n_vertices
+        w = np.repeat(AN, 3, axis=0)
+        return readonly(
+            np.stack([np.bincount(F, weights=w[:, j], minlength=nv) for j in range(3)], 1)
+        )
+
+    return mesh.cached("vertex_vector_areas", build)
+
+
 def corner_angles(mesh: TriMesh) -> np.ndarray:
     """Interior angle of each face at each corner, float64 (m, 3), cached, read-only."""
 
@@ -158,3 +179,21 @@ def angle_defects(mesh: TriMesh) -> np.ndarray:
     ang = corner_angles(mesh)
     total = np.bincount(mesh.faces.ravel(), weights=ang.ravel(), minlength=mesh.n_vertices)
     return 2.0 * np.pi - total
+
+
+def segment_points(
+    a: np.ndarray, b: np.ndarray, step: float, *, centred: bool = False, max_count: int = 1 << 16
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points along the segments a→b (both float64 (k, 3)) about ``step`` apart.
+
+    Segment i gets c_i = clip(⌈|b_i − a_i| / step⌉, 1, ``max_count``) points at
+    t = j / c_i (from a_i, b_i left out) or, ``centred``, at t = (j + ½) / c_i.
+    Returns the points, float64 (p, 3), and the length each stands for, |b_i − a_i| / c_i,
+    float64 (p,).
+    """
+    length = np.linalg.norm(b - a, axis=1)
+    count = np.clip(np.ceil(length / step).astype(np.int64), 1, max_count)
+    seg = np.repeat(np.arange(a.shape[0]), count)
+    t = np.arange(seg.size) - np.repeat(np.cumsum(count) - count, count) + (0.5 if centred else 0.0)
+    t = t / count[seg]
+    return a[seg] + t[:, None] * (b - a)[seg], (length / count)[seg]

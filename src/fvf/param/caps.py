@@ -28,6 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterizationInputError, format_indices
+from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_folds import closest_surface_points
@@ -134,9 +135,7 @@ def capped(mesh: TriMesh, spacing: float) -> Capped:
     V, F = [mesh.vertices], [mesh.faces]
     offset = mesh.n_vertices
     rim = []
-    AN = mesh.face_areas[:, None] * mesh.face_normals
-    vn = np.zeros((mesh.n_vertices, 3))
-    np.add.at(vn, mesh.faces.ravel(), np.repeat(AN, 3, axis=0))
+    vn = vertex_vector_areas(mesh)
     centre = mesh.vertices.mean(axis=0)
     for loop in boundary_loops(mesh):
         P = mesh.vertices[loop]

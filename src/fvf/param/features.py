@@ -21,8 +21,6 @@ features' length within a quarter quad edge of a quad edge.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -30,6 +28,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterError, format_indices
+from ..mesh.geometry import segment_points
 from ..mesh.trimesh import TriMesh
 
 __all__ = [
@@ -171,26 +170,12 @@ def feature_coverage(
     Q = np.asarray(quads, dtype=np.int64)
     qa, qb = V[Q].reshape(-1, 3), V[np.roll(Q, -1, axis=1)].reshape(-1, 3)
     h = float(np.linalg.norm(qb - qa, axis=1).mean())
-    quad_pts = _segment_samples(qa, qb, h / 16)
+    quad_pts = segment_points(qa, qb, h / 16, centred=True, max_count=4096)[0]
     fa = mesh.vertices[mesh.edges[e, 0]]
     fb = mesh.vertices[mesh.edges[e, 1]]
-    pts, weight = _segment_samples(fa, fb, h / 16, weights=True)
+    pts, weight = segment_points(fa, fb, h / 16, centred=True, max_count=4096)
     near = cKDTree(quad_pts).query(pts, distance_upper_bound=0.25 * h)[0] <= 0.25 * h
     return float(weight[near].sum() / weight.sum())
-
-
-def _segment_samples(a: np.ndarray, b: np.ndarray, step: float, weights: bool = False) -> Any:
-    """Points along segments a→b (k, 3) about ``step`` apart; with ``weights`` also the
-    length each point stands for."""
-    length = np.linalg.norm(b - a, axis=1)
-    count = np.clip(np.ceil(length / step).astype(np.int64), 1, 4096)
-    seg = np.repeat(np.arange(a.shape[0]), count)
-    start = np.repeat(np.cumsum(count) - count, count)
-    t = (np.arange(seg.size) - start + 0.5) / count[seg]
-    pts = a[seg] + t[:, None] * (b - a)[seg]
-    if not weights:
-        return pts
-    return pts, (length / count)[seg]
 
 
 def transferred_features(
@@ -207,7 +192,7 @@ def transferred_features(
     if e.size == 0 or cand.size == 0:
         return np.empty(0, dtype=np.int64)
     a, b = mesh.vertices[mesh.edges[e, 0]], mesh.vertices[mesh.edges[e, 1]]
-    pts = _segment_samples(a, b, spacing / 16)
+    pts = segment_points(a, b, spacing / 16, centred=True, max_count=4096)[0]
     mid = surface.vertices[surface.edges[cand]].mean(axis=1)
     d = cKDTree(pts).query(mid, distance_upper_bound=0.25 * spacing)[0]
     return cand[d <= 0.25 * spacing]

@@ -63,6 +63,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 
@@ -202,11 +203,8 @@ def centre_normals(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarr
     """The surface's side at each point, float64 (k, 3), unit: the sum of the area-weighted
     vertex normals of the input triangle closest to the point (smoother than that
     triangle's own normal, which on a crumpled scan may face the other way)."""
-    F, N = mesh.faces, mesh.face_areas[:, None] * mesh.face_normals
-    vn = np.zeros((mesh.n_vertices, 3))
-    np.add.at(vn, F.ravel(), np.repeat(N, 3, axis=0))
     face, _ = closest_surface_points(mesh, points, tree)
-    n = vn[F[face]].sum(axis=1)
+    n = vertex_vector_areas(mesh)[mesh.faces[face]].sum(axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
 
 

@@ -97,23 +97,28 @@ class _Plan:
     remeshed: bool
     align: Alignment
     h: float
+    isolines: bool = False
 
     def __str__(self) -> str:
         surface = "remeshed" if self.remeshed else "input"
-        return f"{surface} surface, {self.align} field, h = {self.h:.4g}"
+        lines = ", features as iso-lines" if self.isolines else ""
+        return f"{surface} surface, {self.align} field{lines}, h = {self.h:.4g}"
 
 
-def _plans(part: Part, h: float, align: Alignment, retry: bool, remesh: bool | str) -> list[_Plan]:
+def _plans(
+    part: Part, h: float, align: Alignment, retry: bool, remesh: bool | str, features: bool
+) -> list[_Plan]:
     """The attempts for one component, in order (``docs/quads.md``)."""
     if not retry:
-        return [_Plan(remesh is True, align, h)]
+        return [_Plan(remesh is True, align, h, features)]
     other: Alignment = "smooth" if align == "curvature" else "curvature"
     can = remesh != "never"
     why = needs_remesh(part.closed, h) if can else None
     skip_input = remesh is True or (why is not None and "angle" in why)  # slivers: remesh first
-    plans = [] if skip_input else [_Plan(False, align, h)]
-    plans += [
-        _Plan(can, align, h),
+    first = [] if skip_input else [_Plan(False, align, h)]
+    first += [_Plan(can, align, h)]
+    plans = [dataclasses.replace(p, isolines=True) for p in first] if features else []
+    plans += first + [
         _Plan(can, other, h),
         _Plan(can, align, h * MORE_QUADS),
         _Plan(can, other, h * MORE_QUADS),
@@ -147,6 +152,7 @@ def _attempt(
         edge_length=plan.h,
         align=plan.align,
         features=features,
+        feature_isolines=plan.isolines,
         **opts["seamless"],
     )
     report("quad extraction", 0, 1)
@@ -426,7 +432,9 @@ def _mesh_parts(
         fp = None if field is None else field[part.faces]
         if not part.mesh.is_closed:
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
-        plans = _plans(part, hp, align, retry, remesh)
+        found = _features(part, part.closed, hp, opts)
+        featured = found is not None and found.size > 0
+        plans = _plans(part, hp, align, retry, remesh, featured)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
         except QuadMeshError:

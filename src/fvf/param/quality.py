@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
+from ..mesh.geometry import segment_points
 from ..mesh.trimesh import TriMesh
 from .quad_folds import folded_quads
 from .seamless import SeamlessParameterization
@@ -118,11 +119,7 @@ def surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     """
     P = V[T]  # (k, 3, 3)
     a, b = P.reshape(-1, 3), np.roll(P, -1, axis=1).reshape(-1, 3)
-    length = np.linalg.norm(b - a, axis=1)
-    count = np.clip(np.ceil(length / step).astype(np.int64), 1, 1 << 16)
-    seg = np.repeat(np.arange(a.shape[0]), count)
-    t = (np.arange(seg.size) - np.repeat(np.cumsum(count) - count, count)) / count[seg]
-    out = [V, a[seg] + t[:, None] * (b - a)[seg]]
+    out = [V, segment_points(a, b, step)[0]]
     area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     k = np.clip(np.ceil(np.sqrt(2.0 * area) / step).astype(np.int64), 1, 64)
     for level in np.unique(k[k > 1]):  # a loop over a few subdivision levels

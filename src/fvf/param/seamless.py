@@ -61,7 +61,7 @@ from .frame_field import (
     unit_cross_field,
 )
 from .rounding import MixedIntegerSolver, integer_lattice
-from .seams import ROTATIONS, SeamSystem, seam_system
+from .seams import ROTATIONS, SeamSystem, feature_rows, seam_system
 from .uv_folds import flip_count as _flip_count
 from .uv_folds import repair_folds
 
@@ -210,15 +210,25 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
 
 
 def _variables(
-    ss: SeamSystem, cm: CutMesh
+    ss: SeamSystem, cm: CutMesh, iso: tuple[sp.csr_array, np.ndarray] | None = None
 ) -> tuple[sp.csr_array, np.ndarray, np.ndarray, np.ndarray]:
-    """Split y into real and integer unknowns; return Q (y = Q [real; w]) and bookkeeping."""
+    """Split y into real and integer unknowns; return Q (y = Q [real; w]) and bookkeeping.
+
+    ``iso``: the feature iso-line conditions and integer root coordinates of
+    :func:`fvf.param.seams.feature_rows`, added to the closing conditions.
+    """
     R, C = ss.n_roots, ss.n_chains
     ncol = 2 * R + 2 * C
     sing_roots = np.unique(ss.root_of_vertex[cm.singular])
+    rows, iso_cols = iso if iso is not None else (sp.csr_array((0, ncol)), np.empty(0, np.int64))
     int_cols = np.concatenate(
-        [np.stack([2 * sing_roots, 2 * sing_roots + 1], axis=1).ravel(), 2 * R + np.arange(2 * C)]
+        [
+            np.stack([2 * sing_roots, 2 * sing_roots + 1], axis=1).ravel(),
+            2 * R + np.arange(2 * C),
+            iso_cols,
+        ]
     ).astype(np.int64)
+    int_cols = np.unique(int_cols)
     pinned = (
         np.array([2 * sing_roots[0], 2 * sing_roots[0] + 1])
         if sing_roots.size
@@ -226,7 +236,8 @@ def _variables(
     )
     int_cols = np.setdiff1d(int_cols, pinned)
     real_cols = np.setdiff1d(np.setdiff1d(np.arange(ncol), int_cols), pinned)
-    Cz = ss.closing[:, int_cols].toarray() if ss.closing.shape[0] else np.zeros((0, int_cols.size))
+    closing = sp.vstack([ss.closing, rows]).tocsr()
+    Cz = closing[:, int_cols].toarray() if closing.shape[0] else np.zeros((0, int_cols.size))
     N = integer_lattice(Cz, prefer=int_cols >= 2 * R)
     nr = real_cols.size
     Q = sp.bmat(
@@ -269,11 +280,13 @@ class _FitSystem:
     lift: sp.csr_array  # (2W, p): y ↦ wedge coordinates
 
 
-def _fit_system(mesh: TriMesh, cm: CutMesh) -> _FitSystem:
-    """Transitions, the lattice of integer unknowns and the fit matrix K = A P Q."""
+def _fit_system(mesh: TriMesh, cm: CutMesh, features: np.ndarray | None = None) -> _FitSystem:
+    """Transitions, the lattice of integer unknowns and the fit matrix K = A P Q; feature
+    edges (indices into ``mesh.edges``) become integer iso-lines."""
     ss = seam_system(mesh, cm)
     A = _energy_matrix(mesh, cm)
-    Q, integer, _, _ = _variables(ss, cm)
+    iso = None if features is None else feature_rows(mesh, cm, ss, features)
+    Q, integer, _, _ = _variables(ss, cm, iso)
     lift = (ss.P @ Q).tocsr()
     return _FitSystem(ss, (A @ lift).tocsr(), integer, lift)
 
@@ -321,6 +334,7 @@ def seamless_parameterization(
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
     features: npt.ArrayLike | None = None,
+    feature_isolines: bool = True,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -370,7 +384,12 @@ def seamless_parameterization(
         and its size (the command prints them).
     features : array_like of int (k,), optional
         Sharp feature edges (indices into ``mesh.edges``; :mod:`fvf.param.features`): the
-        default field is held along them. Ignored when ``field`` is given.
+        default field is held along them (when ``field`` is None), and each one within 20°
+        of a frame axis becomes an integer iso-line (:func:`fvf.param.seams.feature_rows`),
+        so that it is followed by quad edges.
+    feature_isolines : bool
+        False: the features only hold the default field (two parallel features closer
+        than about half an edge length h would otherwise share an iso-line and fold).
 
     Returns
     -------
@@ -398,7 +417,8 @@ def seamless_parameterization(
     cm = cut_mesh(mesh, u, rot)
     _check_cones(mesh, cm)
     clock(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
-    fs = _fit_system(mesh, cm)
+    iso = features is not None and feature_isolines
+    fs = _fit_system(mesh, cm, np.asarray(features, np.int64) if iso else None)
     clock(f"Poisson fit ({fs.K.shape[1]} unknowns, {fs.integer.size} integers)")
     solver = MixedIntegerSolver((fs.K.T @ fs.K).tocsr(), fs.integer, backend)
     if sc is None:

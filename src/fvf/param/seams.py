@@ -38,7 +38,7 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .cutmesh import CutMesh
 
-__all__ = ["SeamSystem", "ROTATIONS", "rotation_blocks", "seam_system"]
+__all__ = ["SeamSystem", "ROTATIONS", "rotation_blocks", "seam_system", "feature_rows"]
 
 #: R^q for q = 0..3, R the counter-clockwise rotation by π/2 (integer 2 × 2 matrices).
 ROTATIONS = np.array(
@@ -283,3 +283,63 @@ def _closing_rows(
     C.eliminate_zeros()
     nonzero = np.diff(C.indptr) > 0
     return C[np.flatnonzero(nonzero)]
+
+
+def feature_rows(
+    mesh: TriMesh, cm: CutMesh, ss: SeamSystem, edges: np.ndarray, max_angle: float = 20.0
+) -> tuple[sp.csr_array, np.ndarray]:
+    r"""Feature edges as integer iso-lines: the conditions and the unknowns they make integer.
+
+    A feature edge (a, b) whose direction in a face t beside it is within ``max_angle``
+    degrees of the frame's X (or Y) axis should be an iso-line of v (or u): with the
+    wedges w_a, w_b of t at its end points and c the constant coordinate,
+
+    .. math::
+
+        \mathrm{uv}_c(w_a) - \mathrm{uv}_c(w_b) = 0, \qquad \mathrm{uv}_c(w_a) \in \mathbb{Z}.
+
+    Both are expressed in the free variables y of :func:`seam_system`: the rows are
+    (P_{2 w_a + c} − P_{2 w_b + c}), and the root coordinates that P_{2 w_a + c} and
+    P_{2 w_b + c} read become integer unknowns (the chain translations they read are
+    integer already), so the rows join the integer closing conditions.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    cm : CutMesh
+    ss : SeamSystem
+    edges : int (k,)
+        Feature edges, indices into ``mesh.edges``.
+    max_angle : float
+        Edges further than this from both frame axes (in degrees) are left free.
+
+    Returns
+    -------
+    rows : csr (r, 2R + 2C)
+        Conditions rows @ y = 0 (integer coefficients).
+    columns : int64 (s,)
+        Root coordinates (columns of y, < 2R) that must be integers.
+    """
+    e = np.asarray(edges, dtype=np.int64)
+    ncol = ss.P.shape[1]
+    if e.size == 0:
+        return sp.csr_array((0, ncol)), np.empty(0, dtype=np.int64)
+    ef = mesh.edge_faces[e]
+    t = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1])
+    a, b = mesh.edges[e, 0], mesh.edges[e, 1]
+    d = mesh.vertices[b] - mesh.vertices[a]
+    B = mesh.face_bases[t]  # (k, 2, 3): the frame of each face, as mesh.to_complex reads it
+    rel = np.arctan2(np.einsum("kd,kd->k", d, B[:, 1]), np.einsum("kd,kd->k", d, B[:, 0]))
+    rel = rel - cm.angles[t]
+    along_x = np.abs(np.cos(rel)) >= np.cos(np.radians(max_angle))
+    along_y = np.abs(np.sin(rel)) >= np.cos(np.radians(max_angle))
+    keep = along_x | along_y
+    c = np.where(along_x, 1, 0)[keep]  # along X: v is constant; along Y: u
+    wa = _corner_wedge(mesh, cm, t[keep], a[keep])
+    wb = _corner_wedge(mesh, cm, t[keep], b[keep])
+    rows = (ss.P[2 * wa + c] - ss.P[2 * wb + c]).tocsr()
+    read = (ss.P[np.concatenate([2 * wa + c, 2 * wb + c])]).tocoo()
+    columns = np.unique(read.col[read.col < 2 * ss.n_roots]).astype(np.int64)
+    rows.data[np.abs(rows.data) < 1e-9] = 0.0
+    rows.eliminate_zeros()
+    return rows[np.flatnonzero(np.diff(rows.indptr) > 0)], columns

@@ -34,6 +34,26 @@ def quad_wireframe(vertices: np.ndarray, quads: np.ndarray) -> list[np.ndarray]:
     return list(vertices[e])
 
 
+def _shading_mesh(V: np.ndarray, Q: np.ndarray) -> TriMesh:
+    """The quads as triangles for shading: each split along the diagonal whose smaller
+    half has the larger area, triangles of zero area left out (a valid quad mesh may have
+    a quad with three collinear corners), vertices no triangle uses dropped."""
+
+    def areas(T: np.ndarray) -> np.ndarray:
+        P = V[T]
+        return np.linalg.norm(
+            np.cross(P[..., 1, :] - P[..., 0, :], P[..., 2, :] - P[..., 0, :]), axis=-1
+        )
+
+    split02 = np.stack([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]], axis=1)  # (q, 2, 3)
+    split13 = np.stack([Q[:, [0, 1, 3]], Q[:, [1, 2, 3]]], axis=1)
+    better = areas(split13).min(axis=1) > areas(split02).min(axis=1)
+    tris = np.where(better[:, None, None], split13, split02).reshape(-1, 3)
+    tris = tris[areas(tris) > 1e-12 * max(float(np.ptp(V, axis=0).max()), 1e-300) ** 2]
+    used, F = np.unique(tris, return_inverse=True)
+    return TriMesh(V[used], F.reshape(-1, 3))
+
+
 def render_quads(
     vertices: npt.ArrayLike, quads: npt.ArrayLike, path: str | Path, **kwargs: Any
 ) -> RenderInfo:
@@ -53,8 +73,7 @@ def render_quads(
     Q = np.asarray(quads, dtype=np.int64)
     if V.ndim != 2 or V.shape[1] != 3 or Q.ndim != 2 or Q.shape[1] != 4:
         raise FvfError(f"need vertices (k, 3) and quads (q, 4); got {V.shape}, {Q.shape}")
-    tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
-    mesh = TriMesh(V, tris)
+    mesh = _shading_mesh(V, Q)
     e = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], 2).reshape(-1, 2), 1), axis=0)
     valence = np.bincount(e.ravel(), minlength=V.shape[0])
     irr = np.flatnonzero((valence != 4) & (valence > 0))
