@@ -750,6 +750,28 @@ def test_sigint_then_rerun_resumes(tmp_path):
 
 
 @pytest.mark.slow
+def test_three_sigints_end_quietly(tmp_path):
+    """Ctrl-C pressed three times: exit 130 with one line, no traceback from the shutdown
+    (the Dask cluster's atexit hooks), whole files only."""
+    _corpus_files(tmp_path / "in", 14)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "fvf.cli", "batch", str(tmp_path / "in"), "-o", str(out),
+           "--workers", "2", "--k", "30", "--tasks", "info,basis,fields,singularities"]  # fmt: skip
+    proc = subprocess.Popen(cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while len(list((out / "meshes").glob("*.npz"))) < 1 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    for _ in range(3):
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+    _, err = proc.communicate(timeout=120)
+    text = err.decode()
+    assert proc.returncode == 130, text
+    assert "Traceback" not in text and "interrupted" in text, text
+    assert no_temporaries(out)
+
+
+@pytest.mark.slow
 def test_scheduler_and_workers_started_separately(tmp_path):
     """``fvf batch --scheduler`` against ``dask scheduler`` and two ``dask worker`` processes
     started here on 127.0.0.1: the same rows and results as the library called directly

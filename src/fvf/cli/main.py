@@ -199,9 +199,26 @@ def main(argv: list[str] | None = None) -> int:
     an error: what is printed after it left is dropped, the command runs on (its output
     files are written) and the exit status is the command's own.
     """
+    command = argv is None  # the process is the command (not a call from Python)
     argv = list(sys.argv[1:] if argv is None else argv)
     with _ClosedPipeQuiet():
-        return _run(argv)
+        status = _run(argv)
+    if command and status == EXIT_INTERRUPTED:
+        _exit_on_next_interrupt()
+    return status
+
+
+def _exit_on_next_interrupt() -> None:
+    """After an interrupted command has cleaned up, a further Ctrl-C ends the process at
+    once with :data:`EXIT_INTERRUPTED`: the interpreter's shutdown (a Dask cluster closing
+    in its ``atexit`` hooks) would otherwise print a traceback for each one."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    def exit_now(signum: int, frame: Any) -> None:
+        os._exit(EXIT_INTERRUPTED)
+
+    signal.signal(signal.SIGINT, exit_now)
 
 
 def _run(argv: list[str]) -> int:
