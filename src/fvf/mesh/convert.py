@@ -342,8 +342,12 @@ def _remembered(obj: Any, V: np.ndarray, F: np.ndarray) -> TriMesh:
     are unchanged (by identity, and the arrays compared with the TriMesh's copies; objects
     that cannot be weakly referenced, tuples and lists, are converted at each call)."""
     key = id(obj)
+
+    def forget(_: weakref.ref) -> None:  # the object is gone: so is its entry
+        _MEMO.pop(key, None)
+
     try:
-        ref = weakref.ref(obj, lambda _, key=key: _MEMO.pop(key, None))
+        ref = weakref.ref(obj, forget)
     except TypeError:  # not weak-referenceable (tuples, lists)
         return TriMesh(V, F)
     memo = _MEMO.get(key)
