@@ -244,11 +244,13 @@ def as_mesh(obj: MeshLike, *, repair: bool = False) -> TriMesh:
         What to do with arrays that are not a valid :class:`TriMesh`. ``False``
         (default): raise the TriMesh's error, which names the fix. ``True``: repair them
         as :func:`fvf.match` does, whatever form they came in (:func:`input_arrays`
-        then :func:`fvf.mesh.prepare_mesh`): duplicate faces and unreferenced vertices
-        removed, non-manifold edges cut, the one large piece kept (pieces of at most 1 %
-        of the vertices that the cut separated are dropped). The vertices may then be
-        renumbered: :func:`fvf.mesh.prepare_mesh` gives the maps to the input vertices.
-        A mesh that is already valid is returned as without ``repair``.
+        then :func:`fvf.mesh.prepare_mesh`): :func:`fvf.repair_mesh`'s default steps
+        with non-manifold edges cut (duplicate vertices welded, degenerate, duplicate
+        faces and unreferenced vertices removed, faces oriented), and the one large piece
+        kept (pieces of at most 1 % of the vertices that the cut separated are dropped).
+        The vertices may then be renumbered: :func:`fvf.mesh.prepare_mesh` gives the maps
+        to the input vertices. A mesh that is already valid is returned as without
+        ``repair``.
 
     Returns
     -------
