@@ -153,6 +153,7 @@ def from_power(mesh: TriMesh, w: npt.ArrayLike, n: int) -> np.ndarray:
     return NField(mesh.from_complex(z), n)
 
 
+@takes_mesh
 def all_directions(mesh: TriMesh, u: npt.ArrayLike, n: int | FromField = FROM_FIELD) -> np.ndarray:
     """The N directions of each face: u rotated by 2πj/N, float64 (N, m, 3).
 

@@ -93,6 +93,7 @@ from ..errors import (  # noqa: F401 (re-exported)
     MeshReadError,
     user_stacklevel,
 )
+from ..mesh.convert import MeshLike, as_mesh
 from ..mesh.inputs import as_direction_count, as_face_field, as_vertex_function
 from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
@@ -442,7 +443,7 @@ def _shape_text(want: tuple[int | None, ...]) -> str:
     return f"({inner},)" if len(want) == 1 else f"({inner})"
 
 
-def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
+def read_data(path: str | os.PathLike, mesh: MeshLike | None = None) -> DataFile:
     """Read a data file (``.npz``, or ``.ply`` properties) and check it against a mesh.
 
     An ``.npz`` key is read when it is first used (``data[key]``), so keys a command does
@@ -457,7 +458,7 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
         a VTK file (``.vtu``, ``.vtp``, ``.vtk``; PyVista or meshio) whose point and cell
         data do. It must be a regular file (not a FIFO or a device). A field whose N the
         file stores (:mod:`fvf.io.fieldorder`) is read as an :class:`fvf.NField`.
-    mesh : TriMesh, optional
+    mesh : TriMesh or any :data:`fvf.MeshLike`, optional
         When given, the stored mesh copies (``vertices``, ``faces``) must match it.
 
     Returns
@@ -476,6 +477,7 @@ def read_data(path: str | os.PathLike, mesh: TriMesh | None = None) -> DataFile:
     MeshMismatchError
         The stored mesh copy differs from ``mesh``.
     """
+    mesh = None if mesh is None else as_mesh(mesh)
     path = Path(path)
     if path.suffix.lower() == ".ply":
         arrays: dict[str, Any] = _ply_arrays(path)
@@ -643,7 +645,7 @@ def write_data(
     path: str | os.PathLike,
     arrays: Mapping[str, npt.ArrayLike],
     *,
-    mesh: TriMesh,
+    mesh: MeshLike,
     mesh_path: str | os.PathLike,
     command: str,
     inputs: Iterable[str | os.PathLike] = (),
@@ -662,7 +664,7 @@ def write_data(
         folders are created.
     arrays : mapping of str to array_like
         The results and the inputs used, by schema key.
-    mesh : TriMesh
+    mesh : TriMesh or any :data:`fvf.MeshLike`
         Stored as ``vertices`` (float64 (n, 3)) and ``faces`` (int64 (m, 3)).
     mesh_path : str or os.PathLike
         Stored (absolute) as the string ``mesh_path``.
@@ -689,6 +691,7 @@ def write_data(
     OutputWriteError
         The file could not be written (disk full, ...); a file already there is unchanged.
     """
+    mesh = as_mesh(mesh)
     path = data_path(path)
     inputs = list(inputs)
     check_not_input(path, [mesh_path, *inputs], force=overwrite_inputs)

@@ -194,7 +194,10 @@ def read_ply_properties(
 
     Lets a PLY file carry functions (one value per vertex, e.g. ``property float f``) and
     per-face fields (three face properties, e.g. ``vx vy vz``) next to its mesh. Lists
-    (such as the face index list) are not properties in this sense and are left out.
+    (such as the face index list) are not properties in this sense and are left out, and
+    so is the picture that fvf writes for MeshLab (``quality``, ``red``, ``green``,
+    ``blue`` on an element that its ``comment fvf picture <element>: <name>`` marks:
+    :func:`fvf.io.formats.ply.ply_bytes`); a file from elsewhere keeps them as data.
 
     Parameters
     ----------
@@ -229,25 +232,29 @@ def read_ply_properties(
     if faces not in FACE_MODES:
         raise ParameterError(f"faces must be one of {FACE_MODES}, got {faces!r}")
 
-    def parse(p: Path, data: bytes) -> tuple[dict, Polygons]:
+    def parse(p: Path, data: bytes) -> tuple[dict, Polygons, dict[str, str]]:
         values, where, face_list = _ply.parse(p, data)
         counts, flat = values["face"][face_list]
         vertices = np.column_stack([values["vertex"][c] for c in "xyz"])
         valid = f"0..{len(vertices) - 1}"
-        return values, check_polygons(p, Polygons(vertices, counts, flat, flat, where, valid))
+        pictures = _ply.picture_elements(_ply.header_comments(data))
+        poly = check_polygons(p, Polygons(vertices, counts, flat, flat, where, valid))
+        return values, poly, pictures
 
-    values, poly = parsed(path, parse, _ply.FORMAT)
+    values, poly, pictures = parsed(path, parse, _ply.FORMAT)
     # each polygon becomes counts - 2 fan triangles, in order, unless kept as stored
     rows = 1 if _kept_as_stored(path, poly, faces) else poly.counts - 2
+    # fvf's picture of its data for MeshLab (quality, red, green, blue) is not data
+    skip = {e: _ply.PICTURE if e in pictures else () for e in ("vertex", "face")}
     vertex = {
         name: np.asarray(a, dtype=np.float64)
         for name, a in values["vertex"].items()
-        if not isinstance(a, tuple) and name not in ("x", "y", "z")
+        if not isinstance(a, tuple) and name not in ("x", "y", "z", *skip["vertex"])
     }
     face = {
         name: np.repeat(np.asarray(a, dtype=np.float64), rows)
         for name, a in values["face"].items()
-        if not isinstance(a, tuple)
+        if not isinstance(a, tuple) and name not in skip["face"]
     }
     return vertex, face
 
@@ -288,8 +295,11 @@ def write_mesh(
         marks), PLY and VTK only. In a PLY a scalar array ``p`` is the property ``p`` and a
         3-vector array the three properties ``px py pz``, exactly what
         :func:`read_ply_properties` and :func:`fvf.io.read_data` read back (a face triple
-        ``vx vy vz`` is the field ``v``). In VTK they are point and cell data of those
-        names (3-vectors as vectors). Names: letters, digits, ``_ . -``.
+        ``vx vy vz`` is the field ``v``); for MeshLab, the first array of each element is
+        also pictured by the standard properties ``quality`` and ``red green blue``
+        (a 3-vector by its length; :func:`fvf.io.formats.ply.ply_bytes`), which fvf's
+        readers leave out. In VTK they are point and cell data of those names
+        (3-vectors as vectors). Names: letters, digits, ``_ . -``.
     comments : tuple of str
         PLY ``comment`` lines (provenance). The N of each :class:`fvf.NField` in the
         data is stored too (a PLY comment ``fvf n_<name>: N``, VTK field data

@@ -11,15 +11,15 @@ Paths are read by the file layer above this one: :mod:`fvf.io` registers its rea
 (:func:`register_path_reader`) when it is imported, which ``import fvf`` does; this module
 never imports :mod:`fvf.io`.
 
-A foreign mesh is converted once and the :class:`TriMesh` remembered (weakly, with a
-digest of its arrays), so calling several fvf functions on one trimesh object does not
-validate it again each time, and editing the object's arrays gives a new TriMesh.
+A foreign mesh is converted once and the :class:`TriMesh` remembered (by the object's
+identity, weakly, while its arrays equal the TriMesh's copies), so calling several fvf
+functions on one trimesh or PyVista object does not validate it again each time, and
+editing the object's arrays (in place or not) gives a new TriMesh.
 """
 
 from __future__ import annotations
 
 import functools
-import hashlib
 import inspect
 import os
 import warnings
@@ -33,7 +33,14 @@ import numpy.typing as npt
 from ..errors import MeshShapeError, PolygonTriangulatedWarning
 from .trimesh import TriMesh
 
-__all__ = ["as_mesh", "takes_mesh", "mesh_arrays", "MeshLike", "register_path_reader"]
+__all__ = [
+    "as_mesh",
+    "takes_mesh",
+    "mesh_arrays",
+    "input_arrays",
+    "MeshLike",
+    "register_path_reader",
+]
 
 #: What a function taking a mesh accepts: a :class:`TriMesh`, a ``(vertices, faces)``
 #: pair of array_like (n, 3) float and (m, 3) int, a mesh file path (str or
@@ -60,7 +67,10 @@ _HOW = (
     "fvf.TriMesh(V, F) from its vertex and face arrays"
 )
 
-_MEMO: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: ``id(obj) -> (weak reference to obj, TriMesh)``: keyed by
+#: identity, so objects that are not hashable (PyVista's, which define ``==``) are
+#: remembered too; an entry goes when its object does.
+_MEMO: dict[int, tuple[weakref.ref, TriMesh]] = {}
 
 
 def _fan(counts: np.ndarray, flat: np.ndarray, what: str) -> np.ndarray:
@@ -127,6 +137,10 @@ def _pyvista(obj: Any) -> tuple[np.ndarray, np.ndarray]:
         )
     if getattr(obj, "n_strips", 0) and hasattr(obj, "triangulate"):
         obj = obj.triangulate()  # triangle strips are not in .faces: as triangles
+    if getattr(obj, "is_all_triangles", False) and hasattr(obj, "regular_faces"):
+        triangles = np.asarray(obj.regular_faces)  # PyVista >= 0.43: a view, no copy
+        if triangles.size:
+            return np.asarray(obj.points), triangles
     faces = np.asarray(obj.faces, dtype=np.int64)
     counts, flat, at = [], [], 0
     if faces.size and getattr(obj, "is_all_triangles", False):
@@ -160,12 +174,15 @@ def mesh_arrays(obj: Any) -> tuple[np.ndarray, np.ndarray] | None:
     return None
 
 
-def _digest(V: np.ndarray, F: np.ndarray) -> bytes:
-    h = hashlib.blake2b(digest_size=16)
-    for a in (np.ascontiguousarray(V), np.ascontiguousarray(F)):
-        h.update(str((a.dtype, a.shape)).encode())
-        h.update(a.data)
-    return h.digest()
+def _unchanged(V: np.ndarray, F: np.ndarray, mesh: TriMesh) -> bool:
+    """Whether ``V``, ``F`` hold exactly the values of ``mesh``'s arrays (its own copies,
+    so an edit of the foreign object's arrays in place is seen)."""
+    return (
+        V.shape == mesh.vertices.shape
+        and F.shape == mesh.faces.shape
+        and bool(np.array_equal(V, mesh.vertices))
+        and bool(np.array_equal(F, mesh.faces))
+    )
 
 
 #: The reader of mesh file paths, ``reader(path) -> (vertices, faces)``, installed by
@@ -207,7 +224,7 @@ def _read_path(path: str | os.PathLike) -> TriMesh:
         raise type(exc)(f"{os.fspath(path)}: {exc}") from exc
 
 
-def as_mesh(obj: MeshLike) -> TriMesh:
+def as_mesh(obj: MeshLike, *, repair: bool = False) -> TriMesh:
     """A :class:`TriMesh` from any common mesh representation.
 
     Parameters
@@ -225,6 +242,17 @@ def as_mesh(obj: MeshLike) -> TriMesh:
         - PyVista ``PolyData`` (``.points``, the flat ``.faces`` array).
         - pyFM ``TriMesh`` (``.vertlist``, ``.facelist``).
         - Open3D ``TriangleMesh`` (``.vertices``, ``.triangles``).
+    repair : bool
+        What to do with arrays that are not a valid :class:`TriMesh`. ``False``
+        (default): raise the TriMesh's error, which names the fix. ``True``: repair them
+        as :func:`fvf.match` does, whatever form they came in (:func:`input_arrays`
+        then :func:`fvf.mesh.prepare_mesh`): :func:`fvf.repair_mesh`'s default steps
+        with non-manifold edges cut (duplicate vertices welded, degenerate, duplicate
+        faces and unreferenced vertices removed, faces oriented), and the one large piece
+        kept (pieces of at most 1 % of the vertices that the cut separated are dropped).
+        The vertices may then be renumbered: :func:`fvf.mesh.prepare_mesh` gives the maps
+        to the input vertices. A mesh that is already valid is returned as without
+        ``repair``.
 
     Returns
     -------
@@ -240,6 +268,8 @@ def as_mesh(obj: MeshLike) -> TriMesh:
         The arrays are not a valid mesh (for a file, the message starts with its path).
     OSError, fvf.errors.MeshReadError
         A path that cannot be read as a mesh file.
+    fvf.errors.DisconnectedMeshError
+        With ``repair=True``: arrays that are not valid and hold several shapes.
 
     Examples
     --------
@@ -250,21 +280,85 @@ def as_mesh(obj: MeshLike) -> TriMesh:
     """
     if isinstance(obj, TriMesh):
         return obj
+    if repair:
+        from ..errors import MeshError
+        from .prepared import prepare_mesh
+
+        try:
+            return as_mesh(obj)
+        except MeshError as exc:
+            if not _repairable(exc):
+                raise
+        return prepare_mesh(*input_arrays(obj), name=_name(obj)).mesh
     if isinstance(obj, str | os.PathLike):
         return _read_path(obj)
+    V, F = input_arrays(obj)
+    return _remembered(obj, V, F)
+
+
+def _repairable(exc: Exception) -> bool:
+    """Whether ``as_mesh(..., repair=True)`` repairs what raised ``exc`` (the arrays'
+    shapes, indices and coordinates are never guessed)."""
+    from ..errors import MeshIndexError, MeshReadError, MeshShapeError, NonFiniteError
+
+    return not isinstance(exc, MeshShapeError | MeshIndexError | NonFiniteError | MeshReadError)
+
+
+def _name(obj: Any) -> str:
+    """How messages name the mesh ``obj``: its path, else "mesh"."""
+    return os.fspath(obj) if isinstance(obj, str | os.PathLike) else "mesh"
+
+
+def input_arrays(obj: MeshLike) -> tuple[np.ndarray, np.ndarray]:
+    """The vertex and face arrays of any :data:`MeshLike`, as given, not validated.
+
+    The one reading of every form a mesh comes in, shared by :func:`as_mesh` and the
+    functions that repair their input (:func:`fvf.match` through
+    :func:`fvf.spectral.as_prepared_mesh`), so a form never changes what they do.
+
+    Returns
+    -------
+    vertices : numpy.ndarray, shape (n, 3) as given
+    faces : numpy.ndarray, shape (m, 3) as given
+
+    Raises
+    ------
+    TypeError
+        ``obj`` is not a mesh (as :func:`as_mesh`).
+    OSError, fvf.errors.MeshReadError
+        A path that cannot be read as a mesh file.
+    """
+    if isinstance(obj, TriMesh):
+        return obj.vertices, obj.faces
+    if isinstance(obj, str | os.PathLike):
+        if not _PATH_READER:
+            _read_path(obj)  # raises the TypeError naming the fix
+        return _PATH_READER[0](obj)
     arrays = mesh_arrays(obj)
     if arrays is None:
         raise TypeError(f"as_mesh: got {type(obj).__module__}.{type(obj).__qualname__}; {_HOW}")
     V, F = (np.asarray(a) for a in arrays)
+    return V, F
+
+
+def _remembered(obj: Any, V: np.ndarray, F: np.ndarray) -> TriMesh:
+    """``TriMesh(V, F)`` of the foreign object ``obj``, converted once while its arrays
+    are unchanged (by identity, and the arrays compared with the TriMesh's copies; objects
+    that cannot be weakly referenced, tuples and lists, are converted at each call)."""
+    key = id(obj)
+
+    def forget(_: weakref.ref) -> None:  # the object is gone: so is its entry
+        _MEMO.pop(key, None)
+
     try:
-        memo = _MEMO.get(obj)
+        ref = weakref.ref(obj, forget)
     except TypeError:  # not weak-referenceable (tuples, lists)
         return TriMesh(V, F)
-    digest = _digest(V, F)
-    if memo is not None and memo[0] == digest:
+    memo = _MEMO.get(key)
+    if memo is not None and memo[0]() is obj and _unchanged(V, F, memo[1]):
         return memo[1]
     mesh = TriMesh(V, F)
-    _MEMO[obj] = (digest, mesh)
+    _MEMO[key] = (ref, mesh)
     return mesh
 
 

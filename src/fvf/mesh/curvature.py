@@ -84,6 +84,7 @@ class PrincipalCurvatures:
         return self.k1 - self.k2
 
 
+@takes_mesh
 def vertex_normals(mesh: TriMesh) -> np.ndarray:
     """Unit vertex normals with Max's (1999) weights, float64 (n, 3) (cached).
 

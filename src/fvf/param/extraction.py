@@ -78,6 +78,7 @@ class QuadMesh:
     quad_faces: np.ndarray
 
 
+@takes_mesh
 def edge_transitions(mesh: TriMesh, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Chart changes across each face's edges: x_g = R^q x_f + c, g = face_adjacency[f, j].
 

@@ -25,7 +25,6 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
 
 from __future__ import annotations
 
-import os
 import time
 import warnings
 from collections.abc import Iterator
@@ -42,8 +41,7 @@ from ..errors import (
     ParameterError,
     format_indices,
 )
-from ..io.meshfile import read_mesh
-from ..mesh.convert import MeshLike, as_mesh
+from ..mesh.convert import MeshLike, input_arrays
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
@@ -176,14 +174,7 @@ def as_prepared_mesh(mesh: MeshLike, name: str = "mesh") -> PreparedMesh:
     MeshError, MeshReadError
         Arrays or files that cannot be read or repaired.
     """
-    if isinstance(mesh, TriMesh):
-        return prepare_mesh(mesh.vertices, mesh.faces, name=name)
-    if isinstance(mesh, str | os.PathLike):
-        return prepare_mesh(*read_mesh(mesh), name=name)
-    if isinstance(mesh, tuple | list) and len(mesh) == 2:
-        return prepare_mesh(mesh[0], mesh[1], name=name)
-    converted = as_mesh(mesh)  # trimesh, meshio, pyvista, ...; TypeError for the unknown
-    return prepare_mesh(converted.vertices, converted.faces, name=name)
+    return prepare_mesh(*input_arrays(mesh), name=name)  # one reading of every form
 
 
 def _unit_area_basis(mesh: TriMesh, k: int, name: str) -> tuple[SpectralBasis, SpectralBasis]:
@@ -472,9 +463,10 @@ def match(
 
     Parameters
     ----------
-    mesh_1, mesh_2 : TriMesh, (vertices, faces) or path
+    mesh_1, mesh_2 : TriMesh, (vertices, faces), path or mesh object (:data:`fvf.MeshLike`)
         The shapes as you have them: non-manifold edges and vertices are repaired
-        internally and the result indexes the vertices you passed.
+        internally, alike for every form (``fvf.as_mesh(mesh, repair=True)`` is that
+        repair), and the result indexes the vertices you passed.
     k : int
         Size of the final functional map (ZoomOut target, and eigenpairs computed).
     k_fit : int
@@ -577,9 +569,10 @@ def match_result(
 
     Parameters
     ----------
-    mesh_1, mesh_2 : TriMesh, (vertices, faces) or path
+    mesh_1, mesh_2 : TriMesh, (vertices, faces), path or mesh object (:data:`fvf.MeshLike`)
         The shapes as you have them: non-manifold edges and vertices are repaired
-        internally and the result indexes the vertices you passed.
+        internally, alike for every form (``fvf.as_mesh(mesh, repair=True)`` is that
+        repair), and the result indexes the vertices you passed.
     k : int
         Size of the final functional map (ZoomOut target, and eigenpairs computed).
     k_fit : int
@@ -673,7 +666,7 @@ def symmetry_map(
 
     Parameters
     ----------
-    mesh : TriMesh, (vertices, faces) or path
+    mesh : TriMesh, (vertices, faces), path or mesh object (:data:`fvf.MeshLike`)
     k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples, progress
         As for :func:`match` (progress reports the steps as ``"match"``).
 

@@ -35,6 +35,7 @@ import scipy.sparse.linalg as spla
 
 from ..calculus import grad, stiffness
 from ..errors import FieldShapeError, ParameterError, format_indices
+from ..mesh.convert import MeshLike, as_mesh, takes_mesh
 from ..mesh.trimesh import TriMesh
 from .fmaps import check_p2p
 
@@ -163,6 +164,7 @@ def _check_sources(mesh: TriMesh, sources: npt.ArrayLike, name: str) -> np.ndarr
     return s.astype(np.int64)
 
 
+@takes_mesh
 def geodesic_distances(
     mesh: TriMesh, sources: npt.ArrayLike, *, method: str = "unfolded"
 ) -> np.ndarray:
@@ -202,7 +204,7 @@ def geodesic_distances(
 
 
 def geodesic_errors(
-    mesh_1: TriMesh,
+    mesh_1: MeshLike,
     p2p_21: npt.ArrayLike,
     gt_p2p_21: npt.ArrayLike,
     *,
@@ -213,7 +215,7 @@ def geodesic_errors(
 
     Parameters
     ----------
-    mesh_1 : TriMesh
+    mesh_1 : TriMesh or any :data:`fvf.MeshLike`
         The mesh both maps land on (n_1 vertices).
     p2p_21 : array_like of int (n_2,)
         Predicted image on mesh 1 of each vertex of mesh 2.
@@ -236,6 +238,7 @@ def geodesic_errors(
     FieldShapeError
         Maps of different lengths or with entries outside [0, n_1).
     """
+    mesh_1 = as_mesh(mesh_1)
     gt = np.asarray(gt_p2p_21)
     n2 = gt.shape[0] if gt.ndim == 1 else -1
     gt = check_p2p(gt, mesh_1.n_vertices, n2)
@@ -254,7 +257,7 @@ def geodesic_errors(
 
 
 def mean_geodesic_error(
-    mesh_1: TriMesh,
+    mesh_1: MeshLike,
     p2p_21: npt.ArrayLike,
     gt_p2p_21: npt.ArrayLike,
     *,
@@ -268,6 +271,7 @@ def mean_geodesic_error(
     valid : array_like of bool (n_2,), optional
         Vertices of mesh 2 that have a ground truth (default all).
     """
+    mesh_1 = as_mesh(mesh_1)
     gt = np.asarray(gt_p2p_21)
     p = np.asarray(p2p_21)
     if valid is not None:
@@ -300,7 +304,7 @@ def cumulative_error_curve(
     return t, np.searchsorted(e, t, side="right") / max(e.size, 1)
 
 
-def orientation_agreement(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLike) -> float:
+def orientation_agreement(mesh_1: MeshLike, mesh_2: MeshLike, p2p_21: npt.ArrayLike) -> float:
     """How much a vertex map preserves orientation: +1 preserving, −1 reversing.
 
     Each face (j_0, j_1, j_2) of mesh 2 is sent to the triangle (x_{i_0}, x_{i_1}, x_{i_2})
@@ -311,13 +315,14 @@ def orientation_agreement(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLik
 
     Parameters
     ----------
-    mesh_1, mesh_2 : TriMesh
+    mesh_1, mesh_2 : TriMesh or any :data:`fvf.MeshLike`
     p2p_21 : array_like of int (n_2,)
 
     Returns
     -------
     float in [−1, 1]; 0 when every image is degenerate.
     """
+    mesh_1, mesh_2 = as_mesh(mesh_1), as_mesh(mesh_2)
     p = check_p2p(p2p_21, mesh_1.n_vertices, mesh_2.n_vertices)
     img = p[mesh_2.faces]  # (m_2, 3)
     X = mesh_1.vertices

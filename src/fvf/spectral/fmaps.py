@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import FieldShapeError, format_indices
-from ..mesh.trimesh import TriMesh
+from ..mesh.convert import MeshLike, as_mesh
 from .basis import SpectralBasis
 
 __all__ = ["functional_map", "functional_map_from_bases", "map_quality", "check_p2p"]
@@ -53,7 +53,7 @@ def functional_map_from_bases(
     return basis_2.project(basis_1.eigenvectors[p])
 
 
-def functional_map(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLike, k: int) -> np.ndarray:
+def functional_map(mesh_1: MeshLike, mesh_2: MeshLike, p2p_21: npt.ArrayLike, k: int) -> np.ndarray:
     """The k x k functional map C_12 of a vertex map p2p_21 (mesh 2 -> mesh 1).
 
     One-off form of :func:`functional_map_from_bases` (computes both bases).
@@ -62,6 +62,9 @@ def functional_map(mesh_1: TriMesh, mesh_2: TriMesh, p2p_21: npt.ArrayLike, k: i
     -------
     float64 (k, k)
     """
+    same = mesh_2 is mesh_1
+    mesh_1 = as_mesh(mesh_1)
+    mesh_2 = mesh_1 if same else as_mesh(mesh_2)
     b1 = SpectralBasis(mesh_1, k)
     b2 = b1 if mesh_2 is mesh_1 else SpectralBasis(mesh_2, k)
     return functional_map_from_bases(b1, b2, p2p_21)

@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..io.atomic import atomic_path
-from ..mesh.convert import takes_mesh
+from ..mesh.convert import MeshLike, as_mesh, takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import require
 from .backends import RenderInfo, render
@@ -48,8 +48,8 @@ def coordinate_stripes(mesh: TriMesh, periods: float = 3.0) -> np.ndarray:
 
 
 def render_correspondence(
-    mesh_1: TriMesh,
-    mesh_2: TriMesh,
+    mesh_1: MeshLike,
+    mesh_2: MeshLike,
     p2p_21: npt.ArrayLike,
     path: str | Path,
     *,
@@ -69,7 +69,7 @@ def render_correspondence(
 
     Parameters
     ----------
-    mesh_1, mesh_2 : TriMesh
+    mesh_1, mesh_2 : TriMesh or any :data:`fvf.MeshLike`
     p2p_21 : array_like of int (n_2,)
         Vertex of mesh 1 for each vertex of mesh 2.
     path : str or Path
@@ -88,6 +88,7 @@ def render_correspondence(
     """
     from .compose import COLORBAR_WIDTH
 
+    mesh_1, mesh_2 = as_mesh(mesh_1), as_mesh(mesh_2)
     image = require("PIL.Image", "render_correspondence")
     f1 = coordinate_stripes(mesh_1) if function is None else np.asarray(function, dtype=float)
     f2 = f1[np.asarray(p2p_21, dtype=np.int64)]
@@ -144,7 +145,7 @@ def save_image(picture: Any, path: str | Path, dpi: int = 100) -> None:
 
 
 def render_error_map(
-    mesh_2: TriMesh,
+    mesh_2: MeshLike,
     errors: npt.ArrayLike,
     path: str | Path,
     *,
@@ -158,6 +159,7 @@ def render_error_map(
     NaN errors (vertices without a ground truth) are drawn in light grey, named "no ground
     truth" in the legend, never as zero error.
     """
+    mesh_2 = as_mesh(mesh_2)
     e = np.asarray(errors, dtype=float)
     if clim is not None:
         e = np.where(np.isnan(e), np.nan, np.clip(e, *clim))

@@ -5,7 +5,9 @@ Read: the ``vertex`` element's x y z, the ``face`` element's ``vertex_indices`` 
 (:func:`parse`; functions and fields next to the mesh). Written as binary little endian
 with double properties, so a round trip is exact: per-vertex and per-face arrays become
 properties (a 3-vector ``v`` the three properties ``vx vy vz``), and comments carry
-provenance.
+provenance. For MeshLab, which shows only its standard properties, each element with
+data also gets ``quality`` and ``red green blue``: a picture of its first array
+(:func:`ply_bytes`), which fvf's readers recognise and leave out.
 """
 
 from __future__ import annotations
@@ -23,7 +25,16 @@ from ..atomic import atomic_write_bytes
 from ._text import numbers, text_lines
 from .base import BOM, MeshFormat, Polygons
 
-__all__ = ["read", "parse", "write", "ply_bytes", "FORMAT"]
+__all__ = [
+    "read",
+    "parse",
+    "write",
+    "ply_bytes",
+    "picture_of",
+    "picture_elements",
+    "PICTURE",
+    "FORMAT",
+]
 
 _PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -316,6 +327,60 @@ def _ascii(text: str) -> str:
     return text.encode("ascii", "backslashreplace").decode("ascii")
 
 
+#: The standard properties MeshLab shows, written after fvf's own on each element that has
+#: data: ``quality`` (float) and ``red green blue`` (uchar), a picture of one array.
+PICTURE = ("quality", "red", "green", "blue")
+_PICTURE_COMMENT = re.compile(r"^fvf picture (?P<element>vertex|face): (?P<what>\S+)$")
+
+
+def picture_of(data: Mapping[str, np.ndarray]) -> tuple[str, np.ndarray] | None:
+    """What an element's standard properties (:data:`PICTURE`) show: ``(what, scalar)``.
+
+    The first array of ``data``: a scalar ``p`` as it is (``what`` is ``p``), a 3-vector
+    ``p`` by its length (``what`` is ``|p|``). None when ``data`` is empty or one of its
+    property names is already a standard one (the data keeps its own).
+    """
+    names = {n for k, a in data.items() for n in ([k] if a.ndim == 1 else [k + c for c in "xyz"])}
+    if not data or names & set(PICTURE):
+        return None
+    name, a = next(iter(data.items()))
+    if a.ndim == 1:
+        return name, np.asarray(a, dtype=np.float64)
+    return f"|{name}|", np.linalg.norm(np.asarray(a, dtype=np.float64), axis=1)
+
+
+def picture_elements(comments: list[str]) -> dict[str, str]:
+    """``{element: what}`` of the pictures a PLY's comments record (:func:`ply_bytes`):
+    on those elements the :data:`PICTURE` properties are copies fvf made, not data."""
+    out = {}
+    for line in comments:
+        match = _PICTURE_COMMENT.match(" ".join(line.split()))
+        if match is not None:
+            out[match["element"]] = match["what"]
+    return out
+
+
+def _columns(data: Mapping[str, np.ndarray]) -> list[tuple[str, str, np.ndarray]]:
+    """``(property, PLY type, values)`` of an element's data and its picture."""
+    from ..colormap import scalar_colours
+
+    out = []
+    for name, a in data.items():
+        if a.ndim == 1:
+            out.append((name, "double", a))
+        else:
+            out += [(name + c, "double", a[:, i]) for i, c in enumerate("xyz")]
+    picture = picture_of(data)
+    if picture is not None:
+        rgb = scalar_colours(picture[1])
+        out.append(("quality", "float", picture[1]))
+        out += [(c, "uchar", rgb[:, i]) for i, c in enumerate(PICTURE[1:])]
+    return out
+
+
+_NUMPY = {"double": "<f8", "float": "<f4", "uchar": "u1"}
+
+
 def ply_bytes(
     V: np.ndarray,
     F: np.ndarray,
@@ -327,34 +392,35 @@ def ply_bytes(
 
     ``F`` is (m, k) int (k vertices per face, written as ``uchar`` count and ``int``
     indices); a data array of shape (rows,) is the property of its name, one of shape
-    (rows, 3) the three properties ``<name>x <name>y <name>z``.
+    (rows, 3) the three properties ``<name>x <name>y <name>z``. After them, on each
+    element with data, MeshLab's standard properties (:data:`PICTURE`) show the first
+    array (:func:`picture_of`): ``quality`` (float) its values (a 3-vector's length) and
+    ``red green blue`` (uchar) their colours (:func:`fvf.io.colormap.scalar_colours`),
+    recorded by the comment ``fvf picture <element>: <name>`` (``|<name>|`` for a length)
+    so that fvf's readers leave them out.
     """
-
-    def columns(data: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
-        out = []
-        for name, a in data.items():
-            out += (
-                [(name, a)] if a.ndim == 1 else [(name + c, a[:, i]) for i, c in enumerate("xyz")]
-            )
-        return out
-
-    vcols = [("x", V[:, 0]), ("y", V[:, 1]), ("z", V[:, 2]), *columns(vertex_data)]
-    fcols = columns(face_data)
+    vcols = [("x", "double", V[:, 0]), ("y", "double", V[:, 1]), ("z", "double", V[:, 2])]
+    vcols += _columns(vertex_data)
+    fcols = _columns(face_data)
     lines = ["ply", "format binary_little_endian 1.0", "comment written by fvf"]
     lines += [f"comment {_ascii(' '.join(c.split()))}" for c in comments]
-    lines += [f"element vertex {len(V)}", *[f"property double {n}" for n, _ in vcols]]
+    for element, data in (("vertex", vertex_data), ("face", face_data)):
+        picture = picture_of(data)
+        if picture is not None:
+            lines.append(f"comment fvf picture {element}: {picture[0]}")
+    lines += [f"element vertex {len(V)}", *[f"property {t} {n}" for n, t, _ in vcols]]
     lines += [f"element face {len(F)}", "property list uchar int vertex_indices"]
-    lines += [f"property double {n}" for n, _ in fcols]
+    lines += [f"property {t} {n}" for n, t, _ in fcols]
     header = "\n".join([*lines, "end_header"]) + "\n"
-    vrec = np.empty(len(V), dtype=[(n, "<f8") for n, _ in vcols])
-    for n, a in vcols:
+    vrec = np.empty(len(V), dtype=[(n, _NUMPY[t]) for n, t, _ in vcols])
+    for n, _, a in vcols:
         vrec[n] = a
     k = F.shape[1]
     frec = np.empty(
-        len(F), dtype=[("k", "u1"), ("i", "<i4", (k,))] + [(n, "<f8") for n, _ in fcols]
+        len(F), dtype=[("k", "u1"), ("i", "<i4", (k,))] + [(n, _NUMPY[t]) for n, t, _ in fcols]
     )
     frec["k"], frec["i"] = k, F
-    for n, a in fcols:
+    for n, _, a in fcols:
         frec[n] = a
     return header.encode("ascii") + vrec.tobytes() + frec.tobytes()
 
