@@ -600,6 +600,22 @@ def test_quad_cross_field_stage_reports_its_parts():
     assert seen.index("cross field") < seen.index(parts[0])
 
 
+def test_local_cluster_that_cannot_start_is_a_typed_error(tmp_path, monkeypatch, capsys):
+    """Under a memory limit the workers' nannies fail ("Nanny failed to start."): a
+    BatchInputError naming the cluster and what to try, exit 2 from the command."""
+    distributed = pytest.importorskip("distributed")
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("Nanny failed to start.")
+
+    monkeypatch.setattr(distributed, "LocalCluster", failing)
+    mesh = _mesh_file(tmp_path / "m.off")
+    with pytest.raises(errors.BatchInputError, match=r"local Dask cluster of 2 worker.*--workers"):
+        fvf.batch.run([mesh], tmp_path / "out", workers=2, progress=False)
+    assert main(["batch", str(mesh), "-o", str(tmp_path / "o2"), "--workers", "2"]) == 2
+    assert "Nanny failed to start" in capsys.readouterr().err
+
+
 def test_silent_scheduler_times_out(tmp_path, monkeypatch, alarm):
     """A server that accepts the connection and never answers: BatchInputError after the
     connect timeout (was: silent for minutes)."""

@@ -328,15 +328,22 @@ def _connected(
 
     with dask.config.set(local_cluster_config(retries)):
         n = workers or dask.system.CPU_COUNT
-        cluster = distributed.LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            memory_limit=memory_limit,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",  # a free port: never another cluster's 8787
-            silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
-        )
+        try:
+            cluster = distributed.LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                memory_limit=memory_limit,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",  # a free port: never another cluster's 8787
+                silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
+            )
+        except (RuntimeError, OSError, TimeoutError, MemoryError) as exc:
+            raise BatchInputError(
+                f"could not start a local Dask cluster of {n} worker process"
+                f"{'es' if n != 1 else ''} ({type(exc).__name__}: {exc}); under a memory "
+                "limit (ulimit -v) give fewer --workers or more memory, or use --scheduler"
+            ) from exc
         try:
             with distributed.Client(cluster) as c:
                 yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
