@@ -616,6 +616,26 @@ def test_local_cluster_that_cannot_start_is_a_typed_error(tmp_path, monkeypatch,
     assert "Nanny failed to start" in capsys.readouterr().err
 
 
+def test_local_cluster_that_never_starts_times_out(tmp_path, monkeypatch):
+    """Workers that keep dying under ``ulimit -v`` (measured: about 420 MB for two) left
+    LocalCluster waiting for ever: a BatchInputError after START_TIMEOUT."""
+    import threading
+    import time
+
+    distributed = pytest.importorskip("distributed")
+    from fvf.batch import driver
+
+    never = threading.Event()
+    monkeypatch.setattr(distributed, "LocalCluster", lambda *a, **k: never.wait())
+    monkeypatch.setattr(driver, "START_TIMEOUT", 1.0)
+    mesh = _mesh_file(tmp_path / "m.off")
+    start = time.perf_counter()
+    with pytest.raises(errors.BatchInputError, match="did not start within 1 s"):
+        fvf.batch.run([mesh], tmp_path / "out", workers=2, progress=False)
+    assert time.perf_counter() - start < 10
+    never.set()
+
+
 def test_silent_scheduler_times_out(tmp_path, monkeypatch, alarm):
     """A server that accepts the connection and never answers: BatchInputError after the
     connect timeout (was: silent for minutes)."""

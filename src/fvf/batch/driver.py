@@ -76,6 +76,8 @@ CHUNKS_PER_THREAD = 4
 CAPACITY_INTERVAL = 2.0
 
 #: Seconds to wait for a scheduler to answer, and for its first worker.
+#: Seconds a local cluster may take to start its workers.
+START_TIMEOUT = 60.0
 CONNECT_TIMEOUT = 30.0
 
 
@@ -329,14 +331,17 @@ def _connected(
     with dask.config.set(local_cluster_config(retries)):
         n = workers or dask.system.CPU_COUNT
         try:
-            cluster = distributed.LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                memory_limit=memory_limit,
-                host="127.0.0.1",
-                dashboard_address="127.0.0.1:0",  # a free port: never another cluster's 8787
-                silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
+            cluster = _started_within(
+                START_TIMEOUT,
+                lambda: distributed.LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    memory_limit=memory_limit,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",  # a free port: never another's 8787
+                    silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
+                ),
             )
         except (RuntimeError, OSError, TimeoutError, MemoryError) as exc:
             raise BatchInputError(
@@ -349,6 +354,31 @@ def _connected(
                 yield c, f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
         finally:
             cluster.close()
+
+
+def _started_within(seconds: float, start: Callable[[], Any]) -> Any:
+    """``start()`` run in a daemon thread; TimeoutError when it has not returned within
+    ``seconds`` (a local cluster whose workers keep dying under a memory limit never
+    does), its exception re-raised here otherwise."""
+    import threading
+
+    done: list = []
+
+    def run() -> None:
+        try:
+            done.append((True, start()))
+        except BaseException as exc:  # noqa: BLE001 -- handed to the caller
+            done.append((False, exc))
+
+    thread = threading.Thread(target=run, name="fvf-start-cluster", daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if not done:
+        raise TimeoutError(f"its workers did not start within {seconds:g} s")
+    ok, value = done[0]
+    if not ok:
+        raise value
+    return value
 
 
 def _result_folders(jobs: Sequence[MeshJob | PairJob]) -> None:
