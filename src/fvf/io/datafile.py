@@ -69,11 +69,9 @@ expected shape), :class:`MeshMismatchError` (the stored mesh copy differs from t
 from __future__ import annotations
 
 import datetime
-import math
 import os
 import re
 import warnings
-import zipfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -98,10 +96,8 @@ from ..mesh.inputs import as_direction_count, as_face_field, as_vertex_function
 from ..mesh.nfield import NField
 from ..mesh.trimesh import TriMesh
 from .atomic import atomic_path, check_not_input
-from .fieldorder import order_key, orders_from_comments, orders_of
-from .formats.base import SNIFF_BYTES
-from .formats.ply import header_comments
-from .inputfile import read_bytes, regular_file
+from .datamembers import LazyArray, npz_members, ply_arrays, vtk_arrays
+from .fieldorder import order_key, orders_of
 
 __all__ = [
     "DataFile",
@@ -145,11 +141,13 @@ class DataFile(Mapping):
         columns: Iterable[Path] = (),
     ):
         self.path = Path(path)
-        self._arrays = {k: a if isinstance(a, _Lazy) else np.asarray(a) for k, a in arrays.items()}
+        self._arrays = {
+            k: a if isinstance(a, LazyArray) else np.asarray(a) for k, a in arrays.items()
+        }
         self._sources = {k: Path(v) for k, v in (sources or {}).items()}
         self._columns: set[Path] = set(columns)
         for k, a in self._arrays.items():  # arrays given in memory (PLY, VTK properties)
-            if not isinstance(a, _Lazy):
+            if not isinstance(a, LazyArray):
                 self._arrays[k] = self._with_order(k, a)
 
     @classmethod
@@ -159,7 +157,7 @@ class DataFile(Mapping):
         Lets a command take, say, a designed field from one file and functions from another.
         Each file's mesh copy has been checked on reading; messages name each key's file.
         """
-        arrays: dict[str, np.ndarray | _Lazy] = {}
+        arrays: dict[str, np.ndarray | LazyArray] = {}
         sources: dict[str, Path] = {}
         columns: set[Path] = set()
         for data in files:
@@ -183,7 +181,7 @@ class DataFile(Mapping):
                 f"np.savez(path, {key}=...), or pick another key"
             )
         a = self._arrays[key]
-        if isinstance(a, _Lazy):
+        if isinstance(a, LazyArray):
             a = self._arrays[key] = self._with_order(key, a.load())
         return a
 
@@ -221,7 +219,7 @@ class DataFile(Mapping):
 
     def __repr__(self) -> str:
         shapes = ", ".join(
-            f"{k}: {'(not read yet)' if isinstance(a, _Lazy) else f'{a.dtype}{a.shape}'}"
+            f"{k}: {'(not read yet)' if isinstance(a, LazyArray) else f'{a.dtype}{a.shape}'}"
             for k, a in self._arrays.items()
         )
         return f"DataFile({str(self.path)!r}, {{{shapes}}})"
@@ -480,12 +478,12 @@ def read_data(path: str | os.PathLike, mesh: MeshLike | None = None) -> DataFile
     mesh = None if mesh is None else as_mesh(mesh)
     path = Path(path)
     if path.suffix.lower() == ".ply":
-        arrays: dict[str, Any] = _ply_arrays(path)
+        arrays: dict[str, Any] = ply_arrays(path)
         columns = [path]  # PLY properties are columns
     elif path.suffix.lower() in (".vtu", ".vtp", ".vtk"):
-        arrays, columns = _vtk_arrays(path), [path]
+        arrays, columns = vtk_arrays(path), [path]
     else:
-        members = _npz_members(path)
+        members = npz_members(path)
         arrays = dict(members)
         layout = members.get("layout")
         columns = [path] if layout is not None and str(layout.load()) == "columns" else []
@@ -504,137 +502,6 @@ def _legacy(where: str, a: np.ndarray, moved: np.ndarray, shape: str) -> np.ndar
         stacklevel=user_stacklevel(),
     )
     return moved
-
-
-class _Lazy:
-    """An array read on demand (:meth:`load`)."""
-
-    def load(self) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError
-
-
-class _NpzMember(_Lazy):
-    """One array of an ``.npz`` archive, read on demand (:meth:`load`)."""
-
-    def __init__(self, path: Path, member: str, key: str) -> None:
-        self.path, self.member, self.key = path, member, key
-
-    def _fail(self, why: str) -> DataFileError:
-        return DataFileError(f"{self.path}: key {self.key!r} {why}")
-
-    def load(self) -> np.ndarray:
-        """The array, after checking that its header matches the stored bytes."""
-        try:
-            with zipfile.ZipFile(self.path) as archive:
-                info = archive.getinfo(self.member)
-                with archive.open(info) as fh:
-                    version = np.lib.format.read_magic(fh)
-                    if version == (1, 0):
-                        shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
-                    else:
-                        shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
-                    start = fh.tell()
-                if dtype.hasobject:
-                    raise self._fail(
-                        "holds Python objects, which fvf does not read (allow_pickle=False); "
-                        "store numbers or strings"
-                    )
-                declared = math.prod(shape) * dtype.itemsize
-                stored = info.file_size - start
-                if declared != stored:
-                    raise self._fail(
-                        f"declares dtype {dtype} and shape {shape} ({declared} bytes) but "
-                        f"holds {stored} bytes: the archive is damaged or truncated; "
-                        "write it again"
-                    )
-                with archive.open(info) as fh:
-                    return np.lib.format.read_array(fh, allow_pickle=False)
-        except DataFileError:
-            raise
-        except MemoryError:
-            raise self._fail("does not fit in memory") from None
-        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
-            raise self._fail(
-                f"cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())}); "
-                "write the file again with np.savez"
-            ) from exc
-
-
-def _npz_members(path: Path) -> dict[str, _NpzMember]:
-    """The keys of an ``.npz`` archive, unread."""
-    regular_file(path, DataFileError)
-    if read_bytes(path, DataFileError, head=6) == b"\x93NUMPY":
-        raise DataFileError(
-            f"{path}: holds a single array, not an .npz archive of named arrays; "
-            "save it with np.savez(path, f=..., v=...)"
-        )
-    try:
-        with zipfile.ZipFile(path) as archive:
-            names = archive.namelist()
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise DataFileError(
-            f"{path}: cannot read it as an .npz archive ({type(exc).__name__}: "
-            f"{' '.join(str(exc).split())}); write it with np.savez(path, f=..., v=...)"
-        ) from exc
-    members = {}
-    for name in names:
-        key = name[:-4] if name.endswith(".npy") else name
-        members[key] = _NpzMember(path, name, key)
-    return members
-
-
-def _ply_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Functions and fields from PLY properties (see the module docstring)."""
-    from .meshfile import PolygonTriangulatedWarning, read_mesh, read_ply_properties
-
-    try:
-        vertex, face = read_ply_properties(path)
-        with warnings.catch_warnings():  # reported when the file is read as the mesh
-            warnings.simplefilter("ignore", PolygonTriangulatedWarning)
-            X, F = read_mesh(path)
-    except MeshReadError as exc:
-        raise DataFileError(str(exc)) from exc
-    arrays: dict[str, np.ndarray] = dict(vertex)
-    arrays.update(vertices=X, faces=F)  # the PLY's own mesh: checked against the mesh used
-    comments = header_comments(read_bytes(path, DataFileError, head=SNIFF_BYTES))
-    for name, n in orders_from_comments(comments).items():
-        arrays[order_key(name)] = np.asarray(n, dtype=np.int64)
-    for name, values in face.items():
-        arrays.setdefault(name, values)
-    for name in list(face):
-        if name.endswith("x") and len(name) > 1:
-            base = name[:-1]
-            triple = [base + c for c in "xyz"]
-            if all(k in face for k in triple) and base not in vertex:
-                arrays[base] = np.column_stack([face[k] for k in triple])
-    return arrays
-
-
-def _vtk_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Functions and fields from the point, cell and field data of a VTK file: each array
-    under its name, rows aligned with :func:`fvf.read_mesh`'s vertices and faces (a
-    polygon's row repeated for each of its fan triangles), ``vertices`` and ``faces``."""
-    from .formats.vtk import read_arrays
-    from .meshfile import PolygonTriangulatedWarning, read_mesh
-
-    try:
-        vtk = read_arrays(path)
-        with warnings.catch_warnings():  # reported when the file is read as the mesh
-            warnings.simplefilter("ignore", PolygonTriangulatedWarning)
-            X, F = read_mesh(path)
-    except MeshReadError as exc:
-        raise DataFileError(str(exc)) from exc
-    rows = vtk.polygons.counts - 2  # read_mesh's fan triangles per polygon
-    arrays: dict[str, np.ndarray] = {}
-    for name, a in vtk.point_data.items():
-        arrays[name] = np.asarray(a)
-    for name, a in vtk.cell_data.items():
-        arrays.setdefault(name, np.repeat(np.asarray(a), rows, axis=0))
-    for name, a in vtk.field_data.items():
-        if name.startswith("n_") and np.asarray(a).size == 1:
-            arrays[name] = np.asarray(a).reshape(())
-    arrays.update(vertices=X, faces=F)  # the file's own mesh: checked against the mesh used
-    return arrays
 
 
 def _strings(values: Iterable[str]) -> np.ndarray:
