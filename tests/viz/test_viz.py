@@ -748,3 +748,29 @@ def test_a_long_title_is_never_cut_off(sphere, tmp_path):
         band = np.asarray(Image.open(path).convert("L"))[:TITLE_HEIGHT]
         ink = np.flatnonzero((band < 200).any(axis=0))
         assert ink.size and ink[0] > 0 and ink[-1] < band.shape[1] - 1, (words, ink[[0, -1]])
+
+
+def test_magnitude_of_a_cross_field_as_colour(tmp_path):
+    """``function="magnitude"``: the crosses stay unit length, |u| colours the faces with
+    the label ``|field|``; a typed error without a field."""
+    from fvf.viz import backends
+
+    mesh = fvf.icosphere(2)
+    u = fvf.design_field(mesh, n=4)
+    seen: dict = {}
+    out = fvf.viz.render(
+        mesh, tmp_path / "m.png", field=u, function="magnitude", backend="matplotlib"
+    )
+    assert (tmp_path / "m.png").stat().st_size > 0 and out is not None
+    f = backends._field_magnitude("magnitude", u, None, seen)
+    assert (
+        np.allclose(f, np.linalg.norm(np.asarray(u), axis=1))
+        and seen["colorbar_label"] == "|field|"
+    )
+    kept = {"colorbar_label": "mine"}
+    backends._field_magnitude("magnitude", [u, u], None, kept)
+    assert kept["colorbar_label"] == "mine"
+    with pytest.raises(fvf.ParameterError, match="without a field"):
+        fvf.viz.render(mesh, tmp_path / "x.png", function="magnitude")
+    with pytest.raises(fvf.ParameterError, match="got 'norm'"):
+        fvf.viz.render(mesh, tmp_path / "x.png", field=u, function="norm")

@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import numpy.typing as npt
 
-from ..errors import FvfError
+from ..errors import FvfError, ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.nfield import FROM_FIELD, FromField, NField, fields_order
 from ..mesh.trimesh import TriMesh
@@ -157,6 +158,20 @@ def _warn_once(reason: str) -> None:
         )
 
 
+def _field_magnitude(what: str, field: Any, style: RenderStyle | None, options: dict) -> Any:
+    """``function="magnitude"`` of :func:`render`: |u| per face, float64 (m,), and the
+    colorbar label ``|field|`` unless one is given (``options`` updated in place)."""
+    if what != "magnitude" or field is None:
+        raise ParameterError(
+            f'function must be an array or "magnitude" (with a field); got {what!r}'
+            + (" without a field" if what == "magnitude" else "")
+        )
+    first = field[0] if isinstance(field, list | tuple) else field
+    if "colorbar_label" not in options and (style is None or style.colorbar_label is None):
+        options["colorbar_label"] = "|field|"
+    return np.linalg.norm(np.asarray(first, dtype=np.float64), axis=-1)
+
+
 @takes_mesh
 def render(
     mesh: TriMesh,
@@ -190,10 +205,12 @@ def render(
         colorbar and legend as vector graphics, the rendered surface as an image).
         Without a path the PNG is kept in memory (``RenderInfo.png``), and the returned
         :class:`RenderInfo` shows it in a notebook.
-    function : array_like (n,) or (m,), optional
+    function : array_like (n,) or (m,), or "magnitude", optional
         Vertex or face scalars, drawn with ``style.cmap`` and a labelled colorbar. NaN
         marks missing values, drawn in light grey (:data:`fvf.viz.scene.NO_DATA_COLOR`)
-        and named in the legend (``style.nan_label``).
+        and named in the legend (``style.nan_label``). ``"magnitude"``: the length of
+        ``field`` (its first one, for a list) per face, labelled ``|field|`` — an N-field
+        is drawn as unit crosses, so this is how its magnitude is seen.
     field : array_like (m, 3) or list of them, optional
         Per-face tangent vectors, drawn as flat arrows in the faces' planes
         (:mod:`fvf.viz.overlay`), about one per ``arrow_spacing`` pixels, each field in
@@ -268,6 +285,8 @@ def render(
     fields = field if isinstance(field, list | tuple) else [field]
     if n is FROM_FIELD or any(isinstance(f, NField) for f in fields):
         n = fields_order(field, n)  # else the scene checks the n given
+    if isinstance(function, str):
+        function = _field_magnitude(function, field, style, options)
     style = as_style(style, options, "render")
     scene = build_scene(
         mesh,
