@@ -5,6 +5,13 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_correspondence.py               # all six pairs
     .venv/bin/python benchmarks/bench_correspondence.py --pairs 2-3,1-3
     .venv/bin/python benchmarks/bench_correspondence.py --json out.json
+    .venv/bin/python benchmarks/bench_correspondence.py --dataset DIR [--pairs-file P]
+        [--max-pairs N] [--curve curve.csv] [--png curve.png] [--k K] [--no-pyfm]
+
+``--dataset DIR`` runs the standard protocol on a folder in the FAUST_r / SCAPE_r / SMAL_r
+layout (``DIR/shapes/*.off``, ``DIR/corres/*.vts``) instead of the camels: see
+``correspondence_dataset.py``. ``--make-dataset DIR`` writes a small generated set in that
+layout.
 
 Data: ``../shared/meshes/correspondence`` (four frames, different triangulations, and six
 ground-truth maps; see its MANIFEST.md). ``camel_a_to_b.txt`` gives for each vertex of
@@ -44,6 +51,7 @@ import warnings
 from importlib import metadata
 from pathlib import Path
 
+import correspondence_dataset  # the --dataset protocol, beside this file
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -163,6 +171,29 @@ def planted() -> int:
     return 0
 
 
+def dataset(args: argparse.Namespace) -> int:
+    """The protocol of ``correspondence_dataset.py`` on ``args.dataset``, fvf beside pyFM."""
+    cd = correspondence_dataset
+    threadpool_limits(1)
+    cd.silence_pyfm()
+    methods = {"fvf": cd.fvf_matcher(**({"k": args.k} if args.k else {}))}
+    pyfm = None if args.no_pyfm else cd.pyfm_matcher()
+    if pyfm is not None:
+        methods["pyFM"] = pyfm
+    elif not args.no_pyfm:
+        print("pyFM (PyPI pyfmaps) is not installed: fvf only")
+    versions = f"fvf {fvf.__version__}, numpy {np.__version__}"
+    if pyfm is not None:
+        versions += f", pyfmaps {metadata.version('pyfmaps')}"
+    print(f"{versions}; one BLAS thread (threadpoolctl)")
+    print("error: 100 * geodesic distance on A / sqrt(area A), at the template points")
+    rows, errors = cd.run_protocol(
+        args.dataset, methods, pairs_file=args.pairs_file, max_pairs=args.max_pairs
+    )
+    cd.write_outputs(rows, errors, curve=args.curve, png=args.png, json_path=args.json)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS))
@@ -175,9 +206,23 @@ def main(argv=None) -> int:
         help="instead: the planted flips (mirror image, displaced copy) with and without "
         "fvf.match's symmetry check",
     )
+    ap.add_argument("--dataset", help="instead: the protocol on a FAUST_r-style folder")
+    ap.add_argument("--pairs-file", help="--dataset: pairs to run, two shape names a line")
+    ap.add_argument("--max-pairs", type=int, help="--dataset: run the first N pairs only")
+    ap.add_argument("--curve", help="--dataset: write the cumulative curves (CSV) here")
+    ap.add_argument("--png", help="--dataset: draw the cumulative curves (PNG) here")
+    ap.add_argument("--k", type=int, help="--dataset: fvf.match's k (default: its own)")
+    ap.add_argument("--no-pyfm", action="store_true", help="--dataset: fvf only")
+    ap.add_argument("--make-dataset", help="write a small generated set to this folder")
     args = ap.parse_args(argv)
     if args.planted:
         return planted()
+    if args.make_dataset:
+        names = correspondence_dataset.make_dataset(args.make_dataset)
+        print(f"wrote {len(names)} shapes to {args.make_dataset}")
+        return 0
+    if args.dataset:
+        return dataset(args)
     pairs = [tuple(int(x) for x in p.split("-")) for p in args.pairs.split(",")]
     if not DATA.exists():
         print(f"no data at {DATA} (set FVF_SHARED_MESHES)")
