@@ -115,3 +115,46 @@ def test_command_prints_the_table_and_writes_the_curve(dataset, tmp_path, capsys
     data = json.loads(rows.read_text())
     assert [r["pair"] for r in data] == ["shape_000 shape_001", "shape_000 shape_002"]
     assert all(r["method"] == "fvf" and r["mean_error"] >= 0 for r in data)
+
+
+# ---------------------------------------------------------------------------- fast paths
+def _float64_nearest(points, queries):
+    sq = np.einsum("ij,ij->i", points, points)
+    return (sq[None, :] - 2.0 * queries @ points.T).argmin(axis=1)
+
+
+@pytest.mark.parametrize("dim", [13, 60, 200])
+def test_brute_nearest_rows_equal_a_float64_search(dim):
+    """The float32 screen with the float64 decision gives the float64 answer, also with
+    exact ties (duplicated points: the first index wins) and near-ties that float32 cannot
+    tell apart (squared distances 1e-6 apart at magnitudes 1e4) but float64 can."""
+    from fvf.spectral.zoomout import nearest_rows
+
+    rng = np.random.default_rng(dim)
+    P = 10.0 * rng.standard_normal((1500, dim))
+    P[1000:1200] = P[:200]  # exact duplicates
+    P[1200:1300] = P[200:300] + 1e-4 * rng.standard_normal((100, dim))  # near-ties
+    Q = np.vstack(
+        [P[:400] + 1e-7 * rng.standard_normal((400, dim)), rng.standard_normal((200, dim))]
+    )
+    got = nearest_rows(P, Q, method="brute", block=128)
+    assert np.array_equal(got, _float64_nearest(P, Q))
+    assert np.all(got[:200] < 1000)  # the first of two exact duplicates
+
+
+def test_zoomout_on_samples_matches_the_least_squares_definition():
+    """ZoomOut on samples fits each C from one QR; the same C as a least-squares solve."""
+    from fvf.spectral.zoomout import _zoomout_on_samples, nearest_rows
+
+    mesh = fvf.jittered_sphere(3, 0.3, seed=1)
+    b = fvf.SpectralBasis(mesh, 30)
+    s = np.arange(0, mesh.n_vertices, 3)
+    C0 = np.eye(10)
+    C = _zoomout_on_samples(C0, b, b, [(20, 20), (30, 30)], (s, s), False)
+    P = b.eigenvectors[s]
+    ref = C0
+    for k in (20, 30):
+        kc = ref.shape[0]
+        p = nearest_rows(P[:, :kc] @ ref.T, P[:, :kc])
+        ref = np.linalg.lstsq(P[:, :k], P[p, :k], rcond=None)[0]
+    assert np.allclose(C, ref, atol=1e-10)
