@@ -7,6 +7,7 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_correspondence.py --json out.json
     .venv/bin/python benchmarks/bench_correspondence.py --dataset DIR [--pairs-file P]
         [--max-pairs N] [--curve curve.csv] [--png curve.png] [--k K] [--no-pyfm]
+    .venv/bin/python benchmarks/bench_correspondence.py --timing   # 5k and 20k vertices
 
 ``--dataset DIR`` runs the standard protocol on a folder in the FAUST_r / SCAPE_r / SMAL_r
 layout (``DIR/shapes/*.off``, ``DIR/corres/*.vts``) instead of the camels: see
@@ -194,6 +195,42 @@ def dataset(args: argparse.Namespace) -> int:
     return 0
 
 
+def timing(pairs: list[tuple[int, int]]) -> int:
+    """fvf against pyFM on camel pairs at about 5k vertices (the frames) and 20k (one
+    midpoint subdivision of each frame: the original vertices keep their indices, so the
+    ground truth still holds for them): errors, wall and CPU seconds, fvf's steps."""
+    from fvf.mesh.shapes import midpoint_subdivision
+
+    threadpool_limits(1)
+    warnings.filterwarnings("ignore", module="pyFM")
+    print(
+        "| n | pair | fvf error | pyFM error | fvf CPU s | pyFM CPU s | fvf wall s | "
+        "pyFM wall s | fvf steps (wall s) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for subdivide in (False, True):
+        for a, b in pairs:
+            V1, F1 = fvf.read_mesh(DATA / f"camel-gallop-0{b}.off")
+            V2, F2 = fvf.read_mesh(DATA / f"camel-gallop-0{a}.off")
+            truth = np.loadtxt(DATA / f"camel_{a}_to_{b}.txt", dtype=np.int64)
+            valid, n_2 = truth != 0, len(V2)
+            if subdivide:
+                V1, F1 = midpoint_subdivision(V1, F1)
+                V2, F2 = midpoint_subdivision(V2, F2)
+            prep_1, prep_2 = prepare_mesh(V1, F1), prepare_mesh(V2, F2)
+            res, w_f, c_f = _timed(fvf.match_result, (V1, F1), (V2, F2))
+            p_pyfm, w_p, c_p = _timed(run_pyfm, prep_1, prep_2, 1.0)
+            e_f = errors_of(prep_1, res.p2p_21[:n_2], truth, valid).mean()
+            e_p = errors_of(prep_1, p_pyfm[:n_2], truth, valid).mean()
+            steps = ", ".join(f"{k} {v:.1f}" for k, v in res.timings.items())
+            print(
+                f"| {len(V1)} | {a} → {b} | {e_f:.4f} | {e_p:.4f} | {c_f:.1f} | {c_p:.1f} | "
+                f"{w_f:.1f} | {w_p:.1f} | {steps} |",
+                flush=True,
+            )
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS))
@@ -214,9 +251,19 @@ def main(argv=None) -> int:
     ap.add_argument("--k", type=int, help="--dataset: fvf.match's k (default: its own)")
     ap.add_argument("--no-pyfm", action="store_true", help="--dataset: fvf only")
     ap.add_argument("--make-dataset", help="write a small generated set to this folder")
+    ap.add_argument(
+        "--timing",
+        action="store_true",
+        help="instead: fvf and pyFM times on camel pairs 1-3 and 2-4 (or --pairs) at 5k "
+        "vertices and, midpoint-subdivided, at 20k",
+    )
     args = ap.parse_args(argv)
     if args.planted:
         return planted()
+    if args.timing:
+        default = ",".join(f"{a}-{b}" for a, b in PAIRS)
+        chosen = "1-3,2-4" if args.pairs == default else args.pairs
+        return timing([tuple(int(x) for x in p.split("-")) for p in chosen.split(",")])
     if args.make_dataset:
         names = correspondence_dataset.make_dataset(args.make_dataset)
         print(f"wrote {len(names)} shapes to {args.make_dataset}")
