@@ -5,6 +5,14 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_correspondence.py               # all six pairs
     .venv/bin/python benchmarks/bench_correspondence.py --pairs 2-3,1-3
     .venv/bin/python benchmarks/bench_correspondence.py --json out.json
+    .venv/bin/python benchmarks/bench_correspondence.py --dataset DIR [--pairs-file P]
+        [--max-pairs N] [--curve curve.csv] [--png curve.png] [--k K] [--no-pyfm]
+    .venv/bin/python benchmarks/bench_correspondence.py --timing   # 5k and 20k vertices
+
+``--dataset DIR`` runs the standard protocol on a folder in the FAUST_r / SCAPE_r / SMAL_r
+layout (``DIR/shapes/*.off``, ``DIR/corres/*.vts``) instead of the camels: see
+``correspondence_dataset.py``. ``--make-dataset DIR`` writes a small generated set in that
+layout.
 
 Data: ``../shared/meshes/correspondence`` (four frames, different triangulations, and six
 ground-truth maps; see its MANIFEST.md). ``camel_a_to_b.txt`` gives for each vertex of
@@ -44,6 +52,7 @@ import warnings
 from importlib import metadata
 from pathlib import Path
 
+import correspondence_dataset  # the --dataset protocol, beside this file
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -164,6 +173,65 @@ def planted() -> int:
     return 0
 
 
+def dataset(args: argparse.Namespace) -> int:
+    """The protocol of ``correspondence_dataset.py`` on ``args.dataset``, fvf beside pyFM."""
+    cd = correspondence_dataset
+    threadpool_limits(1)
+    cd.silence_pyfm()
+    methods = {"fvf": cd.fvf_matcher(**({"k": args.k} if args.k else {}))}
+    pyfm = None if args.no_pyfm else cd.pyfm_matcher()
+    if pyfm is not None:
+        methods["pyFM"] = pyfm
+    elif not args.no_pyfm:
+        print("pyFM (PyPI pyfmaps) is not installed: fvf only")
+    versions = f"fvf {fvf.__version__}, numpy {np.__version__}"
+    if pyfm is not None:
+        versions += f", pyfmaps {metadata.version('pyfmaps')}"
+    print(f"{versions}; one BLAS thread (threadpoolctl)")
+    print("error: 100 * geodesic distance on A / sqrt(area A), at the template points")
+    rows, errors = cd.run_protocol(
+        args.dataset, methods, pairs_file=args.pairs_file, max_pairs=args.max_pairs
+    )
+    cd.write_outputs(rows, errors, curve=args.curve, png=args.png, json_path=args.json)
+    return 0
+
+
+def timing(pairs: list[tuple[int, int]]) -> int:
+    """fvf against pyFM on camel pairs at about 5k vertices (the frames) and 20k (one
+    midpoint subdivision of each frame: the original vertices keep their indices, so the
+    ground truth still holds for them): errors, wall and CPU seconds, fvf's steps."""
+    from fvf.mesh.shapes import midpoint_subdivision
+
+    threadpool_limits(1)
+    warnings.filterwarnings("ignore", module="pyFM")
+    print(
+        "| n | pair | fvf error | pyFM error | fvf CPU s | pyFM CPU s | fvf wall s | "
+        "pyFM wall s | fvf steps (wall s) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for subdivide in (False, True):
+        for a, b in pairs:
+            V1, F1 = fvf.read_mesh(DATA / f"camel-gallop-0{b}.off")
+            V2, F2 = fvf.read_mesh(DATA / f"camel-gallop-0{a}.off")
+            truth = np.loadtxt(DATA / f"camel_{a}_to_{b}.txt", dtype=np.int64)
+            valid, n_2 = truth != 0, len(V2)
+            if subdivide:
+                V1, F1 = midpoint_subdivision(V1, F1)
+                V2, F2 = midpoint_subdivision(V2, F2)
+            prep_1, prep_2 = prepare_mesh(V1, F1), prepare_mesh(V2, F2)
+            res, w_f, c_f = _timed(fvf.match_result, (V1, F1), (V2, F2))
+            p_pyfm, w_p, c_p = _timed(run_pyfm, prep_1, prep_2, 1.0)
+            e_f = errors_of(prep_1, res.p2p_21[:n_2], truth, valid).mean()
+            e_p = errors_of(prep_1, p_pyfm[:n_2], truth, valid).mean()
+            steps = ", ".join(f"{k} {v:.1f}" for k, v in res.timings.items())
+            print(
+                f"| {len(V1)} | {a} → {b} | {e_f:.4f} | {e_p:.4f} | {c_f:.1f} | {c_p:.1f} | "
+                f"{w_f:.1f} | {w_p:.1f} | {steps} |",
+                flush=True,
+            )
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS))
@@ -176,9 +244,33 @@ def main(argv=None) -> int:
         help="instead: the planted flips (mirror image, displaced copy) with and without "
         "fvf.match's symmetry check",
     )
+    ap.add_argument("--dataset", help="instead: the protocol on a FAUST_r-style folder")
+    ap.add_argument("--pairs-file", help="--dataset: pairs to run, two shape names a line")
+    ap.add_argument("--max-pairs", type=int, help="--dataset: run the first N pairs only")
+    ap.add_argument("--curve", help="--dataset: write the cumulative curves (CSV) here")
+    ap.add_argument("--png", help="--dataset: draw the cumulative curves (PNG) here")
+    ap.add_argument("--k", type=int, help="--dataset: fvf.match's k (default: its own)")
+    ap.add_argument("--no-pyfm", action="store_true", help="--dataset: fvf only")
+    ap.add_argument("--make-dataset", help="write a small generated set to this folder")
+    ap.add_argument(
+        "--timing",
+        action="store_true",
+        help="instead: fvf and pyFM times on camel pairs 1-3 and 2-4 (or --pairs) at 5k "
+        "vertices and, midpoint-subdivided, at 20k",
+    )
     args = ap.parse_args(argv)
     if args.planted:
         return planted()
+    if args.timing:
+        default = ",".join(f"{a}-{b}" for a, b in PAIRS)
+        chosen = "1-3,2-4" if args.pairs == default else args.pairs
+        return timing([tuple(int(x) for x in p.split("-")) for p in chosen.split(",")])
+    if args.make_dataset:
+        names = correspondence_dataset.make_dataset(args.make_dataset)
+        print(f"wrote {len(names)} shapes to {args.make_dataset}")
+        return 0
+    if args.dataset:
+        return dataset(args)
     pairs = [tuple(int(x) for x in p.split("-")) for p in args.pairs.split(",")]
     if not DATA.exists():
         print(f"no data at {DATA} (set FVF_SHARED_MESHES)")

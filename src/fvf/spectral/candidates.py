@@ -123,7 +123,7 @@ def score_candidates(
     k_final: int,
     k_score: int,
     step: int,
-    samples: int | None,
+    samples: int | tuple[np.ndarray, np.ndarray] | None,
     sign: float,
 ) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
     """Refine each start by ZoomOut to ``k_final``, score it (eq. E), keep the lowest.

@@ -50,7 +50,7 @@ from .basis import SpectralBasis
 from .candidates import MapCandidate, score_candidates
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
-from .zoomout import functional_map_from_p2p, zoomout
+from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
 
 __all__ = [
     "MatchResult",
@@ -338,8 +338,13 @@ def _correspond(
     confidence: float | None = None
     alternatives: tuple[MapCandidate, ...] = ()
     t = time.perf_counter()
+    sample_idx = None
+    if samples is not None:  # one farthest-point sampling per mesh, for every ZoomOut
+        s1 = farthest_point_samples(unit_1.mesh.vertices, samples)
+        s2 = s1 if p2 is None else farthest_point_samples(unit_2.mesh.vertices, samples)
+        sample_idx = (s1, s2)
     if stages == 5:
-        starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, samples)
+        starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, sample_idx)
         timings["symmetry"] = time.perf_counter() - t
         report("match", 4, stages)
         t = time.perf_counter()
@@ -351,11 +356,11 @@ def _correspond(
             k_final=k,
             k_score=K_SCORE,
             step=zoomout_step,
-            samples=samples,
+            samples=sample_idx,
             sign=sign,
         )
     else:
-        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=samples)
+        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx)
     timings["zoomout"] = time.perf_counter() - t
     report("match", stages, stages)
     q2 = p1 if p2 is None else p2
@@ -371,14 +376,15 @@ def _candidate_starts(
     d1: np.ndarray,
     weights: dict,
     step: int,
-    samples: int | None,
+    samples: tuple[np.ndarray, np.ndarray] | None,
 ) -> dict[str, np.ndarray]:
     """C_fit and C_fit C_σ, σ the orientation-reversing self-map of mesh 1 (the fit of
     :func:`symmetry_map`, ZoomOut to ``K_SCORE``), both (k_fit, k_fit)."""
     k_fit = C_fit.shape[1]
     k_sym = max(min(K_SCORE, unit_1.k), k_fit)
     C_sym = fit_functional_map(unit_1, unit_1, d1, d1, k=k_fit, orientation="reversing", **weights)
-    _, p_sym = zoomout(C_sym, unit_1, unit_1, k_sym, step=step, samples=samples)
+    self_samples = None if samples is None else (samples[0], samples[0])
+    _, p_sym = zoomout(C_sym, unit_1, unit_1, k_sym, step=step, samples=self_samples)
     C_sigma = functional_map_from_p2p(p_sym, unit_1, unit_1, k_fit)
     return {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
 
