@@ -251,3 +251,31 @@ def test_a_quad_with_three_collinear_corners_is_drawn(tmp_path):
     assert mesh.n_vertices == 4  # vertices 3 and 5, in no quad, dropped
     info = viz.render_quads(V, np.array([[0, 1, 2, 4]]), tmp_path / "q.png", **MPL)
     assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
+
+
+def test_a_colorbar_of_small_values_shows_its_whole_exponent(tmp_path):
+    """A colorbar of values ~1e-5 shows the common factor above it in full: the panels
+    (drawn dark here) lie under it, not over its left end (the '1' of '1e-5' was hidden,
+    leaving 'e-5')."""
+    from fvf.viz.compose import compose, layout
+    from fvf.viz.scene import Scene
+
+    mesh = fvf.icosphere(1)
+    scene = Scene(
+        mesh=mesh,
+        colors=np.zeros((mesh.n_vertices, 3)),
+        colors_on="vertices",
+        frames=[np.eye(3)],
+        views=[None],
+        field_mesh=mesh,
+        colorbar={"cmap": "RdBu_r", "clim": (-2.3e-5, 2.3e-5), "label": "bracket"},
+    )
+    w, h = 600, 450
+    lay = layout(w, h, None, True, 0, 1)
+    dark = np.full((lay.scene_height, lay.scene_width, 3), 60, dtype=np.uint8)
+    compose(dark, scene, tmp_path / "c.png", w, h, None)
+    img = picture(tmp_path / "c.png")
+    # the band above the colorbar's top end (90 % of the height), left of the side column
+    top = h - int(0.90 * lay.scene_height)
+    band = img[max(top - 30, 0) : top, lay.scene_width - 40 : lay.scene_width]
+    assert band.min() < 30  # dark text drawn over the dark panels, not hidden under them
