@@ -279,3 +279,18 @@ def test_a_colorbar_of_small_values_shows_its_whole_exponent(tmp_path):
     top = h - int(0.90 * lay.scene_height)
     band = img[max(top - 30, 0) : top, lay.scene_width - 40 : lay.scene_width]
     assert band.min() < 30  # dark text drawn over the dark panels, not hidden under them
+
+
+def test_a_quad_mesh_with_a_doublet_is_drawn(tmp_path):
+    """Two quads sharing two edges (a valence-2 vertex, as fvf.quad_mesh made on a body
+    scan) whose shading splits both end in the same triangle, once each way round: the fin
+    is left out of the shading instead of failing the TriMesh check (an edge in four
+    triangles); the wireframe and the valence-2 marker still show it."""
+    from fvf.viz.quads import _shading_mesh
+
+    V = np.array([[0, 0, 0], [2, 0, 0], [1, 1, 1.5], [0, 2, 0], [2, 2, 0]], float)
+    Q = np.array([[0, 1, 2, 3], [1, 4, 3, 2]])  # vertex 2 in both, on edges 1-2 and 2-3
+    mesh = _shading_mesh(V, Q)
+    assert mesh.n_faces == 2 and np.isclose(mesh.total_area, 4.0)  # the square 0-1-4-3
+    info = viz.render_quads(V, Q, tmp_path / "q.png", **MPL)
+    assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
