@@ -294,3 +294,26 @@ def test_a_quad_mesh_with_a_doublet_is_drawn(tmp_path):
     assert mesh.n_faces == 2 and np.isclose(mesh.total_area, 4.0)  # the square 0-1-4-3
     info = viz.render_quads(V, Q, tmp_path / "q.png", **MPL)
     assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
+
+
+def test_polyscope_lines_are_not_thinner_than_it_draws_whole():
+    """A dense wireframe, thinner than a pixel in the overlay, is drawn by polyscope at
+    least LINE_MIN_PX wide: thinner tubes came out as dashes."""
+    from unittest.mock import MagicMock
+
+    from fvf.viz import ps_backend
+    from fvf.viz.overlay import panel_overlay
+
+    dense = fvf.icosphere(5)
+    scene = fvf.viz.scene.build_scene(dense, streamlines=list(dense.vertices[dense.edges]))
+    overlay = panel_overlay(scene, scene.frame, 1.0, 400, 400)
+    assert overlay.line_width < ps_backend.LINE_MIN_PX  # the case at hand
+    ps = MagicMock()
+    for has in ("has_surface_mesh", "has_point_cloud", "has_curve_network"):
+        getattr(ps, has).return_value = False
+    try:
+        ps_backend.populate(ps, scene, overlay=overlay)
+    finally:
+        ps_backend.remove_ours(ps)
+    (radius,), _ = ps.register_curve_network.return_value.set_radius.call_args
+    assert np.isclose(2.0 * radius * overlay.pixel_scale, ps_backend.LINE_MIN_PX)
