@@ -70,7 +70,8 @@ def _without_fins(tris: np.ndarray) -> np.ndarray:
     inverse = inverse.ravel()
     ways = np.zeros((inverse.max() + 1 if inverse.size else 0, 2), dtype=bool)
     ways[inverse, odd.astype(np.int64)] = True
-    return tris[~ways.all(axis=1)[inverse]]
+    fin: np.ndarray = np.all(ways, axis=1)
+    return tris[~fin[inverse]]
 
 
 def render_quads(
