@@ -235,3 +235,20 @@ def test_demo_bad_mesh_one_line_error(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1
     r = run("demo", "--mesh", str(tmp_path / "missing.off"))
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_quad_caption_names_the_valences_present():
+    """The quad picture's caption names the valences its legend shows: a doublet's valence
+    2 too (the body scan's quad mesh), not a fixed "3 and 5"."""
+    from fvf.cli.demo import _irregular_valences
+
+    grid = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]])
+    assert _irregular_valences(grid) == "2 and 3"  # corners 2, boundary midpoints 3
+    doublet = np.array([[0, 1, 2, 3], [1, 4, 3, 2]])  # vertex 2 on two quads only
+    assert _irregular_valences(doublet) == "2 and 3"
+    cube = np.array(
+        [[0, 1, 2, 3], [4, 7, 6, 5], [0, 4, 5, 1], [1, 5, 6, 2], [2, 6, 7, 3], [3, 7, 4, 0]]
+    )
+    assert _irregular_valences(cube) == "3"
+    octagon = np.vstack([cube, [[8, 9, 10, 11]]])  # a lone quad: all corners valence 2
+    assert _irregular_valences(octagon) == "2 and 3"

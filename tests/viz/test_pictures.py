@@ -251,3 +251,69 @@ def test_a_quad_with_three_collinear_corners_is_drawn(tmp_path):
     assert mesh.n_vertices == 4  # vertices 3 and 5, in no quad, dropped
     info = viz.render_quads(V, np.array([[0, 1, 2, 4]]), tmp_path / "q.png", **MPL)
     assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
+
+
+def test_a_colorbar_of_small_values_shows_its_whole_exponent(tmp_path):
+    """A colorbar of values ~1e-5 shows the common factor above it in full: the panels
+    (drawn dark here) lie under it, not over its left end (the '1' of '1e-5' was hidden,
+    leaving 'e-5')."""
+    from fvf.viz.compose import compose, layout
+    from fvf.viz.scene import Scene
+
+    mesh = fvf.icosphere(1)
+    scene = Scene(
+        mesh=mesh,
+        colors=np.zeros((mesh.n_vertices, 3)),
+        colors_on="vertices",
+        frames=[np.eye(3)],
+        views=[None],
+        field_mesh=mesh,
+        colorbar={"cmap": "RdBu_r", "clim": (-2.3e-5, 2.3e-5), "label": "bracket"},
+    )
+    w, h = 600, 450
+    lay = layout(w, h, None, True, 0, 1)
+    dark = np.full((lay.scene_height, lay.scene_width, 3), 60, dtype=np.uint8)
+    compose(dark, scene, tmp_path / "c.png", w, h, None)
+    img = picture(tmp_path / "c.png")
+    # the band above the colorbar's top end (90 % of the height), left of the side column
+    top = h - int(0.90 * lay.scene_height)
+    band = img[max(top - 30, 0) : top, lay.scene_width - 40 : lay.scene_width]
+    assert band.min() < 30  # dark text drawn over the dark panels, not hidden under them
+
+
+def test_a_quad_mesh_with_a_doublet_is_drawn(tmp_path):
+    """Two quads sharing two edges (a valence-2 vertex, as fvf.quad_mesh made on a body
+    scan) whose shading splits both end in the same triangle, once each way round: the fin
+    is left out of the shading instead of failing the TriMesh check (an edge in four
+    triangles); the wireframe and the valence-2 marker still show it."""
+    from fvf.viz.quads import _shading_mesh
+
+    V = np.array([[0, 0, 0], [2, 0, 0], [1, 1, 1.5], [0, 2, 0], [2, 2, 0]], float)
+    Q = np.array([[0, 1, 2, 3], [1, 4, 3, 2]])  # vertex 2 in both, on edges 1-2 and 2-3
+    mesh = _shading_mesh(V, Q)
+    assert mesh.n_faces == 2 and np.isclose(mesh.total_area, 4.0)  # the square 0-1-4-3
+    info = viz.render_quads(V, Q, tmp_path / "q.png", **MPL)
+    assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
+
+
+def test_polyscope_lines_are_not_thinner_than_it_draws_whole():
+    """A dense wireframe, thinner than a pixel in the overlay, is drawn by polyscope at
+    least LINE_MIN_PX wide: thinner tubes came out as dashes."""
+    from unittest.mock import MagicMock
+
+    from fvf.viz import ps_backend
+    from fvf.viz.overlay import panel_overlay
+
+    dense = fvf.icosphere(5)
+    scene = fvf.viz.scene.build_scene(dense, streamlines=list(dense.vertices[dense.edges]))
+    overlay = panel_overlay(scene, scene.frame, 1.0, 400, 400)
+    assert overlay.line_width < ps_backend.LINE_MIN_PX  # the case at hand
+    ps = MagicMock()
+    for has in ("has_surface_mesh", "has_point_cloud", "has_curve_network"):
+        getattr(ps, has).return_value = False
+    try:
+        ps_backend.populate(ps, scene, overlay=overlay)
+    finally:
+        ps_backend.remove_ours(ps)
+    (radius,), _ = ps.register_curve_network.return_value.set_radius.call_args
+    assert np.isclose(2.0 * radius * overlay.pixel_scale, ps_backend.LINE_MIN_PX)

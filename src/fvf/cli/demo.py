@@ -575,7 +575,7 @@ def _quads(s, story):
         st,
         "quads.png",
         mesh,
-        f"{Q.shape[0]} quads; irregular vertices by valence (3 and 5)",
+        f"{Q.shape[0]} quads; irregular vertices by valence ({_irregular_valences(Q)})",
         draw=functools.partial(_quad_picture, V, Q),
         view=_both_sides(),
         wide=True,
@@ -595,6 +595,13 @@ def _quads(s, story):
     Vi, Qi = instant_meshes(mesh, Q.shape[0])
     st.info("Instant Meshes: quads", Qi.shape[0], note="asked for as many as fvf made")
     _quad_metrics(st, "Instant Meshes", fvf.quad_quality(mesh, Vi, Qi))
+
+
+def _irregular_valences(Q: np.ndarray) -> str:
+    """The valences other than 4 in the quad mesh ``Q`` (q, 4): "3 and 5", "2, 3 and 5"."""
+    e = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], 2).reshape(-1, 2), 1), axis=0)
+    kinds = [str(k) for k in np.unique(np.bincount(e.ravel())) if k not in (0, 4)]
+    return " and ".join([", ".join(kinds[:-1]), kinds[-1]] if len(kinds) > 1 else kinds or ["none"])
 
 
 def _checkerboard(mesh, uv, path, **kwargs):

@@ -176,6 +176,7 @@ def _colorbar(fig: Any, lay: Layout, colorbar: dict, legend: bool, pt: float = 1
     bar.outline.set_linewidth(0.8 * pt)
     if isinstance(bar.formatter, ScalarFormatter):  # the default of a linear norm
         bar.formatter.set_powerlimits((-3, 4))
+        bar.formatter.set_useMathText(True)  # "×10^−5" above the bar, not "1e−5"
     bar.set_label(colorbar.get("label") or "value", fontsize=(8 if small else 9) * pt)
 
 
@@ -248,7 +249,8 @@ def compose(
     pt = 100.0 / dpi  # font points: sized for 100 dpi
     fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor="white")
     canvas = FigureCanvasAgg(fig)
-    fig.figimage(_strip(images, lay), xo=0, yo=0, origin="upper", zorder=0)
+    # under everything: a colorbar's common factor ("×10^−5") reaches left over the panels
+    fig.figimage(_strip(images, lay), xo=0, yo=0, origin="upper", zorder=-1)
     if title:
         _title(fig, canvas, lay, title, pt)
     if has_colorbar(scene):

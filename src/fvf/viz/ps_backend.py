@@ -64,6 +64,13 @@ _KINDS = {
 }
 
 
+#: Narrowest line polyscope draws, pixels: its thinner tubes, supersampled only twice, fall
+#: apart into dashes (a dense quad wireframe on a body scan, 0.9 px wide, lost every
+#: other edge); the overlay's thinner widths still hold for the antialiased matplotlib
+#: backend.
+LINE_MIN_PX = 1.3
+
+
 @contextlib.contextmanager
 def _quiet():
     """Silence polyscope's start-up lines (printed by C++ straight to file descriptor 1)."""
@@ -292,7 +299,8 @@ def populate(
         made.append(_glyph_mesh(ps, f"halo {i}", halo, g.triangles, g.halo_color))
         made.append(_glyph_mesh(ps, f"field {i}", g.polygons + g.lift * up, g.triangles, g.color))
     if scene.lines:
-        made.append(_streamlines(ps, scene.lines, scene.line_color, 0.5 * overlay.line_width * px))
+        width = max(overlay.line_width, LINE_MIN_PX)
+        made.append(_streamlines(ps, scene.lines, scene.line_color, 0.5 * width * px))
     if scene.markers is not None and len(scene.markers):
         made.extend(_markers(ps, scene, frame, overlay))
     return made

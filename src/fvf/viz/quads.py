@@ -50,8 +50,28 @@ def _shading_mesh(V: np.ndarray, Q: np.ndarray) -> TriMesh:
     better = areas(split13).min(axis=1) > areas(split02).min(axis=1)
     tris = np.where(better[:, None, None], split13, split02).reshape(-1, 3)
     tris = tris[areas(tris) > 1e-12 * max(float(np.ptp(V, axis=0).max()), 1e-300) ** 2]
+    tris = _without_fins(tris)
     used, F = np.unique(tris, return_inverse=True)
     return TriMesh(V[used], F.reshape(-1, 3))
+
+
+def _without_fins(tris: np.ndarray) -> np.ndarray:
+    """Triangles (t, 3) without the fins: a triangle present once each way round (the
+    halves of a doublet's two quads, which share two edges, split along the same
+    diagonal) bounds nothing and would put that diagonal in four triangles."""
+    key = np.sort(tris, axis=1)
+    # even permutations of the sorted corners keep the orientation: parity 0 or 1
+    odd = (
+        (tris[:, 0] == key[:, 1]) & (tris[:, 1] == key[:, 0])
+        | ((tris[:, 0] == key[:, 0]) & (tris[:, 1] == key[:, 2]))
+        | ((tris[:, 0] == key[:, 2]) & (tris[:, 1] == key[:, 1]))
+    )
+    _, inverse = np.unique(key, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    ways = np.zeros((inverse.max() + 1 if inverse.size else 0, 2), dtype=bool)
+    ways[inverse, odd.astype(np.int64)] = True
+    fin: np.ndarray = np.all(ways, axis=1)
+    return tris[~fin[inverse]]
 
 
 def render_quads(
