@@ -638,7 +638,7 @@ def design_field(
     report("solve", 0, 1)
     z = _solve_design(L, pen, rhs, active, fixed, tau_fixed, backend)
     report("solve", 1, 1)
-    return _with_directions(mesh, _field_from_power(mesh, z, n, f, tau, hard))
+    return NField(_with_directions(mesh, _field_from_power(mesh, z, n, f, tau, hard)), n)
 
 
 def _alignment_terms(
