@@ -22,7 +22,6 @@ import importlib.util
 import json
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -30,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import FvfError, OutputError
-from .report import Story, fmt, render_html
+from .report import Story, json_default, print_numbers, render_html, section_not_done
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh  # noqa: F401
@@ -650,15 +649,6 @@ _INTRO = (
 )
 
 
-def _print_numbers(story: Story) -> None:
-    for st in story.stages:
-        for n in st.numbers:
-            if n.label == "flow times":
-                continue
-            want = f" (should be {n.expect}" + (f", {n.tol}" if n.tol else "") + ")"
-            print(f"  {n.mark} {n.label}: {fmt(n.value)}{want if n.expect else ''}")
-
-
 def demo(
     mesh_path: str | None,
     out: Path,
@@ -739,7 +729,7 @@ def demo(
         except (FvfError, AttributeError) as exc:
             if isinstance(exc, OutputError) or (isinstance(exc, AttributeError) and not not_done):
                 raise  # an output lost, or a bug (not a section needing one not done)
-            not_done.append(_section_not_done(story, fn, title, begun, exc))
+            not_done.append(section_not_done(story, fn, title, begun, exc))
         story.stages[-1].seconds = time.perf_counter() - t
     if not_done:
         report["sections_not_done"] = not_done
@@ -774,7 +764,7 @@ def demo(
     if hasattr(s, "frames"):
         with atomic_path(out / "flow.npz") as tmp:
             np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v)
-    atomic_write_text(out / "summary.json", json.dumps(report, indent=2, default=_json_default))
+    atomic_write_text(out / "summary.json", json.dumps(report, indent=2, default=json_default))
     atomic_write_text(out / "index.html", render_html(story, report, _INTRO))
     print(
         f"[fvf demo] done in {report['seconds']:.1f}s; wrote {out}/index.html, "
@@ -782,30 +772,6 @@ def demo(
         f"{sum(c['ok'] is True for c in checks)} of "
         f"{sum(c['ok'] is not None for c in checks)} checks pass"
     )
-    _print_numbers(story)
+    print_numbers(story)
     sys.stdout.flush()
     return report
-
-
-def _section_not_done(
-    story: Story, fn: Callable[..., Any], title: str, begun: int, exc: Exception
-) -> str:
-    """Record that a section could not be done on this mesh (a typed fvf error, or the
-    result of an earlier section that was not done) in its report section; the demo goes
-    on with the next one. Returns the section's title."""
-    if len(story.stages) == begun:
-        story.begin(title, fn)
-    st = story.stages[-1]
-    st.title = f"{st.title} (not done)"
-    why = f"{type(exc).__name__}: {exc}"[:300]
-    st.info("section not done", "not done", note=why)
-    print(f"[fvf demo] {title}: not done on this mesh ({why})", flush=True)
-    return st.title
-
-
-def _json_default(x):
-    if isinstance(x, (np.integer, np.floating, np.bool_)):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    return str(x)

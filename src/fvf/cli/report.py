@@ -26,7 +26,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Number", "Section", "Story", "fmt", "render_html"]
+__all__ = [
+    "Number",
+    "Section",
+    "Story",
+    "fmt",
+    "render_html",
+    "print_numbers",
+    "section_not_done",
+    "json_default",
+]
 
 #: Significant digits of the numbers shown.
 DIGITS = 4
@@ -374,3 +383,38 @@ def render_html(story: Story, header: dict, intro: str = "") -> str:
             )
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def print_numbers(story: Story) -> None:
+    """Each stage's numbers on the terminal, a line each, with what they should be."""
+    for st in story.stages:
+        for n in st.numbers:
+            if n.label == "flow times":
+                continue
+            want = f" (should be {n.expect}" + (f", {n.tol}" if n.tol else "") + ")"
+            print(f"  {n.mark} {n.label}: {fmt(n.value)}{want if n.expect else ''}")
+
+
+def section_not_done(
+    story: Story, fn: Callable[..., Any], title: str, begun: int, exc: Exception
+) -> str:
+    """Record that a section could not be done on this mesh (a typed fvf error, or the
+    result of an earlier section that was not done) in its report section; the demo goes
+    on with the next one. Returns the section's title."""
+    if len(story.stages) == begun:
+        story.begin(title, fn)
+    st = story.stages[-1]
+    st.title = f"{st.title} (not done)"
+    why = f"{type(exc).__name__}: {exc}"[:300]
+    st.info("section", "not done", note=why)
+    print(f"[fvf demo] {title}: not done on this mesh ({why})", flush=True)
+    return st.title
+
+
+def json_default(x: Any) -> Any:
+    """``json.dumps``' fallback for the report: numpy scalars and arrays as Python values."""
+    if isinstance(x, (np.integer, np.floating, np.bool_)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
