@@ -520,6 +520,10 @@ def test_render_and_view_pass_the_options_through(work, monkeypatch, capsys):
     np.testing.assert_allclose(kw["singularities"][0], mesh.vertices[ids])
     assert idx.tolist() == [1, 1]
     assert kw_view.keys() == {"function", "field", "singularities"}
+    assert kw["title"] == "ico.obj, fields.npz"  # named after its files unless --title
+    calls.clear()
+    assert main(["render", *argv, "--title", "mine", "-o", "q.png"]) == 0
+    assert calls[0][1]["title"] == "mine"
 
 
 def test_several_data_files_are_merged(work, capsys):

@@ -111,7 +111,7 @@ def render_correspondence(
                 title=name if title is None else f"{title}: {name}",
                 backend=backend,
                 colorbar=i == 1,
-                colorbar_label="function",
+                colorbar_label="position stripes" if function is None else "function",
             )
             parts.append(image.open(p).convert("RGB"))
         canvas = image.new(

@@ -5,6 +5,7 @@ vertices (:func:`fvf.viz.render_quads`)."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from ..common import (
@@ -64,6 +65,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Write the PNG."""
     check_outputs(args, ("-o", args.output))
+    if args.title is None:  # named after what is drawn: the mesh file (and the data file)
+        names = [Path(args.mesh).name] + [Path(d).name for d in args.data or []]
+        args.title = ", ".join(names)
     viz = load_viz()
     quads = None if args.data else _quad_file(args.mesh)
     if quads is not None:  # a quad mesh: shading, wireframe, irregular vertices by valence
