@@ -723,7 +723,7 @@ def assert_ok_file(path: Path, k: int = K) -> None:
 def test_sigint_then_rerun_resumes(tmp_path):
     """SIGINT to ``fvf batch`` mid-run: exit 130, whole files only; the rerun computes only
     the meshes without a result and leaves the finished ones untouched."""
-    files = _corpus_files(tmp_path / "in", 14)
+    files = _corpus_files(tmp_path / "in", 40)  # enough that the batch cannot end first
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "fvf.cli", "batch", str(tmp_path / "in"), "-o", str(out),
            "--workers", "2", "--k", "30", "--tasks", "info,basis,fields,singularities"]  # fmt: skip
@@ -753,7 +753,7 @@ def test_sigint_then_rerun_resumes(tmp_path):
 def test_three_sigints_end_quietly(tmp_path):
     """Ctrl-C pressed three times: exit 130 with one line, no traceback from the shutdown
     (the Dask cluster's atexit hooks), whole files only."""
-    _corpus_files(tmp_path / "in", 14)
+    _corpus_files(tmp_path / "in", 40)  # enough that the batch cannot end first
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "fvf.cli", "batch", str(tmp_path / "in"), "-o", str(out),
            "--workers", "2", "--k", "30", "--tasks", "info,basis,fields,singularities"]  # fmt: skip
