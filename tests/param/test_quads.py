@@ -342,7 +342,6 @@ def test_shared_meshes_no_flips_and_closed_quads(name, target):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="not run against the final gate", strict=False)
 def test_faust_at_2499_quads_is_a_typed_error_listing_every_attempt():
     """Cones forced by the fingers fold the uv triangles at this size on every attempt
     (remeshed, the other field, 1.5x and 2.25x the quads): a QuadMeshError says so."""
@@ -355,7 +354,6 @@ def test_faust_at_2499_quads_is_a_typed_error_listing_every_attempt():
 
 @pytest.mark.slow
 @pytest.mark.perf
-@pytest.mark.xfail(reason="not run against the final gate", strict=False)
 def test_fold_repair_stops_when_the_weights_run_away(monkeypatch):
     """On FAUST the third re-rounding of the stiffened fit leaves more than
     RUNAWAY_FACTOR x the fewest flipped triangles + RUNAWAY_SLACK (the weights ran away):
