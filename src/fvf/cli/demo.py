@@ -598,7 +598,9 @@ def _quads(s, story):
 
 def _irregular_valences(Q: np.ndarray) -> str:
     """The valences other than 4 in the quad mesh ``Q`` (q, 4): "3 and 5", "2, 3 and 5"."""
-    e = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], 2).reshape(-1, 2), 1), axis=0)
+    from fvf.param.quality import quad_edges
+
+    e = quad_edges(Q)[0]
     kinds = [str(k) for k in np.unique(np.bincount(e.ravel())) if k not in (0, 4)]
     return " and ".join([", ".join(kinds[:-1]), kinds[-1]] if len(kinds) > 1 else kinds or ["none"])
 

@@ -33,7 +33,7 @@ from ..mesh.trimesh import TriMesh
 from .quad_folds import folded_quads
 from .seamless import SeamlessParameterization
 
-__all__ = ["QuadQuality", "quad_quality", "quad_topology", "quad_boundary_vertices"]
+__all__ = ["QuadQuality", "quad_quality", "quad_topology", "quad_boundary_vertices", "quad_edges"]
 
 
 @dataclass(frozen=True)
@@ -66,12 +66,20 @@ class QuadQuality:
         return asdict(self)
 
 
+def quad_edges(quads: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The undirected edges of a quad mesh, int64 (e, 2) with the smaller vertex first, in
+    lexicographic order, and how many quads use each, int64 (e,) (1 on a boundary)."""
+    Q = np.asarray(quads, dtype=np.int64)
+    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    return edges, uses
+
+
 def quad_topology(n_vertices: int, quads: np.ndarray) -> tuple[bool, bool, int, np.ndarray]:
     """(closed, manifold, χ, valence (k,)) of a quad mesh from its connectivity."""
     Q = np.asarray(quads, dtype=np.int64)
     e = np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2)
-    und = np.sort(e, axis=1)
-    ue, cnt = np.unique(und, axis=0, return_counts=True)
+    ue, cnt = quad_edges(Q)
     directed = np.unique(e, axis=0).shape[0] == e.shape[0]
     closed = bool(np.all(cnt == 2))
     manifold = bool(np.all(cnt <= 2) and directed)
@@ -82,9 +90,7 @@ def quad_topology(n_vertices: int, quads: np.ndarray) -> tuple[bool, bool, int, 
 
 def quad_boundary_vertices(quads: np.ndarray) -> np.ndarray:
     """Sorted vertices on boundary edges (edges of one quad) of a quad mesh, int64 (b,)."""
-    Q = np.asarray(quads, dtype=np.int64)
-    e = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    edges, uses = np.unique(e, axis=0, return_counts=True)
+    edges, uses = quad_edges(quads)
     return np.unique(edges[uses == 1])
 
 

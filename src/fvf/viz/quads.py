@@ -22,6 +22,7 @@ import numpy.typing as npt
 from ..errors import DuplicateVertexWarning, FvfError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
+from ..param.quality import quad_edges
 from .backends import RenderInfo, render
 
 __all__ = ["render_quads", "render_checkerboard", "quad_wireframe"]
@@ -29,9 +30,7 @@ __all__ = ["render_quads", "render_checkerboard", "quad_wireframe"]
 
 def quad_wireframe(vertices: np.ndarray, quads: np.ndarray) -> list[np.ndarray]:
     """The unique edges of a quad mesh as 2-point polylines (list of (2, 3) arrays)."""
-    e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2)
-    e = np.unique(np.sort(e, axis=1), axis=0)
-    return list(vertices[e])
+    return list(vertices[quad_edges(quads)[0]])
 
 
 def _shading_mesh(V: np.ndarray, Q: np.ndarray) -> TriMesh:
@@ -94,14 +93,14 @@ def render_quads(
     if V.ndim != 2 or V.shape[1] != 3 or Q.ndim != 2 or Q.shape[1] != 4:
         raise FvfError(f"need vertices (k, 3) and quads (q, 4); got {V.shape}, {Q.shape}")
     mesh = _shading_mesh(V, Q)
-    e = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], 2).reshape(-1, 2), 1), axis=0)
-    valence = np.bincount(e.ravel(), minlength=V.shape[0])
+    edges = quad_edges(Q)[0]
+    valence = np.bincount(edges.ravel(), minlength=V.shape[0])
     irr = np.flatnonzero((valence != 4) & (valence > 0))
     sing = (V[irr], (4 - valence[irr]) / 4.0) if irr.size else None
     return render(
         mesh,
         path,
-        streamlines=quad_wireframe(V, Q),
+        streamlines=list(V[edges]),  # the wireframe
         singularities=sing,
         singularity_kind="valence",
         **kwargs,
