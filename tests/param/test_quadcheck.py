@@ -10,21 +10,6 @@ import quadcheck as qc
 import wild_corpus as wc
 
 
-def quad_torus(n_major: int = 40, n_minor: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Quad torus R = 1, r = 0.35 (the corpus torus' radii), outward normals."""
-    i, j = np.meshgrid(np.arange(n_major), np.arange(n_minor), indexing="ij")
-    u, v = 2 * np.pi * i / n_major, 2 * np.pi * j / n_minor
-    V = np.stack(
-        [(1 + 0.35 * np.cos(v)) * np.cos(u), (1 + 0.35 * np.cos(v)) * np.sin(u), 0.35 * np.sin(v)],
-        -1,
-    ).reshape(-1, 3)
-    a = (i * n_minor + j).ravel()
-    b = (((i + 1) % n_major) * n_minor + j).ravel()
-    c = (((i + 1) % n_major) * n_minor + (j + 1) % n_minor).ravel()
-    d = (i * n_minor + (j + 1) % n_minor).ravel()
-    return V, np.stack([a, b, c, d], 1)
-
-
 def quad_grid(n: int = 8) -> tuple[np.ndarray, np.ndarray]:
     """Unit square [0,1]^2 in z = 0, n x n quads, normal +z."""
     x = np.linspace(0.0, 1.0, n + 1)
@@ -58,7 +43,7 @@ def split(Q: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def torus():
     V, F = wc._torus_grid(120, 40)
-    Vq, Q = quad_torus()
+    Vq, Q = wc.torus_quads()
     return V, F, Vq, Q
 
 

@@ -426,7 +426,8 @@ def scan_potato_kilo() -> Mesh:
     return V * 1e3, F
 
 
-def _torus_grid(n_major: int, n_minor: int) -> Mesh:
+def torus_quads(n_major: int = 40, n_minor: int = 16) -> Mesh:
+    """Quad torus R = 1, r = 0.35, outward normals: (V (n, 3), Q (q, 4))."""
     i, j = np.meshgrid(np.arange(n_major), np.arange(n_minor), indexing="ij")
     u, v = 2 * np.pi * i / n_major, 2 * np.pi * j / n_minor
     V = np.stack(
@@ -437,7 +438,12 @@ def _torus_grid(n_major: int, n_minor: int) -> Mesh:
     b = (((i + 1) % n_major) * n_minor + j).ravel()
     c = (((i + 1) % n_major) * n_minor + (j + 1) % n_minor).ravel()
     d = (i * n_minor + (j + 1) % n_minor).ravel()
-    return V, np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return V, np.stack([a, b, c, d], 1)
+
+
+def _torus_grid(n_major: int, n_minor: int) -> Mesh:
+    V, Q = torus_quads(n_major, n_minor)
+    return V, np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
 
 
 def scan_torus() -> Mesh:
