@@ -132,6 +132,33 @@ def test_a_cholesky_backend_that_finds_k_not_positive_definite_raises_a_typed_er
         assert e.value.__cause__ is not None and not isinstance(e.value.__cause__, fvf.FvfError)
 
 
+@pytest.mark.parametrize("backend", FAST)
+def test_a_backend_that_fails_prints_nothing(backend, capfd):
+    """CHOLMOD in cholespy prints "CHOLMOD warning: not positive definite" with printf on
+    descriptor 1 before raising: the typed error is all the caller sees, on both streams."""
+    with pytest.raises(fvf.FactorizationError):
+        factor_hermitian(_indefinite(dtype=float), backend)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_backend_output_is_captured_and_everything_else_written_back(capfd):
+    """Lines starting with the backend's name are returned; other output written to
+    descriptor 1 meanwhile (another thread's, Python's buffered print) comes out intact."""
+    import os
+
+    from fvf.numerics.c_output import backend_output_captured
+
+    with backend_output_captured() as lines:
+        os.write(1, b"keep: first\nCHOLMOD warning: not positive definite. file: x\n")
+        os.write(1, b"keep: second\n")
+        print("keep: printed")
+    assert lines == ["CHOLMOD warning: not positive definite. file: x"]
+    out = capfd.readouterr().out
+    assert "keep: first\nkeep: second\n" in out and "keep: printed" in out
+    assert "CHOLMOD" not in out
+
+
 @pytest.mark.parametrize("backend", available_backends())
 def test_a_zero_matrix_raises_a_typed_error(backend):
     """No stored entries: cholespy says "Failed to resize matrix arrays!", cvxopt stops at

@@ -37,8 +37,10 @@ Failures
 --------
 What a backend raises when it cannot factor K — cvxopt's ``ArithmeticError``, cholespy's
 ``ValueError("Matrix is not positive definite!")`` or ``RuntimeError("Failed to resize
-matrix arrays!")``, scikit-sparse's ``CholmodError``, SuperLU's ``RuntimeError("Factor is
-exactly singular")`` — never reaches the caller: a requested backend raises
+matrix arrays!")`` (and the warning CHOLMOD prints on standard output before it, which
+:func:`fvf.numerics.c_output.backend_output_captured` keeps off the terminal),
+scikit-sparse's ``CholmodError``, SuperLU's ``RuntimeError("Factor is exactly singular")``
+— never reaches the caller: a requested backend raises
 :class:`~fvf.errors.FactorizationError` with the backend's reason; under
 ``backend="auto"`` the next available backend is tried (with a
 :class:`~fvf.errors.FactorizationFallbackWarning`), straight to SuperLU once a Cholesky
@@ -68,6 +70,7 @@ from ..errors import (
     ParameterError,
     user_stacklevel,
 )
+from .c_output import backend_output_captured
 from .ordering import nested_dissection
 
 __all__ = [
@@ -357,8 +360,11 @@ def _cholespy(K: sp.sparray, is_complex: bool) -> HermitianFactor:
 
     rows, cols, data = _real_lower(K) if is_complex else _lower(K)
     n = 2 * K.shape[0] if is_complex else K.shape[0]
-    fac = CholeskySolverD(n, rows, cols, data, MatrixType.COO)  # CHOLMOD reads the lower part
-    del rows, cols, data
+    with backend_output_captured():  # CHOLMOD prints "not positive definite" on stdout
+        try:
+            fac = CholeskySolverD(n, rows, cols, data, MatrixType.COO)  # reads the lower part
+        finally:
+            del rows, cols, data
 
     def solve_real(b):
         b = np.ascontiguousarray(b, dtype=np.float64)
