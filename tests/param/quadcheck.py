@@ -17,8 +17,8 @@ Written with numpy and scipy only, sharing no code with fvf (not ``fvf.quad_qual
 - ``boundary_loops``: as many boundary loops as the input;
 - ``no_folds``: no folded quad. A quad is folded when neither diagonal splits it into two
   triangles whose normals both have a positive dot product with the input's normal at the
-  input point closest to the quad's centre (a flipped quad and a bow tie are folded; a
-  simple non-convex quad is not);
+  input point closest to the quad's centre, found exactly (:meth:`SurfaceDistance.normal`;
+  a flipped quad and a bow tie are folded; a simple non-convex quad is not);
 - ``hausdorff``: the two-sided Hausdorff distance between the surfaces (quads split along
   a diagonal), measured from points covering each surface (:func:`cover`: vertices, edge
   points and a grid of spacing at most a quarter quad edge) exactly to the nearest
@@ -31,6 +31,7 @@ angles, and the coverage of the input's sharp edges by quad edges.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import chain
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -204,7 +205,7 @@ class SurfaceDistance:
     among the candidates, and otherwise too large by at most about 1.2 h."""
 
     def __init__(self, V: np.ndarray, T: np.ndarray, h: float):
-        self.V, self.T = V, T
+        self.V, self.T, self.h = V, T, h
         self.points, owner = cover(V, T, h)
         self.tree, self.owner = cKDTree(self.points), owner
         self.cross = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
@@ -224,13 +225,31 @@ class SurfaceDistance:
         """Distance (p,) of points P (p, 3) to the surface."""
         return self._candidates(P, k)[0].min(axis=1)
 
-    def normal(self, P: np.ndarray, k: int = 8) -> np.ndarray:
+    def normal(self, P: np.ndarray) -> np.ndarray:
         """Unit normal (p, 3) of the surface at the point closest to each of P (p, 3): the
         area-weighted mean over the triangles tied for closest (an edge or a vertex),
-        so that zero-area triangles and sharp edges give a defined normal."""
-        d, cand = self._candidates(P, k)
-        tie = d <= d.min(axis=1, keepdims=True) + 1e-9 * self.scale
-        N = (self.cross[cand] * tie[:, :, None]).sum(axis=1)
+        so that zero-area triangles and sharp edges give a defined normal.
+
+        Exact: the closest triangle is at most as far as the nearest cover point (d_c) and
+        has a cover point within its distance plus the cover's gap (< 2 h), so every
+        triangle owning a cover point within d_c + 2 h is a candidate. (The k nearest
+        cover points are not enough: next to a large triangle, the cover points of a
+        small far one can be nearer than any of the large one's.)"""
+        d_c, _ = self.tree.query(P)
+        near = self.tree.query_ball_point(P, d_c + 2.0 * self.h)
+        counts = np.fromiter((len(n) for n in near), np.int64, len(near))
+        rows = np.repeat(np.arange(P.shape[0]), counts)
+        points = np.fromiter(chain.from_iterable(near), np.int64, int(counts.sum()))
+        pairs = np.unique(np.stack([rows, self.owner[points]], 1), axis=0)
+        rows, cand = pairs[:, 0], pairs[:, 1]
+        tri = self.T[cand]
+        d = _point_triangle(P[rows], self.V[tri[:, 0]], self.V[tri[:, 1]], self.V[tri[:, 2]])
+        best = np.full(P.shape[0], np.inf)
+        np.minimum.at(best, rows, d)
+        tie = d <= best[rows] + 1e-9 * self.scale
+        N = np.stack(
+            [np.bincount(rows[tie], self.cross[cand[tie], k], P.shape[0]) for k in range(3)], 1
+        )
         return N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
 
 

@@ -162,3 +162,46 @@ def test_a_crumpled_scan_is_judged_at_the_scale_of_the_quads():
         assert np.all(np.einsum("qd,qd->q", half, ref) > 0)
     made = fvf.quad_mesh(mesh, target_faces=2499)  # and the whole pipeline gives a valid mesh
     assert made.validity.valid and folded_quads(mesh, *made).size == 0
+
+
+def _notched_cylinder():
+    """A CAD cylinder (96 segments, fanned caps, 2:0.065 side slivers) with a box notch cut
+    from its top: the notch's corner vertices carry large planar faces."""
+    mf = pytest.importorskip("manifold3d")
+    from wild_corpus import _from_manifold
+
+    solid = mf.Manifold.cylinder(2, 1, 1, 96, True) - mf.Manifold.cube(
+        [0.8, 3, 0.8], True
+    ).translate([0.5, 0, 0.6])
+    return fvf.TriMesh(*_from_manifold(solid))
+
+
+def test_a_flat_quad_on_a_cad_sliver_is_not_folded():
+    """A flat quad on the cylinder's side, under the notch: the triangle closest to its
+    centre is a side sliver whose corner at the notch has a vertex normal dominated by the
+    notch's large wall (facing −x, into the notch) — the sum of its vertices' normals faces
+    away from the sliver, yet the sliver is not folded over (its edge neighbours agree).
+    The quad is not folded; the same quad reversed is."""
+    mesh = _notched_cylinder()
+    P = np.array(
+        [
+            [0.963, -0.268, -0.915],
+            [0.965, -0.26, -0.761],
+            [0.869, -0.494, -0.748],
+            [0.865, -0.501, -0.904],
+        ]
+    )
+    P[:, :2] /= np.linalg.norm(P[:, :2], axis=1, keepdims=True)  # on the side exactly
+    assert folded_quads(mesh, P, [[0, 1, 2, 3]]).size == 0
+    assert folded_quads(mesh, P, [[3, 2, 1, 0]]).size == 1
+
+
+def test_a_notched_cylinder_gets_a_valid_quad_mesh():
+    """End to end, judged by ``quadcheck`` (independent of fvf's gate): the gate used to
+    reject every attempt on this part for quads like the one above."""
+    import quadcheck
+
+    mesh = _notched_cylinder()
+    V, Q = fvf.quad_mesh(mesh, target_faces=600)
+    verdict = quadcheck.check(mesh.vertices, mesh.faces, np.asarray(V), np.asarray(Q))
+    assert verdict.valid, verdict.summary()

@@ -23,19 +23,23 @@ diagonal). Its reference normal is the vector area of the input surface the quad
 over the input triangles whose centroids :math:`x_f` lie within half the quad's shorter
 diagonal of its centroid :math:`c_q = \tfrac14 \sum_k p_k` (the surface under the quad);
 when there is none, :math:`P_q` is the triangle holding the surface point closest to
-:math:`c_q`. The quad is **folded** when :math:`n_q \cdot N_q \le 0` — it faces away from
-the surface at its own scale — or when neither of its diagonal splits has both halves
-facing the surface (:math:`n_{012}` and :math:`n_{023}`, or :math:`n_{123}` and
-:math:`n_{130}`, each with a positive dot product with :math:`N_q` and with the normal of
-the input triangle closest to :math:`c_q` — or, where that triangle is folded over
-against the sum of its vertices' normals, that sum): a bow tie, or a quad bent over a ridge so far
-that it cannot be drawn as two triangles on the surface. (A single
-input triangle is not a reference: crumpled inputs such as the TOSCA lion have triangles
-folded over against their neighbours — 137 of its 10k face away from the mean normal of
-their two rings — and there a quad whose four half-triangles all agree with the surface
-around it, dot products 0.21–0.99, faces away from its nearest triangle. The normals of
-the triangles holding the corners vary at the scale of the input triangles: on armadillo
-at 7724 quads 37 quads have a corner whose triangle faces away from :math:`n_q`.)
+:math:`c_q`. (Measured on dense samples of the triangles; samples facing away from the
+surface's side at :math:`c_q` — the summed vertex normals of the closest triangle, or its
+own normal where the two disagree and it is not folded over — are left out: they are the
+far wall of a part thinner than a quad.) The quad is **folded** when :math:`n_q \cdot N_q
+\le 0` — it faces away from the surface at its own scale — or when neither of its diagonal
+splits has both halves facing the surface (:math:`n_{012}` and :math:`n_{023}`, or
+:math:`n_{123}` and :math:`n_{130}`, each with a positive dot product with :math:`N_q` and
+with the normal of the input triangle closest to :math:`c_q` — or, where that triangle is
+folded over against both the sum of its vertices' normals and the triangles across its
+edges, that sum): a bow tie, or a quad bent over a ridge so far that it cannot be drawn as
+two triangles on the surface. (A single input triangle is not a reference: crumpled inputs
+such as the TOSCA lion have triangles folded over against their neighbours — 137 of its
+10k face away from the mean normal of their two rings — and there a quad whose four
+half-triangles all agree with the surface around it, dot products 0.21–0.99, faces away
+from its nearest triangle. The normals of the triangles holding the corners vary at the
+scale of the input triangles: on armadillo at 7724 quads 37 quads have a corner whose
+triangle faces away from :math:`n_q`.)
 
 **Repair** (:func:`untangle_quads`). Only the corners of folded quads move (the region
 grows by one ring of quads when that is not enough): each step moves a free vertex a
@@ -55,6 +59,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 import numpy.typing as npt
@@ -204,28 +209,40 @@ def centre_normals(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarr
     vertex normals of the input triangle closest to the point (smoother than that
     triangle's own normal, which on a crumpled scan may face the other way)."""
     face, _ = closest_surface_points(mesh, points, tree)
+    return _vertex_sum_normals(mesh, face)
+
+
+def _vertex_sum_normals(mesh: TriMesh, face: np.ndarray) -> np.ndarray:
+    """Unit sums of the area-weighted vertex normals of the triangles ``face`` (k, 3)."""
     n = vertex_vector_areas(mesh)[mesh.faces[face]].sum(axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
 
 
 def reference_normals(
-    mesh: TriMesh, vertices: np.ndarray, quads: np.ndarray, tree: cKDTree
+    mesh: TriMesh,
+    vertices: np.ndarray,
+    quads: np.ndarray,
+    tree: cKDTree,
+    side: np.ndarray | None = None,
 ) -> np.ndarray:
     """N_q of the module docstring, float64 (q, 3): the vector area of the input surface
     under each quad, on the side of the surface at its centre (not normalized); ``tree``
-    holds ``mesh.face_centroids``."""
+    holds ``mesh.face_centroids``; ``side`` (q, 3), the side at the quads' centres when
+    already known (:func:`_surface_at`)."""
     P = vertices[quads]
     c = P.mean(axis=1)
     rho = 0.5 * np.minimum(
         np.linalg.norm(P[:, 2] - P[:, 0], axis=1), np.linalg.norm(P[:, 3] - P[:, 1], axis=1)
     )
-    side = centre_normals(mesh, c, tree)
+    if side is None:
+        side = _surface_at(mesh, c, tree)[0]
     samples, owner = surface_sample_tree(mesh)
     weight = mesh.face_areas / np.bincount(owner, minlength=mesh.n_faces)  # area per sample
     AN = weight[:, None] * mesh.face_normals
-    near = cKDTree(c).sparse_distance_matrix(samples, float(rho.max()), output_type="coo_matrix")
-    keep = near.data <= rho[near.row]
-    rows, cols = near.row[keep], owner[near.col[keep]]
+    near = samples.query_ball_point(c, rho)  # each quad's own radius: one large quad
+    counts = np.fromiter((len(n) for n in near), np.int64, len(near))  # costs its own
+    rows = np.repeat(np.arange(len(c)), counts)
+    cols = owner[np.fromiter(chain.from_iterable(near), np.int64, int(counts.sum()))]
     same = np.einsum("kd,kd->k", AN[cols], side[rows]) > 0  # not the far wall of a thin part
     rows, cols = rows[same], cols[same]
     out = np.stack(
@@ -236,22 +253,43 @@ def reference_normals(
     return out
 
 
-def _centre_reference(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> np.ndarray:
-    """The normal of the input triangle closest to each point, or, where that triangle is
-    folded over against its vertices' normals (a crumpled scan), their sum (k, 3)."""
+def _folded_over(mesh: TriMesh, face: np.ndarray, smooth: np.ndarray) -> np.ndarray:
+    """bool (k,): input triangles ``face`` folded over against the surface around them —
+    their normal against both ``smooth`` (their vertices' summed normals, (k, 3)) and the
+    area-weighted normals of the triangles across their edges. (On a CAD part the vertex
+    sums are not a reference: a vertex where a sliver of a cylinder meets a large planar
+    face is dominated by that face, while the sliver's edge neighbours agree with it.)"""
+    raw = mesh.face_normals[face]
+    adj = mesh.face_adjacency[face]  # (k, 3), -1 on the boundary
+    AN = mesh.face_areas[:, None] * mesh.face_normals
+    around = np.where((adj >= 0)[..., None], AN[np.maximum(adj, 0)], 0.0).sum(axis=1)
+    return (np.einsum("kd,kd->k", raw, smooth) <= 0) & (np.einsum("kd,kd->k", raw, around) <= 0)
+
+
+def _surface_at(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
+    """Two normals of the surface at each point, from the closest input triangle, unit
+    (k, 3) each:
+
+    - the side: its vertices' summed normals (:func:`centre_normals`), or its own normal
+      where the two disagree and it is not folded over (:func:`_folded_over`);
+    - the reference: its own normal, or its vertices' summed normals where it is folded
+      over (a crumpled scan).
+    """
     face, _ = closest_surface_points(mesh, points, tree)
     raw = mesh.face_normals[face]
-    smooth = centre_normals(mesh, points, tree)
-    crumpled = np.einsum("kd,kd->k", raw, smooth) <= 0
-    return np.where(crumpled[:, None], smooth, raw)
+    smooth = _vertex_sum_normals(mesh, face)
+    folded = _folded_over(mesh, face, smooth)
+    disagree = np.einsum("kd,kd->k", raw, smooth) <= 0
+    side = np.where((disagree & ~folded)[:, None], raw, smooth)
+    return side, np.where(folded[:, None], smooth, raw)
 
 
 def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
     """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
     the surface at the centre (module docstring)."""
-    N = reference_normals(mesh, V, Q, tree)
     P = V[Q]
-    Nc = _centre_reference(mesh, P.mean(axis=1), tree)
+    side, Nc = _surface_at(mesh, P.mean(axis=1), tree)
+    N = reference_normals(mesh, V, Q, tree, side)
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
         n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])
