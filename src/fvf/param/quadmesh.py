@@ -23,11 +23,13 @@ from ..errors import (
     QuadMeshError,
     SmallComponentWarning,
     UndeclaredCacheKeyError,
+    VerticesWeldedWarning,
     format_indices,
     user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
 from ..mesh.nfield import require_order
+from ..mesh.open_seams import weld_open_seams
 from ..mesh.trimesh import TriMesh
 from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
@@ -377,6 +379,8 @@ def quad_mesh(
         were left out (named in the message and in ``dropped_components``).
     """
     steps = _check_options(fold_repair_steps, remesh)
+    if features is None:  # (user features name the input's vertices: no weld then)
+        mesh = _welded(mesh)
     remesh = "never" if remesh is False or features is not None else remesh
     user_edges = None if features is None else feature_edge_ids(mesh, features)
     h = edge_length_for(mesh, target_faces, edge_length)
@@ -411,6 +415,22 @@ def quad_mesh(
         legacy = (result.vertices, result.quads, result.parameterizations[0])
         return cast(QuadMeshResult, legacy)  # the deprecated three values, as before
     return result
+
+
+def _welded(mesh: TriMesh) -> TriMesh:
+    """``mesh`` with its open seams joined (:func:`fvf.mesh.open_seams.weld_open_seams`),
+    said with a :class:`~fvf.errors.VerticesWeldedWarning` when anything was joined."""
+    welded, merged = weld_open_seams(mesh)
+    if merged:
+        warnings.warn(
+            VerticesWeldedWarning(
+                f"quad_mesh: joined {merged} boundary vertices lying at exactly the position "
+                "of another (a triangle soup, or a mesh split at its seams): the quads are "
+                "made from the joined surface, result.mesh (the faces keep their order)"
+            ),
+            stacklevel=user_stacklevel(),
+        )
+    return welded
 
 
 def _mesh_parts(
