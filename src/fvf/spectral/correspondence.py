@@ -360,7 +360,9 @@ def _correspond(
             sign=sign,
         )
     else:
-        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx)
+        C, p2p = zoomout(
+            C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx, progress=report
+        )
     timings["zoomout"] = time.perf_counter() - t
     report("match", stages, stages)
     q2 = p1 if p2 is None else p2
@@ -674,7 +676,9 @@ def symmetry_map(
     ----------
     mesh : TriMesh, (vertices, faces), path or mesh object (:data:`fvf.MeshLike`)
     k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples, progress
-        As for :func:`match` (progress reports the steps as ``"match"``).
+        As for :func:`match` (progress reports the steps as ``"match"``, and the final
+        search of each vertex's image, the longest step on a large mesh, as
+        ``progress("nearest", done, n)``).
 
     Returns
     -------
