@@ -113,7 +113,8 @@ def _nearest_brute(
     gamma = dim * u / (1.0 - dim * u)
     sq = np.einsum("ij,ij->i", points, points)
     p_max = float(np.sqrt(sq.max()))
-    P32, sq32 = -2.0 * points.astype(np.float32), sq.astype(np.float32)  # −2 p: exact
+    P32, sq32 = points.astype(np.float32), sq.astype(np.float32)
+    P32 *= -2.0  # exact: the products below are −2 q·p as rounded before
     q = queries.shape[0]
     block = max(1, min(int(block), TILE_BYTES // (4 * TILE_MIN_POINTS)))
     cols = max(TILE_MIN_POINTS, TILE_BYTES // (4 * block))
