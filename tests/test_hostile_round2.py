@@ -8,6 +8,7 @@ status of ``fvf``) quickly, leaving every file it did not mean to write as it wa
 from __future__ import annotations
 
 import csv
+import importlib
 import os
 import signal
 import subprocess
@@ -590,6 +591,64 @@ def test_symmetry_operators_memory_scales_with_k_not_descriptors(monkeypatch, rn
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(a).max())
 
 
+def test_nearest_rows_memory_bounded_by_its_tile(monkeypatch, rng):
+    """The exhaustive nearest-row search of ZoomOut's last step once held 1024 queries by
+    all n points at a time (4 GB of distances on 1M vertices whatever --k); now tiles of
+    TILE_BYTES, the same answers as a float64 search."""
+    import tracemalloc
+
+    zoomout = importlib.import_module("fvf.spectral.zoomout")  # the module, not fvf.zoomout
+
+    monkeypatch.setattr(zoomout, "TILE_BYTES", 2**20)
+    points = rng.normal(size=(100_000, 20))
+    queries = points[rng.choice(points.shape[0], 300)] + 1e-3 * rng.normal(size=(300, 20))
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        got = zoomout.nearest_rows(points, queries, method="brute")
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    # the float32 copy and squared norms of the points, and a few tiles with temporaries
+    assert peak < 0.5 * points.nbytes + 8 * points.shape[0] + 6 * 2**20, peak
+    sq = np.einsum("ij,ij->i", points, points)
+    assert np.array_equal(got, (sq[None, :] - 2.0 * queries @ points.T).argmin(axis=1))
+
+
+def test_symmetry_map_memory_refused_beyond_the_machine(monkeypatch):
+    """A mesh whose estimated peak exceeds the available memory is refused before any
+    work, naming the size and what to try."""
+    from fvf.numerics import budget
+
+    monkeypatch.setattr(budget, "available_memory", lambda: 2**28)  # 256 MiB
+    with pytest.raises(errors.ProblemSizeError, match=r"2562 vertices with k = 30.*coarser"):
+        fvf.symmetry_map(fvf.icosphere(4), k=30)
+
+
+@pytest.mark.slow
+@pytest.mark.perf
+def test_symmetry_map_memory_within_its_estimate():
+    """fvf.symmetry_map's traced peak on 10k vertices stays under the estimate checked
+    before the work (peak_bytes: a fixed part + n (per vertex + k per vertex-eigenpair),
+    nothing in n^2), and the final all-vertex search reports its progress."""
+    import tracemalloc
+
+    from fvf.spectral.correspondence import PEAK_BYTES_FIXED, peak_bytes
+
+    mesh = fvf.jittered_sphere(5, 0.2, seed=0)
+    n, k = mesh.n_vertices, 20
+    seen = []
+    tracemalloc.start()
+    try:
+        fvf.symmetry_map(mesh, k=k, progress=lambda *a: seen.append(a))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < peak_bytes(n, k), (peak, peak_bytes(n, k))
+    assert peak - PEAK_BYTES_FIXED / 2 < n * 12 * 2**10  # per vertex: a few KiB, not n
+    assert ("nearest", n, n) in seen
+
+
 def test_quad_cross_field_stage_reports_its_parts():
     """On 2M faces the cross field took 2 minutes with one line; its parts are reported."""
     seen = []
@@ -1034,3 +1093,34 @@ def test_laplace_basis_counts_a_tiny_components_zero_eigenvalue():
     basis = fvf.laplace_basis(fvf.TriMesh(V, F), 5)
     lam = np.asarray(basis.eigenvalues if hasattr(basis, "eigenvalues") else basis[0])
     assert np.abs(lam[:2]).max() < 1e-8 and lam[2] > 1.0
+
+
+_TEARDOWN_PRESS = """
+import os, subprocess, sys, time
+from fvf.cli.main import _exit_on_next_interrupt
+
+class SlowTeardown:  # a module global: deleted while the interpreter tears modules down
+    def __del__(self):
+        sys.stderr.write("teardown\\n")
+        time.sleep(3.0)
+
+keep = SlowTeardown()
+_exit_on_next_interrupt()  # as after an interrupted command
+subprocess.Popen(["sh", "-c", f"sleep 1; kill -INT {os.getpid()}"])
+sys.exit(130)
+"""
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
+def test_a_press_while_the_interpreter_tears_down_is_exit_130(tmp_path):
+    """After its exit hooks the interpreter resets every Python-level SIGINT handler
+    (fvf's quiet-exit one included) to the system default, then tears its modules down
+    (long with Dask loaded): a Ctrl-C then killed ``fvf batch`` by SIGINT. fvf's last
+    exit hook leaves SIGINT ignored instead, so the status stays 130."""
+    script = tmp_path / "teardown.py"
+    script.write_text(_TEARDOWN_PRESS)
+    done = subprocess.run(
+        [sys.executable, str(script)], env=_env(), capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 130, (done.returncode, done.stderr)
+    assert "teardown" in done.stderr and "Traceback" not in done.stderr

@@ -761,19 +761,45 @@ def test_sigint_then_rerun_resumes(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    reason="measured 3 of 6 runs: a Ctrl-C that arrives after the first one's cleanup "
-    "printed 'interrupted' and before fvf's quiet-exit handler is installed escapes as a "
-    "KeyboardInterrupt (the process dies by SIGINT)",
-    strict=False,
-)
 def test_three_sigints_end_quietly(tmp_path):
     """Ctrl-C pressed three times: exit 130 with one line, no traceback from the shutdown
-    (the Dask cluster's atexit hooks), whole files only."""
+    (the Dask cluster's atexit hooks), whole files only and the summary written (the
+    presses after the first do not cut the cleanup short, nor meet the default handler
+    the interpreter restores before tearing its modules down)."""
     _, out, _, rc, err = _interrupted_batch(tmp_path, results=1, presses=3)
     assert rc == 130, err
     assert "Traceback" not in err and "interrupted" in err, err
     assert no_temporaries(out)
+    assert (out / "summary.csv").exists()
+
+
+def test_sigint_while_the_cluster_starts_is_an_interrupt(tmp_path, monkeypatch):
+    """Ctrl-C while the local cluster starts: exit 130, not "could not start a local Dask
+    cluster" (exit 2) when its workers die of the same Ctrl-C (a terminal sends it to the
+    whole process group); a cluster that did start is closed, not left to the exit hooks."""
+    _corpus_files(tmp_path / "in", 2)
+    closed = []
+
+    class Started:
+        def close(self):
+            closed.append(True)
+
+    def dying(**kwargs):  # the press reaches fvf, then its workers die of it
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)
+        raise RuntimeError("Nanny failed to start.")
+
+    def starting(**kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)
+        return Started()
+
+    argv = ["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--workers", "1"]
+    for fake in (dying, starting):
+        monkeypatch.setattr(distributed, "LocalCluster", fake)
+        assert main([*argv, "--tasks", "info"]) == 130
+    assert closed == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 @pytest.mark.slow

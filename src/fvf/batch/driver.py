@@ -31,6 +31,7 @@ from ..errors import (
     thread_limit_text,
 )
 from ..io.atomic import writable_folder
+from . import interrupts
 from .inputs import MeshInput, PairInput, plan_inputs
 from .progress import Progress
 from .registry import Task, registered_tasks, resolve_tasks
@@ -342,8 +343,11 @@ def _connected(
                     dashboard_address="127.0.0.1:0",  # a free port: never another's 8787
                     silence_logs=logging.CRITICAL,  # worker teardown noise; failures are rows
                 ),
+                stop=lambda cluster: cluster.close(),
             )
         except (RuntimeError, OSError, TimeoutError, MemoryError) as exc:
+            if interrupts.pressed():  # workers that died of the same Ctrl-C (a terminal's)
+                raise KeyboardInterrupt from exc
             raise BatchInputError(
                 f"could not start a local Dask cluster of {n} worker process"
                 f"{'es' if n != 1 else ''} ({type(exc).__name__}: {exc}); under a memory "
@@ -356,29 +360,41 @@ def _connected(
             cluster.close()
 
 
-def _started_within(seconds: float, start: Callable[[], Any]) -> Any:
+def _started_within(
+    seconds: float, start: Callable[[], Any], stop: Callable[[Any], Any] | None = None
+) -> Any:
     """``start()`` run in a daemon thread; TimeoutError when it has not returned within
     ``seconds`` (a local cluster whose workers keep dying under a memory limit never
-    does), its exception re-raised here otherwise."""
+    does), its exception re-raised here otherwise. Interrupted while waiting, it waits on
+    (up to ``seconds``) and ``stop``s what was started before re-raising the interrupt,
+    so that no cluster is left starting behind the interpreter's exit."""
     import threading
 
     done: list = []
+    began, finished = threading.Event(), threading.Event()
 
     def run() -> None:
+        began.set()
         try:
             done.append((True, start()))
         except BaseException as exc:  # noqa: BLE001 -- handed to the caller
             done.append((False, exc))
+        finished.set()
 
-    thread = threading.Thread(target=run, name="fvf-start-cluster", daemon=True)
-    thread.start()
-    thread.join(seconds)
-    if not done:
-        raise TimeoutError(f"its workers did not start within {seconds:g} s")
-    ok, value = done[0]
-    if not ok:
-        raise value
-    return value
+    try:  # the interrupt may come while the thread starts, during the wait or just after
+        threading.Thread(target=run, name="fvf-start-cluster", daemon=True).start()
+        if not finished.wait(seconds):
+            raise TimeoutError(f"its workers did not start within {seconds:g} s")
+        ok, value = done[0]
+        if not ok:
+            raise value
+        return value
+    except KeyboardInterrupt:
+        if began.wait(1.0):  # (not when interrupted before the thread was created)
+            finished.wait(seconds)  # further presses are ignored meanwhile (held)
+        if done and done[0][0] and stop is not None:
+            stop(done[0][1])
+        raise
 
 
 def _result_folders(jobs: Sequence[MeshJob | PairJob]) -> None:
@@ -741,7 +757,7 @@ def run(
             write_summary(summary_path, [current[i] for i in sorted(current)])
             last_save[0] = time.perf_counter()
 
-    with output_lock(out):
+    with interrupts.held(), output_lock(out):  # one Ctrl-C stops, no second cuts cleanup
         remove_temporaries(out)
         _result_folders(jobs)
         try:

@@ -30,6 +30,7 @@ through a link) unless given ``--force``.
 from __future__ import annotations
 
 import argparse
+import atexit
 import errno
 import os
 import shlex
@@ -202,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     command = argv is None  # the process is the command (not a call from Python)
     argv = list(sys.argv[1:] if argv is None else argv)
     with _ClosedPipeQuiet():
-        status = _run(argv)
+        status = _run(argv, command)
     if command and status == EXIT_INTERRUPTED:
         _exit_on_next_interrupt()
     return status
@@ -211,7 +212,8 @@ def main(argv: list[str] | None = None) -> int:
 def _exit_on_next_interrupt() -> None:
     """After an interrupted command has cleaned up, a further Ctrl-C ends the process at
     once with :data:`EXIT_INTERRUPTED`: the interpreter's shutdown (a Dask cluster closing
-    in its ``atexit`` hooks) would otherwise print a traceback for each one."""
+    in its ``atexit`` hooks) would otherwise print a traceback for each one. After the
+    exit hooks, SIGINT is ignored (:func:`_ignore_interrupts_at_exit`)."""
     if threading.current_thread() is not threading.main_thread():
         return
 
@@ -219,10 +221,26 @@ def _exit_on_next_interrupt() -> None:
         os._exit(EXIT_INTERRUPTED)
 
     signal.signal(signal.SIGINT, exit_now)
+    _QUIET_EXIT.append(True)
 
 
-def _run(argv: list[str]) -> int:
-    """:func:`main` with ``sys.stdout`` guarded against a reader that left."""
+_QUIET_EXIT: list[bool] = []
+
+
+@atexit.register  # at import, before the libraries a command loads: so it runs after theirs
+def _ignore_interrupts_at_exit() -> None:
+    """The last exit hook of an interrupted command: SIGINT ignored from here on. The
+    interpreter then resets every Python-level handler (``exit_now`` included) to the
+    system default before tearing its modules down, which takes a while with Dask
+    loaded; a Ctrl-C then would kill the process by SIGINT instead of exit status 130.
+    An ignored signal stays ignored."""
+    if _QUIET_EXIT and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run(argv: list[str], command: bool = False) -> int:
+    """:func:`main` with ``sys.stdout`` guarded against a reader that left; ``command``:
+    the process ends with the command (``args.own_process``)."""
     import numpy as np
 
     try:
@@ -231,6 +249,7 @@ def _run(argv: list[str]) -> int:
         return int(exc.code or 0)
     args.command_line = shlex.join(["fvf", *argv])
     args.force = getattr(args, "force", False)
+    args.own_process = command
     _SHOWN.clear()
     _GREW.clear()
     from fvf.errors import OutputWriteError

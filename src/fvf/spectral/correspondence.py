@@ -44,6 +44,7 @@ from ..errors import (
 from ..mesh.convert import MeshLike, input_arrays
 from ..mesh.prepared import PreparedMesh, prepare_mesh
 from ..mesh.trimesh import TriMesh
+from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
@@ -67,6 +68,24 @@ DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0
 
 #: Eigenpairs at which :func:`match` scores its candidate maps (:mod:`.candidates`).
 K_SCORE = 30
+
+#: Peak memory of the pipeline, an upper bound of what was measured (resident set on
+#: 43k–173k vertices, tracemalloc on 10k–41k, k = 20–60): a fixed part (the blocks of
+#: :data:`fvf.spectral.fmap_fit.BLOCK_BYTES` and the tiles of
+#: :data:`fvf.spectral.zoomout.TILE_BYTES`), a part per vertex (mesh, operators, the
+#: eigensolver's factorization, descriptors, a column of the orientation operators) and
+#: a part per vertex and eigenpair (the bases, the embeddings searched). Nothing grows
+#: faster than n k; checked against the available memory before any work.
+PEAK_BYTES_FIXED = 256 * 2**20
+PEAK_BYTES_PER_VERTEX = 6 * 2**10
+PEAK_BYTES_PER_VERTEX_EIGENPAIR = 64
+
+
+def peak_bytes(n: int, k: int) -> int:
+    """Estimated peak memory (bytes) of :func:`match` or :func:`symmetry_map` with k
+    eigenpairs on meshes of n vertices in all: :data:`PEAK_BYTES_FIXED` +
+    n (:data:`PEAK_BYTES_PER_VERTEX` + k :data:`PEAK_BYTES_PER_VERTEX_EIGENPAIR`)."""
+    return PEAK_BYTES_FIXED + n * (PEAK_BYTES_PER_VERTEX + k * PEAK_BYTES_PER_VERTEX_EIGENPAIR)
 
 
 @dataclass(frozen=True, eq=False)
@@ -313,6 +332,13 @@ def _correspond(
 ) -> MatchResult:
     """The pipeline of the module docstring; p2 None means a self-map of p1."""
     report = make_progress(progress)
+    n = p1.mesh.n_vertices + (0 if p2 is None else p2.mesh.n_vertices)
+    check_memory(
+        f"a correspondence on {n} vertices with k = {k}",
+        peak_bytes(n, k),
+        "a coarser mesh (decimate it; the map of a few tens of thousands of vertices "
+        "carries to a finer mesh by nearest vertex) or a smaller k",
+    )
     stages = 5 if check_symmetry and p2 is not None else 4
     timings = {}
     t = time.perf_counter()
@@ -360,7 +386,9 @@ def _correspond(
             sign=sign,
         )
     else:
-        C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx)
+        C, p2p = zoomout(
+            C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx, progress=report
+        )
     timings["zoomout"] = time.perf_counter() - t
     report("match", stages, stages)
     q2 = p1 if p2 is None else p2
@@ -519,6 +547,9 @@ def match(
         Landmarks not of shape (q, 2), out of range or repeated.
     ParameterError
         k_fit outside [3, k], an unknown weight or option.
+    ProblemSizeError
+        Meshes whose estimated peak memory (:func:`peak_bytes`) exceeds the available
+        memory; raised before any work.
 
     Examples
     --------
@@ -623,6 +654,9 @@ def match_result(
         Landmarks not of shape (q, 2), out of range or repeated.
     ParameterError
         k_fit outside [3, k], an unknown weight or option.
+    ProblemSizeError
+        Meshes whose estimated peak memory (:func:`peak_bytes`) exceeds the available
+        memory; raised before any work.
 
     Examples
     --------
@@ -674,7 +708,9 @@ def symmetry_map(
     ----------
     mesh : TriMesh, (vertices, faces), path or mesh object (:data:`fvf.MeshLike`)
     k, k_fit, n_descriptors, weights, zoomout_step, zoomout_samples, progress
-        As for :func:`match` (progress reports the steps as ``"match"``).
+        As for :func:`match` (progress reports the steps as ``"match"``, and the final
+        search of each vertex's image, the longest step on a large mesh, as
+        ``progress("nearest", done, n)``).
 
     Returns
     -------

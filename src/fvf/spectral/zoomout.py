@@ -18,6 +18,7 @@ from scipy.linalg import solve_triangular
 from scipy.spatial import cKDTree
 
 from ..errors import BasisSizeError, ParameterError
+from ..numerics.progress import ProgressCallback
 from .basis import SpectralBasis
 from .fmaps import functional_map_from_bases, split_sizes
 
@@ -35,9 +36,22 @@ __all__ = [
 #: a large overhead in high dimension).
 KDTREE_MAX_DIM = 12
 
+#: Bytes of float32 distances the exhaustive search of :func:`nearest_rows` holds at a
+#: time (one tile of queries by points); its working memory is a small multiple of this,
+#: independent of the number of points and queries.
+TILE_BYTES = 32 * 2**20
+
+#: Fewest points in one tile (the queries per tile shrink to fit :data:`TILE_BYTES`).
+TILE_MIN_POINTS = 256
+
 
 def nearest_rows(
-    points: np.ndarray, queries: np.ndarray, *, method: str = "auto", block: int = 1024
+    points: np.ndarray,
+    queries: np.ndarray,
+    *,
+    method: str = "auto",
+    block: int = 1024,
+    progress: ProgressCallback | None = None,
 ) -> np.ndarray:
     """For each row of ``queries`` (q, d), the index of the nearest row of ``points`` (n, d).
 
@@ -49,7 +63,13 @@ def nearest_rows(
         ``"kdtree"``: :class:`scipy.spatial.cKDTree`; ``"brute"``: ‖p‖² − 2 q·p by matrix
         products over blocks of ``block`` queries, then the arg-min; ``"auto"``: the k-d
         tree for d <= :data:`KDTREE_MAX_DIM`, else brute. Both are exact Euclidean nearest
-        neighbours (ties may break differently).
+        neighbours (ties may break differently). The brute search holds O(:data:`TILE_BYTES`)
+        of distances at a time, whatever n and q.
+    block : int
+        Queries per tile of the brute search (at most :data:`TILE_BYTES` /
+        (4 :data:`TILE_MIN_POINTS`)).
+    progress : callable, optional
+        Called as ``progress("nearest", done, q)`` after each block of the brute search.
 
     Returns
     -------
@@ -64,10 +84,15 @@ def nearest_rows(
         return np.asarray(idx, dtype=np.int64)
     if method != "brute":
         raise ParameterError(f"method must be 'auto', 'kdtree' or 'brute'; got {method!r}")
-    return _nearest_brute(points, queries, block)
+    return _nearest_brute(points, queries, block, progress)
 
 
-def _nearest_brute(points: np.ndarray, queries: np.ndarray, block: int) -> np.ndarray:
+def _nearest_brute(
+    points: np.ndarray,
+    queries: np.ndarray,
+    block: int,
+    progress: ProgressCallback | None = None,
+) -> np.ndarray:
     """Exact nearest rows by matrix products: single precision to screen, double to decide.
 
     The squared distance ‖p‖² − 2 q·p is computed in float32 (twice the speed of
@@ -76,6 +101,12 @@ def _nearest_brute(points: np.ndarray, queries: np.ndarray, block: int) -> np.nd
     and of the sum), so the true nearest row lies within 2e of the float32 minimum. The
     rows within 4e of it are compared again in float64, and the smallest (the first of
     exact ties) wins: the same answer as a float64 search.
+
+    The distances are formed in tiles of ``block`` queries by at most
+    :data:`TILE_BYTES` / (4 ``block``) points, keeping the running float32 minimum of each
+    query and the rows within 4e of it: the working memory is O(:data:`TILE_BYTES`)
+    besides the float32 copy of ``points``, whatever n and q. ``progress`` is called as
+    ``progress("nearest", done, q)`` after each block of queries.
     """
     u = 2.0**-24
     dim = points.shape[1]
@@ -83,22 +114,46 @@ def _nearest_brute(points: np.ndarray, queries: np.ndarray, block: int) -> np.nd
     sq = np.einsum("ij,ij->i", points, points)
     p_max = float(np.sqrt(sq.max()))
     P32, sq32 = points.astype(np.float32), sq.astype(np.float32)
-    out = np.empty(queries.shape[0], dtype=np.int64)
-    for s in range(0, queries.shape[0], block):
+    P32 *= -2.0  # exact: the products below are −2 q·p as rounded before
+    q = queries.shape[0]
+    block = max(1, min(int(block), TILE_BYTES // (4 * TILE_MIN_POINTS)))
+    cols = max(TILE_MIN_POINTS, TILE_BYTES // (4 * block))
+    out = np.empty(q, dtype=np.int64)
+    for s in range(0, q, block):
         Qb = queries[s : s + block]
-        d = Qb.astype(np.float32) @ P32.T  # (b, n)
-        d *= -2.0
-        d += sq32[None, :]
         q_norm = np.sqrt(np.einsum("ij,ij->i", Qb, Qb))
-        err = (2 * gamma + 6 * u) * q_norm * p_max + 3 * u * p_max**2
-        near = d <= (d.min(axis=1) + 4.0 * err).astype(np.float32)[:, None]
-        r, c = np.nonzero(near)
+        slack = 4.0 * ((2 * gamma + 6 * u) * q_norm * p_max + 3 * u * p_max**2)
+        r, c = _screen(Qb.astype(np.float32), P32, sq32, slack, cols)
         exact = sq[c] - 2.0 * np.einsum("ij,ij->i", Qb[r], points[c])
         order = np.lexsort((c, exact, r))  # by row, then distance, then index
         first = np.ones(order.size, dtype=bool)
         first[1:] = r[order][1:] != r[order][:-1]
         out[s + r[order][first]] = c[order][first]
+        if progress is not None:
+            progress("nearest", min(s + block, q), q)
     return out
+
+
+def _screen(
+    Q32: np.ndarray, P32: np.ndarray, sq32: np.ndarray, slack: np.ndarray, cols: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(query row, point) pairs whose float32 squared distance ‖p‖² − 2 q·p lies within
+    ``slack`` (float64 (b,)) of the query's float32 minimum over all points, by tiles of
+    ``cols`` points (``P32`` holds −2 p): int64 (c,), int64 (c,)."""
+    best = np.full(Q32.shape[0], np.inf, dtype=np.float32)
+    rows, found, values = [], [], []
+    for t in range(0, P32.shape[0], cols):
+        d = Q32 @ P32[t : t + cols].T  # (b, cols)
+        d += sq32[None, t : t + cols]
+        np.minimum(best, d.min(axis=1), out=best)
+        near = np.flatnonzero(d <= (best + slack).astype(np.float32)[:, None])
+        r, c = np.divmod(near, d.shape[1])  # 16x faster than a 2-d nonzero
+        rows.append(r)
+        found.append(c + t)
+        values.append(d.ravel()[near])
+    r, c, v = np.concatenate(rows), np.concatenate(found), np.concatenate(values)
+    keep = v <= (best + slack).astype(np.float32)[r]  # against the minimum over all points
+    return r[keep].astype(np.int64), c[keep].astype(np.int64)
 
 
 def _check_sizes(C_12: npt.ArrayLike, basis_1: SpectralBasis, basis_2: SpectralBasis) -> np.ndarray:
@@ -123,6 +178,7 @@ def p2p_from_functional_map(
     basis_2: SpectralBasis,
     *,
     adjoint: bool = False,
+    progress: ProgressCallback | None = None,
 ) -> np.ndarray:
     """The vertex map p2p_21 (mesh 2 -> mesh 1) of a functional map C_12.
 
@@ -136,6 +192,9 @@ def p2p_from_functional_map(
         False: match Φ_2(y) to the carried deltas Φ_1(x) C_12ᵀ (Ovsjanikov et al. 2012).
         True: match Φ_2(y) C_12 to Φ_1(x), the pull-back of deltas on mesh 2 by the
         adjoint (exact for an orthonormal C, more robust when C is far from it).
+    progress : callable, optional
+        Called as ``progress("nearest", done, n_2)`` during the search
+        (:func:`nearest_rows`).
 
     Returns
     -------
@@ -152,8 +211,8 @@ def p2p_from_functional_map(
     k2, k1 = C.shape
     phi1, phi2 = basis_1.eigenvectors[:, :k1], basis_2.eigenvectors[:, :k2]
     if adjoint:
-        return nearest_rows(phi1, phi2 @ C)
-    return nearest_rows(phi1 @ C.T, phi2)
+        return nearest_rows(phi1, phi2 @ C, progress=progress)
+    return nearest_rows(phi1 @ C.T, phi2, progress=progress)
 
 
 def functional_map_from_p2p(
@@ -239,6 +298,7 @@ def zoomout(
     step: int = 1,
     samples: int | tuple[np.ndarray, np.ndarray] | None = None,
     adjoint: bool = False,
+    progress: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Refine a functional map by ZoomOut (Melzi et al. 2019).
 
@@ -264,6 +324,9 @@ def zoomout(
         (:func:`functional_map_from_p2p`).
     adjoint : bool
         Conversion variant, see :func:`p2p_from_functional_map`.
+    progress : callable, optional
+        Called as ``progress("nearest", done, n_2)`` during the final conversion on all
+        vertices (the longest step on a large mesh: O(n_1 n_2 k_final) operations).
 
     Returns
     -------
@@ -293,7 +356,7 @@ def zoomout(
             C = functional_map_from_p2p(p2p, basis_1, basis_2, (k1, k2))
     else:
         C = _zoomout_on_samples(C, basis_1, basis_2, sizes, samples, adjoint)
-    return C, p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint)
+    return C, p2p_from_functional_map(C, basis_1, basis_2, adjoint=adjoint, progress=progress)
 
 
 def _zoomout_on_samples(

@@ -63,22 +63,26 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the batch; print the counts and the first failures."""
     import fvf.batch
+    from fvf.batch import interrupts
 
-    rows = fvf.batch.run(
-        args.inputs,
-        args.output,
-        args.tasks,
-        k=args.k,
-        n=args.n,
-        pairs=args.pairs,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        memory_limit=args.memory_limit,
-        retries=args.retries,
-        progress=not args.quiet,
-        as_frame=False,
-        command=args.command_line,
-    )
+    # In the command's own process a Ctrl-C after the first stays ignored until the
+    # quiet-exit handler of fvf.cli.main takes over: no moment with the default handler.
+    with interrupts.held(for_good=getattr(args, "own_process", False)):
+        rows = fvf.batch.run(
+            args.inputs,
+            args.output,
+            args.tasks,
+            k=args.k,
+            n=args.n,
+            pairs=args.pairs,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            memory_limit=args.memory_limit,
+            retries=args.retries,
+            progress=not args.quiet,
+            as_frame=False,
+            command=args.command_line,
+        )
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "skipped", "failed")}
     print(
         f"{len(rows)} jobs: {counts['ok']} ok, {counts['skipped']} skipped, "

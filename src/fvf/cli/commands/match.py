@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..common import (
     EXIT_OK,
+    PROGRESS,
     add_output,
     add_picture_options,
     check_outputs,
@@ -67,6 +68,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh_2", help="second mesh: the map has one entry per vertex of it")
     p.add_argument("--k", type=int, default=200, help="final functional map size (200)")
     p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
+    p.add_argument("--progress", action="store_true", help=PROGRESS)
     p.add_argument("--landmarks", help='text file, one "i1 i2" pair of vertex indices per line')
     p.add_argument("--truth", help="ground-truth p2p_21 (one integer per line): report errors")
     p.add_argument("--truth-missing", type=int, help="value marking vertices without truth")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..common import (
     EXIT_OK,
+    PROGRESS,
     add_output,
     add_picture_options,
     check_outputs,
@@ -24,6 +25,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh", help="OBJ, OFF or PLY file")
     p.add_argument("--k", type=int, default=100, help="functional map size (100)")
     p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
+    p.add_argument("--progress", action="store_true", help=PROGRESS)
     add_output(p, "output .npz")
     p.add_argument(
         "--png",
