@@ -8,6 +8,7 @@ peer, and the shared meshes in ``../shared/meshes`` or ``$FVF_SHARED_MESHES``)::
     .venv/bin/python benchmarks/bench_quads.py --scaling       # fvf alone, 86k..750k faces
     .venv/bin/python benchmarks/bench_quads.py --wild          # the wild corpus, 2,000 quads
     .venv/bin/python benchmarks/bench_quads.py --wild --quads 500 --only scan_body cad_box_hole
+    .venv/bin/python benchmarks/bench_quads.py --wild --methods fvf instant   # no QuadriFlow
 
 Per mesh, fvf runs first with a target of ``ratio × input faces`` quads; Instant Meshes
 (``pynanoinstantmeshes.remesh``, pure quads: it subdivides its quad-dominant mesh 1-to-4,
@@ -352,7 +353,7 @@ def _wild_summary(names: list[str], res: dict, methods: list[str]) -> None:
         print(f"  {'PASS' if ok else 'MISS'}  {text}")
 
 
-def wild(target: int, only: list[str] | None, tmp: Path, timeout: float) -> None:
+def wild(target: int, only: list[str] | None, tmp: Path, timeout: float, which: list[str]) -> None:
     import platform
 
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
@@ -360,6 +361,8 @@ def wild(target: int, only: list[str] | None, tmp: Path, timeout: float) -> None
 
     methods = ["fvf"]
     for meth, mod in (("instant", "pynanoinstantmeshes"), ("quadriflow", "pyQuadriFlow")):
+        if meth not in which:
+            continue
         try:
             __import__(mod)
             methods.append(meth)
@@ -401,12 +404,19 @@ def main() -> None:
     ap.add_argument("--quads", type=int, default=2000, help="--wild: quads asked")
     ap.add_argument("--only", nargs="+", help="--wild: these corpus meshes only")
     ap.add_argument("--timeout", type=float, default=600.0, help="--wild: seconds per run")
+    ap.add_argument(
+        "--methods",
+        nargs="+",
+        default=list(WILD_METHODS),
+        choices=WILD_METHODS,
+        help="--wild: the remeshers compared (fvf always runs)",
+    )
     args = ap.parse_args()
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
         if args.wild:
-            wild(args.quads, args.only, Path(d), args.timeout)
+            wild(args.quads, args.only, Path(d), args.timeout, args.methods)
         elif args.scaling:
             scaling(args.ratio, Path(d))
         else:
