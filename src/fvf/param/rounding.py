@@ -217,8 +217,7 @@ def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarra
     values v_B moves the mean by Σ_{:B} Σ_{BB}⁻¹ (v_B − μ_B) and updates
     Σ ← Σ − Σ_{:B} Σ_{BB}⁻¹ Σ_{B:}. Only the rows and columns of the unknowns still
     free are kept and updated, so that a batch costs O(k_left² |B|) and the whole
-    rounding about k³/3 after the inverse (k³ by Cholesky; instead of a new k × k solve
-    per batch).
+    rounding about k³/3 after the inverse (instead of a new k × k solve per batch).
 
     Parameters
     ----------
@@ -231,7 +230,8 @@ def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarra
     k = r.size
     if k == 0:
         return np.zeros(0)
-    cov = _spd_inverse(S)
+    cov = np.linalg.inv(S)
+    cov = 0.5 * (cov + cov.T)
     mean = cov @ r
     out = np.empty(k)
     left = np.arange(k)  # the unknowns still free: the rows and columns of cov and mean
@@ -248,18 +248,3 @@ def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarra
         cov = cov[np.ix_(rest, rest)] - cB[rest] @ coef[:, 1:][:, rest]
         mean, left = mean[rest], left[rest]
     return out
-
-
-def _spd_inverse(S: np.ndarray) -> np.ndarray:
-    """S⁻¹ of a symmetric positive definite S, symmetric float64 (k, k): by Cholesky
-    (LAPACK potrf/potri, half the work of an LU inverse), or by LU when the Cholesky
-    factorization finds S not numerically positive definite."""
-    from scipy.linalg import lapack
-
-    c, info = lapack.dpotrf(np.asarray(S, dtype=np.float64), lower=True, clean=True)
-    if info == 0:
-        inv, info = lapack.dpotri(c, lower=True)
-    if info != 0:
-        cov = np.linalg.inv(S)
-        return 0.5 * (cov + cov.T)
-    return np.tril(inv) + np.tril(inv, -1).T
