@@ -215,8 +215,9 @@ def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarra
     The minimizer of the unknowns left free, given those already fixed, is the
     conditional mean of a Gaussian with precision S: with Σ = S⁻¹, fixing a batch B to
     values v_B moves the mean by Σ_{:B} Σ_{BB}⁻¹ (v_B − μ_B) and updates
-    Σ ← Σ − Σ_{:B} Σ_{BB}⁻¹ Σ_{B:}. Each batch costs O(k² |B|), the whole rounding
-    O(k³) once (instead of a new k × k solve per batch).
+    Σ ← Σ − Σ_{:B} Σ_{BB}⁻¹ Σ_{B:}. Only the rows and columns of the unknowns still
+    free are kept and updated, so that a batch costs O(k_left² |B|) and the whole
+    rounding about k³/3 after the inverse (instead of a new k × k solve per batch).
 
     Parameters
     ----------
@@ -232,18 +233,18 @@ def greedy_round(S: np.ndarray, r: np.ndarray, batch: float = 0.05) -> np.ndarra
     cov = np.linalg.inv(S)
     cov = 0.5 * (cov + cov.T)
     mean = cov @ r
-    fixed = np.zeros(k, dtype=bool)
-    while not fixed.all():
-        left = np.flatnonzero(~fixed)
-        dist = np.abs(mean[left] - np.round(mean[left]))
+    out = np.empty(k)
+    left = np.arange(k)  # the unknowns still free: the rows and columns of cov and mean
+    while left.size:
+        dist = np.abs(mean - np.round(mean))
         count = max(1, int(np.ceil(batch * left.size)))
-        pick = left[np.argsort(dist, kind="stable")[:count]]
-        pick = np.union1d(pick, left[dist < 1e-6])
+        pick = np.union1d(np.argsort(dist, kind="stable")[:count], np.flatnonzero(dist < 1e-6))
         delta = np.round(mean[pick]) - mean[pick]
         cB = cov[:, pick]
         coef = np.linalg.solve(cov[np.ix_(pick, pick)], np.column_stack([delta, cB.T]))
         mean += cB @ coef[:, 0]
-        mean[pick] = np.round(mean[pick])
-        cov -= cB @ coef[:, 1:]
-        fixed[pick] = True
-    return np.round(mean)
+        out[left[pick]] = np.round(mean[pick])
+        rest = np.setdiff1d(np.arange(left.size), pick)
+        cov = cov[np.ix_(rest, rest)] - cB[rest] @ coef[:, 1:][:, rest]
+        mean, left = mean[rest], left[rest]
+    return out
