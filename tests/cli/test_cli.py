@@ -21,6 +21,23 @@ def test_info_reports_every_problem(tmp_path):
     assert r.returncode == 0 and "genus: 4" in r.stdout and "no problems found" in r.stdout
 
 
+def test_a_mesh_fvf_repair_fixes_is_refused_naming_the_repair_command(tmp_path):
+    """A scan with vertices left over after holes were cut: `fvf quad` refuses it (exit 2,
+    nothing written) and says which command fixes it; after that command it meshes."""
+
+    import fvf
+
+    ico = fvf.icosphere(3)
+    keep = ico.face_centroids[:, 2] < 0.5  # a cap cut off, its vertices left in the file
+    src, fixed, out = tmp_path / "bowl.obj", tmp_path / "bowl_fixed.obj", tmp_path / "q.obj"
+    fvf.write_mesh(src, ico.vertices, ico.faces[keep])
+    r = run("quad", str(src), "--faces", "300", "-o", str(out))
+    assert r.returncode == 2 and not out.exists()
+    assert f"fvf repair {src} -o bowl_fixed.obj" in r.stderr
+    assert run("repair", str(src), "-o", str(fixed)).returncode == 0
+    assert run("quad", str(fixed), "--faces", "300", "-o", str(out)).returncode == 0
+
+
 def test_mesh_report_on_broken_meshes():
     import numpy as np
 

@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .. import errors as fvf_errors
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -162,7 +164,21 @@ def load_mesh(path: str) -> TriMesh:
     try:
         return fvf.TriMesh(V, F)
     except fvf.MeshError as exc:
-        raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
+        hint = f"`fvf info {path}` lists every problem"
+        if isinstance(exc, REPAIRABLE):
+            stem = Path(path).stem
+            hint += f"; `fvf repair {path} -o {stem}_fixed.obj` fixes it"
+        raise type(exc)(f"{path}: {exc} ({hint})") from exc
+
+
+#: The mesh errors `fvf repair`'s default steps fix (welding, unreferenced vertices,
+#: degenerate faces, non-manifold edges and vertices, orientation).
+REPAIRABLE = (
+    fvf_errors.DegenerateFaceError,
+    fvf_errors.UnreferencedVertexError,
+    fvf_errors.NonManifoldError,
+    fvf_errors.OrientationError,
+)
 
 
 def load_data(paths: str | list[str], mesh: TriMesh) -> DataFile:
