@@ -52,8 +52,14 @@ __all__ = [
     "MapCandidate",
     "map_distortion",
     "score_candidates",
+    "refine_start",
+    "choose_candidate",
+    "candidate_energy",
+    "descriptor_error",
+    "RefinedCandidate",
     "ORIENTATION_FACTOR",
     "DISTORTION_FLOOR",
+    "DECISIVE_CONFIDENCE",
 ]
 
 #: ρ of eq. E: a candidate of the opposite orientation must be this many times less
@@ -65,6 +71,12 @@ ORIENTATION_FACTOR = 4.0
 
 #: δ_0 of eq. E: distortions this small count as exact (a tie that orientation breaks).
 DISTORTION_FLOOR = 1e-9
+
+#: A choice is decisive when the runner-up's energy is at least ρ² times the winner's:
+#: the orientation factor accounts for at most ρ of it, so the distortion alone must
+#: separate the two by another factor ρ (an exact or near-exact map against its mirror).
+#: Below this, :func:`fvf.match` also refines a wider fit.
+DECISIVE_CONFIDENCE = 1.0 - 1.0 / ORIENTATION_FACTOR**2
 
 
 @dataclass(frozen=True)
@@ -84,6 +96,8 @@ class MapCandidate:
         :func:`fvf.orientation_agreement` of the candidate's vertex map, in [−1, 1].
     chosen : bool
         Whether this candidate is the one returned.
+    descriptor_error : float
+        ε of eq. P (0 when no descriptors were given).
     """
 
     name: str
@@ -91,6 +105,34 @@ class MapCandidate:
     distortion: float
     orientation: float
     chosen: bool = False
+    descriptor_error: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class RefinedCandidate:
+    """A start after ZoomOut, before the choice (:func:`refine_start`).
+
+    Attributes
+    ----------
+    name : str
+    C_12 : float64 (k, k)
+        The refined functional map.
+    p2p_21 : int64 (n_2,)
+        Its vertex map.
+    distortion : float
+        δ of eq. D.
+    orientation : float
+        :func:`fvf.orientation_agreement` of ``p2p_21``.
+    descriptor_error : float
+        ε of eq. P (0 when no descriptors were given).
+    """
+
+    name: str
+    C_12: np.ndarray
+    p2p_21: np.ndarray
+    distortion: float
+    orientation: float
+    descriptor_error: float = 0.0
 
 
 def map_distortion(
@@ -115,6 +157,115 @@ def map_distortion(
     return float(((mask * C * C).sum() + (G * G).sum()) / k)
 
 
+def refine_start(
+    name: str,
+    C0: np.ndarray,
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    *,
+    k_final: int,
+    k_score: int,
+    step: int,
+    samples: int | tuple[np.ndarray, np.ndarray] | None,
+    descriptors: tuple[np.ndarray, np.ndarray] | None = None,
+) -> RefinedCandidate:
+    """ZoomOut one start to ``k_final`` and measure δ (eq. D) and a of its vertex map.
+
+    Parameters
+    ----------
+    name : str
+    C0 : float64 (k_fit, k_fit)
+        The start C_12.
+    basis_1, basis_2 : SpectralBasis
+        Unit-area bases with at least ``k_final`` eigenpairs.
+    k_final, k_score, step, samples, descriptors
+        As for :func:`score_candidates`.
+
+    Returns
+    -------
+    RefinedCandidate
+    """
+    C, p2p = zoomout(C0, basis_1, basis_2, k_final, step=step, samples=samples)
+    delta = map_distortion(p2p, basis_1, basis_2, min(k_score, k_final))
+    a = orientation_agreement(basis_1.mesh, basis_2.mesh, p2p)
+    eps = 0.0 if descriptors is None else descriptor_error(p2p, basis_2, *descriptors)
+    return RefinedCandidate(name, C, p2p, float(delta), float(a), eps)
+
+
+def descriptor_error(
+    p2p_21: np.ndarray, basis_2: SpectralBasis, descr_1: np.ndarray, descr_2: np.ndarray
+) -> float:
+    """ε of eq. P: how far the vertex map is from carrying the descriptors over.
+
+    Parameters
+    ----------
+    p2p_21 : int64 (n_2,)
+    basis_2 : SpectralBasis
+        Basis of the unit-area mesh 2 (its vertex areas weigh the sum).
+    descr_1 : float64 (n_1, p)
+    descr_2 : float64 (n_2, p)
+        Corresponding descriptor columns, each of unit A_V norm on its mesh.
+
+    Returns
+    -------
+    float >= 0; 0 when every descriptor is carried over exactly.
+    """
+    diff = descr_1[p2p_21] - descr_2
+    return float(basis_2.mesh.vertex_areas @ (diff * diff).sum(axis=1)) / descr_2.shape[1]
+
+
+def candidate_energy(delta: float, orientation: float, sign: float, eps: float = 0.0) -> float:
+    """E of eq. E: (δ + δ_0)(ε + δ_0)(1 + (ρ − 1)(1 − s a)/2)."""
+    factor = 1.0 + (ORIENTATION_FACTOR - 1.0) * (1.0 - sign * orientation) / 2.0
+    return (delta + DISTORTION_FLOOR) * (eps + DISTORTION_FLOOR) * factor
+
+
+def choose_candidate(
+    refined: list[RefinedCandidate], sign: float
+) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
+    """The refined candidate of lowest energy (eq. E).
+
+    Two candidates that send a majority of the vertices of mesh 2 to the same vertices
+    are one map (two starts refined into one basin); only the lower-energy one is kept,
+    so the list and the confidence compare different maps.
+
+    Parameters
+    ----------
+    refined : list of RefinedCandidate
+        In order of preference on equal energies.
+    sign : float
+        s: +1, −1 or 0.
+
+    Returns
+    -------
+    C, p2p_21, candidates, confidence
+        As for :func:`score_candidates`.
+    """
+    energies = [
+        candidate_energy(r.distortion, r.orientation, sign, r.descriptor_error) for r in refined
+    ]
+    order = sorted(range(len(refined)), key=lambda i: energies[i])  # stable on ties
+    kept: list[int] = []
+    for i in order:
+        if all(np.mean(refined[i].p2p_21 == refined[j].p2p_21) <= 0.5 for j in kept):
+            kept.append(i)
+    best = kept[0]
+    confidence = 1.0 if len(kept) == 1 else 1.0 - energies[best] / energies[kept[1]]
+    cands = tuple(
+        MapCandidate(
+            refined[i].name,
+            energies[i],
+            refined[i].distortion,
+            refined[i].orientation,
+            i == best,
+            refined[i].descriptor_error,
+        )
+        for i in kept
+    )
+    win = refined[best]
+    return win.C_12, win.p2p_21, cands, float(min(max(confidence, 0.0), 1.0))
+
+
 def score_candidates(
     starts: dict[str, np.ndarray],
     basis_1: SpectralBasis,
@@ -125,13 +276,14 @@ def score_candidates(
     step: int,
     samples: int | tuple[np.ndarray, np.ndarray] | None,
     sign: float,
+    descriptors: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
     """Refine each start by ZoomOut to ``k_final``, score it (eq. E), keep the lowest.
 
     Parameters
     ----------
     starts : dict name -> float64 (k_fit, k_fit)
-        The candidate functional maps C_12.
+        The candidate functional maps C_12 (any sizes up to ``k_final``).
     basis_1, basis_2 : SpectralBasis
         Unit-area bases with at least ``k_final`` eigenpairs.
     k_final : int
@@ -142,6 +294,8 @@ def score_candidates(
         ZoomOut's step and vertex samples (see :func:`fvf.zoomout`).
     sign : float
         s: +1, −1 or 0.
+    descriptors : (float64 (n_1, p), float64 (n_2, p)), optional
+        Corresponding unit-norm descriptors for ε (eq. P); without them ε is left out.
 
     Returns
     -------
@@ -150,25 +304,22 @@ def score_candidates(
     p2p_21 : int64 (n_2,)
         Its vertex map.
     candidates : tuple of MapCandidate
-        Every candidate, lowest energy first, the winner marked.
+        Every distinct candidate, lowest energy first, the winner marked.
     confidence : float
         1 − E_winner / E_runner-up in [0, 1] (1 with a single candidate).
     """
-    k_score = min(k_score, k_final)
-    refined, rows = {}, []
-    for name, C0 in starts.items():
-        C, p2p = zoomout(C0, basis_1, basis_2, k_final, step=step, samples=samples)
-        delta = map_distortion(p2p, basis_1, basis_2, k_score)
-        a = orientation_agreement(basis_1.mesh, basis_2.mesh, p2p)
-        refined[name] = (C, p2p)
-        factor = 1.0 + (ORIENTATION_FACTOR - 1.0) * (1.0 - sign * a) / 2.0
-        rows.append(((delta + DISTORTION_FLOOR) * factor, name, delta, a))
-    rows.sort(key=lambda r: r[0])
-    best = rows[0]
-    confidence = 1.0 if len(rows) == 1 else 1.0 - best[0] / rows[1][0]
-    cands = tuple(
-        MapCandidate(name, float(e), float(d), float(a), chosen=name == best[1])
-        for e, name, d, a in rows
-    )
-    C, p2p = refined[best[1]]
-    return C, p2p, cands, float(min(max(confidence, 0.0), 1.0))
+    refined = [
+        refine_start(
+            name,
+            C0,
+            basis_1,
+            basis_2,
+            k_final=k_final,
+            k_score=k_score,
+            step=step,
+            samples=samples,
+            descriptors=descriptors,
+        )
+        for name, C0 in starts.items()
+    ]
+    return choose_candidate(refined, sign)

@@ -47,7 +47,7 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
-from .candidates import MapCandidate, score_candidates
+from .candidates import DECISIVE_CONFIDENCE, MapCandidate, choose_candidate, refine_start
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
 from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
@@ -67,6 +67,12 @@ DEFAULT_WEIGHTS = {"w_descr": 1.0, "w_lap": 1.0, "w_dcomm": 1.0, "w_orient": 1.0
 
 #: Eigenpairs at which :func:`match` scores its candidate maps (:mod:`.candidates`).
 K_SCORE = 30
+
+#: Size of the second, wider fit that :func:`match` refines as a further candidate when
+#: the first two do not decide (:mod:`.candidates`): the K of pyFM's README pipeline. On
+#: the remeshed FAUST bodies the fit at 15 lands in a whole-body flip on some pairs where
+#: the fit at 30 does not (docs/correspondence.md, *Flips on near-symmetric shapes*).
+K_WIDE = 30
 
 
 @dataclass(frozen=True, eq=False)
@@ -349,16 +355,21 @@ def _correspond(
         report("match", 4, stages)
         t = time.perf_counter()
         sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
-        C, p2p, alternatives, confidence = score_candidates(
-            starts,
-            unit_1,
-            unit_2,
-            k_final=k,
-            k_score=K_SCORE,
-            step=zoomout_step,
-            samples=sample_idx,
-            sign=sign,
-        )
+        refine = {
+            "k_final": k,
+            "k_score": K_SCORE,
+            "step": zoomout_step,
+            "samples": sample_idx,
+            "descriptors": (d1, d2),
+        }
+        refined = [refine_start(n, C0, unit_1, unit_2, **refine) for n, C0 in starts.items()]
+        C, p2p, alternatives, confidence = choose_candidate(refined, sign)
+        if confidence < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
+            C_wide = fit_functional_map(
+                unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
+            )
+            refined.append(refine_start("wide fit", C_wide, unit_1, unit_2, **refine))
+            C, p2p, alternatives, confidence = choose_candidate(refined, sign)
     else:
         C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx)
     timings["zoomout"] = time.perf_counter() - t
