@@ -47,7 +47,13 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
-from .candidates import DECISIVE_CONFIDENCE, MapCandidate, choose_candidate, refine_start
+from .candidates import (
+    DECISIVE_CONFIDENCE,
+    MapCandidate,
+    RefinedCandidate,
+    choose_candidate,
+    refine_start,
+)
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
 from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
@@ -354,22 +360,9 @@ def _correspond(
         timings["symmetry"] = time.perf_counter() - t
         report("match", 4, stages)
         t = time.perf_counter()
-        sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
-        refine = {
-            "k_final": k,
-            "k_score": K_SCORE,
-            "step": zoomout_step,
-            "samples": sample_idx,
-            "descriptors": (d1, d2),
-        }
-        refined = [refine_start(n, C0, unit_1, unit_2, **refine) for n, C0 in starts.items()]
-        C, p2p, alternatives, confidence = choose_candidate(refined, sign)
-        if confidence < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
-            C_wide = fit_functional_map(
-                unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
-            )
-            refined.append(refine_start("wide fit", C_wide, unit_1, unit_2, **refine))
-            C, p2p, alternatives, confidence = choose_candidate(refined, sign)
+        C, p2p, alternatives, confidence = _choose(
+            starts, unit_1, unit_2, (d1, d2), weights, orientation, k, zoomout_step, sample_idx
+        )
     else:
         C, p2p = zoomout(C_fit, unit_1, unit_2, k, step=zoomout_step, samples=sample_idx)
     timings["zoomout"] = time.perf_counter() - t
@@ -379,6 +372,47 @@ def _correspond(
     return MatchResult(
         p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings, confidence, alternatives
     )
+
+
+def _choose(
+    starts: dict[str, np.ndarray],
+    unit_1: SpectralBasis,
+    unit_2: SpectralBasis,
+    descriptors: tuple[np.ndarray, np.ndarray],
+    weights: dict,
+    orientation: str | None,
+    k: int,
+    step: int,
+    samples: tuple[np.ndarray, np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
+    """Refine the starts, choose by eq. E of :mod:`.candidates`; when that choice is not
+    decisive, refine the wider fit (``K_WIDE``) too and choose again."""
+    sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+
+    def refine(name: str, C0: np.ndarray) -> RefinedCandidate:
+        return refine_start(
+            name,
+            C0,
+            unit_1,
+            unit_2,
+            k_final=k,
+            k_score=K_SCORE,
+            step=step,
+            samples=samples,
+            descriptors=descriptors,
+        )
+
+    refined = [refine(n, C0) for n, C0 in starts.items()]
+    chosen = choose_candidate(refined, sign)
+    k_fit = next(iter(starts.values())).shape[1]
+    if chosen[3] < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
+        d1, d2 = descriptors
+        C_wide = fit_functional_map(
+            unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
+        )
+        refined.append(refine("wide fit", C_wide))
+        chosen = choose_candidate(refined, sign)
+    return chosen
 
 
 def _candidate_starts(
