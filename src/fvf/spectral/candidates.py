@@ -1,40 +1,53 @@
-"""Choosing between a fitted map and its composition with the source's symmetry.
+"""Choosing among candidate maps: the fitted map, its mirror, and a wider fit.
 
 On a near-symmetric shape (a body, an animal) the fitted functional map can land in the
-basin of the map composed with the left-right symmetry σ of the source: limbs swapped,
-and, when ZoomOut then settles the high frequencies orientation-preservingly, the front
-turned to the back as well (a "whole-body flip"). The descriptors cannot tell the two
-apart: they are intrinsic, and σ preserves them. What does tell them apart is how far
-each is from an isometry once refined, which is how BCICP (Ren et al. 2018) and the
-discrete solvers of Ren et al. 2021 pick among symmetric candidates.
+basin of the map composed with the left-right symmetry σ of the source (limbs swapped),
+or in that of a whole-body rotation: left and right swapped and the front turned to the
+back, so that the map still preserves orientation. The descriptors cannot tell the truth
+from its mirror: they are intrinsic, and σ preserves them. How far each refined
+candidate is from an isometry, from carrying the descriptors over and from the requested
+orientation does tell them apart, which is how BCICP (Ren et al. 2018) and the discrete
+solvers of Ren et al. 2021 pick among symmetric candidates, and Smooth Shells
+(Eisenberger et al. 2020) among several initial alignments.
 
 So :func:`fvf.match` builds the candidates
 
     C_fit            and          C_fit C_σ          (k_fit × k_fit)
 
 with C_σ the functional map of the source's orientation-reversing self-map (the fit of
-:func:`fvf.symmetry_map`, ZoomOut to ``k_score``), refines each by ZoomOut to
-the final size k, converts each to a vertex map π and scores the functional map
-C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that vertex map (unit-area meshes, ``k_score`` eigenpairs) by
-its distortion
+:func:`fvf.symmetry_map`, ZoomOut to ``k_score``), and, when the choice between those two
+is not decisive (:data:`DECISIVE_CONFIDENCE`), a third: the fit at a wider size
+(``K_WIDE`` of :mod:`.correspondence`). Each is refined by ZoomOut to the final size k
+and converted to a vertex map π, and the functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that
+vertex map (unit-area meshes, ``k_score`` eigenpairs) is scored by its distortion
 
     δ(C_π) = Σ_ij M_ij (C_π)_ij² / k  +  ‖C_πᵀ C_π − I‖² / k             (eq. D)
 
 with M the resolvent mask of :func:`fvf.spectral.fmap_fit.laplacian_mask`: the first
 term vanishes for an isometry (it commutes with the Laplacians), the second for a
-bijective, area-preserving map. The energy of a candidate is
+bijective, area-preserving map. The descriptor error of π is
 
-    E = (δ + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                            (eq. E)
+    ε(π) = Σ_y a_2(y) ‖F_1(π(y)) − F_2(y)‖² / p                          (eq. P)
+
+with F_1, F_2 the p corresponding descriptors of the fit (each column of unit A_V norm)
+and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The energy
+of a candidate is
+
+    E = (δ + δ_0) (ε + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                  (eq. E)
 
 with a ∈ [−1, 1] its :func:`fvf.orientation_agreement` and s the requested sign
 (+1 ``"preserving"``, −1 ``"reversing"``, 0 for None): a candidate of the wrong
-orientation must be ρ = :data:`ORIENTATION_FACTOR` times less distorted to win. It
-does against a mirror image, where the reflection is an exact isometry (δ = 0) and the
+orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε to win. It
+does against a mirror image, where the reflection is exact (δ = ε = 0) and the
 orientation-preserving alternative is not; between two exact candidates (an exactly
 symmetric shape) the floor δ_0 makes the orientation decide. Distortion alone would not
 do: a near-symmetric body's reversed map can be less distorted than the truth of a
-non-isometric pose change. The lowest energy wins; 1 − E_winner / E_runner-up is
-reported as the confidence.
+non-isometric pose change. The product needs no weight between δ and ε (each enters by
+its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
+be less distorted than the truth at 30 eigenpairs, but it carries the descriptors over
+worse (docs/correspondence.md). Two candidates that send a majority of the vertices to
+the same images are one map; the lowest energy wins, and 1 − E_winner / E_runner-up over
+the distinct maps is reported as the confidence.
 """
 
 from __future__ import annotations
@@ -86,10 +99,10 @@ class MapCandidate:
     Attributes
     ----------
     name : str
-        ``"fit"`` (the fitted map) or ``"fit∘symmetry"`` (composed with the source's
-        self-symmetry).
+        ``"fit"`` (the fitted map), ``"fit∘symmetry"`` (composed with the source's
+        self-symmetry) or ``"wide fit"`` (the fit at the wider size).
     energy : float
-        δ + ε_o (1 − s a) / 2, the number compared (lower wins).
+        E of eq. E, the number compared (lower wins).
     distortion : float
         δ of eq. D at ``k_score`` eigenpairs.
     orientation : float

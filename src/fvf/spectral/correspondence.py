@@ -18,8 +18,10 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
    and in a small basis no other term can outweigh it.
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
    on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
-   and its composition with mesh 1's left-right symmetry, keeping the one nearer to an
-   isometry of the requested orientation (:mod:`.candidates`).
+   and its composition with mesh 1's left-right symmetry, and, when those two do not
+   decide, from a third, the fit at ``K_WIDE``; the candidate nearest to an isometry
+   that carries the descriptors over, of the requested orientation, is kept
+   (:mod:`.candidates`).
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -109,15 +111,17 @@ class MatchResult:
     timings : dict
         Seconds per step.
     confidence : float or None
-        How sure :func:`match` is of its choice between the fitted map and the fitted
-        map composed with mesh 1's left-right symmetry (:mod:`fvf.spectral.candidates`):
-        1 − E_chosen / E_other in [0, 1], E the candidates' distortion-plus-orientation
-        energy. Near 0 the two candidates are about as good (an exactly symmetric pair,
-        or both refined to the same map); None when no choice was made
+        How sure :func:`match` is of its choice among the fitted map, the fitted map
+        composed with mesh 1's left-right symmetry and, when those two did not decide,
+        the wider fit (:mod:`fvf.spectral.candidates`): 1 − E_chosen / E_runner-up in
+        [0, 1], E the candidates' distortion × descriptor error × orientation energy,
+        over candidates that are different maps. Near 0 the two best are about as good
+        (an exactly symmetric pair); None when no choice was made
         (``check_symmetry=False``, :func:`symmetry_map`).
     alternatives : tuple of MapCandidate
-        Every candidate scored (name, energy, distortion, orientation agreement,
-        chosen), lowest energy first; empty when no choice was made.
+        Every distinct candidate scored (name, energy, distortion, orientation
+        agreement, chosen, descriptor error), lowest energy first; empty when no choice
+        was made.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -537,10 +541,12 @@ def match(
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
-        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
-        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
-        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
-        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+        Also try the fitted map composed with mesh 1's left-right symmetry, and, when
+        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
+        are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
+        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
+        ZoomOut; guards near-symmetric shapes against flips.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).
@@ -643,10 +649,12 @@ def match_result(
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
-        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
-        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
-        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
-        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+        Also try the fitted map composed with mesh 1's left-right symmetry, and, when
+        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
+        are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
+        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
+        ZoomOut; guards near-symmetric shapes against flips.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).
