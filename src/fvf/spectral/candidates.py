@@ -56,6 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .evaluation import orientation_agreement
 from .fmap_fit import laplacian_mask
@@ -139,6 +140,9 @@ class RefinedCandidate:
     descriptor_error : float
         ε of eq. P (0 when no descriptors were given).
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     name: str
     C_12: np.ndarray
