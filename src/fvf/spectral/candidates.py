@@ -1,40 +1,53 @@
-"""Choosing between a fitted map and its composition with the source's symmetry.
+"""Choosing among candidate maps: the fitted map, its mirror, and a wider fit.
 
 On a near-symmetric shape (a body, an animal) the fitted functional map can land in the
-basin of the map composed with the left-right symmetry σ of the source: limbs swapped,
-and, when ZoomOut then settles the high frequencies orientation-preservingly, the front
-turned to the back as well (a "whole-body flip"). The descriptors cannot tell the two
-apart: they are intrinsic, and σ preserves them. What does tell them apart is how far
-each is from an isometry once refined, which is how BCICP (Ren et al. 2018) and the
-discrete solvers of Ren et al. 2021 pick among symmetric candidates.
+basin of the map composed with the left-right symmetry σ of the source (limbs swapped),
+or in that of a whole-body rotation: left and right swapped and the front turned to the
+back, so that the map still preserves orientation. The descriptors cannot tell the truth
+from its mirror: they are intrinsic, and σ preserves them. How far each refined
+candidate is from an isometry, from carrying the descriptors over and from the requested
+orientation does tell them apart, which is how BCICP (Ren et al. 2018) and the discrete
+solvers of Ren et al. 2021 pick among symmetric candidates, and Smooth Shells
+(Eisenberger et al. 2020) among several initial alignments.
 
 So :func:`fvf.match` builds the candidates
 
     C_fit            and          C_fit C_σ          (k_fit × k_fit)
 
 with C_σ the functional map of the source's orientation-reversing self-map (the fit of
-:func:`fvf.symmetry_map`, ZoomOut to ``k_score``), refines each by ZoomOut to
-the final size k, converts each to a vertex map π and scores the functional map
-C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that vertex map (unit-area meshes, ``k_score`` eigenpairs) by
-its distortion
+:func:`fvf.symmetry_map`, ZoomOut to ``k_score``), and, when the choice between those two
+is not decisive (:data:`DECISIVE_CONFIDENCE`), a third: the fit at a wider size
+(``K_WIDE`` of :mod:`.correspondence`). Each is refined by ZoomOut to the final size k
+and converted to a vertex map π, and the functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that
+vertex map (unit-area meshes, ``k_score`` eigenpairs) is scored by its distortion
 
     δ(C_π) = Σ_ij M_ij (C_π)_ij² / k  +  ‖C_πᵀ C_π − I‖² / k             (eq. D)
 
 with M the resolvent mask of :func:`fvf.spectral.fmap_fit.laplacian_mask`: the first
 term vanishes for an isometry (it commutes with the Laplacians), the second for a
-bijective, area-preserving map. The energy of a candidate is
+bijective, area-preserving map. The descriptor error of π is
 
-    E = (δ + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                            (eq. E)
+    ε(π) = Σ_y a_2(y) ‖F_1(π(y)) − F_2(y)‖² / p                          (eq. P)
+
+with F_1, F_2 the p corresponding descriptors of the fit (each column of unit A_V norm)
+and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The energy
+of a candidate is
+
+    E = (δ + δ_0) (ε + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                  (eq. E)
 
 with a ∈ [−1, 1] its :func:`fvf.orientation_agreement` and s the requested sign
 (+1 ``"preserving"``, −1 ``"reversing"``, 0 for None): a candidate of the wrong
-orientation must be ρ = :data:`ORIENTATION_FACTOR` times less distorted to win. It
-does against a mirror image, where the reflection is an exact isometry (δ = 0) and the
+orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε to win. It
+does against a mirror image, where the reflection is exact (δ = ε = 0) and the
 orientation-preserving alternative is not; between two exact candidates (an exactly
 symmetric shape) the floor δ_0 makes the orientation decide. Distortion alone would not
 do: a near-symmetric body's reversed map can be less distorted than the truth of a
-non-isometric pose change. The lowest energy wins; 1 − E_winner / E_runner-up is
-reported as the confidence.
+non-isometric pose change. The product needs no weight between δ and ε (each enters by
+its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
+be less distorted than the truth at 30 eigenpairs, but it carries the descriptors over
+worse (docs/correspondence.md). Two candidates that send a majority of the vertices to
+the same images are one map; the lowest energy wins, and 1 − E_winner / E_runner-up over
+the distinct maps is reported as the confidence.
 """
 
 from __future__ import annotations
@@ -43,6 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .evaluation import orientation_agreement
 from .fmap_fit import laplacian_mask
@@ -52,8 +66,14 @@ __all__ = [
     "MapCandidate",
     "map_distortion",
     "score_candidates",
+    "refine_start",
+    "choose_candidate",
+    "candidate_energy",
+    "descriptor_error",
+    "RefinedCandidate",
     "ORIENTATION_FACTOR",
     "DISTORTION_FLOOR",
+    "DECISIVE_CONFIDENCE",
 ]
 
 #: ρ of eq. E: a candidate of the opposite orientation must be this many times less
@@ -66,6 +86,12 @@ ORIENTATION_FACTOR = 4.0
 #: δ_0 of eq. E: distortions this small count as exact (a tie that orientation breaks).
 DISTORTION_FLOOR = 1e-9
 
+#: A choice is decisive when the runner-up's energy is at least ρ² times the winner's:
+#: the orientation factor accounts for at most ρ of it, so the distortion alone must
+#: separate the two by another factor ρ (an exact or near-exact map against its mirror).
+#: Below this, :func:`fvf.match` also refines a wider fit.
+DECISIVE_CONFIDENCE = 1.0 - 1.0 / ORIENTATION_FACTOR**2
+
 
 @dataclass(frozen=True)
 class MapCandidate:
@@ -74,16 +100,18 @@ class MapCandidate:
     Attributes
     ----------
     name : str
-        ``"fit"`` (the fitted map) or ``"fit∘symmetry"`` (composed with the source's
-        self-symmetry).
+        ``"fit"`` (the fitted map), ``"fit∘symmetry"`` (composed with the source's
+        self-symmetry) or ``"wide fit"`` (the fit at the wider size).
     energy : float
-        δ + ε_o (1 − s a) / 2, the number compared (lower wins).
+        E of eq. E, the number compared (lower wins).
     distortion : float
         δ of eq. D at ``k_score`` eigenpairs.
     orientation : float
         :func:`fvf.orientation_agreement` of the candidate's vertex map, in [−1, 1].
     chosen : bool
         Whether this candidate is the one returned.
+    descriptor_error : float
+        ε of eq. P (0 when no descriptors were given).
     """
 
     name: str
@@ -91,6 +119,37 @@ class MapCandidate:
     distortion: float
     orientation: float
     chosen: bool = False
+    descriptor_error: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class RefinedCandidate:
+    """A start after ZoomOut, before the choice (:func:`refine_start`).
+
+    Attributes
+    ----------
+    name : str
+    C_12 : float64 (k, k)
+        The refined functional map.
+    p2p_21 : int64 (n_2,)
+        Its vertex map.
+    distortion : float
+        δ of eq. D.
+    orientation : float
+        :func:`fvf.orientation_agreement` of ``p2p_21``.
+    descriptor_error : float
+        ε of eq. P (0 when no descriptors were given).
+    """
+
+    __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
+
+    name: str
+    C_12: np.ndarray
+    p2p_21: np.ndarray
+    distortion: float
+    orientation: float
+    descriptor_error: float = 0.0
 
 
 def map_distortion(
@@ -115,6 +174,115 @@ def map_distortion(
     return float(((mask * C * C).sum() + (G * G).sum()) / k)
 
 
+def refine_start(
+    name: str,
+    C0: np.ndarray,
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    *,
+    k_final: int,
+    k_score: int,
+    step: int,
+    samples: int | tuple[np.ndarray, np.ndarray] | None,
+    descriptors: tuple[np.ndarray, np.ndarray] | None = None,
+) -> RefinedCandidate:
+    """ZoomOut one start to ``k_final`` and measure δ (eq. D) and a of its vertex map.
+
+    Parameters
+    ----------
+    name : str
+    C0 : float64 (k_fit, k_fit)
+        The start C_12.
+    basis_1, basis_2 : SpectralBasis
+        Unit-area bases with at least ``k_final`` eigenpairs.
+    k_final, k_score, step, samples, descriptors
+        As for :func:`score_candidates`.
+
+    Returns
+    -------
+    RefinedCandidate
+    """
+    C, p2p = zoomout(C0, basis_1, basis_2, k_final, step=step, samples=samples)
+    delta = map_distortion(p2p, basis_1, basis_2, min(k_score, k_final))
+    a = orientation_agreement(basis_1.mesh, basis_2.mesh, p2p)
+    eps = 0.0 if descriptors is None else descriptor_error(p2p, basis_2, *descriptors)
+    return RefinedCandidate(name, C, p2p, float(delta), float(a), eps)
+
+
+def descriptor_error(
+    p2p_21: np.ndarray, basis_2: SpectralBasis, descr_1: np.ndarray, descr_2: np.ndarray
+) -> float:
+    """ε of eq. P: how far the vertex map is from carrying the descriptors over.
+
+    Parameters
+    ----------
+    p2p_21 : int64 (n_2,)
+    basis_2 : SpectralBasis
+        Basis of the unit-area mesh 2 (its vertex areas weigh the sum).
+    descr_1 : float64 (n_1, p)
+    descr_2 : float64 (n_2, p)
+        Corresponding descriptor columns, each of unit A_V norm on its mesh.
+
+    Returns
+    -------
+    float >= 0; 0 when every descriptor is carried over exactly.
+    """
+    diff = descr_1[p2p_21] - descr_2
+    return float(basis_2.mesh.vertex_areas @ (diff * diff).sum(axis=1)) / descr_2.shape[1]
+
+
+def candidate_energy(delta: float, orientation: float, sign: float, eps: float = 0.0) -> float:
+    """E of eq. E: (δ + δ_0)(ε + δ_0)(1 + (ρ − 1)(1 − s a)/2)."""
+    factor = 1.0 + (ORIENTATION_FACTOR - 1.0) * (1.0 - sign * orientation) / 2.0
+    return (delta + DISTORTION_FLOOR) * (eps + DISTORTION_FLOOR) * factor
+
+
+def choose_candidate(
+    refined: list[RefinedCandidate], sign: float
+) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
+    """The refined candidate of lowest energy (eq. E).
+
+    Two candidates that send a majority of the vertices of mesh 2 to the same vertices
+    are one map (two starts refined into one basin); only the lower-energy one is kept,
+    so the list and the confidence compare different maps.
+
+    Parameters
+    ----------
+    refined : list of RefinedCandidate
+        In order of preference on equal energies.
+    sign : float
+        s: +1, −1 or 0.
+
+    Returns
+    -------
+    C, p2p_21, candidates, confidence
+        As for :func:`score_candidates`.
+    """
+    energies = [
+        candidate_energy(r.distortion, r.orientation, sign, r.descriptor_error) for r in refined
+    ]
+    order = sorted(range(len(refined)), key=lambda i: energies[i])  # stable on ties
+    kept: list[int] = []
+    for i in order:
+        if all(np.mean(refined[i].p2p_21 == refined[j].p2p_21) <= 0.5 for j in kept):
+            kept.append(i)
+    best = kept[0]
+    confidence = 1.0 if len(kept) == 1 else 1.0 - energies[best] / energies[kept[1]]
+    cands = tuple(
+        MapCandidate(
+            refined[i].name,
+            energies[i],
+            refined[i].distortion,
+            refined[i].orientation,
+            i == best,
+            refined[i].descriptor_error,
+        )
+        for i in kept
+    )
+    win = refined[best]
+    return win.C_12, win.p2p_21, cands, float(min(max(confidence, 0.0), 1.0))
+
+
 def score_candidates(
     starts: dict[str, np.ndarray],
     basis_1: SpectralBasis,
@@ -125,13 +293,14 @@ def score_candidates(
     step: int,
     samples: int | tuple[np.ndarray, np.ndarray] | None,
     sign: float,
+    descriptors: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
     """Refine each start by ZoomOut to ``k_final``, score it (eq. E), keep the lowest.
 
     Parameters
     ----------
     starts : dict name -> float64 (k_fit, k_fit)
-        The candidate functional maps C_12.
+        The candidate functional maps C_12 (any sizes up to ``k_final``).
     basis_1, basis_2 : SpectralBasis
         Unit-area bases with at least ``k_final`` eigenpairs.
     k_final : int
@@ -142,6 +311,8 @@ def score_candidates(
         ZoomOut's step and vertex samples (see :func:`fvf.zoomout`).
     sign : float
         s: +1, −1 or 0.
+    descriptors : (float64 (n_1, p), float64 (n_2, p)), optional
+        Corresponding unit-norm descriptors for ε (eq. P); without them ε is left out.
 
     Returns
     -------
@@ -150,25 +321,22 @@ def score_candidates(
     p2p_21 : int64 (n_2,)
         Its vertex map.
     candidates : tuple of MapCandidate
-        Every candidate, lowest energy first, the winner marked.
+        Every distinct candidate, lowest energy first, the winner marked.
     confidence : float
         1 − E_winner / E_runner-up in [0, 1] (1 with a single candidate).
     """
-    k_score = min(k_score, k_final)
-    refined, rows = {}, []
-    for name, C0 in starts.items():
-        C, p2p = zoomout(C0, basis_1, basis_2, k_final, step=step, samples=samples)
-        delta = map_distortion(p2p, basis_1, basis_2, k_score)
-        a = orientation_agreement(basis_1.mesh, basis_2.mesh, p2p)
-        refined[name] = (C, p2p)
-        factor = 1.0 + (ORIENTATION_FACTOR - 1.0) * (1.0 - sign * a) / 2.0
-        rows.append(((delta + DISTORTION_FLOOR) * factor, name, delta, a))
-    rows.sort(key=lambda r: r[0])
-    best = rows[0]
-    confidence = 1.0 if len(rows) == 1 else 1.0 - best[0] / rows[1][0]
-    cands = tuple(
-        MapCandidate(name, float(e), float(d), float(a), chosen=name == best[1])
-        for e, name, d, a in rows
-    )
-    C, p2p = refined[best[1]]
-    return C, p2p, cands, float(min(max(confidence, 0.0), 1.0))
+    refined = [
+        refine_start(
+            name,
+            C0,
+            basis_1,
+            basis_2,
+            k_final=k_final,
+            k_score=k_score,
+            step=step,
+            samples=samples,
+            descriptors=descriptors,
+        )
+        for name, C0 in starts.items()
+    ]
+    return choose_candidate(refined, sign)

@@ -18,8 +18,10 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
    and in a small basis no other term can outweigh it.
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
    on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
-   and its composition with mesh 1's left-right symmetry, keeping the one nearer to an
-   isometry of the requested orientation (:mod:`.candidates`).
+   and its composition with mesh 1's left-right symmetry, and, when those two do not
+   decide, from a third, the fit at ``K_WIDE``; the candidate nearest to an isometry
+   that carries the descriptors over, of the requested orientation, is kept
+   (:mod:`.candidates`).
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -48,7 +50,13 @@ from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
-from .candidates import MapCandidate, score_candidates
+from .candidates import (
+    DECISIVE_CONFIDENCE,
+    MapCandidate,
+    RefinedCandidate,
+    choose_candidate,
+    refine_start,
+)
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
 from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
@@ -88,6 +96,13 @@ def peak_bytes(n: int, k: int) -> int:
     return PEAK_BYTES_FIXED + n * (PEAK_BYTES_PER_VERTEX + k * PEAK_BYTES_PER_VERTEX_EIGENPAIR)
 
 
+#: Size of the second, wider fit that :func:`match` refines as a further candidate when
+#: the first two do not decide (:mod:`.candidates`): the K of pyFM's README pipeline. On
+#: the remeshed FAUST bodies the fit at 15 lands in a whole-body flip on some pairs where
+#: the fit at 30 does not (docs/correspondence.md, *Flips on near-symmetric shapes*).
+K_WIDE = 30
+
+
 @dataclass(frozen=True, eq=False)
 class MatchResult:
     """Everything :func:`match_result` (or :func:`symmetry_map`) computed.
@@ -116,15 +131,17 @@ class MatchResult:
     timings : dict
         Seconds per step.
     confidence : float or None
-        How sure :func:`match` is of its choice between the fitted map and the fitted
-        map composed with mesh 1's left-right symmetry (:mod:`fvf.spectral.candidates`):
-        1 − E_chosen / E_other in [0, 1], E the candidates' distortion-plus-orientation
-        energy. Near 0 the two candidates are about as good (an exactly symmetric pair,
-        or both refined to the same map); None when no choice was made
+        How sure :func:`match` is of its choice among the fitted map, the fitted map
+        composed with mesh 1's left-right symmetry and, when those two did not decide,
+        the wider fit (:mod:`fvf.spectral.candidates`): 1 − E_chosen / E_runner-up in
+        [0, 1], E the candidates' distortion × descriptor error × orientation energy,
+        over candidates that are different maps. Near 0 the two best are about as good
+        (an exactly symmetric pair); None when no choice was made
         (``check_symmetry=False``, :func:`symmetry_map`).
     alternatives : tuple of MapCandidate
-        Every candidate scored (name, energy, distortion, orientation agreement,
-        chosen), lowest energy first; empty when no choice was made.
+        Every distinct candidate scored (name, energy, distortion, orientation
+        agreement, chosen, descriptor error), lowest energy first; empty when no choice
+        was made.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -374,16 +391,8 @@ def _correspond(
         timings["symmetry"] = time.perf_counter() - t
         report("match", 4, stages)
         t = time.perf_counter()
-        sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
-        C, p2p, alternatives, confidence = score_candidates(
-            starts,
-            unit_1,
-            unit_2,
-            k_final=k,
-            k_score=K_SCORE,
-            step=zoomout_step,
-            samples=sample_idx,
-            sign=sign,
+        C, p2p, alternatives, confidence = _choose(
+            starts, unit_1, unit_2, (d1, d2), weights, orientation, k, zoomout_step, sample_idx
         )
     else:
         C, p2p = zoomout(
@@ -396,6 +405,47 @@ def _correspond(
     return MatchResult(
         p2p_input, C, C_fit, basis_1, basis_2, p1, q2, p2p, timings, confidence, alternatives
     )
+
+
+def _choose(
+    starts: dict[str, np.ndarray],
+    unit_1: SpectralBasis,
+    unit_2: SpectralBasis,
+    descriptors: tuple[np.ndarray, np.ndarray],
+    weights: dict,
+    orientation: str | None,
+    k: int,
+    step: int,
+    samples: tuple[np.ndarray, np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
+    """Refine the starts, choose by eq. E of :mod:`.candidates`; when that choice is not
+    decisive, refine the wider fit (``K_WIDE``) too and choose again."""
+    sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+
+    def refine(name: str, C0: np.ndarray) -> RefinedCandidate:
+        return refine_start(
+            name,
+            C0,
+            unit_1,
+            unit_2,
+            k_final=k,
+            k_score=K_SCORE,
+            step=step,
+            samples=samples,
+            descriptors=descriptors,
+        )
+
+    refined = [refine(n, C0) for n, C0 in starts.items()]
+    chosen = choose_candidate(refined, sign)
+    k_fit = next(iter(starts.values())).shape[1]
+    if chosen[3] < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
+        d1, d2 = descriptors
+        C_wide = fit_functional_map(
+            unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
+        )
+        refined.append(refine("wide fit", C_wide))
+        chosen = choose_candidate(refined, sign)
+    return chosen
 
 
 def _candidate_starts(
@@ -520,10 +570,12 @@ def match(
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
-        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
-        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
-        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
-        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+        Also try the fitted map composed with mesh 1's left-right symmetry, and, when
+        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
+        are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
+        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
+        ZoomOut; guards near-symmetric shapes against flips.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).
@@ -629,10 +681,12 @@ def match_result(
         ZoomOut iterates on this many farthest-point samples per mesh (all vertices when
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
-        Also try the fitted map composed with mesh 1's left-right symmetry and keep the
-        one nearer to an isometry (:mod:`fvf.spectral.candidates`; the choice and its
-        confidence are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30
-        eigenpairs and a second full ZoomOut; guards near-symmetric shapes against flips.
+        Also try the fitted map composed with mesh 1's left-right symmetry, and, when
+        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
+        are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
+        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
+        ZoomOut; guards near-symmetric shapes against flips.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).
