@@ -22,20 +22,24 @@ def test_info_reports_every_problem(tmp_path):
 
 
 def test_a_mesh_fvf_repair_fixes_is_refused_naming_the_repair_command(tmp_path):
-    """A scan with vertices left over after holes were cut: `fvf quad` refuses it (exit 2,
-    nothing written) and says which command fixes it; after that command it meshes."""
-
+    """A scan with vertices left over after holes were cut: `fvf design` refuses it (exit
+    2, nothing written) and says which command fixes it; after that command it runs.
+    `fvf quad` makes its quads from the faces and says it left the vertices out."""
     import fvf
 
     ico = fvf.icosphere(3)
     keep = ico.face_centroids[:, 2] < 0.5  # a cap cut off, its vertices left in the file
-    src, fixed, out = tmp_path / "bowl.obj", tmp_path / "bowl_fixed.obj", tmp_path / "q.obj"
+    src, fixed = tmp_path / "bowl.obj", tmp_path / "bowl_fixed.obj"
+    out, quads = tmp_path / "d.npz", tmp_path / "q.obj"
     fvf.write_mesh(src, ico.vertices, ico.faces[keep])
-    r = run("quad", str(src), "--faces", "300", "-o", str(out))
+    r = run("design", str(src), "-o", str(out))
     assert r.returncode == 2 and not out.exists()
     assert f"fvf repair {src} -o bowl_fixed.obj" in r.stderr
     assert run("repair", str(src), "-o", str(fixed)).returncode == 0
-    assert run("quad", str(fixed), "--faces", "300", "-o", str(out)).returncode == 0
+    assert run("design", str(fixed), "-o", str(out)).returncode == 0
+    r = run("quad", str(src), "--faces", "300", "-o", str(quads))
+    left_out = int((~np.isin(np.arange(ico.n_vertices), ico.faces[keep])).sum())
+    assert r.returncode == 0 and f"{left_out} vertices of {src} belong to no face" in r.stderr
 
 
 def test_mesh_report_on_broken_meshes():

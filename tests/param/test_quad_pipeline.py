@@ -200,6 +200,34 @@ def _all_cap_quads(cap):
     return P, np.array([[0, 1, 2, 3]])
 
 
+def _square_of_four(cap_squares):
+    """A 2 x 2 grid of unit squares (two triangles each, square s = 2 j + i at (i, j)), the
+    listed squares' triangles marked as dome; the four squares as quads."""
+    from fvf.param.caps import Capped
+
+    x, y = np.meshgrid(np.arange(3.0), np.arange(3.0), indexing="xy")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(9)], 1)
+    corner = np.array([0, 1, 4, 3])
+    Q = np.array([corner + 3 * j + i for j in (0, 1) for i in (0, 1)])
+    F = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])  # square s: faces s and s + 4
+    is_cap = np.isin(np.arange(8) % 4, cap_squares)
+    return Capped(fvf.TriMesh(V, F), is_cap, np.zeros(0, np.int64)), V, Q
+
+
+def test_cutting_domes_never_leaves_two_quads_touching_at_a_corner():
+    """Kept squares 0 and 3 would meet only at the centre vertex (two fans: not a
+    manifold quad mesh); the dome's squares around it are put back. Without a pinch the
+    cut is as before."""
+    from fvf.param.quad_validity import vertex_fans
+
+    cap, V, Q = _square_of_four([1, 2])
+    V2, Q2 = cut_caps(cap, V, Q)
+    assert Q2.shape == (4, 4) and (vertex_fans(V2.shape[0], Q2) == 1).all()
+    cap, V, Q = _square_of_four([1, 3])
+    V2, Q2 = cut_caps(cap, V, Q)
+    assert Q2.shape == (2, 4) and (vertex_fans(V2.shape[0], Q2) == 1).all()
+
+
 def test_a_cylinder_open_at_both_ends_keeps_its_two_loops():
     t = np.linspace(0, 2 * np.pi, 33)[:-1]
     z = np.linspace(0, 2, 17)

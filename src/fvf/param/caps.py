@@ -32,12 +32,15 @@ from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_folds import closest_surface_points
+from .quad_validity import vertex_fans
 from .quality import quad_boundary_vertices
 
 __all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
 
 #: Dome height over the loop's mean radius (57.5° at the rim, a sharp feature).
 DOME_HEIGHT = 1.0
+#: Rounds of putting a dome's quads back around pinched vertices after the cut.
+PINCH_ROUNDS = 3
 
 
 @dataclass(frozen=True)
@@ -167,11 +170,26 @@ def cut_caps(cap: Capped, vertices: np.ndarray, quads: np.ndarray) -> tuple[np.n
     """The quads whose centres lie on the open part (not on a dome), with their vertices
     renumbered: float64 (k', 3), int64 (q', 4)."""
     face, _ = closest_surface_points(cap.mesh, vertices[quads].mean(axis=1))
-    Q = quads[~cap.is_cap[face]]
+    Q = quads[_unpinched(vertices.shape[0], quads, ~cap.is_cap[face])]
     used = np.unique(Q)
     remap = np.full(vertices.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     return vertices[used], remap[Q]
+
+
+def _unpinched(n_vertices: int, quads: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """``keep`` (bool (q,)) with the dome's quads at each pinched vertex put back: where
+    the kept quads meet at a vertex in several fans (two quads touching only at a corner
+    across the cut), the quads around that vertex are kept too, so that it becomes an
+    interior vertex; at most :data:`PINCH_ROUNDS` rounds (the validity gate judges the
+    rest)."""
+    for _ in range(PINCH_ROUNDS):
+        pinched = np.flatnonzero(vertex_fans(n_vertices, quads[keep]) > 1)
+        back = ~keep & np.isin(quads, pinched).any(axis=1)
+        if not back.any():
+            break
+        keep = keep | back
+    return keep
 
 
 def snap_boundary(

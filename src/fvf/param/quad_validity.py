@@ -86,6 +86,16 @@ def quad_components(n_vertices: int, Q: np.ndarray) -> tuple[int, np.ndarray]:
     return int(count), label.astype(np.int64)
 
 
+def vertex_fans(n_vertices: int, quads: np.ndarray) -> np.ndarray:
+    """Number of fans of quads at each vertex, int64 (n,): 1 at a manifold vertex, 0 at
+    a vertex of no quad, 2 or more where quads meet only at their corners (a pinch)."""
+    Q = np.asarray(quads, dtype=np.int64)
+    if Q.shape[0] == 0:
+        return np.zeros(n_vertices, dtype=np.int64)
+    d, inv, _ = _edges(Q)
+    return _fans(n_vertices, Q, d, inv)
+
+
 def _fans(n_vertices: int, Q: np.ndarray, d: np.ndarray, inv: np.ndarray) -> np.ndarray:
     """Number of corner fans at each vertex, int64 (n,): 1 at a manifold vertex."""
     k = Q.shape[0]

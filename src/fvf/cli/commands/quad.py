@@ -98,11 +98,13 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(args, ("-o", args.output), ("--uv", args.uv), ("--png", args.png))
     check_writable(args.output, face_size=4)  # a format that holds quads, before the work
-    mesh = load_mesh(args.mesh)
+    mesh, new_index = _faces_only(args.mesh)
     field = Sources(args, mesh).field(args.field) if args.field else None
     features = None
     if args.features:
         features = read_index_table(args.features, 2, "feature edges", fvf.ParameterError)
+        if new_index is not None:  # (feature edges join vertices of faces: all kept)
+            features = new_index[features]
     made = fvf.quad_mesh(
         mesh,
         target_faces=args.faces,
@@ -133,6 +135,32 @@ def run(args: argparse.Namespace) -> int:
 
 
 _REMESH: dict[str, bool | str] = {"auto": "auto", "always": True, "never": "never"}
+
+
+def _faces_only(path: str) -> tuple[Any, Any]:
+    """The mesh of ``path`` without the vertices that belong to no face (a quad mesh is
+    made from the faces; scans keep such vertices, e.g. the Stanford bunny's 1,113), and
+    the new index of every old vertex (int64 (n,), -1 for a dropped one; None when none
+    was dropped). Said on stderr; every other problem is refused as ``load_mesh`` does."""
+    import numpy as np
+
+    import fvf
+
+    try:
+        return load_mesh(path), None
+    except fvf.UnreferencedVertexError:
+        V, F = fvf.read_mesh(path)
+    V2, F2, kept = fvf.remove_unreferenced_vertices(V, F)
+    new_index = np.full(len(V), -1, dtype=np.int64)
+    new_index[kept] = np.arange(len(kept))
+    print(
+        f"fvf quad: {len(V) - len(kept)} vertices of {path} belong to no face: left out",
+        file=sys.stderr,
+    )
+    try:
+        return fvf.TriMesh(V2, F2), new_index
+    except fvf.MeshError as exc:
+        raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
 
 
 def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
