@@ -53,6 +53,7 @@ from .quad_folds import (
 from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
+from .quality import quad_boundary_vertices
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 
@@ -164,10 +165,11 @@ def _attempt(
     V, vf, Q = repair.vertices, qm.vertex_face, qm.quads
     if part.cap is not None:
         V, Q = cut_caps(part.cap, V, Q)
+    on_surface = V
     if surface is not part.mesh:
         vf, V = closest_surface_points(part.mesh, V)
     if part.cap is not None:
-        V, vf = _snapped(part.mesh, V, Q, vf)
+        V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
     return (
         np.ascontiguousarray(V, np.float64),
         np.ascontiguousarray(Q, np.int64),
@@ -199,13 +201,24 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
     return edges
 
 
-def _snapped(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, vf: np.ndarray) -> tuple:
-    """:func:`fvf.param.caps.snap_boundary`, undone at the corners of quads it folds."""
+def _snapped(
+    mesh: TriMesh, V: np.ndarray, Q: np.ndarray, vf: np.ndarray, on_surface: np.ndarray
+) -> tuple:
+    """:func:`fvf.param.caps.snap_boundary`, undone at the corners of quads it folds; at
+    the corners of quads that still have two corners at one point (two quad vertices
+    beside a dome, projected onto the same convex corner of the input's boundary), the
+    positions on the meshed surface ``on_surface`` (k, 3), just outside the boundary."""
     W, wf = snap_boundary(mesh, V, Q, vf)
     folded = folded_quads(mesh, W, Q)
     if folded.size:
         back = np.unique(Q[folded])
         W[back], wf[back] = V[back], vf[back]
+    P = W[Q]
+    shortest = np.linalg.norm(P - np.roll(P, -1, axis=1), axis=2).min(axis=1)
+    flat = shortest <= 1e-9 * max(float(np.ptp(W, axis=0).max()), 1e-300)
+    if flat.any():
+        rim = np.intersect1d(np.unique(Q[flat]), quad_boundary_vertices(Q))
+        W[rim] = on_surface[rim]
     return W, wf
 
 
