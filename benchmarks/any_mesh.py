@@ -5,7 +5,7 @@ Run from the repository root (FAUST_r layout: ``DIR/shapes/*.off``, ``DIR/corres
 
     .venv/bin/python benchmarks/any_mesh.py --dataset /work/data/faust_r \\
         [--pairs tr_reg_080-tr_reg_081,tr_reg_090-tr_reg_091] [--alterations holes,scaled]
-        [--json out.json]
+        [--seeds 0,1,2] [--json out.json]
 
 (the default pairs: 080 ← 081, 085 ← 086, 090 ← 091, 095 ← 096).
 
@@ -19,7 +19,7 @@ alterations, each seeded:
 * ``none``: B as it is.
 * ``holes``: the faces with a vertex in three balls of radius 0.04 √area(B) around
   random vertices removed, then the unreferenced vertices.
-* ``big holes``: the same with radius 0.08 √area(B) (a hole may cut off a finger: a
+* ``big-holes``: the same with radius 0.08 √area(B) (a hole may cut off a finger: a
   piece of more than 1 % of the vertices raises ``DisconnectedMeshError``, reported as
   such).
 * ``partial``: only the upper 60 % of B by height (the faces whose three vertices are
@@ -37,6 +37,7 @@ alterations, each seeded:
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import sys
 import time
@@ -51,7 +52,7 @@ import fvf
 ALTERATIONS = (
     "none",
     "holes",
-    "big holes",
+    "big-holes",
     "partial",
     "partial+landmarks",
     "scaled",
@@ -141,7 +142,7 @@ def alter(name: str, V: np.ndarray, F: np.ndarray, seed: int = 0):
     of (V, F) to its vertex of (V', F'), -1 when removed."""
     if name == "none":
         return V, F, np.arange(V.shape[0], dtype=np.int64)
-    if name in ("holes", "big holes"):
+    if name in ("holes", "big-holes"):
         return cut_holes(V, F, radius=0.04 if name == "holes" else 0.08, seed=seed)
     if name.startswith("partial"):
         return upper_part(V, F)
@@ -193,6 +194,7 @@ def run_pair(dataset: Path, a: str, b: str, alteration: str, seed: int = 0) -> d
     return {
         "pair": f"{a}<-{b}",
         "alteration": alteration,
+        "seed": seed,
         "n_2": int(V2.shape[0]),
         "covered": float(ok.mean()),
         "mean_error": float(err.mean()),
@@ -212,6 +214,7 @@ def main(argv=None) -> int:
         "tr_reg_095-tr_reg_096",
     )
     ap.add_argument("--alterations", default=",".join(ALTERATIONS))
+    ap.add_argument("--seeds", default="0", help="seeds of the random alterations, e.g. 0,1,2")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -220,17 +223,19 @@ def main(argv=None) -> int:
     rows = []
     print("one BLAS thread; error = 100 * mean geodesic on A / sqrt(area A), template points")
     print(
-        f"{'pair':24} {'alteration':18} {'n_2':>6} {'covered':>7} {'mean':>7} {'median':>7} "
-        f"{'wall s':>7} {'cpu s':>6}"
+        f"{'pair':24} {'alteration':18} {'seed':>4} {'n_2':>6} {'covered':>7} {'mean':>7} "
+        f"{'median':>7} {'wall s':>7} {'cpu s':>6}"
     )
     with threadpool_limits(1):
         for pair in args.pairs.split(","):
             a, b = pair.split("-")
-            for alteration in args.alterations.split(","):
-                r = run_pair(args.dataset, a, b, alteration)
+            for alteration, seed in itertools.product(
+                args.alterations.split(","), map(int, args.seeds.split(","))
+            ):
+                r = run_pair(args.dataset, a, b, alteration, seed)
                 rows.append(r)
                 print(
-                    f"{r['pair']:24} {alteration:18} {r['n_2']:6d} {r['covered']:7.2f} "
+                    f"{r['pair']:24} {alteration:18} {seed:4d} {r['n_2']:6d} {r['covered']:7.2f} "
                     f"{r['mean_error']:7.2f} {r['median_error']:7.2f} {r['wall']:7.1f} "
                     f"{r['cpu']:6.1f}",
                     flush=True,
