@@ -3,7 +3,7 @@ a part, scaled and moved, remeshed, or with specks added, against the first as i
 
 Run from the repository root (FAUST_r layout: ``DIR/shapes/*.off``, ``DIR/corres/*.vts``)::
 
-    .venv/bin/python benchmarks/any_mesh.py --dataset /work/data/faust_r \\
+    .venv/bin/python benchmarks/any_mesh.py --dataset faust_r \\
         [--pairs tr_reg_080-tr_reg_081,tr_reg_090-tr_reg_091] [--alterations holes,scaled]
         [--seeds 0,1,2] [--json out.json]
 
@@ -207,7 +207,7 @@ def run_pair(dataset: Path, a: str, b: str, alteration: str, seed: int = 0) -> d
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--dataset", type=Path, default=Path("/work/data/faust_r"))
+    ap.add_argument("--dataset", type=Path, required=True, help="a folder in the FAUST_r layout")
     ap.add_argument(
         "--pairs",
         default="tr_reg_080-tr_reg_081,tr_reg_085-tr_reg_086,tr_reg_090-tr_reg_091,"
