@@ -311,9 +311,12 @@ def _check_p2p(r, mesh) -> None:
 
 
 def _match_error(mesh):
-    """fvf.match needs one component and more vertices than eigenpairs (k = 8)."""
+    """fvf.match needs one component besides specks of at most 1 % of the vertices, and
+    more vertices than eigenpairs (k = 8)."""
     if mesh.n_components > 1:
-        return errors.DisconnectedMeshError
+        sizes = np.sort(np.bincount(mesh.vertex_components))[::-1]
+        if sizes[1] > 0.01 * mesh.n_vertices:
+            return errors.DisconnectedMeshError
     return errors.NotEnoughEigenpairsError if mesh.n_vertices <= 8 else None
 
 

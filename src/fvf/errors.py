@@ -443,8 +443,10 @@ class QuadMeshError(QuadExtractionError):
 
 
 class SmallComponentWarning(FvfWarning):
-    """Connected components too small for the quad size were left out of a quad mesh
-    (the message names them and gives their areas in target quads)."""
+    """Small connected components were left out: of a quad mesh, those too small for the
+    quad size (the message names them and gives their areas in target quads); of a mesh
+    prepared for matching (:func:`fvf.mesh.prepare_mesh`, :func:`fvf.match`), specks of
+    at most 1 % of the vertices beside the one shape (the message gives their sizes)."""
 
 
 # ---------------------------------------------------------------------------- folded quads

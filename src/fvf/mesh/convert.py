@@ -249,7 +249,9 @@ def as_mesh(obj: MeshLike, *, repair: bool = False) -> TriMesh:
         then :func:`fvf.mesh.prepare_mesh`): :func:`fvf.repair_mesh`'s default steps
         with non-manifold edges cut (duplicate vertices welded, degenerate, duplicate
         faces and unreferenced vertices removed, faces oriented), and the one large piece
-        kept (pieces of at most 1 % of the vertices that the cut separated are dropped).
+        kept (pieces of at most 1 % of the vertices each, cut off by the repair or
+        components of the input, are dropped; the latter with a
+        :class:`~fvf.errors.SmallComponentWarning`).
         The vertices may then be renumbered: :func:`fvf.mesh.prepare_mesh` gives the maps
         to the input vertices. A mesh that is already valid is returned as without
         ``repair``.

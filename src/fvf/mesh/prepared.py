@@ -9,13 +9,21 @@ and records how every input vertex is represented on the clean mesh, so that a r
 the clean mesh (a vertex map, a function) can be carried back to the vertices the user
 passed.
 
-The input must be one shape: faces connected through shared vertices. Pieces that only
-the repair cut apart are dropped when small (at most ``max_dropped_fraction`` of the
-vertices); their input vertices are represented by the nearest kept vertex in space.
+The input must be one shape with at most small specks beside it. One rule, in
+:func:`_keep_largest`, decides for the input's own connected components (a scan with
+floating specks) and for the pieces the repair cut apart: the largest is kept and every
+other one is dropped when it holds at most ``max_dropped_fraction`` of the input
+vertices (1 %); a larger one means several shapes and raises
+:class:`~fvf.errors.DisconnectedMeshError`. The input vertices of a dropped piece (and
+unreferenced ones) are represented by the nearest kept vertex in space, so a result
+carried back still covers every input vertex. Dropping the input's own components warns
+(:class:`~fvf.errors.SmallComponentWarning`); pieces only the repair made are recorded in
+the log.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +38,8 @@ from ..errors import (
     MeshIndexError,
     MeshShapeError,
     NonFiniteError,
+    SmallComponentWarning,
+    user_stacklevel,
 )
 from ..numerics.summary import html_repr, short_repr
 from .repair import DEFAULT_REPAIR_STEPS, repair_mesh
@@ -88,11 +98,58 @@ class PreparedMesh:
         return np.asarray(values)[self.mesh_to_input]
 
 
-def _disconnected(name: str, count: int) -> DisconnectedMeshError:
-    return DisconnectedMeshError(
-        f"{name} has {count} connected components; matching needs one shape. Fix: match "
-        "each component separately (TriMesh.vertex_components labels them)."
-    )
+def _keep_largest(
+    label: np.ndarray,
+    used: np.ndarray,
+    n_input: int,
+    max_fraction: float,
+    what: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rule for several pieces: keep the largest, drop the others when each holds at
+    most ``max_fraction`` of the ``n_input`` input vertices.
+
+    Parameters
+    ----------
+    label : int (n,)
+        Component label of each vertex.
+    used : bool (n,)
+        Vertices referenced by a face (the others are not counted in any piece).
+    n_input : int
+        Number of input vertices (the fraction's denominator).
+    max_fraction : float
+    what : str
+        Names the pieces in the error message: "mesh_2 has" or "repairing mesh_2 (...)
+        split it into".
+
+    Returns
+    -------
+    keep : bool (n,)
+        The vertices of the largest piece.
+    sizes : int (p,)
+        Vertex counts of the pieces, largest first.
+
+    Raises
+    ------
+    DisconnectedMeshError
+        A piece besides the largest holds more than ``max_fraction`` of the vertices.
+    """
+    pieces, size = np.unique(label[used], return_counts=True)
+    order = np.argsort(-size, kind="stable")
+    pieces, size = pieces[order], size[order]
+    limit = max_fraction * max(n_input, 1)
+    if size.size > 1 and size[1] > limit:
+        large = size[size > limit]
+        rest = size.size - large.size
+        small = f", and {rest} more of at most {int(limit)} vertices" if rest else ""
+        raise DisconnectedMeshError(
+            f"{what} {size.size} connected components; {large.size} of them hold more "
+            f"than {max_fraction:.0%} of the {n_input} vertices ({', '.join(map(str, large))} "
+            f"vertices{small}). Matching needs one shape: only components of at most "
+            f"{max_fraction:.0%} of the vertices are dropped as specks. Fix: match each "
+            "shape separately (fvf.TriMesh(V, F).vertex_components labels the components; "
+            "keep the faces of one label), or repair the mesh by hand (fvf.repair_mesh)."
+        )
+    return label == pieces[0], size
 
 
 def _vertex_components(F: np.ndarray, n: int) -> tuple[int, np.ndarray]:
@@ -108,6 +165,31 @@ def _vertex_components(F: np.ndarray, n: int) -> tuple[int, np.ndarray]:
     used[F.ravel()] = True
     # unreferenced vertices are their own components: count only referenced ones
     return int(np.unique(label[used]).size), label
+
+
+def _drop_own_specks(
+    V: np.ndarray, F: np.ndarray, name: str, max_fraction: float
+) -> tuple[np.ndarray, str | None]:
+    """The faces of the input's largest component, after :func:`_keep_largest`'s rule,
+    and a log line (None when the input is one component); warns when specks are dropped."""
+    count, label = _vertex_components(F, V.shape[0])
+    if count <= 1:
+        return F, None
+    used = np.zeros(V.shape[0], dtype=bool)
+    used[F.ravel()] = True
+    keep, size = _keep_largest(label, used, V.shape[0], max_fraction, f"{name} has")
+    face_keep = keep[F[:, 0]]
+    line = (
+        f"dropped {count - 1} small component(s) of the input ({int(size[1:].sum())} "
+        f"vertices, {int((~face_keep).sum())} faces; at most {int(size[1])} vertices each); "
+        f"kept the largest ({int(size[0])} vertices)"
+    )
+    warnings.warn(
+        f"{name}: {line}. Each dropped vertex stands for its nearest kept vertex in the map.",
+        SmallComponentWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return F[face_keep], line
 
 
 def prepare_mesh(
@@ -126,18 +208,25 @@ def prepare_mesh(
     name : str
         Used in messages (e.g. "mesh_1").
     max_dropped_fraction : float
-        Largest fraction of the input vertices that may be dropped with the pieces the
-        repair cut off.
+        Largest fraction of the input vertices that one dropped piece may hold: a
+        component of the input besides the largest (a speck), or a piece the repair cut
+        off. A larger piece raises.
 
     Returns
     -------
     PreparedMesh
 
+    Warns
+    -----
+    SmallComponentWarning
+        Small components of the input were dropped (the message gives their sizes).
+
     Raises
     ------
     DisconnectedMeshError
-        The input has several connected components (several shapes), or the repair split
-        it into pieces too large to drop.
+        The input (or the repair) has a second piece holding more than
+        ``max_dropped_fraction`` of the vertices (several shapes); the message gives the
+        component sizes.
     MeshError
         Arrays that no repair fixes (bad shapes, indices out of range, non-finite
         coordinates).
@@ -148,32 +237,28 @@ def prepare_mesh(
         raise  # no repair guesses coordinates or indices
     except MeshError:
         mesh = None
-    if mesh is not None:
-        if mesh.n_components > 1:
-            raise _disconnected(name, mesh.n_components)
+    if mesh is not None and mesh.n_components == 1:
         ident = np.arange(mesh.n_vertices, dtype=np.int64)
         return PreparedMesh(mesh, mesh.n_vertices, ident, ident)
     V = np.asarray(vertices, dtype=float)
     F = np.asarray(faces, dtype=np.int64)
-    n_in, _ = _vertex_components(F, V.shape[0])
-    if n_in > 1:
-        raise _disconnected(name, n_in)
+    F, own = _drop_own_specks(V, F, name, max_dropped_fraction)
+    log: list[str] = [own] if own else []
+    if mesh is not None:  # valid apart from the specks: keep the vertices as they are
+        return _subset(V, F, log)
     rep = repair_mesh(V, F, MATCH_REPAIR_STEPS)
-    log: list[str] = []
     log.extend(rep.log)
     V2, F2 = rep.vertices, rep.faces
     n2 = V2.shape[0]
     count, label = _vertex_components(F2, n2)
-    keep_label = np.bincount(label).argmax()
-    keep = label == keep_label
+    keep, size = _keep_largest(
+        label,
+        np.ones(n2, dtype=bool),
+        V.shape[0],
+        max_dropped_fraction,
+        f"repairing {name} ({'; '.join(rep.log)}) split it into",
+    )
     dropped = n2 - int(keep.sum())
-    if dropped > max_dropped_fraction * max(V.shape[0], 1):
-        raise DisconnectedMeshError(
-            f"repairing {name} ({'; '.join(rep.log)}) split it into {count} pieces; the "
-            f"largest has {int(keep.sum())} of {n2} vertices, more than "
-            f"{max_dropped_fraction:.0%} would be dropped. Fix: repair the mesh by hand "
-            "(fvf.repair_mesh) and pass one connected piece."
-        )
     new_index = np.full(n2, -1, dtype=np.int64)
     new_index[keep] = np.arange(int(keep.sum()))
     face_keep = keep[F2[:, 0]]
@@ -187,9 +272,27 @@ def prepare_mesh(
     input_to_mesh = np.full(V.shape[0], -1, dtype=np.int64)
     # the copy that kept an input vertex's index wins; otherwise any kept copy
     input_to_mesh[mesh_to_input[::-1]] = np.arange(mesh.n_vertices)[::-1]
-    own = rep.vertex_map >= 0
-    own_new = np.where(own, new_index[np.maximum(rep.vertex_map, 0)], -1)
+    own_index = rep.vertex_map >= 0
+    own_new = np.where(own_index, new_index[np.maximum(rep.vertex_map, 0)], -1)
     input_to_mesh = np.where(own_new >= 0, own_new, input_to_mesh)
+    _nearest_for_missing(V, mesh, input_to_mesh, log)
+    return PreparedMesh(mesh, V.shape[0], input_to_mesh, mesh_to_input, tuple(log))
+
+
+def _subset(V: np.ndarray, F: np.ndarray, log: list[str]) -> PreparedMesh:
+    """The valid mesh of the vertices ``F`` references, in their input order."""
+    kept = np.unique(F)
+    new_index = np.full(V.shape[0], -1, dtype=np.int64)
+    new_index[kept] = np.arange(kept.size)
+    mesh = TriMesh(V[kept], new_index[F])
+    _nearest_for_missing(V, mesh, new_index, log)
+    return PreparedMesh(mesh, V.shape[0], new_index, kept.astype(np.int64), tuple(log))
+
+
+def _nearest_for_missing(
+    V: np.ndarray, mesh: TriMesh, input_to_mesh: np.ndarray, log: list[str]
+) -> None:
+    """Entries -1 of ``input_to_mesh`` (n_input,) -> the nearest mesh vertex in space."""
     missing = np.flatnonzero(input_to_mesh < 0)
     if missing.size:
         _, nearest = cKDTree(mesh.vertices).query(V[missing])
@@ -198,4 +301,3 @@ def prepare_mesh(
             f"{missing.size} input vertices (unreferenced or in dropped pieces) stand for "
             "their nearest kept vertex"
         )
-    return PreparedMesh(mesh, V.shape[0], input_to_mesh, mesh_to_input, tuple(log))

@@ -4,7 +4,7 @@
 The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`.zoomout`):
 
 1. Prepare each mesh as the user has it (a TriMesh, arrays (V, F) or a file): repair
-   non-manifold edges and vertices and keep the one large piece
+   non-manifold edges and vertices and keep the one large piece, dropping specks
    (:func:`fvf.mesh.prepared.prepare_mesh`), scale it to unit area.
 2. Laplace–Beltrami bases (:class:`fvf.SpectralBasis`) with k eigenpairs.
 3. Wave kernel signatures on a common grid of log-energies, plus landmark WKS when
@@ -206,7 +206,7 @@ def as_prepared_mesh(mesh: MeshLike, name: str = "mesh") -> PreparedMesh:
     Raises
     ------
     DisconnectedMeshError
-        Several connected components.
+        Several connected components besides specks of at most 1 % of the vertices.
     MeshError, MeshReadError
         Arrays or files that cannot be read or repaired.
     """
@@ -592,7 +592,9 @@ def match(
     Raises
     ------
     DisconnectedMeshError
-        A mesh with several connected components.
+        A mesh with several connected components of more than 1 % of its vertices each
+        (several shapes); smaller ones (specks) are dropped with a
+        :class:`~fvf.errors.SmallComponentWarning`.
     NotEnoughEigenpairsError
         A mesh with k or fewer vertices.
     LandmarkError
@@ -701,7 +703,9 @@ def match_result(
     Raises
     ------
     DisconnectedMeshError
-        A mesh with several connected components.
+        A mesh with several connected components of more than 1 % of its vertices each
+        (several shapes); smaller ones (specks) are dropped with a
+        :class:`~fvf.errors.SmallComponentWarning`.
     NotEnoughEigenpairsError
         A mesh with k or fewer vertices.
     LandmarkError
