@@ -150,3 +150,21 @@ def test_quads_beside_a_hole_never_share_a_corner_point():
     assert np.linalg.norm(P - np.roll(P, -1, axis=1), axis=2).min() > 0
     verdict = quadcheck.check(mesh.vertices, mesh.faces, V, Q)
     assert verdict.valid, verdict.summary()
+
+
+@pytest.mark.perf
+def test_a_rounding_with_most_triangles_flipped_is_not_repaired():
+    """A hemisphere at 3,000 quads: its first attempts (the rim an integer iso-line) flip
+    about half the triangles; the local repair is skipped there
+    (``uv_folds.HOPELESS_FRACTION``: 190 s of rounds that never succeed) and the later
+    attempt is valid."""
+    sphere = fvf.icosphere(4)
+    centre = sphere.face_centroids
+    mesh = fvf.TriMesh(
+        *fvf.remove_unreferenced_vertices(sphere.vertices, sphere.faces[centre[:, 1] > -0.05])[:2]
+    )
+    said = []
+    made = fvf.quad_mesh(mesh, target_faces=3000, progress=lambda m, d, n: said.append(m))
+    assert any("too many to repair" in m for m in said)
+    verdict = quadcheck.check(mesh.vertices, mesh.faces, *map(np.asarray, made))
+    assert verdict.valid, verdict.summary()
