@@ -125,11 +125,11 @@ def _integer_kernel(C: np.ndarray) -> np.ndarray:
 #: Float64 entries of the solve block H_rr⁻¹ H_ri held at once (memory bound, 200 MB).
 SCHUR_BLOCK_ENTRIES = 25_000_000
 #: Right-hand sides a block's solve passes to the backend at once (:func:`solved_columns`):
-#: a multiple of 4, the columns CHOLMOD's triangular solves take together, so that every
+#: 4 (or a multiple), the columns CHOLMOD's triangular solves take together, so that every
 #: column's arithmetic is that of the whole block's solve. The backend copies the right-hand
 #: sides twice (column-major in, column-major out): with the whole 33-column block of a
 #: 750k-unknown fit that was 0.8 GB on top of the factor.
-SOLVE_COLUMNS = 8
+SOLVE_COLUMNS = 4
 
 
 def solved_columns(fac: HermitianFactor, B: sp.sparray) -> Iterator[tuple[slice, np.ndarray]]:
