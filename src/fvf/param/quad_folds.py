@@ -90,6 +90,9 @@ CANDIDATES = 32
 SAMPLE_CANDIDATES = 8
 #: Fraction of the way to the mean of its quad neighbours a free vertex moves per step.
 RELAX_STEP = 0.5
+#: Quads whose nearby surface samples :func:`reference_normals` gathers at once (the
+#: samples' indices are Python lists: at 20,000 quads on 750k faces, 0.7 GB at once).
+BALL_CHUNK = 2048
 #: Relaxation steps per region before the region grows by one ring of quads.
 STEPS_PER_RING = 10
 #: Rings of quads the free region may grow by around the folded quads.
@@ -239,10 +242,28 @@ def reference_normals(
     samples, owner = surface_sample_tree(mesh)
     weight = mesh.face_areas / np.bincount(owner, minlength=mesh.n_faces)  # area per sample
     AN = weight[:, None] * mesh.face_normals
+    out = np.empty((len(c), 3))
+    for lo in range(0, len(c), BALL_CHUNK):  # the samples near a chunk of quads at a time
+        at = slice(lo, lo + BALL_CHUNK)
+        out[at] = _area_under(samples, owner, AN, c[at], rho[at], side[at])
+    return out
+
+
+def _area_under(
+    samples: cKDTree,
+    owner: np.ndarray,
+    AN: np.ndarray,
+    c: np.ndarray,
+    rho: np.ndarray,
+    side: np.ndarray,
+) -> np.ndarray:
+    """N_q of quads centred at c (k, 3) with radii rho (k,), float64 (k, 3); AN (m, 3) the
+    area vector of the surface per sample of each input triangle."""
     near = samples.query_ball_point(c, rho)  # each quad's own radius: one large quad
     counts = np.fromiter((len(n) for n in near), np.int64, len(near))  # costs its own
     rows = np.repeat(np.arange(len(c)), counts)
     cols = owner[np.fromiter(chain.from_iterable(near), np.int64, int(counts.sum()))]
+    del near
     same = np.einsum("kd,kd->k", AN[cols], side[rows]) > 0  # not the far wall of a thin part
     rows, cols = rows[same], cols[same]
     out = np.stack(

@@ -115,6 +115,10 @@ def _quad_areas(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.minimum(a1, a2)
 
 
+#: Triangle sides sampled per :func:`segment_points` call in :func:`surface_samples`.
+SIDE_CHUNK = 500_000
+
+
 def surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     """Points on triangles T (k, 3) about ``step`` apart, float64 (p, 3).
 
@@ -125,7 +129,10 @@ def surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     """
     P = V[T]  # (k, 3, 3)
     a, b = P.reshape(-1, 3), np.roll(P, -1, axis=1).reshape(-1, 3)
-    out = [V, segment_points(a, b, step)[0]]
+    out = [V]
+    for lo in range(0, a.shape[0], SIDE_CHUNK):  # its temporaries are 5 × the points
+        out.append(segment_points(a[lo : lo + SIDE_CHUNK], b[lo : lo + SIDE_CHUNK], step)[0])
+    del a, b
     area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     k = np.clip(np.ceil(np.sqrt(2.0 * area) / step).astype(np.int64), 1, 64)
     for level in np.unique(k[k > 1]):  # a loop over a few subdivision levels

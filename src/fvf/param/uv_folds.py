@@ -36,7 +36,7 @@ import scipy.sparse as sp
 
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import Backend, factor_hermitian
-from .rounding import SCHUR_BLOCK_ENTRIES, MixedIntegerSolver
+from .rounding import SCHUR_BLOCK_ENTRIES, MixedIntegerSolver, solved_columns
 
 __all__ = [
     "flip_count",
@@ -208,8 +208,8 @@ class _Responses:
         self.solver = solver
         self.Ki = Kc[:, solver.integer]
         self.Kr = Kc[:, solver.real_idx]
-        self._Ki_rows = sp.csr_array(self.Ki)
-        self._Kr_rows = sp.csr_array(self.Kr)
+        del Kc
+        self._K = sp.csr_array(K)  # its rows: no row-major copy of K_r (0.15 GB at 750k faces)
         self._rows: dict[int, np.ndarray] = {}
         self._cols: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         # right-hand sides per solve, so that a block holds SCHUR_BLOCK_ENTRIES at most
@@ -220,9 +220,11 @@ class _Responses:
         new = np.array([r for r in idx.tolist() if r not in self._rows], dtype=np.int64)
         for lo in range(0, new.size, self._block):  # solve blocks of bounded memory
             part = new[lo : lo + self._block]
-            X = self.solver.fac.solve(self._Kr_rows[part].T.toarray())
-            values = self._Ki_rows[part].toarray() - (self.solver.Hri.T @ X).T
-            self._rows.update(zip(part.tolist(), values, strict=True))
+            Kp = self._K[part]
+            Ki, Kr = Kp[:, self.solver.integer], sp.csc_array(Kp[:, self.solver.real_idx].T)
+            for cut, X in solved_columns(self.solver.fac, Kr):
+                values = Ki[cut].toarray() - (self.solver.Hri.T @ X).T
+                self._rows.update(zip(part[cut].tolist(), values, strict=True))
         return np.array([self._rows[r] for r in idx.tolist()]).reshape(idx.size, -1)
 
     def columns(self, cols: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -231,11 +233,12 @@ class _Responses:
         new = np.array([c for c in cols.tolist() if c not in self._cols], dtype=np.int64)
         for lo in range(0, new.size, self._block):  # solve blocks of bounded memory
             part = new[lo : lo + self._block]
-            Z = self.solver.fac.solve(self.solver.Hri[:, part].toarray())
-            R = self.Ki[:, part].toarray() - self.Kr @ Z
-            for c, col in zip(part.tolist(), R.T, strict=True):
-                keep = np.flatnonzero(np.abs(col) >= RESPONSE_RTOL * np.abs(col).max())
-                self._cols[c] = (keep, col[keep])
+            for cut, Z in solved_columns(self.solver.fac, self.solver.Hri[:, part]):
+                R = self.Ki[:, part[cut]].toarray()  # (4m, a few): not the block's width
+                R -= self.Kr @ Z
+                for c, col in zip(part[cut].tolist(), R.T, strict=True):
+                    keep = np.flatnonzero(np.abs(col) >= RESPONSE_RTOL * np.abs(col).max())
+                    self._cols[c] = (keep, col[keep])
         return [self._cols[c] for c in cols.tolist()]
 
 
