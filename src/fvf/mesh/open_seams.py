@@ -18,6 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .defects import repeats_vertex
+from .halfedges import misoriented_edges, sort_halfedges
+from .repair import remove_duplicate_vertices, remove_unreferenced_vertices
 from .trimesh import TriMesh
 
 __all__ = ["weld_open_seams"]
@@ -42,32 +45,23 @@ def weld_open_seams(mesh: TriMesh) -> tuple[TriMesh, int]:
     b = mesh.boundary_vertices
     if b.size < 2:
         return mesh, 0
-    X = mesh.vertices[b] + 0.0  # -0.0 -> 0.0
-    order = np.lexsort((b, X[:, 2], X[:, 1], X[:, 0]))
-    new = np.ones(b.size, dtype=bool)
-    new[1:] = (X[order][1:] != X[order][:-1]).any(axis=1)
-    if new.all():
+    groups = remove_duplicate_vertices(mesh.vertices[b], np.zeros((0, 3), dtype=np.int64))
+    if groups.vertices.shape[0] == b.size:
         return mesh, 0
-    rep = np.empty(b.size, dtype=np.int64)
-    rep[order] = b[order][np.flatnonzero(new)][np.cumsum(new) - 1]
     to = np.arange(mesh.n_vertices)
-    to[b] = rep
+    to[b] = b[groups.vertex_origin[groups.vertex_map]]  # the lowest index of each group
     F = to[mesh.faces]
-    if not _oriented_manifold(F):
+    if not _oriented_manifold(F, mesh.n_vertices):
         return mesh, 0
-    kept = np.unique(F)
-    index = np.full(mesh.n_vertices, -1, dtype=np.int64)
-    index[kept] = np.arange(kept.size)
-    return TriMesh(mesh.vertices[kept], index[F]), int(mesh.n_vertices - kept.size)
+    joined = remove_unreferenced_vertices(mesh.vertices, F)
+    return joined.mesh, int(mesh.n_vertices - joined.vertices.shape[0])
 
 
-def _oriented_manifold(F: np.ndarray) -> bool:
-    """No face repeats a vertex, each directed edge has one face, each edge at most two."""
-    if (F[:, 0] == F[:, 1]).any() or (F[:, 1] == F[:, 2]).any() or (F[:, 2] == F[:, 0]).any():
+def _oriented_manifold(F: np.ndarray, n_vertices: int) -> bool:
+    """No face repeats a vertex, no edge has more than two faces, and every edge of two
+    faces is traversed once each way (the checks of ``TriMesh``, on the sorted
+    half-edges)."""
+    if repeats_vertex(F).any():
         return False
-    directed = np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
-    if np.unique(directed, axis=0).shape[0] < directed.shape[0]:
-        return False
-    undirected = np.sort(directed, axis=1)
-    _, uses = np.unique(undirected, axis=0, return_counts=True)
-    return bool(uses.max() <= 2)
+    runs = sort_halfedges(F, n_vertices)
+    return bool(runs.counts.max(initial=0) <= 2 and misoriented_edges(runs).size == 0)
