@@ -42,7 +42,7 @@ from ..errors import (
     user_stacklevel,
 )
 from ..numerics.summary import html_repr, short_repr
-from .repair import DEFAULT_REPAIR_STEPS, repair_mesh
+from .repair import DEFAULT_REPAIR_STEPS, remove_unreferenced_vertices, repair_mesh
 from .trimesh import TriMesh
 
 __all__ = ["PreparedMesh", "prepare_mesh", "MATCH_REPAIR_STEPS"]
@@ -281,12 +281,10 @@ def prepare_mesh(
 
 def _subset(V: np.ndarray, F: np.ndarray, log: list[str]) -> PreparedMesh:
     """The valid mesh of the vertices ``F`` references, in their input order."""
-    kept = np.unique(F)
-    new_index = np.full(V.shape[0], -1, dtype=np.int64)
-    new_index[kept] = np.arange(kept.size)
-    mesh = TriMesh(V[kept], new_index[F])
-    _nearest_for_missing(V, mesh, new_index, log)
-    return PreparedMesh(mesh, V.shape[0], new_index, kept.astype(np.int64), tuple(log))
+    sub = remove_unreferenced_vertices(V, F)
+    input_to_mesh = sub.vertex_map.copy()  # -1 for the vertices of dropped pieces
+    _nearest_for_missing(V, sub.mesh, input_to_mesh, log)
+    return PreparedMesh(sub.mesh, V.shape[0], input_to_mesh, sub.vertex_origin, tuple(log))
 
 
 def _nearest_for_missing(
