@@ -161,6 +161,14 @@ def load_mesh(path: str) -> TriMesh:
     import fvf
 
     V, F = fvf.read_mesh(path)
+    return checked_mesh(path, V, F)
+
+
+def checked_mesh(path: str, V: Any, F: Any) -> TriMesh:
+    """``TriMesh(V, F)`` of arrays read from ``path``; an invalid mesh's error names the
+    file, points to ``fvf info`` and, for what it fixes, to ``fvf repair``."""
+    import fvf
+
     try:
         return fvf.TriMesh(V, F)
     except fvf.MeshError as exc:

@@ -15,8 +15,8 @@ from ..common import (
     add_output,
     add_picture_options,
     check_outputs,
+    checked_mesh,
     integer,
-    load_mesh,
     load_viz,
     picture_options,
     unavailable,
@@ -141,26 +141,17 @@ def _faces_only(path: str) -> tuple[Any, Any]:
     """The mesh of ``path`` without the vertices that belong to no face (a quad mesh is
     made from the faces; scans keep such vertices, e.g. the Stanford bunny's 1,113), and
     the new index of every old vertex (int64 (n,), -1 for a dropped one; None when none
-    was dropped). Said on stderr; every other problem is refused as ``load_mesh`` does."""
-    import numpy as np
-
+    was dropped). Said on stderr; every other problem is refused as ``checked_mesh`` does."""
     import fvf
 
+    V, F = fvf.read_mesh(path)
     try:
-        return load_mesh(path), None
+        return checked_mesh(path, V, F), None
     except fvf.UnreferencedVertexError:
-        V, F = fvf.read_mesh(path)
-    V2, F2, kept = fvf.remove_unreferenced_vertices(V, F)
-    new_index = np.full(len(V), -1, dtype=np.int64)
-    new_index[kept] = np.arange(len(kept))
-    print(
-        f"fvf quad: {len(V) - len(kept)} vertices of {path} belong to no face: left out",
-        file=sys.stderr,
-    )
-    try:
-        return fvf.TriMesh(V2, F2), new_index
-    except fvf.MeshError as exc:
-        raise type(exc)(f"{path}: {exc} (`fvf info {path}` lists every problem)") from exc
+        faces_only = fvf.remove_unreferenced_vertices(V, F)
+    dropped = len(V) - faces_only.vertices.shape[0]
+    print(f"fvf quad: {dropped} vertices of {path} belong to no face: left out", file=sys.stderr)
+    return checked_mesh(path, faces_only.vertices, faces_only.faces), faces_only.vertex_map
 
 
 def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
