@@ -282,8 +282,9 @@ def _folded_over(mesh: TriMesh, face: np.ndarray, smooth: np.ndarray) -> np.ndar
     face is dominated by that face, while the sliver's edge neighbours agree with it.)"""
     raw = mesh.face_normals[face]
     adj = mesh.face_adjacency[face]  # (k, 3), -1 on the boundary
-    AN = mesh.face_areas[:, None] * mesh.face_normals
-    around = np.where((adj >= 0)[..., None], AN[np.maximum(adj, 0)], 0.0).sum(axis=1)
+    g = np.maximum(adj, 0)  # the neighbours' area vectors, gathered (not all m faces')
+    area = np.where(adj >= 0, mesh.face_areas[g], 0.0)
+    around = np.einsum("kj,kjd->kd", area, mesh.face_normals[g])
     return (np.einsum("kd,kd->k", raw, smooth) <= 0) & (np.einsum("kd,kd->k", raw, around) <= 0)
 
 
