@@ -218,14 +218,14 @@ def test_cutting_domes_never_leaves_two_quads_touching_at_a_corner():
     """Kept squares 0 and 3 would meet only at the centre vertex (two fans: not a
     manifold quad mesh); the dome's squares around it are put back. Without a pinch the
     cut is as before."""
-    from fvf.param.quad_validity import vertex_fans
+    from fvf.param.quad_validity import quad_vertex_fans
 
     cap, V, Q = _square_of_four([1, 2])
     V2, Q2 = cut_caps(cap, V, Q)
-    assert Q2.shape == (4, 4) and (vertex_fans(V2.shape[0], Q2) == 1).all()
+    assert Q2.shape == (4, 4) and (quad_vertex_fans(V2.shape[0], Q2) == 1).all()
     cap, V, Q = _square_of_four([1, 3])
     V2, Q2 = cut_caps(cap, V, Q)
-    assert Q2.shape == (2, 4) and (vertex_fans(V2.shape[0], Q2) == 1).all()
+    assert Q2.shape == (2, 4) and (quad_vertex_fans(V2.shape[0], Q2) == 1).all()
 
 
 def test_a_cylinder_open_at_both_ends_keeps_its_two_loops():

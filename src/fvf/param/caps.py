@@ -32,7 +32,7 @@ from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_folds import closest_surface_points
-from .quad_validity import vertex_fans
+from .quad_validity import quad_vertex_fans
 from .quality import quad_boundary_vertices
 
 __all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
@@ -184,7 +184,7 @@ def _unpinched(n_vertices: int, quads: np.ndarray, keep: np.ndarray) -> np.ndarr
     interior vertex; at most :data:`PINCH_ROUNDS` rounds (the validity gate judges the
     rest)."""
     for _ in range(PINCH_ROUNDS):
-        pinched = np.flatnonzero(vertex_fans(n_vertices, quads[keep]) > 1)
+        pinched = np.flatnonzero(quad_vertex_fans(n_vertices, quads[keep]) > 1)
         back = ~keep & np.isin(quads, pinched).any(axis=1)
         if not back.any():
             break

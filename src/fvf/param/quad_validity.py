@@ -33,7 +33,13 @@ from ..numerics.summary import html_repr, short_repr
 from .quad_folds import folded_quads
 from .quality import surface_samples
 
-__all__ = ["QuadValidity", "check_quad_mesh", "quad_components", "topology_signature"]
+__all__ = [
+    "QuadValidity",
+    "check_quad_mesh",
+    "quad_components",
+    "quad_vertex_fans",
+    "topology_signature",
+]
 
 #: The two-sided Hausdorff distance allowed, in mean quad edge lengths.
 HAUSDORFF_EDGES = 1.0
@@ -86,7 +92,7 @@ def quad_components(n_vertices: int, Q: np.ndarray) -> tuple[int, np.ndarray]:
     return int(count), label.astype(np.int64)
 
 
-def vertex_fans(n_vertices: int, quads: np.ndarray) -> np.ndarray:
+def quad_vertex_fans(n_vertices: int, quads: np.ndarray) -> np.ndarray:
     """Number of fans of quads at each vertex, int64 (n,): 1 at a manifold vertex, 0 at
     a vertex of no quad, 2 or more where quads meet only at their corners (a pinch)."""
     Q = np.asarray(quads, dtype=np.int64)
