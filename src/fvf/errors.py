@@ -80,6 +80,7 @@ __all__ = [
     "DisconnectedMeshError",
     "NotEnoughEigenpairsError",
     "FoldedQuadWarning",
+    "QuadCountRaisedWarning",
     "format_indices",
 ]
 
@@ -418,7 +419,10 @@ def user_stacklevel() -> int:
 # ---------------------------------------------------------------------------- quads
 class ParameterizationInputError(FvfError):
     """A mesh or cross field the seamless parameterization cannot handle (boundary,
-    several components, cones of unsupported index)."""
+    several components, cones of unsupported index). ``where`` (float64 (k, 3), or None)
+    holds the points it names, when it names any (the cones)."""
+
+    where: object = None
 
 
 class FlippedParameterizationWarning(FvfWarning):
@@ -427,19 +431,35 @@ class FlippedParameterizationWarning(FvfWarning):
 
 class QuadExtractionError(FvfError, RuntimeError):
     """Quad extraction met a parameterization it cannot turn into a valid quad mesh
-    (flipped or degenerate uv triangles, a target too coarse for the topology)."""
+    (flipped or degenerate uv triangles, a target too coarse for the topology).
+    ``where`` (float64 (k, 3), or None) holds the points where it failed, when known."""
+
+    where: object = None
 
 
 class QuadMeshError(QuadExtractionError):
     """:func:`fvf.quad_mesh` found no valid quad mesh: every attempt (the input, the
     input remeshed at the quad scale, the smoothest field, more quads) gave a mesh that
     fails a validity check or failed itself. ``attempts`` lists each attempt and why it
-    failed; ``best`` is the least bad quad mesh seen (or None), for inspection only."""
+    failed; ``best`` is the least bad quad mesh seen (or None), for inspection only;
+    ``where`` (float64 (k, 3), or None) the centres of the places where attempts failed,
+    those where most attempts failed first; ``places`` the same places with how many
+    attempts failed there and the input's radius of curvature
+    (:class:`fvf.param.quad_failures.Place`)."""
 
-    def __init__(self, message: str, attempts: tuple = (), best: object = None) -> None:
+    def __init__(
+        self,
+        message: str,
+        attempts: tuple = (),
+        best: object = None,
+        where: object = None,
+        places: tuple = (),
+    ) -> None:
         super().__init__(message)
         self.attempts = tuple(attempts)
         self.best = best
+        self.where = where
+        self.places = tuple(places)
 
 
 class SmallComponentWarning(FvfWarning):
@@ -450,6 +470,13 @@ class SmallComponentWarning(FvfWarning):
 
 
 # ---------------------------------------------------------------------------- folded quads
+class QuadCountRaisedWarning(FvfWarning):
+    """A component of a quad mesh was meshed with more quads than asked: every attempt at
+    the size asked failed at parts of the surface narrower than a quad edge (a finger, a
+    spike), and quads small enough for them succeeded; the message says where and how
+    many."""
+
+
 class FoldedQuadWarning(FvfWarning):
     """Quads of a quad mesh stay folded in 3D (normal against the input surface's) after
     the untangling on the surface; the message names them."""

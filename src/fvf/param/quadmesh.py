@@ -20,6 +20,8 @@ import numpy.typing as npt
 from ..errors import (
     ParameterError,
     ProblemSizeError,
+    QuadCountRaisedWarning,
+    QuadExtractionError,
     QuadMeshError,
     SmallComponentWarning,
     UndeclaredCacheKeyError,
@@ -43,6 +45,7 @@ from .features import (
     transferred_features,
 )
 from .frame_field import Alignment
+from .quad_failures import describe_places, failure_places, resolving_edge
 from .quad_folds import (
     MAX_RINGS,
     STEPS_PER_RING,
@@ -62,6 +65,12 @@ __all__ = ["quad_mesh", "MIN_COMPONENT_QUADS", "MAX_QUADS_PER_FACE", "QUAD_BYTES
 #: A component smaller than this many target quads (area / h²) is meshed at its own,
 #: smaller edge length √(area / MIN_COMPONENT_QUADS); if that fails, it is left out.
 MIN_COMPONENT_QUADS = 8
+#: When every attempt fails at parts narrower than a quad edge, the component is tried
+#: again with quads that resolve them if that asks for at most this many times the quads
+#: (:mod:`fvf.param.quad_failures`) ...
+MAX_RAISE = 8.0
+#: ... with the first this many attempts of the list at that size.
+FINER_ATTEMPTS = 3
 #: Ring spacing of the domes that close open components, in quad edges.
 CAP_SPACING = 0.5
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
@@ -159,7 +168,11 @@ def _attempt(
         **opts["seamless"],
     )
     report("quad extraction", 0, 1)
-    qm = extract_quads(surface, param.uv)
+    try:
+        qm = extract_quads(surface, param.uv)
+    except QuadExtractionError as exc:
+        exc.where = surface.face_centroids[param.flipped]
+        raise
     repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
     report("quad extraction", 1, 1)
     V, vf, Q = repair.vertices, qm.vertex_face, qm.quads
@@ -239,6 +252,7 @@ def _mesh_part(
 ) -> tuple:
     """The first attempt whose quads pass the gate, or QuadMeshError listing them all."""
     log: list[str] = []
+    spots: list[np.ndarray] = []  # where each attempt failed (module quad_failures)
     surfaces: dict = {}
     want = topology_signature(part.mesh.n_vertices, part.mesh.faces)
     best = None
@@ -253,18 +267,28 @@ def _mesh_part(
             raise  # the caller's option, or a bug: not a reason to try another way
         except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
             log.append(f"{plan}: {type(exc).__name__}: {_first_line(exc)}")
+            where = getattr(exc, "where", None)
+            spots.append(np.zeros((0, 3)) if where is None else np.asarray(where))
             continue
         verdict = check_quad_mesh(part.mesh, V, Q, signature=want)
         if verdict.valid:
             log.append(f"{plan}: valid, {Q.shape[0]} quads")
             return V, Q, vf, param, surface, verdict, log
         log.append(f"{plan}: {Q.shape[0]} quads, invalid: {verdict}")
+        spots.append(V[Q[verdict.folded]].mean(axis=1))
         best = best or (V, Q)
+    places = failure_places(part.mesh, spots, plans[0].h)
     raise QuadMeshError(
         f"no valid quad mesh of component {part.label} ({part.mesh.n_faces} triangles) after "
-        f"{len(plans)} attempts:\n  " + "\n  ".join(log) + "\n" + _advice(opts),
+        f"{len(plans)} attempts:\n  "
+        + "\n  ".join(log)
+        + "\n"
+        + describe_places(places, len(plans), plans[0].h, part.mesh.total_area)
+        + _advice(opts),
         attempts=tuple(log),
         best=best,
+        where=np.array([p.centre for p in places]).reshape(-1, 3),
+        places=tuple(places),
     )
 
 
@@ -470,7 +494,13 @@ def _mesh_parts(
         plans = _plans(part, hp, align, retry, remesh, featured)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
-        except QuadMeshError:
+        except QuadMeshError as exc:
+            finer = _finer(part, exc, hp, align, retry, remesh, featured)
+            if finer:
+                with contextlib.suppress(QuadMeshError):
+                    made.append((part, _mesh_part(part, finer, fp, opts, report)))
+                    _warn_raised(part, exc, hp, finer[0].h)
+                    continue
             if not small or len(parts) == 1:
                 raise
             dropped.append(part)
@@ -486,6 +516,39 @@ def _mesh_parts(
     if not made:
         raise QuadMeshError("every component is too small for the quad size; ask for more quads")
     return made, dropped
+
+
+def _finer(
+    part: Part,
+    exc: QuadMeshError,
+    h: float,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    featured: bool,
+) -> list[_Plan]:
+    """The first :data:`FINER_ATTEMPTS` attempts again at the quad edge that resolves the
+    narrow parts where every attempt failed (:func:`resolving_edge`), when that asks for at
+    most :data:`MAX_RAISE` times the quads and the input carries them; else none."""
+    edge = resolving_edge(exc.places, h) if retry else None
+    if edge is None or (h / edge) ** 2 > MAX_RAISE:
+        return []
+    if part.mesh.total_area / edge**2 > MAX_QUADS_PER_FACE * part.mesh.n_faces:
+        return []
+    return _plans(part, edge, align, retry, remesh, featured)[:FINER_ATTEMPTS]
+
+
+def _warn_raised(part: Part, exc: QuadMeshError, h: float, edge: float) -> None:
+    where = ", ".join("(" + ", ".join(f"{x:.4g}" for x in p.centre) + ")" for p in exc.places)
+    warnings.warn(
+        QuadCountRaisedWarning(
+            f"quad_mesh: component {part.label} was meshed with quads of edge {edge:.3g}, "
+            f"{(h / edge) ** 2:.2g} times the quads asked (edge {h:.3g}): every attempt at "
+            f"the size asked failed where the surface is thinner than a quad edge, at "
+            f"{where}; ask for fewer quads only after thickening or cutting off those parts"
+        ),
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _check_options(fold_repair_steps: object, remesh: object) -> int:

@@ -558,8 +558,10 @@ def _check_cones(mesh: TriMesh, cm: CutMesh) -> None:
     """Cones of index other than ±1/4 cannot be resolved by this pipeline's quads."""
     bad = cm.singular[np.abs(cm.index4[cm.singular]) > 2]
     if bad.size:
-        raise ParameterizationInputError(
+        err = ParameterizationInputError(
             f"the cross field has singularities of index beyond ±1/2 at vertices "
             f"{format_indices(bad)} (4 × index {format_indices(cm.index4[bad])}); smooth the "
             "field (align='smooth') or design one with cones of index ±1/4"
         )
+        err.where = mesh.vertices[bad]
+        raise err

@@ -1,0 +1,75 @@
+"""Where the quad mesher failed, and the retry at quads that resolve a part thinner than
+one (:mod:`fvf.param.quad_failures`): places from the failure points of the attempts, the
+thickness there, the message, and a ball with a finger meshed valid (judged by
+``quadcheck``) with more quads than asked, said by a warning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fvf
+import quadcheck
+from fvf.mesh.shapes import icosphere
+from fvf.param.quad_failures import NARROW, describe_places, failure_places, resolving_edge
+
+FINGER_RADIUS = 0.06
+
+
+def finger_on_a_ball():
+    """A unit ball with a finger of radius 0.06 standing 1.2 above its top (manifold3d)."""
+    mf = pytest.importorskip("manifold3d")
+    finger = mf.Manifold.cylinder(1.2, FINGER_RADIUS, FINGER_RADIUS, 16).translate([0, 0, 0.8])
+    tip = mf.Manifold.sphere(FINGER_RADIUS, 16).translate([0, 0, 2.0])
+    m = (mf.Manifold.sphere(1.0, 64) + (finger + tip)).to_mesh64()
+    return np.asarray(m.vert_properties[:, :3], float), np.asarray(m.tri_verts, np.int64)
+
+
+def test_places_group_the_attempts_points_and_put_the_most_failed_first():
+    sphere = icosphere(3, radius=2.0)
+    rng = np.random.default_rng(0)
+    a, b = np.array([0.0, 0.0, 2.0]), np.array([2.0, 0.0, 0.0])
+    spots = [
+        b + 0.01 * rng.normal(size=(5, 3)),  # b: five points in one attempt
+        a + 0.01 * rng.normal(size=(2, 3)),
+        np.zeros((0, 3)),  # an attempt that left no point
+        a + 0.01 * rng.normal(size=(1, 3)),
+    ]
+    places = failure_places(sphere, spots, h=0.1)
+    assert [p.attempts for p in places] == [2, 1]  # a in two attempts, b in one
+    assert np.allclose(places[0].centre, np.concatenate([spots[1], spots[3]]).mean(axis=0))
+    assert np.allclose(places[1].centre, spots[0].mean(axis=0))
+    assert all(p.thickness == np.inf for p in places)  # 4.0 across, h = 0.1
+    assert resolving_edge(places, h=0.1) is None
+    assert describe_places(places, 4, 0.1, sphere.total_area).count("Where:") == 2
+    assert failure_places(sphere, [np.zeros((0, 3))], h=0.1) == []
+
+
+def test_a_place_thinner_than_the_quads_asks_for_quads_as_long_as_it_is_thick():
+    sphere = icosphere(3, radius=0.02)  # 0.04 across
+    places = failure_places(sphere, [np.array([[0.0, 0.0, 0.02], [0.0, 0.0, 0.021]])], h=0.1)
+    assert len(places) == 1
+    assert 0.8 * 0.04 < places[0].thickness <= 0.04 < NARROW * 0.1
+    assert resolving_edge(places, h=0.1) == places[0].thickness
+    assert "thinner than a quad edge" in describe_places(places, 1, 0.1, 1.0)
+
+
+def test_the_error_names_the_finger_and_its_thickness():
+    V, F = finger_on_a_ball()
+    with pytest.raises(fvf.QuadMeshError) as err, pytest.warns(fvf.FvfWarning):
+        fvf.quad_mesh((V, F), target_faces=100, retry=False)
+    where = err.value.where
+    assert where.shape[1] == 3 and where.shape[0] >= 1
+    assert np.hypot(*where[0, :2]) < 0.2 and 0.8 < where[0, 2] < 2.1  # on the finger
+    assert 1.5 * FINGER_RADIUS < err.value.places[0].thickness <= 2 * FINGER_RADIUS
+    assert "thinner than a quad edge" in str(err.value)
+
+
+@pytest.mark.slow
+def test_a_finger_gets_the_quads_it_needs_and_a_warning():
+    V, F = finger_on_a_ball()
+    with pytest.warns(fvf.QuadCountRaisedWarning, match="thinner than a quad edge"):
+        result = fvf.quad_mesh((V, F), target_faces=250)  # every attempt at 250 fails
+    verdict = quadcheck.check(V, F, result.vertices, result.quads)
+    assert verdict.valid, verdict.summary()
+    assert 2 * 250 < len(result.quads) < fvf.param.quadmesh.MAX_RAISE * 1.2 * 250
