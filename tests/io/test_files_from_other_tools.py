@@ -476,6 +476,19 @@ HOSTILE = {
         ["truncated", "solid"],
     ),
     "unclosed_solid.stl": ("solid a\n" + stl_facets(CUBE_V[CUBE_T][:2]), ["endsolid"]),
+    "trailing_data.ply": (binary_triangle_ply("<") + b"\x03\x00\x01", ["3 bytes follow", "counts"]),
+    "trailing_lines.ply": (
+        PLY_HEAD.format("ascii") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n",
+        ["line 14", "1 lines follow", "counts"],
+    ),
+    "property_twice.ply": (
+        PLY_HEAD.format("ascii").replace("property float y", "property float x\nproperty float y"),
+        ["'x' twice"],
+    ),
+    "list_coordinate.ply": (
+        PLY_HEAD.format("ascii").replace("property float x", "property list uchar float x"),
+        ["list x", "not lists"],
+    ),
     "index_out_of_range.obj": (TRI_OBJ + "f 1 2 4\n", ["line 4", "index 4", "1..3"]),
     "index_out_of_range.off": (TRI_OFF + "3 0 1 3\n", ["line 6", "index 3", "0..2"]),
     "index_out_of_range.ply": (binary_triangle_ply("<", (0, 1, 3)), ["face 0", "index 3"]),
@@ -514,6 +527,20 @@ def test_hostile_files_are_typed_errors_naming_the_file(tmp_path, name):
     message = str(info.value)
     for word in [name, *words]:
         assert word in message, (word, message)
+
+
+@pytest.mark.parametrize("suffix", [".vtu", ".vtk"])
+def test_damaged_vtk_files_say_what_vtk_said(tmp_path, suffix):
+    """VTK only logs a parse failure and returns an empty mesh; fvf reports it instead of
+    calling the file a point cloud."""
+    meshio = pytest.importorskip("meshio")
+    pytest.importorskip("pyvista")
+    path = tmp_path / f"whole{suffix}"
+    meshio.write(path, meshio.Mesh(CUBE_V, [("triangle", CUBE_T)]))
+    for name, data in (("cut", path.read_bytes()[:400]), ("png", PNG)):
+        bad = write(tmp_path, f"{name}{suffix}", data)
+        with pytest.raises(MeshReadError, match=f"{name}\\{suffix}: VTK cannot read this file"):
+            read_mesh(bad)
 
 
 @pytest.mark.parametrize(
