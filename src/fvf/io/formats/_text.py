@@ -97,7 +97,7 @@ def numbers(
     """
     strict(path, tokens, counts, lineno, kind, what)
     try:
-        values = np.array(tokens, dtype=kind).reshape(len(tokens))
+        values: np.ndarray = np.array(tokens, dtype=kind).reshape(len(tokens))
     except (ValueError, OverflowError):
         pass
     else:

@@ -10,9 +10,10 @@ polygon's area without overlap. The polygon's normal is Newell's,
 
 .. math::
 
-    N = \sum_i v_i \times v_{i+1},
+    N = \sum_i v_i \times v_{i+1} = \sum_t n_t,
 
-(twice its vector area; indices cyclic), and a fan triangle :math:`t` is folded when
+(twice its vector area; indices cyclic; equal to the sum of the fan triangles' normals
+:math:`n_t = (v_i - v_0) \times (v_{i+1} - v_0)`), and a fan triangle :math:`t` is folded when
 :math:`n_t \cdot N \le 0` for its normal :math:`n_t`. A quad with a folded fan is split
 along its other diagonal, :math:`(v_0, v_1, v_3), (v_1, v_2, v_3)`; a larger polygon is
 ear-clipped in the plane normal to :math:`N` (a loop over its corners: such polygons are
@@ -59,52 +60,54 @@ def triangulate(
         return faces, 0, 0
     ntri = counts - 2
     first = np.cumsum(ntri) - ntri  # first triangle of each polygon
-    normal = _newell(vertices, counts, flat)
-    poly = np.repeat(np.arange(counts.size), ntri)
-    T = vertices[faces]
+    big = np.flatnonzero(counts > 3)
+    k = ntri[big]
+    rows = np.repeat(first[big] - (np.cumsum(k) - k), k) + np.arange(k.sum())
+    fan_normal = _normals(vertices, faces[rows])
+    normal = np.add.reduceat(fan_normal, np.cumsum(k) - k, axis=0)  # Newell's N
+    owner = np.repeat(np.arange(big.size), k)
     with np.errstate(invalid="ignore", over="ignore"):
-        turn = np.einsum("ij,ij->i", np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), normal[poly])
-    folded = np.zeros(counts.size, dtype=bool)
-    folded[poly[turn <= 0]] = True
-    folded &= np.any(normal != 0, axis=1) & (counts > 3)
-    bad = np.flatnonzero(folded)
-    if bad.size == 0:
+        turn = np.einsum("ij,ij->i", fan_normal, normal[owner])
+    folded = np.zeros(big.size, dtype=bool)
+    folded[owner[turn <= 0]] = True
+    folded &= np.any(normal != 0, axis=1)
+    if not folded.any():
         return faces, n_split, 0
+    bad, normal = big[folded], normal[folded]
     faces = faces.copy()
     starts = np.cumsum(counts) - counts
-    quads = bad[counts[bad] == 4]
-    q = flat[starts[quads, None] + np.arange(4)]
+    quad = counts[bad] == 4
+    q = flat[starts[bad[quad], None] + np.arange(4)]
     other = np.stack([q[:, [0, 1, 3]], q[:, [1, 2, 3]]], axis=1)  # (k, 2, 3)
-    ok = _turns_with(vertices, other.reshape(-1, 3), np.repeat(normal[quads], 2, axis=0))
-    ok = ok.reshape(-1, 2).all(axis=1)
-    rows = first[quads[ok], None] + np.arange(2)
-    faces[rows] = other[ok]
+    turns = _turns_with(vertices, other.reshape(-1, 3), np.repeat(normal[quad], 2, axis=0))
+    ok = turns.reshape(-1, 2).all(axis=1)
+    faces[first[bad[quad][ok], None] + np.arange(2)] = other[ok]
     resplit = int(ok.sum())
-    for p in bad[counts[bad] > 4]:  # non-convex polygons of 5 and more vertices: rare
+    for p, n in zip(bad[~quad], normal[~quad], strict=True):  # 5+ corners, non-convex: rare
         ring = flat[starts[p] : starts[p] + counts[p]]
-        tri = _ear_clip(vertices[ring], normal[p])
-        if tri is not None and _turns_with(vertices, ring[tri], normal[p][None]).all():
+        tri = _ear_clip(vertices[ring], n)
+        if tri is not None and _turns_with(vertices, ring[tri], n[None]).all():
             faces[first[p] : first[p] + ntri[p]] = ring[tri]
             resplit += 1
     return faces, n_split, resplit
 
 
-def _newell(vertices: np.ndarray, counts: np.ndarray, flat: np.ndarray) -> np.ndarray:
-    """Newell's normal (p, 3) of each polygon: the sum of :math:`v_i \\times v_{i+1}`."""
-    starts = np.cumsum(counts) - counts
-    nxt = np.arange(1, flat.size + 1)
-    nxt[starts + counts - 1] = starts  # each polygon's last corner wraps to its first
+def _normals(vertices: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Twice the vector areas (k, 3) of triangles (k, 3): :math:`(b - a) \\times (c - a)`."""
+    a = vertices[tri[:, 0]]
     with np.errstate(invalid="ignore", over="ignore"):
-        cross = np.cross(vertices[flat], vertices[flat[nxt]])
-    return np.add.reduceat(cross, starts, axis=0)
+        u, v = vertices[tri[:, 1]] - a, vertices[tri[:, 2]] - a
+        out = np.empty_like(u)
+        out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+        out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+        out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return out
 
 
 def _turns_with(vertices: np.ndarray, tri: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Whether each triangle (k, 3) turns the way of its polygon's normal (k, 3)."""
-    T = vertices[tri]
     with np.errstate(invalid="ignore", over="ignore"):
-        n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-        return np.einsum("ij,ij->i", n, normal) > 0
+        return np.einsum("ij,ij->i", _normals(vertices, tri), normal) > 0
 
 
 def _ear_clip(ring: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
@@ -117,7 +120,7 @@ def _ear_clip(ring: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
     e2 = np.cross(normal / np.linalg.norm(normal), e1)
     P = np.column_stack([(ring - ring[0]) @ e1, (ring - ring[0]) @ e2])  # counterclockwise
     left = list(range(len(ring)))
-    out = []
+    out: list[tuple[int, ...]] = []
     while len(left) > 3:
         for j in range(len(left)):
             a, b, c = left[j - 1], left[j], left[(j + 1) % len(left)]
