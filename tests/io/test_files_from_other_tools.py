@@ -489,6 +489,10 @@ HOSTILE = {
         PLY_HEAD.format("ascii").replace("property float x", "property list uchar float x"),
         ["list x", "not lists"],
     ),
+    "float_indices.ply": (
+        binary_triangle_ply("<").replace(b"uchar int vertex", b"uchar float vertex"),
+        ["'vertex_indices'", "integer"],
+    ),
     "index_out_of_range.obj": (TRI_OBJ + "f 1 2 4\n", ["line 4", "index 4", "1..3"]),
     "index_out_of_range.off": (TRI_OFF + "3 0 1 3\n", ["line 6", "index 3", "0..2"]),
     "index_out_of_range.ply": (binary_triangle_ply("<", (0, 1, 3)), ["face 0", "index 3"]),

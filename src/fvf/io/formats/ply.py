@@ -165,6 +165,13 @@ def parse(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str]:
             f"{path}: the PLY file has no 'face' element with a 'vertex_indices' (or "
             "'vertex_index') list property, so it has no faces; read_mesh needs a surface mesh"
         )
+    assert face is not None
+    index = next(p for p in face.props if p.name == lists[0])
+    if index.code[0] not in "iu":  # float indices would be truncated silently
+        raise MeshReadError(
+            f"{path}: the PLY face list '{index.name}' holds {index.code} numbers, not "
+            "integers; vertex indices must be an integer type (int, uint, ...): fix the header"
+        )
     if fmt == "ascii":
         values, where = _ply_ascii(path, data[pos:], elements, line0)
     else:
