@@ -1,10 +1,12 @@
 """Wavefront OBJ: ``v`` and ``f`` statements, polygons of any size.
 
 Read: the vertices are the ``v`` lines only (never split at UV seams, ``vt``/``vn`` left
-out); ``f`` indices are 1-based, or negative for the k-th ``v`` line before the face;
-``v/vt/vn`` corners keep their ``v``; a line ending with a backslash continues on the next
-(:func:`joined_lines`). Written as text with 17 significant digits, so a
-round trip is exact; no vertex or face data.
+out), each the first three numbers of its line (a weight ``w`` or a colour ``r g b`` after
+them is left out); ``f`` indices are 1-based, or negative for the k-th ``v`` line before
+the face; ``v/vt/vn`` corners keep their ``v``; a line ending with a backslash continues on
+the next (:func:`joined_lines`); ``o``, ``g``, ``s``, ``usemtl``, ``mtllib``, ``l`` and
+other statements are skipped. Written as text with 17 significant digits, so a round trip
+is exact; no vertex or face data.
 """
 
 from __future__ import annotations
