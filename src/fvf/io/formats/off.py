@@ -123,6 +123,6 @@ FORMAT = MeshFormat(
     read=read,
     write=write,
     sniff=sniff_text,
-    description="Object File Format, ascii (COFF, NOFF, STOFF, 4OFF read); polygons read, "
+    description="Object File Format, ascii (COFF, NOFF, CNOFF, STOFF, 4OFF read); polygons read, "
     "triangles and quads written",
 )
