@@ -165,6 +165,45 @@ def test_ngons_and_non_convex_polygons_come_back_unfolded(tmp_path):
     assert np.isin(F[:2], [0, 1, 2, 3]).all() and np.isin(F[2:6], np.arange(4, 10)).all()
 
 
+def test_triangulation_of_random_simple_polygons_never_folds():
+    """Seeded star-shaped polygons (simple, slightly off their plane), each starting at a
+    random corner: every triangle turns the polygon's way and the areas add up. Polygons
+    with NaN, huge or repeated corners give k - 2 triangles of their own corners, silently."""
+    from fvf.io.formats.triangulate import triangulate
+
+    rng = np.random.default_rng(20261206)
+    done = 0
+    while done < 300:
+        k = int(rng.integers(4, 12))
+        angle = np.sort(rng.uniform(0, 2 * np.pi, k))
+        if np.diff(np.r_[angle, angle[0] + 2 * np.pi]).max() > 0.95 * np.pi:
+            continue  # the centre must see every corner, else the polygon may cross itself
+        done += 1
+        r = rng.uniform(0.1, 1, k)
+        P = np.column_stack([r * np.cos(angle), r * np.sin(angle), 1e-9 * rng.normal(size=k)])
+        P = np.roll(P, int(rng.integers(k)), axis=0)
+        F, n_split, _ = triangulate(P, np.array([k]), np.arange(k))
+        T = P[F]
+        twice = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])[:, 2]
+        x, y = P[:, 0], P[:, 1]
+        assert n_split == 1 and (twice > -1e-12).all()
+        assert twice.sum() / 2 == pytest.approx(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) / 2)
+    for _ in range(300):
+        n = int(rng.integers(3, 12))
+        V = rng.normal(size=(n, 3)) * rng.choice([1.0, 1e-300, 1e300])
+        V[rng.integers(n)] = rng.choice([np.nan, np.inf, 0.0])
+        V[rng.integers(n)] = V[rng.integers(n)]
+        counts = rng.integers(3, 9, size=int(rng.integers(1, 5)))
+        flat = rng.integers(0, n, size=counts.sum())
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            F, _, _ = triangulate(V, counts, flat)
+        owner = np.repeat(np.arange(counts.size), counts - 2)
+        corners = np.split(flat, np.cumsum(counts)[:-1])
+        assert F.shape == (counts.sum() - 2 * counts.size, 3)
+        assert all(np.isin(F[owner == p], corners[p]).all() for p in range(counts.size))
+
+
 # ---------------------------------------------------------------------------- part 1: OFF
 def off_text(head: str, vertex_tail: str = "", face_tail: str = "", counts_inline=False) -> str:
     counts = "8 6 12"

@@ -58,6 +58,15 @@ def triangulate(
     faces, n_split = fan_triangulate(counts, flat)
     if n_split == 0:
         return faces, 0, 0
+    with np.errstate(all="ignore"):  # NaN, inf or overflowing products keep their fan
+        faces, n_resplit = _resplit(vertices, counts, flat, faces)
+    return faces, n_split, n_resplit
+
+
+def _resplit(
+    vertices: np.ndarray, counts: np.ndarray, flat: np.ndarray, faces: np.ndarray
+) -> tuple[np.ndarray, int]:
+    """The fan ``faces`` with each folded polygon split otherwise: ``(faces, #re-split)``."""
     ntri = counts - 2
     first = np.cumsum(ntri) - ntri  # first triangle of each polygon
     big = np.flatnonzero(counts > 3)
@@ -66,13 +75,12 @@ def triangulate(
     fan_normal = _normals(vertices, faces[rows])
     normal = np.add.reduceat(fan_normal, np.cumsum(k) - k, axis=0)  # Newell's N
     owner = np.repeat(np.arange(big.size), k)
-    with np.errstate(invalid="ignore", over="ignore"):
-        turn = np.einsum("ij,ij->i", fan_normal, normal[owner])
+    turn = np.einsum("ij,ij->i", fan_normal, normal[owner])
     folded = np.zeros(big.size, dtype=bool)
     folded[owner[turn <= 0]] = True
-    folded &= np.any(normal != 0, axis=1)
+    folded &= np.any(normal != 0, axis=1) & np.isfinite(normal).all(axis=1)
     if not folded.any():
-        return faces, n_split, 0
+        return faces, 0
     bad, normal = big[folded], normal[folded]
     faces = faces.copy()
     starts = np.cumsum(counts) - counts
@@ -89,25 +97,23 @@ def triangulate(
         if tri is not None and _turns_with(vertices, ring[tri], n[None]).all():
             faces[first[p] : first[p] + ntri[p]] = ring[tri]
             resplit += 1
-    return faces, n_split, resplit
+    return faces, resplit
 
 
 def _normals(vertices: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Twice the vector areas (k, 3) of triangles (k, 3): :math:`(b - a) \\times (c - a)`."""
     a = vertices[tri[:, 0]]
-    with np.errstate(invalid="ignore", over="ignore"):
-        u, v = vertices[tri[:, 1]] - a, vertices[tri[:, 2]] - a
-        out = np.empty_like(u)
-        out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
-        out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
-        out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    u, v = vertices[tri[:, 1]] - a, vertices[tri[:, 2]] - a
+    out = np.empty_like(u)
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return out
 
 
 def _turns_with(vertices: np.ndarray, tri: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Whether each triangle (k, 3) turns the way of its polygon's normal (k, 3)."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        return np.einsum("ij,ij->i", _normals(vertices, tri), normal) > 0
+    return np.einsum("ij,ij->i", _normals(vertices, tri), normal) > 0
 
 
 def _ear_clip(ring: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
