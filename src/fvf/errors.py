@@ -135,7 +135,8 @@ class MeshReadError(FvfError):
 
 
 class PolygonTriangulatedWarning(FvfWarning):
-    """The file had polygons with more than 3 vertices; they were fan-triangulated."""
+    """The file had polygons with more than 3 vertices; they were fan-triangulated (the
+    non-convex ones whose fan would fold over: split otherwise)."""
 
 
 class MeshFormatError(FvfError):

@@ -6,7 +6,8 @@ writer and what the format's files hold); the functions here are what users call
 :func:`read_mesh` keeps the file's vertices exactly as stored (order, count, unreferenced
 vertices; OBJ vertices are the ``v`` lines only, never split at UV seams) and returns
 ``(vertices, faces)`` ready for :class:`fvf.TriMesh`. By default polygons are
-fan-triangulated with a :class:`PolygonTriangulatedWarning`; ``faces="quads"`` and
+fan-triangulated with a :class:`PolygonTriangulatedWarning` (a non-convex polygon whose
+fan would fold over is split otherwise: :mod:`fvf.io.formats.triangulate`); ``faces="quads"`` and
 ``faces="any"`` return quad (or other polygon) meshes as stored. An STL file is a
 triangle soup: its coincident corners are welded into shared vertices, reported by a
 :class:`~fvf.errors.VerticesWeldedWarning` (the rule: :mod:`fvf.io.formats.stl`). Every
@@ -49,7 +50,6 @@ from .formats.base import (
     SNIFF_BYTES,  # noqa: F401 (re-exported)
     Polygons,
     check_polygons,
-    fan_triangulate,
     parsed,
 )
 from .formats.registry import (
@@ -59,6 +59,7 @@ from .formats.registry import (
     reader_for,
     writer_for,
 )
+from .formats.triangulate import triangulate
 
 __all__ = [
     "read_mesh",
@@ -95,7 +96,9 @@ def read_mesh(
         trimesh (:mod:`fvf.io.formats.gltf`: the scene's triangles, welded at seams).
     faces : {"triangles", "quads", "any"}
         ``"triangles"`` (default): every face a triangle, polygons ``(v0, ..., vk)``
-        fan-triangulated into ``(v0, vi, vi+1)``. ``"quads"``: the faces as stored, which
+        fan-triangulated into ``(v0, vi, vi+1)``; a non-convex polygon whose fan would
+        fold over is split along another diagonal (quads) or ear-clipped
+        (:mod:`fvf.io.formats.triangulate`). ``"quads"``: the faces as stored, which
         must all be quads. ``"any"``: the faces as stored when they all have the same
         number d of vertices (triangles or quads), else fan-triangulated as by default.
 
@@ -134,15 +137,20 @@ def read_mesh(
     path = Path(path)
     poly = _read_polygons(path, faces)
     if _kept_as_stored(path, poly, faces):
-        F, n_split = poly.flat.reshape(len(poly.counts), -1), 0
+        F, n_split, n_resplit = poly.flat.reshape(len(poly.counts), -1), 0, 0
     else:
-        F, n_split = fan_triangulate(poly.counts, poly.flat)
+        F, n_split, n_resplit = triangulate(poly.vertices, poly.counts, poly.flat)
     for category, message in poly.notes:
         warnings.warn(message, category, stacklevel=user_stacklevel())
     if n_split:
+        other = (
+            f" ({n_resplit} non-convex ones split where their fan would fold over)"
+            if n_resplit
+            else ""
+        )
         warnings.warn(
             f"{path}: fan-triangulated {n_split} polygons with more than 3 vertices into "
-            f"{F.shape[0]} triangles in all",
+            f"{F.shape[0]} triangles in all{other}",
             PolygonTriangulatedWarning,
             stacklevel=user_stacklevel(),
         )

@@ -97,9 +97,18 @@ def numbers(
     """
     strict(path, tokens, counts, lineno, kind, what)
     try:
-        return np.array(tokens, dtype=kind).reshape(len(tokens))
+        values: np.ndarray = np.array(tokens, dtype=kind).reshape(len(tokens))
     except (ValueError, OverflowError):
         pass
+    else:
+        if kind is np.int64 or np.isfinite(values).all():
+            return values
+        k = int(np.flatnonzero(~np.isfinite(values))[0])  # 1e999: beyond float64
+        line = lineno[int(np.searchsorted(np.cumsum(counts), k, side="right"))]
+        raise MeshReadError(
+            f"{path}: line {line}: {tokens[k]!r} in {what} is beyond the float64 range "
+            "(about 1.8e308); vertex positions and values must be finite: fix that line"
+        )
     for k, tok in enumerate(tokens):
         try:
             np.array([tok], dtype=kind)

@@ -1,9 +1,12 @@
 """Wavefront OBJ: ``v`` and ``f`` statements, polygons of any size.
 
 Read: the vertices are the ``v`` lines only (never split at UV seams, ``vt``/``vn`` left
-out); ``f`` indices are 1-based, or negative for the k-th ``v`` line before the face;
-``v/vt/vn`` corners keep their ``v``. Written as text with 17 significant digits, so a
-round trip is exact; no vertex or face data.
+out), each the first three numbers of its line (a weight ``w`` or a colour ``r g b`` after
+them is left out); ``f`` indices are 1-based, or negative for the k-th ``v`` line before
+the face; ``v/vt/vn`` corners keep their ``v``; a line ending with a backslash continues on
+the next (:func:`joined_lines`); ``o``, ``g``, ``s``, ``usemtl``, ``mtllib``, ``l`` and
+other statements are skipped. Written as text with 17 significant digits, so a round trip
+is exact; no vertex or face data.
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ __all__ = ["read", "write", "write_uv", "FORMAT"]
 def read(path: Path, data: bytes) -> Polygons:
     """The vertices and polygons of an OBJ file (see the module docstring)."""
     lines = text_lines(data)
+    if b"\\" in data:
+        lines = joined_lines(lines)
     heads = [line.lstrip() for line in lines]
 
     def statements(key: str) -> list[int]:
@@ -40,6 +45,26 @@ def read(path: Path, data: bytes) -> Polygons:
     flat[raw == 0] = -1
     valid = f"1..{len(vertices)}, or -1..-k for the k-th 'v' line before the face"
     return Polygons(vertices, counts, flat, raw, lambda i: f"line {f_line[i]}", valid)
+
+
+def joined_lines(lines: list[str]) -> list[str]:
+    """``lines`` with each line that ends with ``\\`` (then maybe blanks) joined to the
+    next, the OBJ line continuation; an empty line takes the place of each joined one, so
+    line numbers stay those of the file."""
+    out: list[str] = []
+    carry: list[str] = []
+    for line in lines:
+        stripped = line.rstrip()
+        if stripped.endswith("\\"):
+            carry.append(stripped[:-1])
+            continue
+        out.append(" ".join([*carry, line]))
+        out += [""] * len(carry)
+        carry = []
+    if carry:  # the last line ends with a backslash: nothing follows to join
+        out.append(" ".join(carry))
+        out += [""] * (len(carry) - 1)
+    return out
 
 
 def write(

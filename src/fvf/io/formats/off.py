@@ -1,9 +1,10 @@
 """OFF (Object File Format, ascii): ``OFF``, the counts, vertex lines, ``k i0 ... i(k-1)``.
 
-Read: the variants ``COFF``, ``NOFF``, ``CNOFF``, ``STOFF`` (colours, normals and texture
-coordinates after x y z are left out) and ``4OFF`` (homogeneous x y z w, the point
-(x, y, z) / w); polygons of any size; ``#`` comments. Binary OFF is refused. Written as
-``OFF`` text with 17 significant digits, so a round trip is exact; no vertex or face data.
+Read: the variants ``COFF``, ``NOFF``, ``CNOFF`` (MeshLab writes ``NCOFF``), ``STOFF``
+(colours, normals and texture coordinates after x y z are left out) and ``4OFF``
+(homogeneous x y z w, the point (x, y, z) / w); polygons of any size; ``#`` comments.
+Binary OFF is refused. Written as ``OFF`` text with 17 significant digits, so a round trip
+is exact; no vertex or face data.
 """
 
 from __future__ import annotations
@@ -30,10 +31,11 @@ def read(path: Path, data: bytes) -> Polygons:
     if not content:
         raise MeshReadError(f"{path}: the file holds only comments; write a mesh into it")
     first = words[content[0]]
-    if not re.fullmatch(r"(ST)?C?N?4?OFF", first[0]) or first[1:2] == ["BINARY"]:
+    if not re.fullmatch(r"(ST)?(C|N|CN|NC)?4?OFF", first[0]) or first[1:2] == ["BINARY"]:
         raise MeshReadError(
-            f"{path}: line {content[0] + 1}: expected the OFF header (OFF, COFF, NOFF, CNOFF, "
-            f"STOFF; ascii only) but found {' '.join(first)[:40]!r}; is it an ascii OFF file?"
+            f"{path}: line {content[0] + 1}: expected the OFF header (OFF, COFF, NOFF, "
+            f"CNOFF, NCOFF, STOFF; ascii only) but found {' '.join(first)[:40]!r}; is it an "
+            "ascii OFF file?"
         )
     header, rest = (first[1:], content[1:]) if len(first) > 1 else (None, content[1:])
     count_line = content[0] + 1
@@ -121,6 +123,6 @@ FORMAT = MeshFormat(
     read=read,
     write=write,
     sniff=sniff_text,
-    description="Object File Format, ascii (COFF, NOFF, STOFF, 4OFF read); polygons read, "
+    description="Object File Format, ascii (COFF, NOFF, CNOFF, STOFF, 4OFF read); polygons read, "
     "triangles and quads written",
 )

@@ -112,6 +112,14 @@ def _ply_header(path: Path, data: bytes) -> tuple[str, list[_Element], int, int]
             )
     if fmt is None:
         raise MeshReadError(f"{path}: the PLY header has no 'format' line; add one")
+    for el in elements:
+        names = [p.name for p in el.props]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise MeshReadError(
+                f"{path}: the PLY element '{el.name}' declares the property "
+                f"{twice[0]!r} twice; rename or delete one of them in the header"
+            )
     return fmt, elements, pos, len(lines) + 1
 
 
@@ -145,9 +153,10 @@ def parse(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str]:
         raise MeshReadError(f"{path}: the PLY header declares no 'vertex' element; add one")
     xyz = {p.name: p for p in byname["vertex"].props if p.count is None}
     if not {"x", "y", "z"} <= set(xyz):
+        has = [f"list {p.name}" if p.count else p.name for p in byname["vertex"].props]
         raise MeshReadError(
             f"{path}: the PLY 'vertex' element needs scalar properties x, y and z; "
-            f"it has {[p.name for p in byname['vertex'].props]}"
+            f"it has {has}: declare them 'property float x' (not lists) in the header"
         )
     face = byname.get("face")
     lists = [p.name for p in face.props if p.count and p.name in FACE_LISTS] if face else []
@@ -155,6 +164,13 @@ def parse(path: Path, data: bytes) -> tuple[dict, Callable[[int], str], str]:
         raise MeshReadError(
             f"{path}: the PLY file has no 'face' element with a 'vertex_indices' (or "
             "'vertex_index') list property, so it has no faces; read_mesh needs a surface mesh"
+        )
+    assert face is not None
+    index = next(p for p in face.props if p.name == lists[0])
+    if index.code[0] not in "iu":  # float indices would be truncated silently
+        raise MeshReadError(
+            f"{path}: the PLY face list '{index.name}' holds {index.code} numbers, not "
+            "integers; vertex indices must be an integer type (int, uint, ...): fix the header"
         )
     if fmt == "ascii":
         values, where = _ply_ascii(path, data[pos:], elements, line0)
@@ -219,6 +235,12 @@ def _ply_ascii(
         values[el.name] = out
         if el.name == "face":
             face_line = lineno
+    if cursor < len(at):
+        raise MeshReadError(
+            f"{path}: line {at[cursor] + line0}: {len(at) - cursor} lines follow the last "
+            "element the header declares; the header's counts are wrong (or the file was "
+            "joined with another): fix the counts or re-export the mesh"
+        )
     return values, lambda i: f"line {face_line[i]} (face {i})"
 
 
@@ -230,6 +252,12 @@ def _ply_binary(
     for el in elements:
         out, pos = _binary_element(path, data, pos, el, order)
         values.setdefault(el.name, out)
+    if data[pos:].strip(b" \t\r\n\x00"):  # padding is fine, data is not
+        raise MeshReadError(
+            f"{path}: {len(data) - pos} bytes follow the last element the binary PLY header "
+            "declares; the header's counts are wrong (or the file is damaged): fix the "
+            "counts or re-export the mesh"
+        )
     return values, lambda i: f"face {i} (0-based) of the binary PLY"
 
 

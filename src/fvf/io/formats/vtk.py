@@ -19,6 +19,7 @@ from __future__ import annotations
 import importlib.util
 import warnings
 from collections.abc import Mapping
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -290,11 +291,22 @@ def _polygons(path: Path, V: np.ndarray, types: np.ndarray, flat: np.ndarray) ->
 
 
 def _read_pyvista(path: Path) -> VtkArrays:
+    """Read through PyVista; an error VTK reports (it only logs them: a damaged file reads
+    as an empty one) is a MeshReadError quoting it, and VTK's console log stays quiet."""
     import pyvista
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        grid = pyvista.read(str(path))
+    quiet = getattr(pyvista, "vtk_verbosity", None)
+    catcher = pyvista.VtkErrorCatcher(raise_errors=True, send_to_logging=False)
+    try:
+        with warnings.catch_warnings(), quiet("off") if quiet else nullcontext(), catcher:
+            warnings.simplefilter("ignore")
+            grid = pyvista.read(str(path))
+    except RuntimeError as exc:  # pyvista's VTKExecutionError: what VTK's reader said
+        said = [ln for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("ERROR:")]
+        raise MeshReadError(
+            f"{path}: VTK cannot read this file ({(said or [str(exc)])[0][:160]}): it is "
+            "damaged or truncated, or not a VTK file of its suffix; re-export it"
+        ) from exc
     types, flat = _cells_pyvista(path, grid)
     poly = _polygons(path, np.asarray(grid.points), types, flat)
     return VtkArrays(
