@@ -63,6 +63,17 @@ def annulus(n_rings: int = 3, n_sectors: int = 24, inner: float = 0.5) -> fvf.Tr
 REFLECT = np.array([-1.0, 1.0, 1.0])
 
 
+def spiky_ball(seed: int = 11, spikes: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A scan with spikes: a unit sphere (icosphere 4) with 3 % radial noise and ``spikes``
+    vertices pushed out to 1.4 times their radius; returns (V, F, sorted spike indices)."""
+    rng = np.random.default_rng(seed)
+    s = fvf.icosphere(4)
+    V = s.vertices * (1 + 0.03 * rng.normal(size=(s.n_vertices, 1)))
+    tips = np.sort(rng.choice(s.n_vertices, spikes, replace=False))
+    V[tips] *= 1.4
+    return V, s.faces, tips
+
+
 def blob(level: int = 3, symmetric: bool = False) -> fvf.TriMesh:
     """An icosphere stretched to (2, 1.2, 0.8) with smooth bumps: no symmetry at all, or
     (``symmetric``) exactly the reflection x -> -x, which maps vertices to vertices."""

@@ -341,6 +341,7 @@ SPECS: dict[str, Spec] = {
             "orient_faces",
             "split_nonmanifold_vertices",
             "split_nonmanifold_edges",
+            "flatten_spikes",
             "repair_mesh",
         )
     },

@@ -1,7 +1,8 @@
 """Where the quad mesher failed, and the retry at quads that resolve a part thinner than
 one (:mod:`fvf.param.quad_failures`): places from the failure points of the attempts, the
 thickness there, the message, and a ball with a finger meshed valid (judged by
-``quadcheck``) with more quads than asked, said by a warning."""
+``quadcheck``) with more quads than asked, said by a warning; a spiky scan refused with
+the advice to flatten its spikes, and meshed once they are."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 
 import fvf
 import quadcheck
+from corpus import spiky_ball
 from fvf.mesh.shapes import icosphere
 from fvf.param.quad_failures import NARROW, describe_places, failure_places, resolving_edge
 
@@ -73,3 +75,13 @@ def test_a_finger_gets_the_quads_it_needs_and_a_warning():
     verdict = quadcheck.check(V, F, result.vertices, result.quads)
     assert verdict.valid, verdict.summary()
     assert 2 * 250 < len(result.quads) < fvf.param.quadmesh.MAX_RAISE * 1.2 * 250
+
+
+def test_a_spiky_ball_is_meshed_once_flattened():
+    V, F, _ = spiky_ball()
+    with pytest.raises(fvf.QuadMeshError, match="flatten_spikes"), pytest.warns(fvf.FvfWarning):
+        fvf.quad_mesh((V, F), target_faces=600, retry=False)
+    W = fvf.flatten_spikes(V, F).vertices
+    result = fvf.quad_mesh((W, F), target_faces=600)
+    verdict = quadcheck.check(W, F, result.vertices, result.quads)
+    assert verdict.valid, verdict.summary()

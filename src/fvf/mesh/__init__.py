@@ -14,6 +14,7 @@ from .nfield import NField
 from .prepared import PreparedMesh, prepare_mesh
 from .repair import (
     RepairResult,
+    flatten_spikes,
     orient_faces,
     remove_degenerate_faces,
     remove_duplicate_faces,
@@ -50,6 +51,7 @@ __all__ = [
     "orient_faces",
     "split_nonmanifold_vertices",
     "split_nonmanifold_edges",
+    "flatten_spikes",
     "mesh_report",
     "icosphere",
     "jittered_sphere",

@@ -31,6 +31,7 @@ from .defects import (
     zero_area_faces,
 )
 from .inputs import unit_scale
+from .spikes import SPIKE_RATIO, flattened_spikes
 from .trimesh import DEGENERATE_AREA_RTOL
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "orient_faces",
     "split_nonmanifold_vertices",
     "split_nonmanifold_edges",
+    "flatten_spikes",
     "repair_mesh",
     "REPAIR_STEPS",
     "DEFAULT_REPAIR_STEPS",
@@ -58,7 +60,8 @@ class RepairResult:
     Attributes
     ----------
     vertices : float64 (n', 3)
-        New vertex positions; ``vertices[i] == old_vertices[vertex_origin[i]]``.
+        New vertex positions; ``vertices[i] == old_vertices[vertex_origin[i]]``, except
+        the vertices :func:`flatten_spikes` moved (its log names them).
     faces : int64 (m', 3)
         New faces, indices into ``vertices``.
     vertex_origin : int64 (n',)
@@ -637,6 +640,37 @@ def split_nonmanifold_edges(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> Re
     return _split_fans(V, F, cut_edges=True)
 
 
+def flatten_spikes(
+    vertices: npt.ArrayLike, faces: npt.ArrayLike, ratio: float = SPIKE_RATIO
+) -> RepairResult:
+    """Move a scan's spike vertices to the centroids of their rings (:mod:`fvf.mesh.spikes`).
+
+    Opt-in (not in :data:`DEFAULT_REPAIR_STEPS`): it changes the geometry, and a sharp
+    cone tip that belongs to the shape is a spike by its test too.
+
+    Parameters
+    ----------
+    vertices : array_like (n, 3)
+    faces : array_like of int (m, 3)
+    ratio : float
+        A vertex standing more than this many ring radii above its ring is a spike.
+
+    Returns
+    -------
+    RepairResult
+        The same faces and identity maps; the moved vertices are named in ``log``.
+    """
+    V, F = raw_arrays(vertices, faces)
+    W, moved = flattened_spikes(V, F, ratio)
+    log = ""
+    if moved.size:
+        log = (
+            f"flatten_spikes: moved {moved.size} spike vertices {format_indices(moved)} to "
+            "the centroids of their neighbours"
+        )
+    return _result(W, F.copy(), V.shape[0], F.shape[0], log=log)
+
+
 #: Every repair by name, for :func:`repair_mesh`.
 REPAIR_STEPS = {
     "remove_duplicate_vertices": remove_duplicate_vertices,
@@ -646,6 +680,7 @@ REPAIR_STEPS = {
     "split_nonmanifold_vertices": split_nonmanifold_vertices,
     "orient_faces": orient_faces,
     "remove_unreferenced_vertices": remove_unreferenced_vertices,
+    "flatten_spikes": flatten_spikes,
 }
 
 #: The order :func:`repair_mesh` uses by default: weld, drop what welding made degenerate or

@@ -20,6 +20,12 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--tol", type=real, default=0.0, help="weld vertices closer than this (default 0)"
     )
+    p.add_argument(
+        "--despike",
+        action="store_true",
+        help="also move a scan's spike vertices (standing far above the ring of their "
+        "neighbours) to their rings' centroids (fvf.flatten_spikes; changes the geometry)",
+    )
     add_output(p, "repaired mesh (.obj, .off, .ply); the maps go to <stem>.maps.npz beside it")
 
 
@@ -40,7 +46,8 @@ def cli_repair_steps() -> tuple[str, ...]:
     "repair",
     help="repair a mesh (fvf.repair_mesh): weld, drop unreferenced vertices, degenerate and "
     "duplicate faces, split non-manifold edges and vertices, orient; writes the index maps",
-    example="fvf repair scan.obj -o scan_fixed.obj   (maps: scan_fixed.maps.npz)",
+    example="fvf repair scan.obj -o scan_fixed.obj   (maps: scan_fixed.maps.npz; "
+    "--despike for a scan's spikes)",
     arguments=_arguments,
 )
 def run(args: argparse.Namespace) -> int:
@@ -55,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     check_output_places(out, maps)
     fvf.io.check_writable(out)
     V, F = fvf.read_mesh(args.mesh)
-    result = fvf.repair_mesh(V, F, cli_repair_steps(), tol=args.tol)
+    steps = cli_repair_steps() + (("flatten_spikes",) if args.despike else ())
+    result = fvf.repair_mesh(V, F, steps, tol=args.tol)
     mesh = result.mesh  # the repaired mesh must be valid (else: what is left, status 2)
     # the maps are written to their temporary file first and renamed last: a failure of
     # either file leaves both outputs as they were
