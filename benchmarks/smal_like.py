@@ -8,9 +8,10 @@ Run from the repository root::
         --pairs-file DIR/pairs.txt
 
 It writes the layout of ``correspondence_dataset.py`` (``DIR/shapes/NAME.off``,
-``DIR/corres/NAME.vts``, 1-based), ``DIR/pairs.txt`` (pairs of different species) and
-``DIR/template.off``. This is not SMAL_r (the SMAL animals remeshed): it is made here, so
-that the protocol can be run on animals of different proportions when SMAL_r is not at hand.
+``DIR/corres/NAME.vts``, 1-based), ``DIR/pairs.txt`` (pairs of different species),
+``DIR/template.off`` and ``DIR/species.json`` (each species' parameters). This is not
+SMAL_r (the SMAL animals remeshed): it is made here, so that the protocol can be run on
+animals of different proportions when SMAL_r is not at hand.
 
 * **Template.** A quadruped, x forward and z up: the level set of a smooth union
   (polynomial smooth minimum) of a body ellipsoid, a neck capsule, a head ellipsoid, two
@@ -44,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -299,10 +301,12 @@ def check_mesh(V: np.ndarray, F: np.ndarray, what: str) -> None:
 # ---------------------------------------------------------------------------- the set
 @dataclass(frozen=True)
 class Species:
-    """One written species: its name, where the deformation sent the template's vertices
-    (float64 (t, 3)), and its remeshed surface as written (float64 (n, 3), int64 (m, 3))."""
+    """One written species: its name, its parameters (:func:`species_parameters`), where
+    the deformation sent the template's vertices (float64 (t, 3)), and its remeshed
+    surface as written (float64 (n, 3), int64 (m, 3))."""
 
     name: str
+    parameters: dict[str, float]
     deformed: np.ndarray
     vertices: np.ndarray
     faces: np.ndarray
@@ -335,7 +339,8 @@ def make_smal_like(
     out: list[Species] = []
     for i in range(n_species):
         for _ in range(max_tries):
-            X = deform(T, species_parameters(rng))
+            params = species_parameters(rng)
+            X = deform(T, params)
             if self_intersecting_faces(X, F) == 0:
                 break
         else:
@@ -348,11 +353,13 @@ def make_smal_like(
         nearest = cKDTree(V2).query(X)[1]
         fvf.write_mesh(folder / "shapes" / f"{name}.off", V2, F2)
         np.savetxt(folder / "corres" / f"{name}.vts", nearest + 1, fmt="%d")
-        out.append(Species(name, X, V2, F2))
+        out.append(Species(name, params, X, V2, F2))
     pairs = list(itertools.combinations([sp.name for sp in out], 2))
     chosen = rng.permutation(len(pairs))[:n_pairs]
     lines = [" ".join(pairs[k][:: rng.choice([1, -1])]) for k in sorted(chosen)]
     (folder / "pairs.txt").write_text("\n".join(lines) + "\n")
+    table = {sp.name: {k: round(v, 4) for k, v in sp.parameters.items()} for sp in out}
+    (folder / "species.json").write_text(json.dumps(table, indent=1) + "\n")
     return out
 
 
