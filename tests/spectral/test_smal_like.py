@@ -1,6 +1,7 @@
 """The generated SMAL_r stand-in of ``benchmarks/smal_like.py``, built small (a template
 of about 1,200 vertices, two species): the layout, closed single-component meshes, and
-ground-truth maps that send each template vertex near where the deformation put it.
+ground-truth maps that send each template vertex near where the deformation put it
+(docs/correspondence.md, *The standard protocol*, measures fvf and pyFM on the full set).
 """
 
 from __future__ import annotations
