@@ -85,3 +85,26 @@ def test_a_spiky_ball_is_meshed_once_flattened():
     result = fvf.quad_mesh((W, F), target_faces=600)
     verdict = quadcheck.check(W, F, result.vertices, result.quads)
     assert verdict.valid, verdict.summary()
+
+
+def test_an_integer_system_beyond_the_budget_ends_the_attempt_not_the_machine(monkeypatch):
+    import fvf.param.seamless as seamless
+
+    monkeypatch.setattr(seamless, "LATTICE_BYTES", 1000)
+    mesh = fvf.icosphere(3)
+    with pytest.raises(fvf.ParameterizationInputError, match=r"system .* GiB to eliminate"):
+        fvf.seamless_parameterization(mesh, target_faces=100)
+    with pytest.raises(fvf.QuadMeshError, match="GiB to eliminate") as err:
+        fvf.quad_mesh(mesh, target_faces=100)
+    assert len(err.value.attempts) > 1  # every attempt ran, and ended with the typed error
+
+
+def test_a_slit_left_by_a_removed_zero_area_face_is_named():
+    s = icosphere(2)
+    V, F = s.vertices.copy(), s.faces
+    a, b, c = F[0]
+    V[c] = 0.5 * (V[a] + V[b])  # face 0 has zero area; removing it leaves a slit
+    with pytest.raises(fvf.ParameterizationInputError, match="slit") as err:
+        fvf.quad_mesh((V, F[1:]), target_faces=100)
+    for v in (a, b, c):
+        assert str(v) in str(err.value)

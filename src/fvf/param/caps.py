@@ -125,6 +125,26 @@ def _dome(P: np.ndarray, n: np.ndarray, spacing: float) -> tuple:
     return ring_pts.reshape(-1, 3), apex, rings
 
 
+#: A boundary loop whose points lie within this fraction of its length of one line is a
+#: slit: it encloses no area, and no dome closes it.
+SLIT_WIDTH = 1e-9
+
+
+def _check_not_a_slit(loop: np.ndarray, P: np.ndarray) -> None:
+    """:class:`fvf.ParameterizationInputError` when the loop's points (k, 3) lie on one
+    line (:data:`SLIT_WIDTH`)."""
+    length = float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).sum())
+    spread = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)
+    width = spread[1] / np.sqrt(len(P)) if len(spread) > 1 else 0.0
+    if width <= SLIT_WIDTH * max(length, 1e-300):
+        raise ParameterizationInputError(
+            f"the boundary loop through vertices {format_indices(np.sort(loop))} lies on one "
+            "line: a slit of zero width (as removing zero-area faces leaves), which no quad "
+            "mesh can follow. Fix: close it in the tool that made the file (or export it "
+            "again without degenerate faces)"
+        )
+
+
 def capped(mesh: TriMesh, spacing: float) -> Capped:
     """``mesh`` with every boundary loop closed by a dome (module docstring).
 
@@ -142,6 +162,7 @@ def capped(mesh: TriMesh, spacing: float) -> Capped:
     centre = mesh.vertices.mean(axis=0)
     for loop in boundary_loops(mesh):
         P = mesh.vertices[loop]
+        _check_not_a_slit(loop, P)
         n = _dome_direction(P, vn[loop], centre)
         pts, apex, rings = _dome(P, n, spacing)
         k = loop.size

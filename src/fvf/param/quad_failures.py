@@ -29,6 +29,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..mesh.trimesh import TriMesh
+from ..numerics.summary import html_repr, short_repr
 from .quad_folds import closest_surface_points, surface_sample_tree
 
 __all__ = ["Place", "failure_places", "thickness", "describe_places", "resolving_edge"]
@@ -58,6 +59,9 @@ class Place:
         The surface's thickness there (module docstring); ``inf`` when it is thicker
         than a quad edge.
     """
+
+    __repr__ = short_repr  # arrays by dtype and shape
+    _repr_html_ = html_repr  # a table in Jupyter
 
     centre: np.ndarray
     attempts: int

@@ -495,7 +495,7 @@ def _mesh_parts(
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
         except QuadMeshError as exc:
-            finer = _finer(part, exc, hp, align, retry, remesh, featured)
+            finer = _finer(part, exc, plans, align, retry, remesh, featured)
             if finer:
                 with contextlib.suppress(QuadMeshError):
                     made.append((part, _mesh_part(part, finer, fp, opts, report)))
@@ -521,17 +521,19 @@ def _mesh_parts(
 def _finer(
     part: Part,
     exc: QuadMeshError,
-    h: float,
+    plans: list[_Plan],
     align: Alignment,
     retry: bool,
     remesh: bool | str,
     featured: bool,
 ) -> list[_Plan]:
     """The first :data:`FINER_ATTEMPTS` attempts again at the quad edge that resolves the
-    narrow parts where every attempt failed (:func:`resolving_edge`), when that asks for at
-    most :data:`MAX_RAISE` times the quads and the input carries them; else none."""
+    narrow parts where every attempt failed (:func:`resolving_edge`), when that edge is
+    shorter than every one tried, asks for at most :data:`MAX_RAISE` times the quads and
+    the input carries them; else none."""
+    h = plans[0].h
     edge = resolving_edge(exc.places, h) if retry else None
-    if edge is None or (h / edge) ** 2 > MAX_RAISE:
+    if edge is None or edge >= min(p.h for p in plans) or (h / edge) ** 2 > MAX_RAISE:
         return []
     if part.mesh.total_area / edge**2 > MAX_QUADS_PER_FACE * part.mesh.n_faces:
         return []

@@ -67,6 +67,10 @@ from .uv_folds import repair_folds
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
 
+#: The largest integer system eliminated (bytes of its dense arrays): beyond it a cross
+#: field with thousands of cones is refused before the memory runs out.
+LATTICE_BYTES = 2**28
+
 
 @dataclass(frozen=True)
 class SeamlessParameterization:
@@ -209,6 +213,24 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
     return frame
 
 
+def _check_lattice_size(rows: int, cols: int, cones: int, chains: int, iso: int) -> None:
+    """Refuse an integer system whose dense elimination (:func:`integer_lattice`, about
+    three (rows, cols) float64 arrays) exceeds :data:`LATTICE_BYTES`:
+    :class:`fvf.ParameterizationInputError` (in :func:`fvf.quad_mesh`, the end of one
+    attempt, not of the call)."""
+    need = 3.0 * 8.0 * rows * cols
+    if need > LATTICE_BYTES:
+        raise ParameterizationInputError(
+            f"the integer conditions across the cut form a {rows} x {cols} system "
+            f"({need / 2**30:.3g} GiB to eliminate, more than {LATTICE_BYTES / 2**30:.3g}) "
+            f"from {cones} cones, {chains} seam chains and {iso} feature iso-line "
+            "conditions: too many sharp edges to make iso-lines (a thread, a knurl) or too "
+            "many cones (slivers much finer than the quads); hold the field along the "
+            "features only (feature_isolines=False), remesh at the quad scale "
+            "(remesh=True), or ask for fewer quads"
+        )
+
+
 def _variables(
     ss: SeamSystem, cm: CutMesh, iso: tuple[sp.csr_array, np.ndarray] | None = None
 ) -> tuple[sp.csr_array, np.ndarray, np.ndarray, np.ndarray]:
@@ -237,6 +259,7 @@ def _variables(
     int_cols = np.setdiff1d(int_cols, pinned)
     real_cols = np.setdiff1d(np.setdiff1d(np.arange(ncol), int_cols), pinned)
     closing = sp.vstack([ss.closing, rows]).tocsr()
+    _check_lattice_size(closing.shape[0], int_cols.size, cm.singular.size, C, rows.shape[0])
     Cz = closing[:, int_cols].toarray() if closing.shape[0] else np.zeros((0, int_cols.size))
     N = integer_lattice(Cz, prefer=int_cols >= 2 * R)
     nr = real_cols.size
