@@ -11,10 +11,10 @@ $$ t(p) = \min \{\, |q - p| : (q - p)\cdot n < 0,\ n_q \cdot n < -\tfrac12 \,\} 
 
 (the diameter of a finger, the height of a thin plate; :math:`\infty` when there is
 none: a sharp edge of a thick part is not thin), and a place's thickness is the lower
-quartile over its points (:data:`QUANTILE`). A place thinner than one quad edge (a
-finger, a spike, a knife edge) is not resolved by any retry at about that size: the
-message says so and what to do, and :func:`fvf.quad_mesh` tries once more at the quad
-edge :math:`t` (:func:`resolving_edge`) when that asks for at most
+quartile over its points (:data:`QUANTILE`). A place thinner than :data:`NARROW` quad
+edges (a finger, a spike, a knife edge, a thin wall) is not resolved by any retry at
+about that size: the message says so and what to do, and :func:`fvf.quad_mesh` tries
+once more at the quad edge :math:`t` (:func:`resolving_edge`) when that asks for at most
 :data:`fvf.param.quadmesh.MAX_RAISE` times the quads.
 """
 
@@ -41,8 +41,10 @@ MAX_PLACES = 4
 #: A place's thickness is this quantile of its points' (a place where a finger joins a
 #: palm has thin and thick points).
 QUANTILE = 0.25
-#: A place is narrower than the quads when its thickness is below this many h.
-NARROW = 1.0
+#: A place is thinner than the quads when its thickness is below this many h (a place
+#: about one quad edge thick fails for other reasons: on 27 OpenSCAD parts, those 0.8 to
+#: 1 quad edge thick met at 1.5 times the quads, not at their thickness).
+NARROW = 0.75
 
 
 @dataclass(frozen=True)
