@@ -342,6 +342,7 @@ SPECS: dict[str, Spec] = {
             "split_nonmanifold_vertices",
             "split_nonmanifold_edges",
             "flatten_spikes",
+            "split_t_junctions",
             "repair_mesh",
         )
     },

@@ -581,15 +581,9 @@ def test_mesh_report_names_the_repair_for_each_problem(build, fix):
     report = mesh_report(V, F)
     assert not report["ok"]
     assert any(f"Fix: {fix}" in p or f"fvf.{fix}(" in p for p in report["problems"])
-    r = fvf.repair_mesh(
-        V,
-        F,
-        steps=[
-            *fvf.mesh.repair.DEFAULT_REPAIR_STEPS[:3],
-            "split_nonmanifold_edges",
-            *fvf.mesh.repair.DEFAULT_REPAIR_STEPS[3:],
-        ],
-    )
+    steps = list(fvf.mesh.repair.DEFAULT_REPAIR_STEPS)
+    steps.insert(steps.index("split_nonmanifold_vertices"), "split_nonmanifold_edges")
+    r = fvf.repair_mesh(V, F, steps=steps)
     assert mesh_report(r.vertices, r.faces)["problems"] == []
     fvf.TriMesh(r.vertices, r.faces)
 
@@ -656,3 +650,25 @@ def test_random_broken_meshes_repair_to_a_trimesh_or_a_documented_error(n, faces
     mesh = fvf.TriMesh(r.vertices, r.faces)
     assert mesh_report(r.vertices, r.faces)["problems"] == []
     assert fvf.repair_mesh(mesh.vertices, mesh.faces, steps=ALL_STEPS[1:]).log == ()
+
+
+def test_a_t_junction_is_closed_not_left_as_a_slit():
+    """A zero-area face whose apex lies on its long edge (an exporter's T-junction): the
+    face across that edge is split at the apex, so the sphere stays closed (dropping the
+    face alone leaves a 3-vertex slit, a boundary loop on one line)."""
+    s = fvf.icosphere(2)
+    V, F = s.vertices.copy(), s.faces.copy()
+    a, b, c = F[0]
+    V[c] = 0.25 * V[a] + 0.75 * V[b]
+    fixed = fvf.repair_mesh(V, F)
+    mesh = fixed.mesh
+    assert mesh.is_closed and mesh.euler_characteristic == 2
+    assert mesh.n_vertices == s.n_vertices and mesh.n_faces == s.n_faces
+    assert fixed.face_map[0] == -1 and "split_t_junctions" in fixed.log[0]
+    across = np.flatnonzero(np.bincount(fixed.face_origin, minlength=F.shape[0]) == 2)
+    assert across.size == 1 and set(F[across[0]]) >= {a, b} and c not in F[across[0]]
+    assert np.isclose(mesh.total_area, s.total_area - 0.0, rtol=0.05)
+    dropped = fvf.repair_mesh(V, F, ["remove_degenerate_faces"]).mesh
+    assert not dropped.is_closed and set(dropped.boundary_vertices) == {a, b, c}
+    same = fvf.split_t_junctions(s.vertices, s.faces)
+    assert not same.changed and np.array_equal(same.faces, s.faces)

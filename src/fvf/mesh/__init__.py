@@ -23,6 +23,7 @@ from .repair import (
     repair_mesh,
     split_nonmanifold_edges,
     split_nonmanifold_vertices,
+    split_t_junctions,
 )
 from .shapes import disk, icosphere, jittered_sphere, midpoint_subdivision, torus
 from .trimesh import TriMesh
@@ -52,6 +53,7 @@ __all__ = [
     "split_nonmanifold_vertices",
     "split_nonmanifold_edges",
     "flatten_spikes",
+    "split_t_junctions",
     "mesh_report",
     "icosphere",
     "jittered_sphere",

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from dataclasses import replace as dataclasses_replace
 
 import numpy as np
 import numpy.typing as npt
@@ -32,6 +33,7 @@ from .defects import (
 )
 from .inputs import unit_scale
 from .spikes import SPIKE_RATIO, flattened_spikes
+from .t_junctions import t_junction_splits
 from .trimesh import DEGENERATE_AREA_RTOL
 
 __all__ = [
@@ -39,6 +41,7 @@ __all__ = [
     "remove_unreferenced_vertices",
     "remove_duplicate_vertices",
     "remove_degenerate_faces",
+    "split_t_junctions",
     "remove_duplicate_faces",
     "orient_faces",
     "split_nonmanifold_vertices",
@@ -340,6 +343,55 @@ def remove_duplicate_vertices(
                 "fvf.remove_degenerate_faces(V, F)"
             )
     return _result(V[kept], F2, n, F.shape[0], vertex_origin=kept, vertex_map=vertex_map, log=log)
+
+
+#: Passes of :func:`split_t_junctions` at most (a pass splits each face once).
+T_JUNCTION_PASSES = 4
+
+
+def split_t_junctions(
+    vertices: npt.ArrayLike, faces: npt.ArrayLike, area_rtol: float = DEGENERATE_AREA_RTOL
+) -> RepairResult:
+    """Remove zero-area faces whose apex lies on their longest edge and split the face
+    across that edge at the apex (:mod:`fvf.mesh.t_junctions`), so that no slit is left.
+
+    Parameters
+    ----------
+    vertices : array_like (n, 3)
+    faces : array_like of int (m, 3)
+    area_rtol : float
+        Zero area as in :func:`remove_degenerate_faces`.
+
+    Returns
+    -------
+    RepairResult
+        Vertices unchanged; ``face_map`` is ``-1`` for the removed faces, and both halves
+        of a split face have it as ``face_origin``. Zero-area faces it cannot resolve (on
+        the boundary, in chains) are left for :func:`remove_degenerate_faces`.
+    """
+    V, F = raw_arrays(vertices, faces)
+    total = _result(V.copy(), F.copy(), V.shape[0], F.shape[0])
+    for _ in range(T_JUNCTION_PASSES):
+        G, origin, removed, split = t_junction_splits(V, total.faces, area_rtol)
+        if removed.size == 0:
+            break
+        log = (
+            f"split_t_junctions: removed zero-area faces {format_indices(removed)} and split "
+            f"the faces across their long edges {format_indices(split)} at their apexes"
+        )
+        step = _result(V.copy(), G, V.shape[0], total.faces.shape[0], face_origin=origin)
+        step = dataclasses_replace(
+            step, log=(log,), face_map=_first_map(origin, total.faces.shape[0])
+        )
+        total = total.then(step)
+    return total
+
+
+def _first_map(origin: np.ndarray, size: int) -> np.ndarray:
+    """old -> new face map when a face may have two new faces: its first one."""
+    out = np.full(size, -1, dtype=np.int64)
+    out[origin[::-1]] = np.arange(origin.size)[::-1]
+    return out
 
 
 def remove_degenerate_faces(
@@ -674,6 +726,7 @@ def flatten_spikes(
 #: Every repair by name, for :func:`repair_mesh`.
 REPAIR_STEPS = {
     "remove_duplicate_vertices": remove_duplicate_vertices,
+    "split_t_junctions": split_t_junctions,
     "remove_degenerate_faces": remove_degenerate_faces,
     "remove_duplicate_faces": remove_duplicate_faces,
     "split_nonmanifold_edges": split_nonmanifold_edges,
@@ -683,11 +736,12 @@ REPAIR_STEPS = {
     "flatten_spikes": flatten_spikes,
 }
 
-#: The order :func:`repair_mesh` uses by default: weld, drop what welding made degenerate or
-#: duplicate, split vertices, orient, drop orphans. ``split_nonmanifold_edges`` (a cut that
-#: changes topology) is opt-in.
+#: The order :func:`repair_mesh` uses by default: weld, close T-junctions, drop what welding
+#: made degenerate or duplicate, split vertices, orient, drop orphans.
+#: ``split_nonmanifold_edges`` (a cut that changes topology) is opt-in.
 DEFAULT_REPAIR_STEPS = (
     "remove_duplicate_vertices",
+    "split_t_junctions",
     "remove_degenerate_faces",
     "remove_duplicate_faces",
     "split_nonmanifold_vertices",

@@ -139,9 +139,10 @@ def _check_not_a_slit(loop: np.ndarray, P: np.ndarray) -> None:
     if width <= SLIT_WIDTH * max(length, 1e-300):
         raise ParameterizationInputError(
             f"the boundary loop through vertices {format_indices(np.sort(loop))} lies on one "
-            "line: a slit of zero width (as removing zero-area faces leaves), which no quad "
-            "mesh can follow. Fix: close it in the tool that made the file (or export it "
-            "again without degenerate faces)"
+            "line: a slit of zero width (as removing a zero-area face leaves), which no quad "
+            "mesh can follow. Fix: repair the file with its zero-area faces in it "
+            "(fvf.repair_mesh, fvf repair: split_t_junctions closes such slits), or close "
+            "it in the tool that made the file"
         )
 
 
