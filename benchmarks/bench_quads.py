@@ -30,9 +30,12 @@ here, no shared meshes needed), each written in its natural format and read back
 user would. fvf, Instant Meshes (as ``fvf.param.peer`` calls it: defaults, pure quads by
 1-to-4 subdivision) and QuadriFlow (``pip install pyquadriflow``, optional; default
 flags) each run in a child process with BLAS pinned to one thread, on the same arrays, at
-``--quads`` (2,000) quads. Every output is judged by the independent checker
-``tests/param/quadcheck.py`` (valid, or the failed checks; a typed fvf error, a foreign
-exception, a crash or a timeout is reported as such) and measured by
+``--quads`` (2,000) quads; with ``--scad``, on the OpenSCAD parts of
+``benchmarks/openscad`` instead (exported as ASCII STL by the ``openscad`` command: flanges,
+brackets, gears, knobs, a thread, thin shells, a fan grille, a dome with vents). Every
+output is judged by the independent checker ``tests/param/quadcheck.py`` (valid, or the
+failed checks; a typed fvf error, a foreign exception, a crash or a timeout is reported as
+such) and measured by
 ``quadcheck.metrics``: irregular vertices (interior valence ≠ 4, boundary ∉ {2, 3}),
 |corner angle − 90°| median, coverage of the sharp edges (dihedral > 30°) by quad edges
 within a quarter quad edge, Hausdorff distance over the mean quad edge, and CPU time
@@ -58,6 +61,8 @@ MESHES = ["spot.obj", "bob_tri.obj", "fertility.off", "rocker-arm.obj", "armadil
 SCALING = ["armadillo.obj", "armadillo_loop1.ply", "armadillo_750k.ply"]
 ROOT = Path(__file__).resolve().parents[1]
 WILD_METHODS = ("fvf", "instant", "quadriflow")
+#: 27 parametric CAD parts in OpenSCAD's language (``--wild --scad``).
+SCAD = ROOT / "benchmarks" / "openscad"
 SHARED = Path(os.environ.get("FVF_SHARED_MESHES", ROOT.parent / "shared" / "meshes"))
 
 
@@ -363,7 +368,32 @@ def _wild_summary(names: list[str], res: dict, methods: list[str]) -> None:
         print(f"  {'PASS' if ok else 'MISS'}  {text}")
 
 
-def wild(target: int, only: list[str] | None, tmp: Path, timeout: float, which: list[str]) -> None:
+def openscad_corpus(tmp: Path) -> dict[str, Path]:
+    """``benchmarks/openscad/*.scad`` exported by the ``openscad`` command as ASCII STL
+    (OpenSCAD's default, a triangle soup) into ``tmp``: name -> path."""
+    import shutil
+
+    exe = shutil.which("openscad")
+    if exe is None:
+        raise SystemExit("--scad needs the openscad command (Debian: apt install openscad)")
+    tmp.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for scad in sorted(SCAD.glob("*.scad")):
+        paths[scad.stem] = tmp / f"{scad.stem}.stl"
+        subprocess.run(
+            [exe, "-o", str(paths[scad.stem]), str(scad)], check=True, capture_output=True
+        )
+    return paths
+
+
+def wild(
+    target: int,
+    only: list[str] | None,
+    tmp: Path,
+    timeout: float,
+    which: list[str],
+    scad: bool = False,
+) -> None:
     import platform
 
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
@@ -378,10 +408,15 @@ def wild(target: int, only: list[str] | None, tmp: Path, timeout: float, which: 
             methods.append(meth)
         except ImportError:
             print(f"({meth} skipped: pip install {mod.lower()})")
-    names = only or [n for n in wild_corpus.names() if wild_corpus.available(n)]
-    paths = wild_corpus.write_corpus(tmp / "corpus", names)
+    if scad:
+        paths = openscad_corpus(tmp / "openscad")
+        names = only or list(paths)
+    else:
+        names = only or [n for n in wild_corpus.names() if wild_corpus.available(n)]
+        paths = wild_corpus.write_corpus(tmp / "corpus", names)
     print(
-        f"wild corpus: {len(names)} meshes, {target} quads asked; each run a child process "
+        f"{'OpenSCAD parts' if scad else 'wild corpus'}: {len(names)} meshes, {target} "
+        "quads asked; each run a child process "
         f"with BLAS pinned to 1 thread (threadpoolctl); CPU seconds; {platform.node()}"
     )
     head = ["quads", "irreg", "ang50", "feat", "H/edge", "cpu_s"]
@@ -411,6 +446,11 @@ def main() -> None:
         action="store_true",
         help="the wild corpus (tests/param/wild_corpus.py)",
     )
+    ap.add_argument(
+        "--scad",
+        action="store_true",
+        help="--wild on the OpenSCAD parts of benchmarks/openscad (needs openscad)",
+    )
     ap.add_argument("--quads", type=int, default=2000, help="--wild: quads asked")
     ap.add_argument("--only", nargs="+", help="--wild: these corpus meshes only")
     ap.add_argument("--timeout", type=float, default=600.0, help="--wild: seconds per run")
@@ -426,7 +466,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as d:
         if args.wild:
-            wild(args.quads, args.only, Path(d), args.timeout, args.methods)
+            wild(args.quads, args.only, Path(d), args.timeout, args.methods, args.scad)
         elif args.scaling:
             scaling(args.ratio, Path(d))
         else:
