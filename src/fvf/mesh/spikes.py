@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .halfedges import sort_halfedges
+
 __all__ = ["SPIKE_RATIO", "SPIKE_ROUNDS", "spike_vertices", "flattened_spikes"]
 
 #: A vertex farther than this many ring radii from its ring's centroid is a spike.
@@ -35,8 +37,7 @@ SPIKE_ROUNDS = 8
 
 def _ring_matrix(n: int, faces: np.ndarray) -> sp.csr_array:
     """Row-normalized vertex adjacency (n, n): (A x)_i is the centroid of i's neighbours."""
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    e = np.unique(np.sort(e, axis=1), axis=0)
+    e = sort_halfedges(faces, n).edges
     ij = (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])
     A = sp.coo_array((np.ones(2 * len(e)), ij), shape=(n, n)).tocsr()
     return sp.diags_array(1.0 / np.maximum(A.sum(axis=1), 1.0)) @ A

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .defects import repeats_vertex, zero_area_faces
+from .halfedges import sort_halfedges
 
 __all__ = ["t_junction_splits"]
 
@@ -50,25 +51,24 @@ def t_junction_splits(
     empty = np.zeros(0, np.int64)
     if flat.size == 0:
         return F.copy(), np.arange(F.shape[0]), empty, empty
-    slot = np.argmax(np.linalg.norm(V[np.roll(F[flat], -1, axis=1)] - V[F[flat]], axis=2), 1)
-    u, w = F[flat, slot], F[flat, (slot + 1) % 3]
-    apex = F[flat, (slot + 2) % 3]
-    n = V.shape[0]
-    keys = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2), axis=2)  # (m, 3, 2)
-    keys = (keys[..., 0] * n + keys[..., 1]).ravel()  # edge of face t at slot s: 3 t + s
-    order = np.argsort(keys, kind="stable")
-    want = np.minimum(u, w) * n + np.maximum(u, w)
-    lo, hi = np.searchsorted(keys[order], want), np.searchsorted(keys[order], want, "right")
-    two = hi - lo == 2  # the flat face and one other
-    other = np.where(two, order[np.minimum(lo, keys.size - 1)], -1)
-    other = np.where(two & (other // 3 == flat), order[np.minimum(lo + 1, keys.size - 1)], other)
-    g, t = other // 3, other % 3
+    # half-edge 3t + i runs F[t, i+1] -> F[t, i+2], opposite corner i: the long edge of a
+    # flat face is the half-edge of its apex
+    P = V[F[flat]]
+    corner = np.argmax(np.linalg.norm(np.roll(P, -2, axis=1) - np.roll(P, -1, axis=1), axis=2), 1)
+    runs = sort_halfedges(F, V.shape[0])
+    at = np.empty(runs.halfedges.size, dtype=np.int64)
+    at[runs.halfedges] = np.arange(runs.halfedges.size)
+    edge = np.repeat(np.arange(runs.counts.size), runs.counts)[at[3 * flat + corner]]
+    two = runs.counts[edge] == 2  # the flat face and one other
+    first = runs.halfedges[runs.starts[edge]]
+    other = np.where(first // 3 == flat, runs.halfedges[runs.starts[edge] + two], first)
+    g, j = other // 3, other % 3  # j: the corner of g opposite the shared edge
     is_flat = np.zeros(F.shape[0], dtype=bool)
     is_flat[flat] = True
-    ok = two & ~is_flat[np.maximum(g, 0)]
+    ok = two & ~is_flat[g]
     ok &= _first_use(g, ok)  # one split per face and pass
-    flat, g, t, apex = flat[ok], g[ok], t[ok], apex[ok]
-    x0, x1, x2 = F[g, t], F[g, (t + 1) % 3], F[g, (t + 2) % 3]
+    flat, g, j, apex = flat[ok], g[ok], j[ok], F[flat[ok], corner[ok]]
+    x0, x1, x2 = F[g, (j + 1) % 3], F[g, (j + 2) % 3], F[g, j]
     out = F.copy()
     out[g] = np.stack([x0, apex, x2], axis=1)
     keep = np.ones(F.shape[0], dtype=bool)
