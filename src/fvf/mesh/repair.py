@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from dataclasses import replace as dataclasses_replace
 
 import numpy as np
 import numpy.typing as npt
@@ -193,9 +192,10 @@ def _follow(first: np.ndarray, second: np.ndarray) -> np.ndarray:
 
 
 def _inverse(origin: np.ndarray, size: int) -> np.ndarray:
-    """old -> new map (size,) from a new -> old injection, -1 where nothing maps."""
+    """old -> new map (size,) from a new -> old map, -1 where nothing maps; an old index
+    with several new ones (a face split in two) maps to the first."""
     out = np.full(size, -1, dtype=np.int64)
-    out[origin] = np.arange(origin.size)
+    out[origin[::-1]] = np.arange(origin.size)[::-1]
     return out
 
 
@@ -379,19 +379,9 @@ def split_t_junctions(
             f"split_t_junctions: removed zero-area faces {format_indices(removed)} and split "
             f"the faces across their long edges {format_indices(split)} at their apexes"
         )
-        step = _result(V.copy(), G, V.shape[0], total.faces.shape[0], face_origin=origin)
-        step = dataclasses_replace(
-            step, log=(log,), face_map=_first_map(origin, total.faces.shape[0])
-        )
-        total = total.then(step)
+        m = total.faces.shape[0]
+        total = total.then(_result(V.copy(), G, V.shape[0], m, face_origin=origin, log=log))
     return total
-
-
-def _first_map(origin: np.ndarray, size: int) -> np.ndarray:
-    """old -> new face map when a face may have two new faces: its first one."""
-    out = np.full(size, -1, dtype=np.int64)
-    out[origin[::-1]] = np.arange(origin.size)[::-1]
-    return out
 
 
 def remove_degenerate_faces(
