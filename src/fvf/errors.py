@@ -443,24 +443,18 @@ class QuadMeshError(QuadExtractionError):
     input remeshed at the quad scale, the smoothest field, more quads) gave a mesh that
     fails a validity check or failed itself. ``attempts`` lists each attempt and why it
     failed; ``best`` is the least bad quad mesh seen (or None), for inspection only;
-    ``where`` (float64 (k, 3), or None) the centres of the places where attempts failed,
-    those where most attempts failed first; ``places`` the same places with how many
-    attempts failed there and the input's radius of curvature
-    (:class:`fvf.param.quad_failures.Place`)."""
+    ``places`` the places where attempts failed, most failed attempts first, with how many
+    failed there and the input's thickness (:class:`fvf.param.quad_failures.Place`), and
+    ``where`` (float64 (k, 3)) their centres."""
 
     def __init__(
-        self,
-        message: str,
-        attempts: tuple = (),
-        best: object = None,
-        where: object = None,
-        places: tuple = (),
+        self, message: str, attempts: tuple = (), best: object = None, places: tuple = ()
     ) -> None:
         super().__init__(message)
         self.attempts = tuple(attempts)
         self.best = best
-        self.where = where
         self.places = tuple(places)
+        self.where = np.array([p.centre for p in self.places], dtype=np.float64).reshape(-1, 3)
 
 
 class SmallComponentWarning(FvfWarning):

@@ -287,7 +287,6 @@ def _mesh_part(
         + _advice(opts),
         attempts=tuple(log),
         best=best,
-        where=np.array([p.centre for p in places]).reshape(-1, 3),
         places=tuple(places),
     )
 

@@ -67,8 +67,9 @@ from .uv_folds import repair_folds
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
 
-#: The largest integer system eliminated (bytes of its dense arrays): beyond it a cross
-#: field with thousands of cones is refused before the memory runs out.
+#: The largest integer system eliminated (bytes of its dense arrays): beyond it (a
+#: thread's sharp edges as iso-lines, thousands of cones) the attempt is refused before
+#: the memory runs out.
 LATTICE_BYTES = 2**28
 
 
