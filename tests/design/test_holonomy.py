@@ -204,3 +204,36 @@ def test_bad_align_smoothing(bad):
 def test_align_smoothing_needs_an_alignment():
     with pytest.raises(fvf.ParameterError, match="align="):
         fvf.design_field(fvf.icosphere(2), n=4, align_smoothing=0.1)
+
+
+def test_a_conformal_scale_adds_its_curvature_exactly():
+    """With log_scale s the holonomy around each vertex is K̃ + L s (the curvature of
+    e^{2s} g, L the cotangent stiffness), the total stays 2πχ, a constant s changes
+    nothing, and each scale is cached apart."""
+    from fvf.calculus import stiffness
+
+    mesh = fvf.jittered_sphere(3, seed=4)
+    ell = 2 * mesh.mean_edge_length
+    s = np.random.default_rng(1).uniform(0.0, 1.5, mesh.n_vertices)
+    x = holonomy_rotations(mesh, ell, s)
+    E = mesh.edges
+    div = np.bincount(E[:, 1], x, mesh.n_vertices) - np.bincount(E[:, 0], x, mesh.n_vertices)
+    target = smoothed_angle_defects(mesh, ell) + stiffness(mesh) @ s
+    np.testing.assert_allclose(div, angle_defects(mesh) - target, atol=1e-10)
+    assert target.sum() == pytest.approx(4 * np.pi, abs=1e-9)
+    flat = holonomy_rotations(mesh, ell, np.full(mesh.n_vertices, 0.7))
+    np.testing.assert_allclose(flat, holonomy_rotations(mesh, ell), atol=1e-10)
+    assert holonomy_rotations(mesh, ell, s) is x and flat is not x
+    L = connection_laplacian(mesh, n=4, curvature_smoothing=ell, log_scale=s)
+    assert L is not connection_laplacian(mesh, n=4, curvature_smoothing=ell)
+
+
+def test_a_bad_log_scale_is_refused():
+    mesh = fvf.jittered_sphere(2, seed=2)
+    ell = 2 * mesh.mean_edge_length
+    with pytest.raises(fvf.ParameterError, match="one value per vertex"):
+        holonomy_rotations(mesh, ell, np.zeros(mesh.n_faces))
+    with pytest.raises(fvf.ParameterError, match="one value per vertex"):
+        holonomy_rotations(mesh, ell, np.full(mesh.n_vertices, np.nan))
+    with pytest.raises(fvf.ParameterError, match="pass both"):
+        connection_laplacian(mesh, n=4, log_scale=np.zeros(mesh.n_vertices))

@@ -345,6 +345,7 @@ def connection_laplacian(
     n: int = 1,
     *,
     curvature_smoothing: float | None = None,
+    log_scale: npt.ArrayLike | None = None,
 ) -> sp.csr_array:
     """The face connection Laplacian L: complex Hermitian PSD, sparse (m, m).
 
@@ -373,6 +374,10 @@ def connection_laplacian(
         instead of the angle defect (``"knoppel"`` only; closed meshes). Fields smooth for
         it have their cones where the smoothed curvature gathers a 1/N turn, not on every
         vertex with a large angle defect (:mod:`fvf.design.holonomy`).
+    log_scale : array_like, float (n,), optional
+        With ``curvature_smoothing``: a conformal scale s per vertex; the holonomy is then
+        that of the metric e^{2s} g (:func:`fvf.design.holonomy.holonomy_rotations`), whose
+        smooth fields carry the cones that quads of size h e^{-s} need.
 
     Returns
     -------
@@ -395,21 +400,25 @@ def connection_laplacian(
     """
     kind = check_kind(kind)
     n = as_direction_count(n)
+    scale = None
     if curvature_smoothing is not None:
-        from .holonomy import smoothing_length
+        from .holonomy import as_log_scale, smoothing_length
 
         curvature_smoothing = smoothing_length(curvature_smoothing)
+        scale = as_log_scale(mesh, log_scale)
         if kind != "knoppel":
             raise ParameterError(
                 f"curvature_smoothing turns the edge transports of kind='knoppel'; got {kind!r}"
             )
+    elif log_scale is not None:
+        raise ParameterError("log_scale scales the holonomy of curvature_smoothing: pass both")
 
     def build():
         pairs, r, w = connection_pairs(mesh, kind)
         if curvature_smoothing is not None:
             from .holonomy import holonomy_rotations
 
-            r = r * np.exp(1j * holonomy_rotations(mesh, curvature_smoothing))
+            r = r * np.exp(1j * holonomy_rotations(mesh, curvature_smoothing, scale))
         if n != 1:
             r = r**n
         m = mesh.n_faces
@@ -424,7 +433,9 @@ def connection_laplacian(
 
     variant = kind if n == 1 else f"{kind}:{n}"
     if curvature_smoothing is not None:
-        variant += f":holonomy smoothed over {curvature_smoothing!r}"
+        from .holonomy import log_scale_key
+
+        variant += f":holonomy smoothed over {curvature_smoothing!r}{log_scale_key(scale)}"
     return mesh.cached(f"connection_laplacian:{variant}", build)
 
 
@@ -612,6 +623,7 @@ def smoothest_fields(
     backend: Backend = "auto",
     progress: bool | ProgressCallback | None = None,
     curvature_smoothing: float | None = None,
+    log_scale: npt.ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` smoothest fields: lowest eigenfields of L_n z = λ [A_F] z.
 
@@ -650,6 +662,8 @@ def smoothest_fields(
         smoothed over ℓ (:mod:`fvf.design.holonomy`), so that vertices with a large angle
         defect (spikes, pinches, valence-4 vertices of remeshed scans) do not each force
         a cone. Closed meshes, ``kind="knoppel"``. Default: the Levi-Civita connection.
+    log_scale : array_like, float (n,), optional
+        With ``curvature_smoothing``: the conformal scale of :func:`connection_laplacian`.
 
     Returns
     -------
@@ -699,7 +713,9 @@ def smoothest_fields(
     if not 1 <= count <= m:
         raise FvfError(f"count must be in [1, {m}] (the number of faces); got {count}.")
     report("assemble", 0, 1)
-    L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
+    L = connection_laplacian(
+        mesh, kind, n, curvature_smoothing=curvature_smoothing, log_scale=log_scale
+    )
     report("assemble", 1, 1)
     area = mesh.face_areas
     auto = solver == "auto"

@@ -453,6 +453,7 @@ def design_field(
     progress: bool | ProgressCallback | None = None,
     curvature_smoothing: float | None = None,
     align_smoothing: float | None = None,
+    log_scale: npt.ArrayLike | None = None,
 ) -> NField:
     """The smoothest tangent N-field meeting direction constraints (Knöppel et al. 2013).
 
@@ -513,6 +514,10 @@ def design_field(
         smoothed over ℓ (:mod:`fvf.design.holonomy`), so that vertices with a large angle
         defect (spikes, pinches, valence-4 vertices of remeshed scans) do not each force
         a cone. Closed meshes, ``kind="knoppel"``. Default: the Levi-Civita connection.
+    log_scale : array_like, float (n,), optional
+        With ``curvature_smoothing``: a conformal scale s per vertex, the connection is
+        then that of the metric e^{2s} g (:func:`fvf.connection_laplacian`): the field
+        a parameterization with quads of edge h e^{-s} follows.
     align_smoothing : float, optional
         A length ℓ > 0 (mesh units): the alignment target is diffused over ℓ before the
         design, by one implicit heat step of the field's own connection Laplacian,
@@ -594,6 +599,7 @@ def design_field(
             backend=backend,
             progress=progress,
             curvature_smoothing=curvature_smoothing,
+            log_scale=log_scale,
         )[1]
         return NField(_with_directions(mesh, fields[0]), n)
 
@@ -601,7 +607,9 @@ def design_field(
         return smoothest()
     report("assemble", 0, 1)  # its parts reported as they start: minutes on 2M faces
     report("assemble: connection Laplacian", 0, 1)
-    L = connection_laplacian(mesh, kind, n, curvature_smoothing=curvature_smoothing)
+    L = connection_laplacian(
+        mesh, kind, n, curvature_smoothing=curvature_smoothing, log_scale=log_scale
+    )
     A = mesh.face_areas
     if align is not None:
         report("assemble: alignment targets", 0, 1)

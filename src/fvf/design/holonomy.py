@@ -33,9 +33,23 @@ $|x_e| < \pi/(2N)$ the indices :func:`fvf.singularities` measures with the true 
 are those of the turned one: cones where $\tilde K$ accumulates a quarter turn, not at
 each spike. A vertex whose defect is too large for its few edges ($|K_v| / \deg v$ beyond
 about $\pi/4$) keeps its cone.
+
+**A conformal scale.** Quads of varying size are quads of one size in a conformally
+scaled metric $\tilde g = e^{2s} g$ ($s$ a function on the vertices): lengths grow by
+$e^{s}$, so where $s > 0$ the quads of one $\tilde g$-length are $e^{s}$ times smaller
+on the surface. The curvature of $\tilde g$ is $\tilde K\, dA_{\tilde g} = (K - \Delta s)\,
+dA$, integrated over the vertex cells $K_v + (L s)_v$ (the cotangent stiffness $L$ is
+$-\int \Delta$ in the weak form). With ``log_scale=s`` the target holonomy is
+$\tilde K + L s$: a field parallel for that connection is smooth in $\tilde g$, and it
+gets the cones that a change of quad size needs (a tube whose quads are smaller than its
+neighbourhood's has fewer quads around it at one end than the other: cones of index
+$+1/4$ on one side of the change and $-1/4$ on the other, where $-\Delta s$ gathers a
+quarter turn). $L$ has zero row sums, so the total stays $2\pi\chi$.
 """
 
 from __future__ import annotations
+
+import hashlib
 
 import numpy as np
 import scipy.sparse as sp
@@ -94,7 +108,30 @@ def smoothed_angle_defects(mesh: TriMesh, length: float) -> np.ndarray:
     return A * u
 
 
-def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
+def log_scale_key(log_scale: np.ndarray | None) -> str:
+    """A short digest of a vertex log scale for cache keys ("" for None)."""
+    if log_scale is None:
+        return ""
+    data = np.ascontiguousarray(log_scale, dtype=np.float64).tobytes()
+    return ":scaled " + hashlib.blake2b(data, digest_size=8).hexdigest()
+
+
+def as_log_scale(mesh: TriMesh, log_scale: object) -> np.ndarray | None:
+    """``log_scale`` checked: None, or finite float64 (n,) (:class:`fvf.ParameterError`)."""
+    if log_scale is None:
+        return None
+    s = np.asarray(log_scale, dtype=np.float64)
+    if s.shape != (mesh.n_vertices,) or not np.isfinite(s).all():
+        raise ParameterError(
+            f"log_scale must be a finite float array of shape ({mesh.n_vertices},), one "
+            f"value per vertex; got shape {s.shape}"
+        )
+    return s
+
+
+def holonomy_rotations(
+    mesh: TriMesh, length: float, log_scale: np.ndarray | None = None
+) -> np.ndarray:
     r"""Angles $x_e$ added to the transports so that the holonomy is $\tilde K$ (module
     docstring).
 
@@ -104,6 +141,9 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
         Closed.
     length : float
         Smoothing length $\ell > 0$ (:func:`smoothed_angle_defects`).
+    log_scale : float64 (n,), optional
+        A conformal scale $s$ per vertex: the target holonomy is $\tilde K + L s$, that of
+        the metric $e^{2s} g$ (module docstring). Default: $s = 0$.
 
     Returns
     -------
@@ -115,12 +155,16 @@ def holonomy_rotations(mesh: TriMesh, length: float) -> np.ndarray:
         measurement of its cones (:mod:`fvf.param`) share one computation.
     """
     ell = smoothing_length(length)
-    return mesh.cached(f"holonomy_rotations:{ell!r}", lambda: _rotations_for(mesh, ell))
+    s = as_log_scale(mesh, log_scale)
+    key = f"holonomy_rotations:{ell!r}{log_scale_key(s)}"
+    return mesh.cached(key, lambda: _rotations_for(mesh, ell, s))
 
 
-def _rotations_for(mesh: TriMesh, length: float) -> np.ndarray:
+def _rotations_for(mesh: TriMesh, length: float, log_scale: np.ndarray | None) -> np.ndarray:
     """The uncached :func:`holonomy_rotations`, made read-only."""
     target = smoothed_angle_defects(mesh, length)
+    if log_scale is not None:
+        target = target + stiffness(mesh) @ log_scale
     K = angle_defects(mesh)
     E = mesh.edges
     n, ne = mesh.n_vertices, E.shape[0]

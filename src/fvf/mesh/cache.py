@@ -246,7 +246,7 @@ CACHED_QUANTITIES: Mapping[str, CachedQuantity] = _declare(
         "8E bytes per length",
         "fvf.design.holonomy.holonomy_rotations",
         "the connection Laplacian with curvature_smoothing, fvf.param.frames",
-        "the smoothing length (its repr)",
+        "the smoothing length (its repr) and a digest of the conformal log scale",
     ),
     # -- geodesic distances
     CachedQuantity(
