@@ -278,8 +278,10 @@ def test_target_too_coarse_for_the_topology():
 
 
 def test_a_target_too_coarse_is_retried_with_more_quads():
-    """The retries end at a valid torus with more quads; the log says what failed first."""
-    r = fvf.quad_mesh(fvf.torus(24, 12), target_faces=1)
+    """The retries end at a valid torus with more quads; the log says what failed first,
+    and a warning how many more (the quads sized by curvature, about the tube's radius)."""
+    with pytest.warns(fvf.QuadCountRaisedWarning, match="sized by curvature"):
+        r = fvf.quad_mesh(fvf.torus(24, 12), target_faces=1)
     assert r.validity.valid and r.quads.shape[0] > 1
     assert "too coarse" in r.attempts[0] and r.attempts[-1].endswith(f"valid, {len(r.quads)} quads")
 

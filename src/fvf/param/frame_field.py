@@ -75,6 +75,7 @@ def default_cross_field(
     edge_length: float | None = None,
     constraints: tuple[np.ndarray, np.ndarray] | None = None,
     progress: ProgressCallback | None = None,
+    log_scale: np.ndarray | None = None,
 ) -> NField:
     """The cross field a parameterization uses by default, float64 (m, 3), unit length.
 
@@ -96,6 +97,9 @@ def default_cross_field(
         :func:`fvf.design_field`; the sharp features of :mod:`fvf.param.features`).
     progress : callable, optional
         ``(stage, done, total)``: the stages of :func:`fvf.design_field`.
+    log_scale : float64 (n,), optional
+        With ``align="curvature"`` and ``edge_length``: a conformal scale s per vertex;
+        the field is designed for the metric e^{2s} g (:mod:`fvf.param.sizing`).
 
     Returns
     -------
@@ -122,6 +126,7 @@ def default_cross_field(
             curvature_smoothing=h,
             align_smoothing=None if h is None else ALIGN_SMOOTHING * h,
             progress=progress,
+            log_scale=None if h is None else log_scale,
         )
     # a cone at a face's centroid (e.g. by symmetry) makes the power exactly 0 there: any
     # direction is as good as another, take the face's first basis vector
@@ -132,12 +137,15 @@ def default_cross_field(
 
 
 def default_connection_rotations(
-    mesh: TriMesh, align: Alignment, edge_length: float
+    mesh: TriMesh, align: Alignment, edge_length: float, log_scale: np.ndarray | None = None
 ) -> np.ndarray | None:
     """The connection the default field of ``align`` is measured against: float64 (E,)
     rotations of the transports (:func:`fvf.design.holonomy.holonomy_rotations` over the
-    target edge length) for ``"curvature"``, None (Levi-Civita) for ``"smooth"``."""
-    return holonomy_rotations(mesh, edge_length) if align == "curvature" else None
+    target edge length, for the metric scaled by ``log_scale``) for ``"curvature"``, None
+    (Levi-Civita) for ``"smooth"``."""
+    if align != "curvature":
+        return None
+    return holonomy_rotations(mesh, edge_length, log_scale)
 
 
 def unit_cross_field(mesh: TriMesh, u: npt.ArrayLike) -> np.ndarray:

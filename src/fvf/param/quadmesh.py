@@ -59,6 +59,7 @@ from .quad_validity import check_quad_mesh, topology_signature
 from .quality import quad_boundary_vertices
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
+from .sizing import curvature_log_scale
 
 __all__ = ["quad_mesh", "MIN_COMPONENT_QUADS", "MAX_QUADS_PER_FACE", "QUAD_BYTES"]
 
@@ -71,6 +72,13 @@ MIN_COMPONENT_QUADS = 8
 MAX_RAISE = 8.0
 #: ... with the first this many attempts of the list at that size.
 FINER_ATTEMPTS = 3
+#: Attempts with quads sized by curvature (:mod:`fvf.param.sizing`) are made when the
+#: sizing asks somewhere for quads this many times shorter than h.
+SIZED_REFINEMENT = 1.5
+#: … on a surface remeshed this many times finer than for quads of one size.
+SIZED_REMESH = 2.0
+#: A sized attempt that makes more than this many times the quads asked says so.
+SIZED_WARN = 1.5
 #: Ring spacing of the domes that close open components, in quad edges.
 CAP_SPACING = 0.5
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
@@ -110,11 +118,13 @@ class _Plan:
     align: Alignment
     h: float
     isolines: bool = False
+    sized: bool = False
 
     def __str__(self) -> str:
         surface = "remeshed" if self.remeshed else "input"
         lines = ", features as iso-lines" if self.isolines else ""
-        return f"{surface} surface, {self.align} field{lines}, h = {self.h:.4g}"
+        sized = ", sized by curvature" if self.sized else ""
+        return f"{surface} surface, {self.align} field{lines}{sized}, h = {self.h:.4g}"
 
 
 def _plans(
@@ -130,13 +140,25 @@ def _plans(
     first = [] if skip_input else [_Plan(False, align, h)]
     first += [_Plan(can, align, h)]
     plans = [dataclasses.replace(p, isolines=True) for p in first] if features else []
-    plans += first + [
+    plans += first
+    curved = _curved_below(part.closed, h)  # quads smaller where the surface turns faster
+    if curved:
+        sized = plans[:2] if features else first
+        plans += [dataclasses.replace(p, align="curvature", sized=True) for p in sized]
+    finer = "curvature" if curved else align
+    plans += [
         _Plan(can, other, h),
-        _Plan(can, align, h * MORE_QUADS),
+        _Plan(can, finer, h * MORE_QUADS, sized=curved),
         _Plan(can, other, h * MORE_QUADS),
-        _Plan(can, align, h * MORE_QUADS**2),
+        _Plan(can, finer, h * MORE_QUADS**2, sized=curved),
     ]
     return list(dict.fromkeys(plans))
+
+
+def _curved_below(mesh: TriMesh, h: float) -> bool:
+    """Whether quads sized by curvature (:mod:`fvf.param.sizing`) differ from uniform ones
+    of edge h: somewhere at least :data:`SIZED_REFINEMENT` times smaller."""
+    return float(curvature_log_scale(mesh, h).max(initial=0.0)) > np.log(SIZED_REFINEMENT)
 
 
 def _attempt(
@@ -150,10 +172,11 @@ def _attempt(
     """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
     base = surface = part.closed
     if plan.remeshed:
-        key = round(plan.h, 12)
+        fine = plan.h / SIZED_REMESH if plan.sized else plan.h  # the small quads' triangles
+        key = round(fine, 12)
         if key not in surfaces:
             surfaces[key] = remesh_for_quads(
-                base, plan.h, crease_angle=opts["crease_angle"], method=opts["remesher"]
+                base, fine, crease_angle=opts["crease_angle"], method=opts["remesher"]
             )
         surface = surfaces[key]
     f = None if field is None else _transfer_field(part.mesh, surface, field)
@@ -165,6 +188,7 @@ def _attempt(
         align=plan.align,
         features=features,
         feature_isolines=plan.isolines,
+        sizing="curvature" if plan.sized else None,
         **opts["seamless"],
     )
     report("quad extraction", 0, 1)
@@ -493,6 +517,7 @@ def _mesh_parts(
         plans = _plans(part, hp, align, retry, remesh, featured)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
+            _warn_if_sized(part, made[-1][1], hp)
         except QuadMeshError as exc:
             finer = _finer(part, exc, plans, align, retry, remesh, featured)
             if finer:
@@ -537,6 +562,23 @@ def _finer(
     if part.mesh.total_area / edge**2 > MAX_QUADS_PER_FACE * part.mesh.n_faces:
         return []
     return _plans(part, edge, align, retry, remesh, featured)[:FINER_ATTEMPTS]
+
+
+def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
+    """A :class:`~fvf.errors.QuadCountRaisedWarning` when an attempt sized by curvature
+    made more than :data:`SIZED_WARN` times the quads asked."""
+    Q, log = made[1], made[-1]
+    ratio = Q.shape[0] * h * h / part.mesh.total_area
+    if "sized by curvature" in log[-1] and ratio > SIZED_WARN:
+        warnings.warn(
+            QuadCountRaisedWarning(
+                f"quad_mesh: component {part.label} was meshed with quads sized by "
+                f"curvature, {Q.shape[0]} quads, {ratio:.2g} times the quads asked (edge "
+                f"{h:.3g}): the attempts of one size failed, and where the surface's radius "
+                "of curvature is below a quad edge the quads are about that radius"
+            ),
+            stacklevel=user_stacklevel(),
+        )
 
 
 def _warn_raised(part: Part, exc: QuadMeshError, h: float, edge: float) -> None:

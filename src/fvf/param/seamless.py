@@ -33,8 +33,9 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from ..calculus import hat_gradients
+from ..calculus import hat_gradients, vertex_to_face
 from ..design.cancellation import tidy_close_singularities
+from ..design.holonomy import as_log_scale
 from ..errors import (
     FlippedParameterizationWarning,
     ParameterError,
@@ -62,6 +63,7 @@ from .frame_field import (
 )
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, feature_rows, seam_system
+from .sizing import curvature_log_scale
 from .uv_folds import flip_count as _flip_count
 from .uv_folds import repair_folds
 
@@ -328,16 +330,21 @@ def _frame_scale(
     h: float,
     scaling: str,
     iterations: int,
+    log_scale: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Per-face (a, b) of the frame, float64 (m, 2), for ``scaling`` (module frames)."""
+    """Per-face (a, b) of the frame, float64 (m, 2), for ``scaling`` (module frames),
+    times e^{s} on each face for a conformal ``log_scale`` s (n,) (:mod:`.sizing`)."""
+    size = np.ones(mesh.n_faces)
+    if log_scale is not None:
+        size = np.exp(vertex_to_face(mesh) @ log_scale)
     if scaling == "commuting":
-        return commuting_scale(mesh, cm)
-    sc = np.ones((mesh.n_faces, 2))
+        return commuting_scale(mesh, cm) * size[:, None]
+    sc = np.repeat(size[:, None], 2, axis=1)
     if scaling == "fitted":
         for _ in range(iterations):
             y = solver.real(fs.K.T @ _rhs(mesh, _local_frame(cm, h, sc)))
             grads = (fs.K @ y).reshape(-1, 2, 2) / np.sqrt(mesh.face_areas)[:, None, None]
-            sc = fitted_scale(mesh, cm, grads, h)
+            sc = fitted_scale(mesh, cm, grads / size[:, None, None], h) * size[:, None]
     return sc
 
 
@@ -359,6 +366,7 @@ def seamless_parameterization(
     progress: bool | ProgressCallback | None = None,
     features: npt.ArrayLike | None = None,
     feature_isolines: bool = True,
+    sizing: str | npt.ArrayLike | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
 
@@ -414,6 +422,13 @@ def seamless_parameterization(
     feature_isolines : bool
         False: the features only hold the default field (two parallel features closer
         than about half an edge length h would otherwise share an iso-line and fold).
+    sizing : None, "curvature" or array_like float (n,)
+        Quads of varying size: a conformal log scale s per vertex, quads of edge
+        h e^{-s} (:mod:`fvf.param.sizing`); ``"curvature"`` for
+        :func:`fvf.param.sizing.curvature_log_scale` (quad edges at most a radius of
+        curvature). The default field is then designed for the scaled metric (its cones
+        follow the changes of size) and the frame is scaled by e^{s}. Needs
+        ``align="curvature"`` or a ``field``. Default None: one size h.
 
     Returns
     -------
@@ -429,8 +444,10 @@ def seamless_parameterization(
         raise ParameterError(f"scaling must be one of {SCALINGS}; got {scaling!r}")
     sc = None if scale is None else _user_scale(mesh, scale)
     require_order(field, 4, "seamless_parameterization")
+    size = _log_scale(mesh, sizing, h, align if field is None else None)
     clock("cross field" if field is None else "reading the cross field")
-    u, rot = _cross_field(mesh, field, align, h, features, clock.substages("cross field"))
+    held = None if features is None or field is not None else feature_constraints(mesh, features)
+    u, rot = _cross_field(mesh, field, align, h, held, size, clock.substages("cross field"))
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
@@ -447,7 +464,7 @@ def seamless_parameterization(
     solver = MixedIntegerSolver((fs.K.T @ fs.K).tocsr(), fs.integer, backend)
     if sc is None:
         clock(f"frame scaling ({scaling})")
-        sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations)
+        sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations, size)
     frame = _local_frame(cm, h, sc)
     b = _rhs(mesh, frame)
     g = fs.K.T @ b
@@ -517,17 +534,38 @@ def _cross_field(
     field: npt.ArrayLike | None,
     align: Alignment,
     h: float,
-    features: npt.ArrayLike | None,
+    held: tuple[np.ndarray, np.ndarray] | None,
+    log_scale: np.ndarray | None,
     progress: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The unit cross field (m, 3) the fit follows and the connection's rotations (E,) its
     cones are measured against (None: Levi-Civita): the user's field, or the default one
-    held along the feature edges."""
+    held along the feature edges (``held``: faces and directions), designed for the
+    metric scaled by ``log_scale``."""
     if field is not None:
         return unit_cross_field(mesh, field), None
-    held = None if features is None else feature_constraints(mesh, features)
-    u = default_cross_field(mesh, align, edge_length=h, constraints=held, progress=progress)
-    return u, default_connection_rotations(mesh, align, h)
+    u = default_cross_field(
+        mesh, align, edge_length=h, constraints=held, progress=progress, log_scale=log_scale
+    )
+    return u, default_connection_rotations(mesh, align, h, log_scale)
+
+
+def _log_scale(
+    mesh: TriMesh, sizing: object, h: float, align: Alignment | None
+) -> np.ndarray | None:
+    """The conformal log scale (n,) of ``sizing`` (None: uniform), checked."""
+    if sizing is None:
+        return None
+    if align == "smooth":
+        raise ParameterError(
+            "sizing designs the field for a scaled metric, which the curvature-aligned "
+            "field does: use align='curvature' (the default) or pass a field"
+        )
+    if isinstance(sizing, str):
+        if sizing != "curvature":
+            raise ParameterError(f"sizing must be None, 'curvature' or an array; got {sizing!r}")
+        return curvature_log_scale(mesh, h)
+    return as_log_scale(mesh, sizing)
 
 
 class _Stages:
