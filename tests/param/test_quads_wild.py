@@ -206,3 +206,24 @@ def test_stl_soup_roundtrip(tmp_path):
     W, G = wc.read_stl(tmp_path / "c.stl")
     assert W.shape == (8, 3) and G.shape == (12, 3)
     np.testing.assert_allclose(np.sort(W[G].reshape(-1, 3), 0), np.sort(V[F].reshape(-1, 3), 0))
+
+
+def test_quad_repairs_an_exporters_t_junction_and_says_so(tmp_path, capsys):
+    """A zero-area face whose apex lies on the edge across (a CAD exporter's T-junction):
+    `fvf quad` repairs it as `fvf repair` does, says so, and writes a quad mesh that the
+    independent judge finds valid against the repaired surface."""
+    from fvf.cli.main import main
+    from fvf.io.meshfile import read_quad_mesh
+
+    s = fvf.icosphere(3)
+    V, F = s.vertices.copy(), s.faces.copy()
+    a, b, c = F[0]
+    V[c] = 0.25 * V[a] + 0.75 * V[b]
+    src, out = tmp_path / "t_junction.obj", tmp_path / "q.obj"
+    fvf.write_mesh(src, V, F)
+    assert main(["quad", str(src), "--faces", "300", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "have zero area; repaired as `fvf repair` does (split_t_junctions" in err
+    Vq, Q = read_quad_mesh(out)
+    fixed = fvf.repair_mesh(V, F)
+    assert qc.check(fixed.vertices, fixed.faces, Vq, np.asarray(Q)).valid

@@ -141,17 +141,29 @@ def _faces_only(path: str) -> tuple[Any, Any]:
     """The mesh of ``path`` without the vertices that belong to no face (a quad mesh is
     made from the faces; scans keep such vertices, e.g. the Stanford bunny's 1,113), and
     the new index of every old vertex (int64 (n,), -1 for a dropped one; None when none
-    was dropped). Said on stderr; every other problem is refused as ``checked_mesh`` does."""
+    was dropped). Faces of zero area (an exporter's T-junctions and collapsed slivers) are
+    repaired by ``fvf repair``'s default steps (:func:`fvf.repair_mesh`). Said on stderr;
+    every other problem is refused as ``checked_mesh`` does."""
     import fvf
 
     V, F = fvf.read_mesh(path)
+    err = sys.stderr
     try:
         return checked_mesh(path, V, F), None
     except fvf.UnreferencedVertexError:
-        faces_only = fvf.remove_unreferenced_vertices(V, F)
-    dropped = len(V) - faces_only.vertices.shape[0]
-    print(f"fvf quad: {dropped} vertices of {path} belong to no face: left out", file=sys.stderr)
-    return checked_mesh(path, faces_only.vertices, faces_only.faces), faces_only.vertex_map
+        fixed = fvf.remove_unreferenced_vertices(V, F)
+        dropped = len(V) - fixed.vertices.shape[0]
+        print(f"fvf quad: {dropped} vertices of {path} belong to no face: left out", file=err)
+    except fvf.DegenerateFaceError as exc:
+        fixed = fvf.repair_mesh(V, F)
+        print(
+            f"fvf quad: {str(exc).split(' have zero area')[0]} have zero area; repaired as "
+            f"`fvf repair` does "
+            f"({'; '.join(fixed.log) or 'nothing changed'}): the quads are made from the "
+            "repaired surface",
+            file=err,
+        )
+    return checked_mesh(path, fixed.vertices, fixed.faces), fixed.vertex_map
 
 
 def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
