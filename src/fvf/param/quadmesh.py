@@ -74,9 +74,7 @@ MAX_RAISE = 8.0
 FINER_ATTEMPTS = 3
 #: Attempts with quads sized by curvature (:mod:`fvf.param.sizing`) are made when the
 #: sizing asks somewhere for quads this many times shorter than h.
-SIZED_REFINEMENT = 1.5
-#: … on a surface remeshed this many times finer than for quads of one size.
-SIZED_REMESH = 2.0
+SIZED_REFINEMENT = 1.2
 #: A sized attempt that makes more than this many times the quads asked says so.
 SIZED_WARN = 1.5
 #: Ring spacing of the domes that close open components, in quad edges.
@@ -141,24 +139,54 @@ def _plans(
     first += [_Plan(can, align, h)]
     plans = [dataclasses.replace(p, isolines=True) for p in first] if features else []
     plans += first
-    curved = _curved_below(part.closed, h)  # quads smaller where the surface turns faster
-    if curved:
-        sized = plans[:2] if features else first
-        plans += [dataclasses.replace(p, align="curvature", sized=True) for p in sized]
-    finer = "curvature" if curved else align
+    # quads smaller where the surface turns faster (skipped where nothing is that curved)
+    plans += [dataclasses.replace(p, align="curvature", sized=True) for p in first]
     plans += [
         _Plan(can, other, h),
-        _Plan(can, finer, h * MORE_QUADS, sized=curved),
+        _Plan(can, "curvature", h * MORE_QUADS, sized=True),
         _Plan(can, other, h * MORE_QUADS),
-        _Plan(can, finer, h * MORE_QUADS**2, sized=curved),
+        _Plan(can, "curvature", h * MORE_QUADS**2, sized=True),
     ]
     return list(dict.fromkeys(plans))
 
 
-def _curved_below(mesh: TriMesh, h: float) -> bool:
-    """Whether quads sized by curvature (:mod:`fvf.param.sizing`) differ from uniform ones
-    of edge h: somewhere at least :data:`SIZED_REFINEMENT` times smaller."""
-    return float(curvature_log_scale(mesh, h).max(initial=0.0)) > np.log(SIZED_REFINEMENT)
+def _surface(part: Part, h: float | None, surfaces: dict, opts: dict) -> TriMesh:
+    """The closed component (``h`` None) or it remeshed for quads of edge ``h`` (kept in
+    ``surfaces`` for the next attempts)."""
+    if h is None:
+        return part.closed
+    key = round(h, 12)
+    if key not in surfaces:
+        surfaces[key] = remesh_for_quads(
+            part.closed, h, crease_angle=opts["crease_angle"], method=opts["remesher"]
+        )
+    return surfaces[key]
+
+
+def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMesh, Any]:
+    """The surface of ``plan`` and its conformal log scale (n,) for quads sized by
+    curvature (:mod:`.sizing`), None when the plan is not sized or the sizing asks
+    nowhere for quads :data:`SIZED_REFINEMENT` times shorter than h (measured on the
+    surface remeshed for h: a CAD part's sharp edges show their curvature there)."""
+    surface = _surface(part, plan.h if plan.remeshed else None, surfaces, opts)
+    if not plan.sized:
+        return surface, None
+    key = ("sizing", round(plan.h, 12), plan.remeshed)
+    if key not in surfaces:
+        s = curvature_log_scale(surface, plan.h)
+        surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
+    return surface, surfaces[key]
+
+
+def _resolved(
+    part: Part, plan: _Plan, plans: list[_Plan], surfaces: dict, opts: dict
+) -> _Plan | None:
+    """``plan`` as it runs: a sized plan whose sizing is trivial (:func:`_sizing`) is its
+    plan of one size, or None (skipped) when that one is in ``plans`` too."""
+    if not plan.sized or _sizing(part, plan, surfaces, opts)[1] is not None:
+        return plan
+    uniform = dataclasses.replace(plan, sized=False)
+    return None if uniform in plans else uniform
 
 
 def _attempt(
@@ -170,15 +198,7 @@ def _attempt(
     report: ProgressCallback,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh]:
     """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
-    base = surface = part.closed
-    if plan.remeshed:
-        fine = plan.h / SIZED_REMESH if plan.sized else plan.h  # the small quads' triangles
-        key = round(fine, 12)
-        if key not in surfaces:
-            surfaces[key] = remesh_for_quads(
-                base, fine, crease_angle=opts["crease_angle"], method=opts["remesher"]
-            )
-        surface = surfaces[key]
+    surface, size = _sizing(part, plan, surfaces, opts)
     f = None if field is None else _transfer_field(part.mesh, surface, field)
     features = _features(part, surface, plan.h, opts)
     param = seamless_parameterization(
@@ -188,7 +208,7 @@ def _attempt(
         align=plan.align,
         features=features,
         feature_isolines=plan.isolines,
-        sizing="curvature" if plan.sized else None,
+        sizing=size,
         **opts["seamless"],
     )
     report("quad extraction", 0, 1)
@@ -280,11 +300,17 @@ def _mesh_part(
     surfaces: dict = {}
     want = topology_signature(part.mesh.n_vertices, part.mesh.faces)
     best = None
-    for i, plan in enumerate(plans):
-        if i:
-            report(f"component {part.label}: attempt {i + 1} ({plan})", 0, 1)
-            report(f"component {part.label}: attempt {i + 1} ({plan})", 1, 1)
+    tried = 0
+    for planned in plans:
+        tried += 1
         try:
+            plan = _resolved(part, planned, plans, surfaces, opts)
+            if plan is None:
+                tried -= 1
+                continue
+            if tried > 1:
+                report(f"component {part.label}: attempt {tried} ({plan})", 0, 1)
+                report(f"component {part.label}: attempt {tried} ({plan})", 1, 1)
             with _captured(opts["quiet"]):
                 V, Q, vf, param, surface = _attempt(part, plan, surfaces, field, opts, report)
         except (ParameterError, UndeclaredCacheKeyError):
@@ -304,10 +330,10 @@ def _mesh_part(
     places = failure_places(part.mesh, spots, plans[0].h)
     raise QuadMeshError(
         f"no valid quad mesh of component {part.label} ({part.mesh.n_faces} triangles) after "
-        f"{len(plans)} attempts:\n  "
+        f"{tried} attempts:\n  "
         + "\n  ".join(log)
         + "\n"
-        + describe_places(places, len(plans), plans[0].h, part.mesh.total_area)
+        + describe_places(places, tried, plans[0].h, part.mesh.total_area)
         + _advice(opts),
         attempts=tuple(log),
         best=best,
