@@ -52,10 +52,13 @@ from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .candidates import (
     DECISIVE_CONFIDENCE,
+    GEODESIC_SAMPLES,
+    GeodesicProbe,
     MapCandidate,
     RefinedCandidate,
     choose_candidate,
     refine_start,
+    turned_self_map,
 )
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
@@ -421,6 +424,10 @@ def _choose(
     """Refine the starts, choose by eq. E of :mod:`.candidates`; when that choice is not
     decisive, refine the wider fit (``K_WIDE``) too and choose again."""
     sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+    probe = GeodesicProbe.on(
+        unit_2.mesh, None if samples is None else samples[1][:GEODESIC_SAMPLES]
+    )
+    s1 = None if samples is None else samples[0]
 
     def refine(name: str, C0: np.ndarray) -> RefinedCandidate:
         return refine_start(
@@ -433,17 +440,22 @@ def _choose(
             step=step,
             samples=samples,
             descriptors=descriptors,
+            probe=probe,
         )
 
     refined = [refine(n, C0) for n, C0 in starts.items()]
     chosen = choose_candidate(refined, sign)
-    k_fit = next(iter(starts.values())).shape[1]
-    if chosen[3] < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
+    C_fit = next(iter(starts.values()))
+    if chosen[3] < DECISIVE_CONFIDENCE and C_fit.shape[1] < K_WIDE <= k:
         d1, d2 = descriptors
         C_wide = fit_functional_map(
             unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
         )
         refined.append(refine("wide fit", C_wide))
+        if orientation == "preserving":  # the body turned end for end
+            kw = {"k_fit": C_fit.shape[1], "k_score": K_SCORE, "step": step, "samples": s1}
+            C_turn = turned_self_map(unit_1, d1, weights, **kw)
+            refined.append(refine("fit∘turn", C_fit @ C_turn))
         chosen = choose_candidate(refined, sign)
     return chosen
 

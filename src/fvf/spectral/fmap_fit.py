@@ -36,6 +36,7 @@ quadratic minimizer.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -290,12 +291,10 @@ class FunctionalMapEnergy:
             weights=dict(weights, orientation=orientation, laplacian=laplacian),
         )
         if w_dcomm > 0:
-            energy.add_pair(
-                w_dcomm, descriptor_operators(basis_1, F), descriptor_operators(basis_2, G)
-            )
+            energy.add_pair(w_dcomm, *_operator_pair(descriptor_operators, basis_1, basis_2, F, G))
         sign = ORIENTATIONS[orientation]
         if w_orient > 0 and sign != 0:
-            P, Q = orientation_operators(basis_1, F), orientation_operators(basis_2, G)
+            P, Q = _operator_pair(orientation_operators, basis_1, basis_2, F, G)
             energy.add_pair(w_orient, P, sign * Q)
         phi1_0, phi2_0 = basis_1.eigenvectors[0, 0], basis_2.eigenvectors[0, 0]
         c0 = np.zeros(k2)
@@ -431,6 +430,27 @@ class FunctionalMapEnergy:
             options={"maxiter": 5000, "ftol": 1e-15, "gtol": 1e-10 * max(g0, 1e-300)},
         )
         return np.concatenate([c0[:, None], res.x.reshape(k2, k1 - 1)], axis=1)
+
+
+def _operator_pair(
+    operators: Callable[[SpectralBasis, np.ndarray], np.ndarray],
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    F: np.ndarray,
+    G: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``operators`` of F on mesh 1 and of G on mesh 2, (p, k, k) each.
+
+    Both kinds of operator are linear in the descriptor, so on a self-map (one mesh, one
+    basis size) whose columns of G are ± those of F, mesh 2's operators are ± mesh 1's.
+    """
+    X = operators(basis_1, F)
+    same = basis_2.mesh is basis_1.mesh and basis_2.k == basis_1.k and F.shape == G.shape
+    if same:
+        plus, minus = np.all(G == F, axis=0), np.all(G == -F, axis=0)
+        if np.all(plus | minus):
+            return X, np.where(plus, 1.0, -1.0)[:, None, None] * X
+    return X, operators(basis_2, G)
 
 
 def fit_functional_map(
