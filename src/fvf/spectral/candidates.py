@@ -1,4 +1,4 @@
-"""Choosing among candidate maps: the fitted map, its mirror, and a wider fit.
+"""Choosing among candidate maps: the fitted map, its mirror, a wider fit, the turned fit.
 
 On a near-symmetric shape (a body, an animal) the fitted functional map can land in the
 basin of the map composed with the left-right symmetry σ of the source (limbs swapped),
@@ -16,10 +16,12 @@ So :func:`fvf.match` builds the candidates
 
 with C_σ the functional map of the source's orientation-reversing self-map (the fit of
 :func:`fvf.symmetry_map`, ZoomOut to ``k_score``), and, when the choice between those two
-is not decisive (:data:`DECISIVE_CONFIDENCE`), a third: the fit at a wider size
-(``K_WIDE`` of :mod:`.correspondence`). Each is refined by ZoomOut to the final size k
-and converted to a vertex map π, and the functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that
-vertex map (unit-area meshes, ``k_score`` eigenpairs) is scored by its distortion
+is not decisive (:data:`DECISIVE_CONFIDENCE`), the fit at a wider size (``K_WIDE`` of
+:mod:`.correspondence`) and, for an orientation-preserving match, C_fit C_τ with C_τ the
+source's turned self-map (:func:`turned_self_map`: the body turned end for end). Each is
+refined by ZoomOut to the final size k and converted to a vertex map π, and the
+functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that vertex map (unit-area meshes, ``k_score``
+eigenpairs) is scored by its distortion
 
     δ(C_π) = Σ_ij M_ij (C_π)_ij² / k  +  ‖C_πᵀ C_π − I‖² / k             (eq. D)
 
@@ -30,24 +32,32 @@ bijective, area-preserving map. The descriptor error of π is
     ε(π) = Σ_y a_2(y) ‖F_1(π(y)) − F_2(y)‖² / p                          (eq. P)
 
 with F_1, F_2 the p corresponding descriptors of the fit (each column of unit A_V norm)
-and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The energy
-of a candidate is
+and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The geodesic
+distortion of π is
 
-    E = (δ + δ_0) (ε + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                  (eq. E)
+    γ(π) = Σ_ij |d_1(π(x_i), π(x_j)) − d_2(x_i, x_j)| / s²                (eq. G)
+
+over s samples x_i of mesh 2 (:class:`GeodesicProbe`), d the ``"unfolded"`` geodesic
+distances of :func:`fvf.geodesic_distances` on the unit-area meshes: 0 for an isometry.
+The energy of a candidate is
+
+    E = (δ + δ_0) (ε + δ_0) (γ + δ_0) (1 + (ρ − 1)(1 − s a) / 2)        (eq. E)
 
 with a ∈ [−1, 1] its :func:`fvf.orientation_agreement` and s the requested sign
 (+1 ``"preserving"``, −1 ``"reversing"``, 0 for None): a candidate of the wrong
-orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε to win. It
+orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε γ to win. It
 does against a mirror image, where the reflection is exact (δ = ε = 0) and the
 orientation-preserving alternative is not; between two exact candidates (an exactly
 symmetric shape) the floor δ_0 makes the orientation decide. Distortion alone would not
 do: a near-symmetric body's reversed map can be less distorted than the truth of a
-non-isometric pose change. The product needs no weight between δ and ε (each enters by
-its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
+non-isometric pose change. The product needs no weight between its factors (each enters
+by its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
 be less distorted than the truth at 30 eigenpairs, but it carries the descriptors over
-worse (docs/correspondence.md). Two candidates that send a majority of the vertices to
-the same images are one map; the lowest energy wins, and 1 − E_winner / E_runner-up over
-the distinct maps is reported as the confidence.
+worse; on animals of different proportions a body turned end for end can carry the
+descriptors over and commute with the Laplacians about as well as the truth, but it
+changes the geodesic distances more (docs/correspondence.md). Two candidates that send a
+majority of the vertices to the same images are one map; the lowest energy wins, and
+1 − E_winner / E_runner-up over the distinct maps is reported as the confidence.
 """
 
 from __future__ import annotations
@@ -74,6 +84,7 @@ __all__ = [
     "geodesic_distortion",
     "GeodesicProbe",
     "turned_self_map",
+    "symmetry_self_map",
     "RefinedCandidate",
     "ORIENTATION_FACTOR",
     "DISTORTION_FLOOR",
@@ -97,7 +108,7 @@ DISTORTION_FLOOR = 1e-9
 DECISIVE_CONFIDENCE = 1.0 - 1.0 / ORIENTATION_FACTOR**2
 
 #: Farthest-point samples of mesh 2 whose pairwise geodesic distances γ (eq. G) compares.
-GEODESIC_SAMPLES = 100
+GEODESIC_SAMPLES = 50
 
 #: Weight of the pair (φ_1, −φ_1) appended to the descriptors of the turned self-map's fit
 #: (:func:`turned_self_map`), in copies of one column: 25 against the 50 wave kernel
@@ -316,19 +327,35 @@ def turned_self_map(
     phi = basis.eigenvectors[:, 1]
     phi = phi / np.sqrt(basis.mesh.vertex_areas @ (phi * phi))
     extra = np.sqrt(TURN_WEIGHT) * phi[:, None]  # as TURN_WEIGHT copies in every term
-    C = fit_functional_map(
-        basis,
-        basis,
-        np.hstack([descriptors, extra]),
-        np.hstack([descriptors, -extra]),
-        k=k_fit,
-        orientation="preserving",
-        **weights,
-    )
+    d_1, d_2 = np.hstack([descriptors, extra]), np.hstack([descriptors, -extra])
+    return _self_map(basis, d_1, d_2, "preserving", weights, k_fit, k_score, step, samples)
+
+
+def symmetry_self_map(
+    basis: SpectralBasis,
+    descriptors: np.ndarray,
+    weights: dict,
+    *,
+    k_fit: int,
+    k_score: int,
+    step: int,
+    samples: np.ndarray | None,
+) -> np.ndarray:
+    """C_σ: the orientation-reversing self-map of mesh 1 (the fit of
+    :func:`fvf.symmetry_map`), ZoomOut to ``k_score``, as a (k_fit, k_fit) functional map.
+
+    Parameters and returns as for :func:`turned_self_map`.
+    """
+    d = descriptors
+    return _self_map(basis, d, d, "reversing", weights, k_fit, k_score, step, samples)
+
+
+def _self_map(basis, d_1, d_2, orientation, weights, k_fit, k_score, step, samples):
+    """Fit a (k_fit, k_fit) self-map, ZoomOut to ``k_score``, its functional map."""
+    C = fit_functional_map(basis, basis, d_1, d_2, k=k_fit, orientation=orientation, **weights)
     k_z = max(min(k_score, basis.k), k_fit)
-    _, p2p = zoomout(
-        C, basis, basis, k_z, step=step, samples=None if samples is None else (samples, samples)
-    )
+    pair = None if samples is None else (samples, samples)
+    _, p2p = zoomout(C, basis, basis, k_z, step=step, samples=pair)
     return functional_map_from_p2p(p2p, basis, basis, k_fit)
 
 

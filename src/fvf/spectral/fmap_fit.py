@@ -97,11 +97,14 @@ def descriptor_operators(basis: SpectralBasis, descriptors: npt.ArrayLike) -> np
     phi = basis.eigenvectors  # (n, k)
     n, k, p = phi.shape[0], phi.shape[1], F.shape[1]
     Aphi = basis.mesh.vertex_areas[:, None] * phi  # (n, k)
-    out = np.zeros((k, k * p))
-    for rows in column_blocks(n, 8 * k * p):  # blocks of vertices: memory bounded
-        weighted = (phi[rows, :, None] * F[rows, None, :]).reshape(-1, k * p)  # φ_j f_p
-        out += Aphi[rows].T @ weighted
-    return out.reshape(k, k, p).transpose(2, 0, 1)
+    iu, ju = np.triu_indices(k)  # the k(k+1)/2 entries of a symmetric matrix
+    upper = np.zeros((p, iu.size))
+    for rows in column_blocks(n, 8 * iu.size):  # blocks of vertices: memory bounded
+        upper += F[rows].T @ (Aphi[rows][:, iu] * phi[rows][:, ju])  # Σ_v f a φ_i φ_j
+    out = np.empty((p, k, k))
+    out[:, iu, ju] = upper
+    out[:, ju, iu] = upper
+    return out
 
 
 #: Bytes of work arrays per block of descriptor columns (:func:`column_blocks`).
