@@ -125,7 +125,8 @@ class MapCandidate:
     ----------
     name : str
         ``"fit"`` (the fitted map), ``"fit∘symmetry"`` (composed with the source's
-        self-symmetry) or ``"wide fit"`` (the fit at the wider size).
+        self-symmetry), ``"wide fit"`` (the fit at the wider size) or ``"fit∘turn"``
+        (composed with the source's turned self-map, :func:`turned_self_map`).
     energy : float
         E of eq. E, the number compared (lower wins).
     distortion : float

@@ -137,15 +137,16 @@ class MatchResult:
     confidence : float or None
         How sure :func:`match` is of its choice among the fitted map, the fitted map
         composed with mesh 1's left-right symmetry and, when those two did not decide,
-        the wider fit (:mod:`fvf.spectral.candidates`): 1 − E_chosen / E_runner-up in
-        [0, 1], E the candidates' distortion × descriptor error × orientation energy,
-        over candidates that are different maps. Near 0 the two best are about as good
+        the wider fit and the fit turned end for end (:mod:`fvf.spectral.candidates`):
+        1 − E_chosen / E_runner-up in [0, 1], E the candidates' distortion × descriptor
+        error × geodesic distortion × orientation energy, over candidates that are
+        different maps. Near 0 the two best are about as good
         (an exactly symmetric pair); None when no choice was made
         (``check_symmetry=False``, :func:`symmetry_map`).
     alternatives : tuple of MapCandidate
         Every distinct candidate scored (name, energy, distortion, orientation
-        agreement, chosen, descriptor error), lowest energy first; empty when no choice
-        was made.
+        agreement, chosen, descriptor error, geodesic distortion), lowest energy first;
+        empty when no choice was made.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
