@@ -351,8 +351,19 @@ def symmetry_self_map(
     return _self_map(basis, d, d, "reversing", weights, k_fit, k_score, step, samples)
 
 
-def _self_map(basis, d_1, d_2, orientation, weights, k_fit, k_score, step, samples):
-    """Fit a (k_fit, k_fit) self-map, ZoomOut to ``k_score``, its functional map."""
+def _self_map(
+    basis: SpectralBasis,
+    d_1: np.ndarray,
+    d_2: np.ndarray,
+    orientation: str,
+    weights: dict,
+    k_fit: int,
+    k_score: int,
+    step: int,
+    samples: np.ndarray | None,
+) -> np.ndarray:
+    """Fit a (k_fit, k_fit) self-map from descriptors d_1 to d_2, ZoomOut to ``k_score``,
+    and return its functional map."""
     C = fit_functional_map(basis, basis, d_1, d_2, k=k_fit, orientation=orientation, **weights)
     k_z = max(min(k_score, basis.k), k_fit)
     pair = None if samples is None else (samples, samples)
