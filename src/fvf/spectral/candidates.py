@@ -1,4 +1,4 @@
-"""Choosing among candidate maps: the fitted map, its mirror, and a wider fit.
+"""Choosing among candidate maps: the fitted map, its mirror, a wider fit, the turned fit.
 
 On a near-symmetric shape (a body, an animal) the fitted functional map can land in the
 basin of the map composed with the left-right symmetry σ of the source (limbs swapped),
@@ -16,10 +16,12 @@ So :func:`fvf.match` builds the candidates
 
 with C_σ the functional map of the source's orientation-reversing self-map (the fit of
 :func:`fvf.symmetry_map`, ZoomOut to ``k_score``), and, when the choice between those two
-is not decisive (:data:`DECISIVE_CONFIDENCE`), a third: the fit at a wider size
-(``K_WIDE`` of :mod:`.correspondence`). Each is refined by ZoomOut to the final size k
-and converted to a vertex map π, and the functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that
-vertex map (unit-area meshes, ``k_score`` eigenpairs) is scored by its distortion
+is not decisive (:data:`DECISIVE_CONFIDENCE`), the fit at a wider size (``K_WIDE`` of
+:mod:`.correspondence`) and, for an orientation-preserving match, C_fit C_τ with C_τ the
+source's turned self-map (:func:`turned_self_map`: the body turned end for end). Each is
+refined by ZoomOut to the final size k and converted to a vertex map π, and the
+functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that vertex map (unit-area meshes, ``k_score``
+eigenpairs) is scored by its distortion
 
     δ(C_π) = Σ_ij M_ij (C_π)_ij² / k  +  ‖C_πᵀ C_π − I‖² / k             (eq. D)
 
@@ -30,24 +32,32 @@ bijective, area-preserving map. The descriptor error of π is
     ε(π) = Σ_y a_2(y) ‖F_1(π(y)) − F_2(y)‖² / p                          (eq. P)
 
 with F_1, F_2 the p corresponding descriptors of the fit (each column of unit A_V norm)
-and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The energy
-of a candidate is
+and a_2 the vertex areas of mesh 2: 0 when π carries every descriptor over. The geodesic
+distortion of π is
 
-    E = (δ + δ_0) (ε + δ_0) (1 + (ρ − 1)(1 − s a) / 2)                  (eq. E)
+    γ(π) = Σ_ij |d_1(π(x_i), π(x_j)) − d_2(x_i, x_j)| / s²                (eq. G)
+
+over s samples x_i of mesh 2 (:class:`GeodesicProbe`), d the ``"unfolded"`` geodesic
+distances of :func:`fvf.geodesic_distances` on the unit-area meshes: 0 for an isometry.
+The energy of a candidate is
+
+    E = (δ + δ_0) (ε + δ_0) (γ + δ_0) (1 + (ρ − 1)(1 − s a) / 2)        (eq. E)
 
 with a ∈ [−1, 1] its :func:`fvf.orientation_agreement` and s the requested sign
 (+1 ``"preserving"``, −1 ``"reversing"``, 0 for None): a candidate of the wrong
-orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε to win. It
+orientation must be ρ = :data:`ORIENTATION_FACTOR` times better in δ ε γ to win. It
 does against a mirror image, where the reflection is exact (δ = ε = 0) and the
 orientation-preserving alternative is not; between two exact candidates (an exactly
 symmetric shape) the floor δ_0 makes the orientation decide. Distortion alone would not
 do: a near-symmetric body's reversed map can be less distorted than the truth of a
-non-isometric pose change. The product needs no weight between δ and ε (each enters by
-its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
+non-isometric pose change. The product needs no weight between its factors (each enters
+by its ratio between candidates): on the remeshed FAUST bodies a whole-body rotation can
 be less distorted than the truth at 30 eigenpairs, but it carries the descriptors over
-worse (docs/correspondence.md). Two candidates that send a majority of the vertices to
-the same images are one map; the lowest energy wins, and 1 − E_winner / E_runner-up over
-the distinct maps is reported as the confidence.
+worse; on animals of different proportions a body turned end for end can carry the
+descriptors over and commute with the Laplacians about as well as the truth, but it
+changes the geodesic distances more (docs/correspondence.md). Two candidates that send a
+majority of the vertices to the same images are one map; the lowest energy wins, and
+1 − E_winner / E_runner-up over the distinct maps is reported as the confidence.
 """
 
 from __future__ import annotations
@@ -56,11 +66,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
-from .evaluation import orientation_agreement
-from .fmap_fit import laplacian_mask
-from .zoomout import functional_map_from_p2p, zoomout
+from .evaluation import geodesic_distances, orientation_agreement
+from .fmap_fit import fit_functional_map, laplacian_mask
+from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
 
 __all__ = [
     "MapCandidate",
@@ -70,6 +81,10 @@ __all__ = [
     "choose_candidate",
     "candidate_energy",
     "descriptor_error",
+    "geodesic_distortion",
+    "GeodesicProbe",
+    "turned_self_map",
+    "symmetry_self_map",
     "RefinedCandidate",
     "ORIENTATION_FACTOR",
     "DISTORTION_FLOOR",
@@ -92,6 +107,15 @@ DISTORTION_FLOOR = 1e-9
 #: Below this, :func:`fvf.match` also refines a wider fit.
 DECISIVE_CONFIDENCE = 1.0 - 1.0 / ORIENTATION_FACTOR**2
 
+#: Farthest-point samples of mesh 2 whose pairwise geodesic distances γ (eq. G) compares.
+GEODESIC_SAMPLES = 50
+
+#: Weight of the pair (φ_1, −φ_1) appended to the descriptors of the turned self-map's fit
+#: (:func:`turned_self_map`), in copies of one column: 25 against the 50 wave kernel
+#: signatures of :func:`fvf.match` (the column is scaled by its square root, which weighs
+#: it as that many copies in every term of the fit).
+TURN_WEIGHT = 25
+
 
 @dataclass(frozen=True)
 class MapCandidate:
@@ -101,7 +125,8 @@ class MapCandidate:
     ----------
     name : str
         ``"fit"`` (the fitted map), ``"fit∘symmetry"`` (composed with the source's
-        self-symmetry) or ``"wide fit"`` (the fit at the wider size).
+        self-symmetry), ``"wide fit"`` (the fit at the wider size) or ``"fit∘turn"``
+        (composed with the source's turned self-map, :func:`turned_self_map`).
     energy : float
         E of eq. E, the number compared (lower wins).
     distortion : float
@@ -112,6 +137,8 @@ class MapCandidate:
         Whether this candidate is the one returned.
     descriptor_error : float
         ε of eq. P (0 when no descriptors were given).
+    geodesic_distortion : float
+        γ of eq. G (0 when not measured).
     """
 
     name: str
@@ -120,6 +147,7 @@ class MapCandidate:
     orientation: float
     chosen: bool = False
     descriptor_error: float = 0.0
+    geodesic_distortion: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,6 +167,8 @@ class RefinedCandidate:
         :func:`fvf.orientation_agreement` of ``p2p_21``.
     descriptor_error : float
         ε of eq. P (0 when no descriptors were given).
+    geodesic_distortion : float
+        γ of eq. G (0 when not measured).
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -150,6 +180,7 @@ class RefinedCandidate:
     distortion: float
     orientation: float
     descriptor_error: float = 0.0
+    geodesic_distortion: float = 0.0
 
 
 def map_distortion(
@@ -185,8 +216,10 @@ def refine_start(
     step: int,
     samples: int | tuple[np.ndarray, np.ndarray] | None,
     descriptors: tuple[np.ndarray, np.ndarray] | None = None,
+    probe: GeodesicProbe | None = None,
 ) -> RefinedCandidate:
-    """ZoomOut one start to ``k_final`` and measure δ (eq. D) and a of its vertex map.
+    """ZoomOut one start to ``k_final`` and measure δ (eq. D), a, ε (eq. P) and γ
+    (eq. G) of its vertex map.
 
     Parameters
     ----------
@@ -195,7 +228,7 @@ def refine_start(
         The start C_12.
     basis_1, basis_2 : SpectralBasis
         Unit-area bases with at least ``k_final`` eigenpairs.
-    k_final, k_score, step, samples, descriptors
+    k_final, k_score, step, samples, descriptors, probe
         As for :func:`score_candidates`.
 
     Returns
@@ -206,7 +239,136 @@ def refine_start(
     delta = map_distortion(p2p, basis_1, basis_2, min(k_score, k_final))
     a = orientation_agreement(basis_1.mesh, basis_2.mesh, p2p)
     eps = 0.0 if descriptors is None else descriptor_error(p2p, basis_2, *descriptors)
-    return RefinedCandidate(name, C, p2p, float(delta), float(a), eps)
+    gamma = 0.0 if probe is None else geodesic_distortion(p2p, basis_1.mesh, probe)
+    return RefinedCandidate(name, C, p2p, float(delta), float(a), eps, gamma)
+
+
+@dataclass(frozen=True, eq=False)
+class GeodesicProbe:
+    """Samples of mesh 2 and their pairwise geodesic distances, for γ (eq. G).
+
+    Attributes
+    ----------
+    sources : int64 (s,)
+        Vertices x_i of mesh 2.
+    distances : float64 (s, s)
+        d_2(x_i, x_j) (``"unfolded"`` geodesics of :func:`fvf.geodesic_distances`).
+    """
+
+    __repr__ = short_repr
+    _repr_html_ = html_repr
+
+    sources: np.ndarray
+    distances: np.ndarray
+
+    @classmethod
+    def on(cls, mesh_2: TriMesh, sources: np.ndarray | None = None) -> GeodesicProbe:
+        """The probe of mesh 2 at ``sources`` (default: :data:`GEODESIC_SAMPLES`
+        farthest-point samples)."""
+        if sources is None:
+            sources = farthest_point_samples(mesh_2.vertices, GEODESIC_SAMPLES)
+        s = np.asarray(sources, dtype=np.int64)
+        return cls(s, geodesic_distances(mesh_2, s)[:, s])
+
+
+def geodesic_distortion(p2p_21: np.ndarray, mesh_1: TriMesh, probe: GeodesicProbe) -> float:
+    """γ of eq. G: the mean |d_1(π x_i, π x_j) − d_2(x_i, x_j)| over the probe's samples.
+
+    Parameters
+    ----------
+    p2p_21 : int64 (n_2,)
+    mesh_1 : TriMesh
+        Mesh 1, of the same scale as the probe's mesh 2 (unit area: γ is then scale-free).
+    probe : GeodesicProbe
+
+    Returns
+    -------
+    float >= 0; 0 for an isometry (up to the geodesics' own error).
+    """
+    img = np.asarray(p2p_21)[probe.sources]
+    d1 = geodesic_distances(mesh_1, img)[:, img]
+    return float(np.abs(d1 - probe.distances).mean())
+
+
+def turned_self_map(
+    basis: SpectralBasis,
+    descriptors: np.ndarray,
+    weights: dict,
+    *,
+    k_fit: int,
+    k_score: int,
+    step: int,
+    samples: np.ndarray | None,
+) -> np.ndarray:
+    """C_τ: the orientation-preserving self-map of mesh 1 that turns φ_1 to −φ_1.
+
+    The fit of :func:`fvf.fit_functional_map` from the mesh to itself, orientation
+    ``"preserving"``, with the descriptor pair (φ_1, −φ_1) appended at the weight
+    :data:`TURN_WEIGHT` (φ_1 the first non-constant eigenfunction, of unit A_V norm), so
+    that the identity no longer fits: on an elongated body φ_1 runs from one end to the
+    other, and the map found is the body turned end for end (front limbs on back limbs,
+    left on right). ZoomOut to ``k_score`` on ``samples``, then its functional map.
+
+    Parameters
+    ----------
+    basis : SpectralBasis
+        Unit-area basis of mesh 1 with at least ``max(k_fit, k_score)`` eigenpairs.
+    descriptors : float64 (n, p)
+        The fit's descriptors of mesh 1.
+    weights : dict
+        The fit's weights (as for :func:`fvf.fit_functional_map`).
+    k_fit, k_score, step : int
+    samples : int64 (s,), optional
+        Vertex samples of mesh 1 for ZoomOut (None: every vertex).
+
+    Returns
+    -------
+    float64 (k_fit, k_fit)
+    """
+    phi = basis.eigenvectors[:, 1]
+    phi = phi / np.sqrt(basis.mesh.vertex_areas @ (phi * phi))
+    extra = np.sqrt(TURN_WEIGHT) * phi[:, None]  # as TURN_WEIGHT copies in every term
+    d_1, d_2 = np.hstack([descriptors, extra]), np.hstack([descriptors, -extra])
+    return _self_map(basis, d_1, d_2, "preserving", weights, k_fit, k_score, step, samples)
+
+
+def symmetry_self_map(
+    basis: SpectralBasis,
+    descriptors: np.ndarray,
+    weights: dict,
+    *,
+    k_fit: int,
+    k_score: int,
+    step: int,
+    samples: np.ndarray | None,
+) -> np.ndarray:
+    """C_σ: the orientation-reversing self-map of mesh 1 (the fit of
+    :func:`fvf.symmetry_map`), ZoomOut to ``k_score``, as a (k_fit, k_fit) functional map.
+
+    Parameters and returns as for :func:`turned_self_map`.
+    """
+    d = descriptors
+    return _self_map(basis, d, d, "reversing", weights, k_fit, k_score, step, samples)
+
+
+def _self_map(
+    basis: SpectralBasis,
+    d_1: np.ndarray,
+    d_2: np.ndarray,
+    orientation: str,
+    weights: dict,
+    k_fit: int,
+    k_score: int,
+    step: int,
+    samples: np.ndarray | None,
+) -> np.ndarray:
+    """Fit a (k_fit, k_fit) self-map from descriptors d_1 to d_2, ZoomOut to ``k_score``,
+    and return its functional map."""
+    C = fit_functional_map(basis, basis, d_1, d_2, k=k_fit, orientation=orientation, **weights)
+    k_z = max(min(k_score, basis.k), k_fit)
+    pair = None if samples is None else (samples, samples)
+    _, p2p = zoomout(C, basis, basis, k_z, step=step, samples=pair)
+    return functional_map_from_p2p(p2p, basis, basis, k_fit)
 
 
 def descriptor_error(
@@ -231,10 +393,13 @@ def descriptor_error(
     return float(basis_2.mesh.vertex_areas @ (diff * diff).sum(axis=1)) / descr_2.shape[1]
 
 
-def candidate_energy(delta: float, orientation: float, sign: float, eps: float = 0.0) -> float:
-    """E of eq. E: (δ + δ_0)(ε + δ_0)(1 + (ρ − 1)(1 − s a)/2)."""
+def candidate_energy(
+    delta: float, orientation: float, sign: float, eps: float = 0.0, gamma: float = 0.0
+) -> float:
+    """E of eq. E: (δ + δ_0)(ε + δ_0)(γ + δ_0)(1 + (ρ − 1)(1 − s a)/2)."""
     factor = 1.0 + (ORIENTATION_FACTOR - 1.0) * (1.0 - sign * orientation) / 2.0
-    return (delta + DISTORTION_FLOOR) * (eps + DISTORTION_FLOOR) * factor
+    floor = DISTORTION_FLOOR
+    return (delta + floor) * (eps + floor) * (gamma + floor) * factor
 
 
 def choose_candidate(
@@ -259,7 +424,10 @@ def choose_candidate(
         As for :func:`score_candidates`.
     """
     energies = [
-        candidate_energy(r.distortion, r.orientation, sign, r.descriptor_error) for r in refined
+        candidate_energy(
+            r.distortion, r.orientation, sign, r.descriptor_error, r.geodesic_distortion
+        )
+        for r in refined
     ]
     order = sorted(range(len(refined)), key=lambda i: energies[i])  # stable on ties
     kept: list[int] = []
@@ -276,6 +444,7 @@ def choose_candidate(
             refined[i].orientation,
             i == best,
             refined[i].descriptor_error,
+            refined[i].geodesic_distortion,
         )
         for i in kept
     )
@@ -294,6 +463,7 @@ def score_candidates(
     samples: int | tuple[np.ndarray, np.ndarray] | None,
     sign: float,
     descriptors: tuple[np.ndarray, np.ndarray] | None = None,
+    probe: GeodesicProbe | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
     """Refine each start by ZoomOut to ``k_final``, score it (eq. E), keep the lowest.
 
@@ -313,6 +483,8 @@ def score_candidates(
         s: +1, −1 or 0.
     descriptors : (float64 (n_1, p), float64 (n_2, p)), optional
         Corresponding unit-norm descriptors for ε (eq. P); without them ε is left out.
+    probe : GeodesicProbe, optional
+        Samples of mesh 2 for γ (eq. G); without it γ is left out.
 
     Returns
     -------
@@ -336,6 +508,7 @@ def score_candidates(
             step=step,
             samples=samples,
             descriptors=descriptors,
+            probe=probe,
         )
         for name, C0 in starts.items()
     ]

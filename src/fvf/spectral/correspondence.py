@@ -19,9 +19,9 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
    on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
    and its composition with mesh 1's left-right symmetry, and, when those two do not
-   decide, from a third, the fit at ``K_WIDE``; the candidate nearest to an isometry
-   that carries the descriptors over, of the requested orientation, is kept
-   (:mod:`.candidates`).
+   decide, from the fit at ``K_WIDE`` and from the fit turned end for end; the candidate
+   nearest to an isometry that carries the descriptors over, of the requested
+   orientation, is kept (:mod:`.candidates`).
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -52,14 +52,18 @@ from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
 from .candidates import (
     DECISIVE_CONFIDENCE,
+    GEODESIC_SAMPLES,
+    GeodesicProbe,
     MapCandidate,
     RefinedCandidate,
     choose_candidate,
     refine_start,
+    symmetry_self_map,
+    turned_self_map,
 )
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
 from .fmap_fit import fit_functional_map
-from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
+from .zoomout import farthest_point_samples, zoomout
 
 __all__ = [
     "MatchResult",
@@ -133,15 +137,16 @@ class MatchResult:
     confidence : float or None
         How sure :func:`match` is of its choice among the fitted map, the fitted map
         composed with mesh 1's left-right symmetry and, when those two did not decide,
-        the wider fit (:mod:`fvf.spectral.candidates`): 1 − E_chosen / E_runner-up in
-        [0, 1], E the candidates' distortion × descriptor error × orientation energy,
-        over candidates that are different maps. Near 0 the two best are about as good
+        the wider fit and the fit turned end for end (:mod:`fvf.spectral.candidates`):
+        1 − E_chosen / E_runner-up in [0, 1], E the candidates' distortion × descriptor
+        error × geodesic distortion × orientation energy, over candidates that are
+        different maps. Near 0 the two best are about as good
         (an exactly symmetric pair); None when no choice was made
         (``check_symmetry=False``, :func:`symmetry_map`).
     alternatives : tuple of MapCandidate
         Every distinct candidate scored (name, energy, distortion, orientation
-        agreement, chosen, descriptor error), lowest energy first; empty when no choice
-        was made.
+        agreement, chosen, descriptor error, geodesic distortion), lowest energy first;
+        empty when no choice was made.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -387,7 +392,10 @@ def _correspond(
         s2 = s1 if p2 is None else farthest_point_samples(unit_2.mesh.vertices, samples)
         sample_idx = (s1, s2)
     if stages == 5:
-        starts = _candidate_starts(C_fit, unit_1, d1, weights, zoomout_step, sample_idx)
+        kw = {"k_fit": k_fit, "k_score": K_SCORE, "step": zoomout_step}
+        own = None if sample_idx is None else sample_idx[0]
+        C_sigma = symmetry_self_map(unit_1, d1, weights, samples=own, **kw)
+        starts = {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
         timings["symmetry"] = time.perf_counter() - t
         report("match", 4, stages)
         t = time.perf_counter()
@@ -421,6 +429,10 @@ def _choose(
     """Refine the starts, choose by eq. E of :mod:`.candidates`; when that choice is not
     decisive, refine the wider fit (``K_WIDE``) too and choose again."""
     sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
+    probe = GeodesicProbe.on(
+        unit_2.mesh, None if samples is None else samples[1][:GEODESIC_SAMPLES]
+    )
+    s1 = None if samples is None else samples[0]
 
     def refine(name: str, C0: np.ndarray) -> RefinedCandidate:
         return refine_start(
@@ -433,38 +445,24 @@ def _choose(
             step=step,
             samples=samples,
             descriptors=descriptors,
+            probe=probe,
         )
 
     refined = [refine(n, C0) for n, C0 in starts.items()]
     chosen = choose_candidate(refined, sign)
-    k_fit = next(iter(starts.values())).shape[1]
-    if chosen[3] < DECISIVE_CONFIDENCE and k_fit < K_WIDE <= k:
+    C_fit = next(iter(starts.values()))
+    if chosen[3] < DECISIVE_CONFIDENCE and C_fit.shape[1] < K_WIDE <= k:
         d1, d2 = descriptors
         C_wide = fit_functional_map(
             unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
         )
         refined.append(refine("wide fit", C_wide))
+        if orientation == "preserving":  # the body turned end for end
+            kw = {"k_fit": C_fit.shape[1], "k_score": K_SCORE, "step": step}
+            C_turn = turned_self_map(unit_1, d1, weights, samples=s1, **kw)
+            refined.append(refine("fit∘turn", C_fit @ C_turn))
         chosen = choose_candidate(refined, sign)
     return chosen
-
-
-def _candidate_starts(
-    C_fit: np.ndarray,
-    unit_1: SpectralBasis,
-    d1: np.ndarray,
-    weights: dict,
-    step: int,
-    samples: tuple[np.ndarray, np.ndarray] | None,
-) -> dict[str, np.ndarray]:
-    """C_fit and C_fit C_σ, σ the orientation-reversing self-map of mesh 1 (the fit of
-    :func:`symmetry_map`, ZoomOut to ``K_SCORE``), both (k_fit, k_fit)."""
-    k_fit = C_fit.shape[1]
-    k_sym = max(min(K_SCORE, unit_1.k), k_fit)
-    C_sym = fit_functional_map(unit_1, unit_1, d1, d1, k=k_fit, orientation="reversing", **weights)
-    self_samples = None if samples is None else (samples[0], samples[0])
-    _, p_sym = zoomout(C_sym, unit_1, unit_1, k_sym, step=step, samples=self_samples)
-    C_sigma = functional_map_from_p2p(p_sym, unit_1, unit_1, k_fit)
-    return {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
 
 
 @overload

@@ -36,6 +36,7 @@ quadratic minimizer.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,11 +97,14 @@ def descriptor_operators(basis: SpectralBasis, descriptors: npt.ArrayLike) -> np
     phi = basis.eigenvectors  # (n, k)
     n, k, p = phi.shape[0], phi.shape[1], F.shape[1]
     Aphi = basis.mesh.vertex_areas[:, None] * phi  # (n, k)
-    out = np.zeros((k, k * p))
-    for rows in column_blocks(n, 8 * k * p):  # blocks of vertices: memory bounded
-        weighted = (phi[rows, :, None] * F[rows, None, :]).reshape(-1, k * p)  # φ_j f_p
-        out += Aphi[rows].T @ weighted
-    return out.reshape(k, k, p).transpose(2, 0, 1)
+    iu, ju = np.triu_indices(k)  # the k(k+1)/2 entries of a symmetric matrix
+    upper = np.zeros((p, iu.size))
+    for rows in column_blocks(n, 8 * iu.size):  # blocks of vertices: memory bounded
+        upper += F[rows].T @ (Aphi[rows][:, iu] * phi[rows][:, ju])  # Σ_v f a φ_i φ_j
+    out = np.empty((p, k, k))
+    out[:, iu, ju] = upper
+    out[:, ju, iu] = upper
+    return out
 
 
 #: Bytes of work arrays per block of descriptor columns (:func:`column_blocks`).
@@ -290,12 +294,10 @@ class FunctionalMapEnergy:
             weights=dict(weights, orientation=orientation, laplacian=laplacian),
         )
         if w_dcomm > 0:
-            energy.add_pair(
-                w_dcomm, descriptor_operators(basis_1, F), descriptor_operators(basis_2, G)
-            )
+            energy.add_pair(w_dcomm, *_operator_pair(descriptor_operators, basis_1, basis_2, F, G))
         sign = ORIENTATIONS[orientation]
         if w_orient > 0 and sign != 0:
-            P, Q = orientation_operators(basis_1, F), orientation_operators(basis_2, G)
+            P, Q = _operator_pair(orientation_operators, basis_1, basis_2, F, G)
             energy.add_pair(w_orient, P, sign * Q)
         phi1_0, phi2_0 = basis_1.eigenvectors[0, 0], basis_2.eigenvectors[0, 0]
         c0 = np.zeros(k2)
@@ -431,6 +433,27 @@ class FunctionalMapEnergy:
             options={"maxiter": 5000, "ftol": 1e-15, "gtol": 1e-10 * max(g0, 1e-300)},
         )
         return np.concatenate([c0[:, None], res.x.reshape(k2, k1 - 1)], axis=1)
+
+
+def _operator_pair(
+    operators: Callable[[SpectralBasis, np.ndarray], np.ndarray],
+    basis_1: SpectralBasis,
+    basis_2: SpectralBasis,
+    F: np.ndarray,
+    G: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``operators`` of F on mesh 1 and of G on mesh 2, (p, k, k) each.
+
+    Both kinds of operator are linear in the descriptor, so on a self-map (one mesh, one
+    basis size) whose columns of G are ± those of F, mesh 2's operators are ± mesh 1's.
+    """
+    X = operators(basis_1, F)
+    same = basis_2.mesh is basis_1.mesh and basis_2.k == basis_1.k and F.shape == G.shape
+    if same:
+        plus, minus = np.all(G == F, axis=0), np.all(G == -F, axis=0)
+        if np.all(plus | minus):
+            return X, np.where(plus, 1.0, -1.0)[:, None, None] * X
+    return X, operators(basis_2, G)
 
 
 def fit_functional_map(
