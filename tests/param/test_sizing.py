@@ -10,7 +10,6 @@ import pytest
 
 import fvf
 from fvf.param.sizing import MAX_REFINEMENT, curvature_log_scale, refinement
-
 from test_quad_failures import FINGER_RADIUS, finger_on_a_ball
 
 

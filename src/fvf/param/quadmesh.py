@@ -77,6 +77,10 @@ FINER_ATTEMPTS = 3
 SIZED_REFINEMENT = 1.2
 #: A sized attempt that makes more than this many times the quads asked says so.
 SIZED_WARN = 1.5
+#: An open component whose domes hold more than this many times its area gets one
+#: attempt, not the retries (a helical ribbon's dome is 9.4 times the ribbon: 600 s of
+#: retries, every one failed).
+DOME_AREA_LIMIT = 4.0
 #: Ring spacing of the domes that close open components, in quad edges.
 CAP_SPACING = 0.5
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
@@ -540,17 +544,20 @@ def _mesh_parts(
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         found = _features(part, part.closed, hp, opts)
         featured = found is not None and found.size > 0
-        plans = _plans(part, hp, align, retry, remesh, featured)
+        tries = retry and not _dome_heavy(part)
+        plans = _plans(part, hp, align, tries, remesh, featured)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
             _warn_if_sized(part, made[-1][1], hp)
         except QuadMeshError as exc:
-            finer = _finer(part, exc, plans, align, retry, remesh, featured)
+            finer = _finer(part, exc, plans, align, tries, remesh, featured)
             if finer:
                 with contextlib.suppress(QuadMeshError):
                     made.append((part, _mesh_part(part, finer, fp, opts, report)))
                     _warn_raised(part, exc, hp, finer[0].h)
                     continue
+            if retry and not tries:
+                exc.args = (f"{exc.args[0]}\n{_dome_note(part)}",)
             if not small or len(parts) == 1:
                 raise
             dropped.append(part)
@@ -566,6 +573,29 @@ def _mesh_parts(
     if not made:
         raise QuadMeshError("every component is too small for the quad size; ask for more quads")
     return made, dropped
+
+
+def _dome_heavy(part: Part) -> bool:
+    """Whether the domes closing ``part`` (:mod:`.caps`) hold more than
+    :data:`DOME_AREA_LIMIT` times its area (a ribbon, whose one boundary loop winds through
+    space): every attempt then spends most of its time on the domes, so one is made."""
+    if part.cap is None:
+        return False
+    cap = part.cap
+    dome = float(cap.mesh.face_areas[cap.is_cap].sum())
+    return dome > DOME_AREA_LIMIT * part.mesh.total_area
+
+
+def _dome_note(part: Part) -> str:
+    """Why a component got one attempt (:func:`_dome_heavy`)."""
+    assert part.cap is not None
+    ratio = part.cap.mesh.face_areas[part.cap.is_cap].sum() / part.mesh.total_area
+    return (
+        f"One attempt only: the domes that close its boundary loops hold {ratio:.2g} times "
+        "its area (a ribbon or strip whose boundary winds through space), so retries would "
+        "mostly mesh the domes. Close the surface, or mesh it in pieces whose boundary "
+        "loops are nearly flat."
+    )
 
 
 def _finer(
