@@ -156,8 +156,9 @@ def holonomy_rotations(
     """
     ell = smoothing_length(length)
     s = as_log_scale(mesh, log_scale)
-    key = f"holonomy_rotations:{ell!r}{log_scale_key(s)}"
-    return mesh.cached(key, lambda: _rotations_for(mesh, ell, s))
+    return mesh.cached(
+        f"holonomy_rotations:{ell!r}{log_scale_key(s)}", lambda: _rotations_for(mesh, ell, s)
+    )
 
 
 def _rotations_for(mesh: TriMesh, length: float, log_scale: np.ndarray | None) -> np.ndarray:
