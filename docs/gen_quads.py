@@ -120,12 +120,44 @@ def wild_pictures() -> None:
         print(name, len(made.quads), "quads", q.n_irregular, "irregular")
 
 
+def sized_pictures() -> None:
+    """A ball with a finger at 250 quads: the retry at the finger's thickness (quads of
+    one size, sized attempts switched off) beside the attempt sized by curvature."""
+    import warnings
+
+    import fvf.param.quadmesh as quadmesh
+
+    tests = Path(__file__).resolve().parents[1] / "tests"
+    sys.path[:0] = [str(tests), str(tests / "param")]
+    from test_quad_failures import finger_on_a_ball
+
+    V, F = finger_on_a_ball()
+    kw = {"size": (480, 640), "view": (20, 10)}
+    for name, refinement in (("uniform", np.inf), ("sized", quadmesh.SIZED_REFINEMENT)):
+        saved, quadmesh.SIZED_REFINEMENT = quadmesh.SIZED_REFINEMENT, refinement
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", fvf.QuadCountRaisedWarning)
+                made = fvf.quad_mesh((V, F), target_faces=250)
+        finally:
+            quadmesh.SIZED_REFINEMENT = saved
+        fvf.viz.render_quads(
+            made.vertices,
+            made.quads,
+            OUT / f"finger_{name}.png",
+            title=f"{name}: {len(made.quads)} quads for 250 asked",
+            **kw,
+        )
+        print("finger", name, len(made.quads), "quads")
+
+
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     picture("spot", fvf.spot(), 1500)
     picture("cube", rounded_cube(4), 600, view=(35, 30))
     symmetric_pictures()
     wild_pictures()
+    sized_pictures()
     bob = SHARED / "bob_tri.obj"
     if bob.exists():
         picture("bob", fvf.TriMesh(*fvf.read_mesh(bob)), 1500)

@@ -70,7 +70,7 @@ def test_the_error_names_the_finger_and_its_thickness():
 @pytest.mark.slow
 def test_a_finger_gets_quads_sized_by_curvature_and_a_warning():
     """The uniform attempts at 250 quads fail at the finger; an attempt sized by curvature
-    is valid with about twice the quads (the uniform retry below needs 4.6 times)."""
+    is valid with 1.6 times the quads (the uniform retry below needs 4.6 times)."""
     V, F = finger_on_a_ball()
     with pytest.warns(fvf.QuadCountRaisedWarning, match="sized by curvature"):
         result = fvf.quad_mesh((V, F), target_faces=250)
