@@ -205,3 +205,28 @@ def test_a_notched_cylinder_gets_a_valid_quad_mesh():
     V, Q = fvf.quad_mesh(mesh, target_faces=600)
     verdict = quadcheck.check(mesh.vertices, mesh.faces, np.asarray(V), np.asarray(Q))
     assert verdict.valid, verdict.summary()
+
+
+def test_the_exact_closest_point_is_the_closest_of_the_whole_surface():
+    """``exact=True`` agrees with a brute-force search over every triangle, on a CAD plate
+    of long fan triangles, at points inside and beside it (the verdict's quad centres)."""
+    import wild_corpus as wc
+    from fvf.param.quad_folds import _closest_on_triangles, closest_surface_points
+
+    V, F = wc.mesh("cad_plate_holes")
+    w = fvf.remove_duplicate_vertices(V, F)
+    mesh = fvf.TriMesh(w.vertices, w.faces)
+    rng = np.random.default_rng(3)
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    X = rng.uniform(lo - 0.05 * (hi - lo), hi + 0.05 * (hi - lo), size=(300, 3))
+    T = mesh.vertices[mesh.faces]
+    brute = np.array(
+        [
+            np.linalg.norm(
+                _closest_on_triangles(T, np.broadcast_to(x, T.shape[:1] + (3,))) - x, axis=1
+            ).min()
+            for x in X
+        ]
+    )
+    _, p = closest_surface_points(mesh, X, exact=True)
+    np.testing.assert_allclose(np.linalg.norm(p - X, axis=1), brute, rtol=0, atol=1e-12)

@@ -100,7 +100,7 @@ MAX_RINGS = 3
 
 
 def closest_surface_points(
-    mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None = None
+    mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None = None, exact: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closest points of the input surface, among the triangles nearest each query point.
 
@@ -120,7 +120,10 @@ def closest_surface_points(
         triangles whose centroids are nearest each query point and the triangles of the
         :data:`SAMPLE_CANDIDATES` nearest points of a dense sampling of the surface
         (:func:`surface_sample_tree`; long thin triangles, whose centroids lie far from
-        most of their points, are found through it).
+        most of their points, are found through it). With ``exact``, also among the
+        triangles of every sample within the distance found plus the sampling's widest
+        gap: the closest point of the whole surface (two walls nearly equally close, as
+        at a quad's centre inside a thin wall, are told apart).
     """
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if tree is None:
@@ -140,7 +143,54 @@ def closest_surface_points(
     d2 = np.einsum("kcd,kcd->kc", best - x[:, None, :], best - x[:, None, :])
     j = np.argmin(d2, axis=1)
     rows = np.arange(x.shape[0])
-    return cand[rows, j].astype(np.int64), best[rows, j]
+    face, point = cand[rows, j].astype(np.int64), best[rows, j]
+    if exact:
+        _refine_closest(mesh, x, face, point, samples, owner)
+    return face, point
+
+
+def _refine_closest(
+    mesh: TriMesh,
+    x: np.ndarray,
+    face: np.ndarray,
+    point: np.ndarray,
+    samples: cKDTree,
+    owner: np.ndarray,
+) -> None:
+    """Replace, in place, ``face`` (k,) and ``point`` (k, 3) by the closest triangle among
+    those with a sample within the found distance plus the widest sample gap (a closer
+    triangle has a sample there)."""
+    radius = np.linalg.norm(point - x, axis=1) + _sample_gap(mesh)
+    near = samples.query_ball_point(x, radius)
+    query = np.repeat(np.arange(x.shape[0]), [len(n) for n in near])
+    if query.size == 0:
+        return
+    pairs = np.unique(np.stack([query, owner[np.concatenate(near).astype(np.int64)]], 1), axis=0)
+    q, f = pairs[:, 0], pairs[:, 1]
+    best = _closest_on_triangles(mesh.vertices[mesh.faces[f]], x[q])
+    d2 = np.einsum("kd,kd->k", best - x[q], best - x[q])
+    order = np.lexsort((d2, q))
+    win = order[np.unique(q[order], return_index=True)[1]]  # the nearest per query
+    now = np.einsum("kd,kd->k", point - x, point - x)
+    better = d2[win] < now[q[win]]
+    face[q[win][better]] = f[win][better]
+    point[q[win][better]] = best[win][better]
+
+
+def _sample_gap(mesh: TriMesh) -> float:
+    """The widest distance between neighbouring points of :func:`surface_sample_tree` on
+    one triangle (its longest edge over its grid steps), the largest over the mesh."""
+    V, F = mesh.vertices, mesh.faces
+    e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2).max(axis=1)
+    return float((e / _sample_levels(mesh)).max(initial=0.0))
+
+
+def _sample_levels(mesh: TriMesh) -> np.ndarray:
+    """Grid steps per side of each triangle in :func:`surface_sample_tree`, int64 (m,)."""
+    V, F = mesh.vertices, mesh.faces
+    e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)
+    step = min(float(np.median(e)), float(np.sqrt(mesh.total_area / 20_000)))
+    return np.clip(np.ceil(e.max(axis=1) / max(step, 1e-300)).astype(np.int64), 1, 48)
 
 
 def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
@@ -155,9 +205,7 @@ def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
 
     def build() -> tuple[cKDTree, np.ndarray]:
         V, F = mesh.vertices, mesh.faces
-        e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)
-        step = min(float(np.median(e)), float(np.sqrt(mesh.total_area / 20_000)))
-        level = np.clip(np.ceil(e.max(axis=1) / max(step, 1e-300)).astype(np.int64), 1, 48)
+        level = _sample_levels(mesh)
         pts, owner = [mesh.face_centroids], [np.arange(F.shape[0])]
         for k in np.unique(level):  # a loop over a few subdivision levels
             sel = np.flatnonzero(level == k)
@@ -288,7 +336,9 @@ def _folded_over(mesh: TriMesh, face: np.ndarray, smooth: np.ndarray) -> np.ndar
     return (np.einsum("kd,kd->k", raw, smooth) <= 0) & (np.einsum("kd,kd->k", raw, around) <= 0)
 
 
-def _surface_at(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
+def _surface_at(
+    mesh: TriMesh, points: np.ndarray, tree: cKDTree, exact: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Two normals of the surface at each point, from the closest input triangle, unit
     (k, 3) each:
 
@@ -297,7 +347,7 @@ def _surface_at(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> tuple[np.nd
     - the reference: its own normal, or its vertices' summed normals where it is folded
       over (a crumpled scan).
     """
-    face, _ = closest_surface_points(mesh, points, tree)
+    face, _ = closest_surface_points(mesh, points, tree, exact=exact)
     raw = mesh.face_normals[face]
     smooth = _vertex_sum_normals(mesh, face)
     folded = _folded_over(mesh, face, smooth)
@@ -306,11 +356,14 @@ def _surface_at(mesh: TriMesh, points: np.ndarray, tree: cKDTree) -> tuple[np.nd
     return side, np.where(folded[:, None], smooth, raw)
 
 
-def _fold_mask(mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree) -> np.ndarray:
+def _fold_mask(
+    mesh: TriMesh, V: np.ndarray, Q: np.ndarray, tree: cKDTree, exact: bool = False
+) -> np.ndarray:
     """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
-    the surface at the centre (module docstring)."""
+    the surface at the centre (module docstring); ``exact``: the surface at the centre's
+    exact closest point (the verdict), else among nearby triangles (the repair's steps)."""
     P = V[Q]
-    side, Nc = _surface_at(mesh, P.mean(axis=1), tree)
+    side, Nc = _surface_at(mesh, P.mean(axis=1), tree, exact)
     N = reference_normals(mesh, V, Q, tree, side)
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
@@ -343,7 +396,7 @@ def folded_quads(mesh: TriMesh, vertices: npt.ArrayLike, quads: npt.ArrayLike) -
     """
     V = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
-    mask = _fold_mask(mesh, V, Q, cKDTree(mesh.face_centroids))
+    mask = _fold_mask(mesh, V, Q, cKDTree(mesh.face_centroids), exact=True)
     return np.flatnonzero(mask).astype(np.int64)
 
 
