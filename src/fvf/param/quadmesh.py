@@ -142,11 +142,10 @@ def _plans(
     first = [] if skip_input else [_Plan(False, align, h)]
     first += [_Plan(can, align, h)]
     plans = [dataclasses.replace(p, isolines=True) for p in first] if features else []
-    plans += first
+    plans += first + [_Plan(can, other, h)]
     # quads smaller where the surface turns faster (skipped where nothing is that curved)
     plans += [dataclasses.replace(p, align="curvature", sized=True) for p in first]
     plans += [
-        _Plan(can, other, h),
         _Plan(can, "curvature", h * MORE_QUADS, sized=True),
         _Plan(can, other, h * MORE_QUADS),
         _Plan(can, "curvature", h * MORE_QUADS**2, sized=True),
