@@ -60,7 +60,7 @@ from ..mesh.geometry import angle_defects
 from ..mesh.trimesh import TriMesh
 from ..numerics.cholesky import factor_hermitian
 
-__all__ = ["smoothed_angle_defects", "holonomy_rotations"]
+__all__ = ["smoothed_angle_defects", "holonomy_rotations", "heat_step"]
 
 
 def smoothing_length(length: float, name: str = "curvature_smoothing") -> float:
@@ -101,11 +101,17 @@ def smoothed_angle_defects(mesh: TriMesh, length: float) -> np.ndarray:
     """
     ell = smoothing_length(length)
     _require_closed(mesh)
-    K = angle_defects(mesh)
-    A = vertex_areas(mesh)
-    heat = sp.csr_array(sp.diags_array(A) + ell**2 * stiffness(mesh))
-    u = factor_hermitian(heat, "auto", "few").solve(K)
-    return A * u
+    return vertex_areas(mesh) * heat_step(mesh, ell, angle_defects(mesh))
+
+
+def heat_step(mesh: TriMesh, length: float, rhs: np.ndarray) -> np.ndarray:
+    r"""One implicit heat step over ``length``: $(M + \ell^2 L)^{-1} b$, float64 (n,).
+
+    $M$ the barycentric vertex areas, $L$ the cotangent stiffness; ``rhs`` $b$ (n,) is
+    integrated (a vertex function $f$ smoothed is ``heat_step(mesh, ell, M * f)``).
+    """
+    heat = sp.csr_array(sp.diags_array(vertex_areas(mesh)) + length**2 * stiffness(mesh))
+    return factor_hermitian(heat, "auto", "few").solve(rhs)
 
 
 def log_scale_key(log_scale: np.ndarray | None) -> str:

@@ -25,12 +25,11 @@ total number of quads grows by $\int e^{2s} dA / \int dA$.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
-from ..calculus import stiffness, vertex_areas
+from ..calculus import face_to_vertex, vertex_areas
+from ..design.holonomy import heat_step
 from ..mesh.curvature import principal_curvatures
 from ..mesh.trimesh import TriMesh
-from ..numerics.cholesky import factor_hermitian
 
 __all__ = ["EDGE_PER_RADIUS", "MAX_REFINEMENT", "curvature_log_scale", "refinement"]
 
@@ -60,13 +59,8 @@ def curvature_log_scale(mesh: TriMesh, h: float) -> np.ndarray:
     pc = principal_curvatures(mesh)
     kappa = np.maximum(np.abs(pc.k1), np.abs(pc.k2))
     per_face = np.log(np.clip(h * kappa / EDGE_PER_RADIUS, 1.0, MAX_REFINEMENT))
-    F, A = mesh.faces, mesh.face_areas
-    n = mesh.n_vertices
-    weight = np.bincount(F.ravel(), np.repeat(A, 3), minlength=n)
-    s = np.bincount(F.ravel(), np.repeat(A * per_face, 3), minlength=n) / np.maximum(weight, 1e-300)
-    M = vertex_areas(mesh)
-    heat = sp.csr_array(sp.diags_array(M) + h * h * stiffness(mesh))
-    return np.maximum(factor_hermitian(heat, "auto", "few").solve(M * s), 0.0)
+    s = face_to_vertex(mesh) @ per_face  # area-weighted average around each vertex
+    return np.maximum(heat_step(mesh, h, vertex_areas(mesh) * s), 0.0)
 
 
 def refinement(mesh: TriMesh, log_scale: np.ndarray) -> float:
