@@ -180,17 +180,18 @@ def _refine_closest(
 def _sample_gap(mesh: TriMesh) -> float:
     """The widest distance between neighbouring points of :func:`surface_sample_tree` on
     one triangle (its longest edge over its grid steps), the largest over the mesh."""
-    V, F = mesh.vertices, mesh.faces
-    e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2).max(axis=1)
-    return float((e / _sample_levels(mesh)).max(initial=0.0))
+    longest, level = _sample_grid(mesh)
+    return float((longest / level).max(initial=0.0))
 
 
-def _sample_levels(mesh: TriMesh) -> np.ndarray:
-    """Grid steps per side of each triangle in :func:`surface_sample_tree`, int64 (m,)."""
+def _sample_grid(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's longest edge, float64 (m,), and the grid steps per side of its
+    samples in :func:`surface_sample_tree`, int64 (m,)."""
     V, F = mesh.vertices, mesh.faces
     e = np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2)
     step = min(float(np.median(e)), float(np.sqrt(mesh.total_area / 20_000)))
-    return np.clip(np.ceil(e.max(axis=1) / max(step, 1e-300)).astype(np.int64), 1, 48)
+    longest = e.max(axis=1)
+    return longest, np.clip(np.ceil(longest / max(step, 1e-300)).astype(np.int64), 1, 48)
 
 
 def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
@@ -205,7 +206,7 @@ def surface_sample_tree(mesh: TriMesh) -> tuple[cKDTree, np.ndarray]:
 
     def build() -> tuple[cKDTree, np.ndarray]:
         V, F = mesh.vertices, mesh.faces
-        level = _sample_levels(mesh)
+        level = _sample_grid(mesh)[1]
         pts, owner = [mesh.face_centroids], [np.arange(F.shape[0])]
         for k in np.unique(level):  # a loop over a few subdivision levels
             sel = np.flatnonzero(level == k)
