@@ -353,11 +353,13 @@ def test_shared_meshes_no_flips_and_closed_quads(name, target):
 @pytest.mark.slow
 def test_faust_at_2499_quads_is_a_typed_error_listing_every_attempt():
     """Cones forced by the fingers fold the uv triangles at this size on every attempt
-    (remeshed, the other field, 1.5x and 2.25x the quads): a QuadMeshError says so."""
+    (remeshed, the other field, sized by curvature on the input and remeshed, 1.5x and
+    2.25x the quads): a QuadMeshError says so."""
     mesh = load_shared("faust_r_tr_reg_001.off")
     with pytest.raises(fvf.QuadMeshError) as info:
         fvf.quad_mesh(mesh, target_faces=2499)
-    assert len(info.value.attempts) == 6
+    assert len(info.value.attempts) == 8
+    assert sum("sized by curvature" in a for a in info.value.attempts) == 4
     assert all("flipped" in a or "folded" in a for a in info.value.attempts)
 
 
