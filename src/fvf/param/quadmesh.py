@@ -543,7 +543,8 @@ def _mesh_parts(
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         found = _features(part, part.closed, hp, opts)
         featured = found is not None and found.size > 0
-        tries = retry and not _dome_heavy(part)
+        dome = _dome_ratio(part)
+        tries = retry and dome <= DOME_AREA_LIMIT
         plans = _plans(part, hp, align, tries, remesh, featured)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
@@ -556,7 +557,7 @@ def _mesh_parts(
                     _warn_raised(part, exc, hp, finer[0].h)
                     continue
             if retry and not tries:
-                exc.args = (f"{exc.args[0]}\n{_dome_note(part)}",)
+                exc.args = (f"{exc.args[0]}\n{_dome_note(dome)}",)
             if not small or len(parts) == 1:
                 raise
             dropped.append(part)
@@ -574,21 +575,18 @@ def _mesh_parts(
     return made, dropped
 
 
-def _dome_heavy(part: Part) -> bool:
-    """Whether the domes closing ``part`` (:mod:`.caps`) hold more than
-    :data:`DOME_AREA_LIMIT` times its area (a ribbon, whose one boundary loop winds through
-    space): every attempt then spends most of its time on the domes, so one is made."""
+def _dome_ratio(part: Part) -> float:
+    """The area of the domes closing ``part`` (:mod:`.caps`) over its own, 0 when closed.
+    Above :data:`DOME_AREA_LIMIT` (a ribbon, whose one boundary loop winds through space)
+    every attempt spends most of its time on the domes, so one is made."""
     if part.cap is None:
-        return False
+        return 0.0
     cap = part.cap
-    dome = float(cap.mesh.face_areas[cap.is_cap].sum())
-    return dome > DOME_AREA_LIMIT * part.mesh.total_area
+    return float(cap.mesh.face_areas[cap.is_cap].sum()) / part.mesh.total_area
 
 
-def _dome_note(part: Part) -> str:
-    """Why a component got one attempt (:func:`_dome_heavy`)."""
-    assert part.cap is not None
-    ratio = part.cap.mesh.face_areas[part.cap.is_cap].sum() / part.mesh.total_area
+def _dome_note(ratio: float) -> str:
+    """Why a component got one attempt: its domes hold ``ratio`` times its area."""
     return (
         f"One attempt only: the domes that close its boundary loops hold {ratio:.2g} times "
         "its area (a ribbon or strip whose boundary winds through space), so retries would "
@@ -622,9 +620,9 @@ def _finer(
 def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
     """A :class:`~fvf.errors.QuadCountRaisedWarning` when an attempt sized by curvature
     made more than :data:`SIZED_WARN` times the quads asked."""
-    Q, log = made[1], made[-1]
+    Q, param = made[1], made[3]
     ratio = Q.shape[0] * h * h / part.mesh.total_area
-    if "sized by curvature" in log[-1] and ratio > SIZED_WARN:
+    if param.info["log_scale"] is not None and ratio > SIZED_WARN:
         warnings.warn(
             QuadCountRaisedWarning(
                 f"quad_mesh: component {part.label} was meshed with quads sized by "

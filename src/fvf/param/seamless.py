@@ -109,7 +109,8 @@ class SeamlessParameterization:
         The same after rounding.
     info : dict
         ``n_integers`` (int: integer unknowns rounded), ``n_chains`` (int: cut chains),
-        ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``seconds`` (dict:
+        ``scale`` (float64 (m, 2): the frame scales (a, b) per face), ``log_scale``
+        (float64 (n,): the conformal scale of ``sizing``, or None), ``seconds`` (dict:
         wall time per stage, keyed by the stage's progress message).
     """
 
@@ -446,8 +447,7 @@ def seamless_parameterization(
     require_order(field, 4, "seamless_parameterization")
     size = _log_scale(mesh, sizing, h, align if field is None else None)
     clock("cross field" if field is None else "reading the cross field")
-    held = None if features is None or field is not None else feature_constraints(mesh, features)
-    u, rot = _cross_field(mesh, field, align, h, held, size, clock.substages("cross field"))
+    u, rot = _cross_field(mesh, field, align, h, features, size, clock.substages("cross field"))
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
@@ -499,6 +499,7 @@ def seamless_parameterization(
         "n_integers": int(fs.integer.size),
         "n_chains": fs.ss.n_chains,
         "scale": sc,
+        "log_scale": size,
         "seconds": clock.seconds,
     }
     return SeamlessParameterization(
@@ -534,16 +535,16 @@ def _cross_field(
     field: npt.ArrayLike | None,
     align: Alignment,
     h: float,
-    held: tuple[np.ndarray, np.ndarray] | None,
+    features: npt.ArrayLike | None,
     log_scale: np.ndarray | None,
     progress: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The unit cross field (m, 3) the fit follows and the connection's rotations (E,) its
     cones are measured against (None: Levi-Civita): the user's field, or the default one
-    held along the feature edges (``held``: faces and directions), designed for the
-    metric scaled by ``log_scale``."""
+    held along the feature edges, designed for the metric scaled by ``log_scale``."""
     if field is not None:
         return unit_cross_field(mesh, field), None
+    held = None if features is None else feature_constraints(mesh, features)
     u = default_cross_field(
         mesh, align, edge_length=h, constraints=held, progress=progress, log_scale=log_scale
     )
