@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +20,17 @@ except ImportError:  # pragma: no cover
 
 _DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 SHARED_MESHES = Path(os.environ.get("FVF_SHARED_MESHES", _DEFAULT))
+
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def import_benchmark(name: str):
+    """The module ``benchmarks/<name>.py`` of this checkout, imported with its folder on
+    ``sys.path`` (the benchmark scripts import each other by name)."""
+    if str(BENCHMARKS) not in sys.path:
+        sys.path.insert(0, str(BENCHMARKS))
+    return importlib.import_module(name)
 
 
 def shared_mesh_path(name: str) -> Path:

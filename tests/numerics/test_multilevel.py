@@ -222,13 +222,9 @@ def test_vcycle_is_spd_and_the_pair_smoother_matters(spot, monkeypatch):
 @pytest.mark.slow
 def test_agrees_with_direct_at_94k_faces():
     """Spot refined twice (93,696 faces): ~25 s direct + ~25 s multilevel."""
-    import sys
-    from pathlib import Path
+    from conftest import import_benchmark
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    from bench_core import spot_level
-
-    mesh = fvf.TriMesh(*spot_level(2))
+    mesh = fvf.TriMesh(*import_benchmark("bench_core").spot_level(2))
     E = acap_energy_matrix(mesh, _field(mesh), LAM)
     mass = np.repeat(mesh.face_areas, 2)
     lam_d, X_d = smallest_eigenpairs(E, mass, K)

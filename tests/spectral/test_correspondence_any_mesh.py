@@ -7,27 +7,17 @@ docs/correspondence.md, *Any two meshes*, made by ``benchmarks/any_mesh.py``).
 
 from __future__ import annotations
 
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import fvf
+from conftest import import_benchmark
 from corpus import blob
 from fvf.mesh.prepared import prepare_mesh
 
-
-def _benchmarks() -> Path:
-    for parent in Path(__file__).resolve().parents:
-        if (parent / "benchmarks" / "any_mesh.py").exists():
-            return parent / "benchmarks"
-    raise FileNotFoundError("benchmarks/any_mesh.py")
-
-
-sys.path.insert(0, str(_benchmarks()))
-import any_mesh  # noqa: E402
+any_mesh = import_benchmark("any_mesh")
 
 TETRA = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
 TETRA_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])

@@ -12,25 +12,15 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import fvf
+from conftest import import_benchmark
 
-
-def _benchmarks() -> Path:
-    for parent in Path(__file__).resolve().parents:
-        if (parent / "benchmarks" / "correspondence_dataset.py").exists():
-            return parent / "benchmarks"
-    raise FileNotFoundError("benchmarks/correspondence_dataset.py")
-
-
-sys.path.insert(0, str(_benchmarks()))
-import bench_correspondence  # noqa: E402
-import correspondence_dataset as cd  # noqa: E402
+bench_correspondence = import_benchmark("bench_correspondence")
+cd = import_benchmark("correspondence_dataset")
 
 
 @pytest.fixture(scope="module")

@@ -9,24 +9,13 @@ near-symmetric shapes*).
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import fvf
+from conftest import import_benchmark
 
-
-def _benchmarks() -> Path:
-    for parent in Path(__file__).resolve().parents:
-        if (parent / "benchmarks" / "smal_like.py").exists():
-            return parent / "benchmarks"
-    raise FileNotFoundError("benchmarks/smal_like.py")
-
-
-sys.path.insert(0, str(_benchmarks()))
-import smal_like  # noqa: E402
+smal_like = import_benchmark("smal_like")
 
 # Two species of the set (seed 0, species_04 and species_05, as in its species.json).
 LONG_TAIL = {

@@ -7,24 +7,15 @@ ground-truth maps that send each template vertex near where the deformation put 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import fvf
+from conftest import import_benchmark
 
-
-def _benchmarks() -> Path:
-    for parent in Path(__file__).resolve().parents:
-        if (parent / "benchmarks" / "smal_like.py").exists():
-            return parent / "benchmarks"
-    raise FileNotFoundError("benchmarks/smal_like.py")
-
-
-sys.path.insert(0, str(_benchmarks()))
-import correspondence_dataset as cd  # noqa: E402
-import smal_like  # noqa: E402
+cd = import_benchmark("correspondence_dataset")
+smal_like = import_benchmark("smal_like")
 
 
 @pytest.fixture(scope="module")
