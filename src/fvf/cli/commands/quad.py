@@ -154,11 +154,10 @@ def _faces_only(path: str) -> tuple[Any, Any]:
         fixed = fvf.remove_unreferenced_vertices(V, F)
         dropped = len(V) - fixed.vertices.shape[0]
         print(f"fvf quad: {dropped} vertices of {path} belong to no face: left out", file=err)
-    except fvf.DegenerateFaceError as exc:
-        fixed = fvf.repair_mesh(V, F)
+    except fvf.DegenerateFaceError:
+        fixed = fvf.repair_mesh(V, F)  # its log names the faces
         print(
-            f"fvf quad: {str(exc).split(' have zero area')[0]} have zero area; repaired as "
-            f"`fvf repair` does "
+            f"fvf quad: {path}: faces have zero area; repaired as `fvf repair` does "
             f"({'; '.join(fixed.log) or 'nothing changed'}): the quads are made from the "
             "repaired surface",
             file=err,
