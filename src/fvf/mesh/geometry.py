@@ -30,6 +30,7 @@ __all__ = [
     "vertex_vector_areas",
     "corner_angles",
     "angle_defects",
+    "segment_counts",
     "segment_points",
 ]
 
@@ -181,6 +182,12 @@ def angle_defects(mesh: TriMesh) -> np.ndarray:
     return 2.0 * np.pi - total
 
 
+def segment_counts(length: np.ndarray, step: float, max_count: int = 1 << 16) -> np.ndarray:
+    """How many points :func:`segment_points` puts on segments of ``length`` (float64
+    (k,)): clip(⌈length / step⌉, 1, ``max_count``), int64 (k,)."""
+    return np.clip(np.ceil(length / step).astype(np.int64), 1, max_count)
+
+
 def segment_points(
     a: np.ndarray, b: np.ndarray, step: float, *, centred: bool = False, max_count: int = 1 << 16
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +199,7 @@ def segment_points(
     float64 (p,).
     """
     length = np.linalg.norm(b - a, axis=1)
-    count = np.clip(np.ceil(length / step).astype(np.int64), 1, max_count)
+    count = segment_counts(length, step, max_count)
     seg = np.repeat(np.arange(a.shape[0]), count)
     t = np.arange(seg.size) - np.repeat(np.cumsum(count) - count, count) + (0.5 if centred else 0.0)
     t = t / count[seg]

@@ -64,6 +64,7 @@ from .frame_field import (
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, feature_rows, seam_system
 from .sizing import curvature_log_scale
+from .strips import strip_scale
 from .uv_folds import flip_count as _flip_count
 from .uv_folds import repair_folds
 
@@ -215,6 +216,15 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
     if scale is not None:
         frame = frame * scale[:, :, None]
     return frame
+
+
+def _frame_axes(mesh: TriMesh, cm: CutMesh) -> np.ndarray:
+    """The unit frame axes X, J X per face as ambient vectors, float64 (m, 2, 3)."""
+    c, s = np.cos(cm.angles), np.sin(cm.angles)
+    B = mesh.face_bases
+    X = c[:, None] * B[:, 0] + s[:, None] * B[:, 1]
+    Y = -s[:, None] * B[:, 0] + c[:, None] * B[:, 1]
+    return np.stack([X, Y], axis=1)
 
 
 def _check_lattice_size(rows: int, cols: int, cones: int, chains: int, iso: int) -> None:
@@ -465,6 +475,8 @@ def seamless_parameterization(
     if sc is None:
         clock(f"frame scaling ({scaling})")
         sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations, size)
+        if iso:
+            sc = strip_scale(mesh, np.asarray(features, np.int64), _frame_axes(mesh, cm), h, sc)
     frame = _local_frame(cm, h, sc)
     b = _rhs(mesh, frame)
     g = fs.K.T @ b
