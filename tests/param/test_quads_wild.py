@@ -30,16 +30,22 @@ PROMISE_XFAIL: dict[str, str] = {}
 # No valid quad mesh today (the promise holds: a typed error).
 VALID_XFAIL = {
     "tiny_strip": "QuadMeshError: a ribbon narrower than a few quads (topology changes)",
+    "cad_thin_tray": "QuadMeshError at 500 quads: walls 0.13 quad edges thick, the rib's "
+    "quads fold (valid at 2,000)",
+    "cad_flush_fins": "QuadMeshError at 500 quads: fins 0.3 quad edges thick flush with the "
+    "plate's faces (coplanar comb faces; valid at 2,000 with 2.6 times the quads)",
 }
 # Measured at TARGET_SLOW quads (slow suite).
 PROMISE_XFAIL_SLOW: dict[str, str] = {}
-VALID_XFAIL_SLOW = dict(VALID_XFAIL)
+VALID_XFAIL_SLOW = {"tiny_strip": VALID_XFAIL["tiny_strip"]}
 CLI_XFAIL: dict[str, str] = {}
 
 
 #: Corpus meshes kept to the slow suite: the ribbon (one attempt, 13 s at the default
-#: target; its rule is tested by test_a_ribbon_gets_one_attempt_and_the_reason).
-SLOW = {"tiny_strip"}
+#: target; its rule is tested by test_a_ribbon_gets_one_attempt_and_the_reason), the
+#: tray and the fins (12-15 s each to their typed errors at the default target; the tray
+#: at 2,000 quads is in tests/param/test_strips.py).
+SLOW = {"tiny_strip", "cad_thin_tray", "cad_flush_fins"}
 
 
 def _cases(xfails: dict[str, str], slow: bool = False) -> list:
@@ -180,8 +186,8 @@ def test_corpus_is_as_documented(name, tmp_path):
     if e.loops == 0:  # outward normals: positive enclosed volume
         T = V[F] - V.mean(axis=0)
         assert np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])).sum() > 0
-    if e.kind != "tiny":
-        assert 600 <= F.shape[0] <= 20_000
+    if e.kind != "tiny":  # box-like CAD parts export as a few dozen triangles
+        assert (600 if e.kind == "scan" else 12) <= F.shape[0] <= 20_000
     W, G = wc.load(wc.write_corpus(tmp_path, [name])[name])
     assert G.shape == F.shape and W.shape == V.shape
     tol = 1e-6 * float(np.abs(V).max()) if e.fmt == "stl" else 1e-9 * float(np.abs(V).max())

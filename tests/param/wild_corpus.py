@@ -23,6 +23,11 @@ cad_extrusion             cad     0   1      0       extruded gear profile with 
 cad_two_parts             cad     4   2      0       two disjoint solids in one file
 cad_sliver_cylinder       cad     2   1      0       exporter-style cylinder: caps fanned from
                                                      one rim vertex, 190:1 side triangles
+cad_thin_tray             cad     2   1      0       tray with 1 mm walls and a rib: rims
+                                                     narrower than a quad edge
+cad_u_channel             cad     2   1      0       U channel of 1.5 mm sheet
+cad_flush_fins            cad     2   1      0       plate with four 1.2 mm fins flush with its
+                                                     front and back (coplanar comb faces)
 scan_body                 scan    2   1      0       smooth body (torso, head, limbs), noise,
                                                      spikes
 scan_body_holes           scan   -1   1      3       the body open at the soles and the crown
@@ -40,7 +45,8 @@ tiny_strip                tiny    1   1      1       a single open triangle stri
 tiny_cube12               tiny    2   1      0       a 12-triangle cube, as CAD exports a box
 ========================  =====  ===  =====  ======  =========================================
 
-Every generated mesh has 600 to 20,000 faces except the ``tiny_`` items. manifold3d is
+Every scan has 600 to 20,000 faces; box-like CAD parts have a few dozen (as OpenSCAD
+exports them), the others up to 20,000. manifold3d is
 needed for the ``cad_`` and ``body`` entries (:func:`available` says which can be built).
 """
 
@@ -236,6 +242,30 @@ def cad_two_parts() -> Mesh:
         [10.0, 10.0, 8.0]
     )  # a blind hole: still genus 0
     return _concat(_from_manifold(box_hole), _from_manifold(knob))
+
+
+def cad_thin_tray() -> Mesh:
+    """A tray 100 × 70 × 20 with 1 mm walls and floor and a 1 mm rib across."""
+    mf = _manifold()
+    box = mf.Manifold.cube([100.0, 70.0, 20.0])
+    box = box - mf.Manifold.cube([98.0, 68.0, 20.0]).translate([1.0, 1.0, 1.0])
+    return _from_manifold(box + mf.Manifold.cube([1.0, 68.0, 15.0]).translate([49.5, 1.0, 0.0]))
+
+
+def cad_u_channel() -> Mesh:
+    """A U channel 40 × 120 × 30 bent from 1.5 mm sheet."""
+    mf = _manifold()
+    cut = mf.Manifold.cube([37.0, 122.0, 30.0]).translate([1.5, -1.0, 1.5])
+    return _from_manifold(mf.Manifold.cube([40.0, 120.0, 30.0]) - cut)
+
+
+def cad_flush_fins() -> Mesh:
+    """A plate 60 × 40 × 4 with four 1.2 mm fins 25 tall, flush with its front and back."""
+    mf = _manifold()
+    plate = mf.Manifold.cube([60.0, 40.0, 4.0])
+    for i in range(4):
+        plate = plate + mf.Manifold.cube([1.2, 40.0, 25.0]).translate([3.0 + 5.0 * i, 0.0, 4.0])
+    return _from_manifold(plate)
 
 
 def cad_sliver_cylinder(r: float = 10.0, h: float = 60.0, n: int = 200) -> Mesh:
@@ -493,6 +523,9 @@ ENTRIES: dict[str, Entry] = {
         _e("cad_extrusion", "cad", "stl", 0, 1, 0, "gear extrusion", cad_extrusion, True),
         _e("cad_two_parts", "cad", "stl", 4, 2, 0, "two solids", cad_two_parts, True),
         _e("cad_sliver_cylinder", "cad", "stl", 2, 1, 0, "fan caps", cad_sliver_cylinder),
+        _e("cad_thin_tray", "cad", "stl", 2, 1, 0, "1 mm walls", cad_thin_tray, True),
+        _e("cad_u_channel", "cad", "stl", 2, 1, 0, "1.5 mm sheet", cad_u_channel, True),
+        _e("cad_flush_fins", "cad", "stl", 2, 1, 0, "flush thin fins", cad_flush_fins, True),
         _e("scan_body", "scan", "obj", 2, 1, 0, "noisy body", scan_body, True),
         _e("scan_body_holes", "scan", "ply", -1, 1, 3, "open body", scan_body_holes, True),
         _e("scan_body_yup", "scan", "obj", 2, 1, 0, "y up", scan_body_yup, True),
