@@ -73,15 +73,16 @@ def test_only_strips_narrower_than_a_quad_are_stretched(strip):
     mesh, feats = strip
     y = mesh.face_centroids[:, 1]
     inside = (y > 4) & (y < 4.5)
+    w = strip_widths(mesh, feats, axes(mesh, 0.0), radius=2.0)
     one = np.ones((mesh.n_faces, 2))
-    sc = strip_scale(mesh, feats, axes(mesh, 0.0), 2.0, one)
+    sc = strip_scale(w, 2.0, one)
     np.testing.assert_allclose(sc[inside, 1], 2.0 / 0.5)
     np.testing.assert_array_equal(sc[~inside], 1.0)
     np.testing.assert_array_equal(sc[:, 0], 1.0)
     h = 0.5 / STRIP_WIDTH * 0.99  # the strip is wider than STRIP_WIDTH quads: left alone
-    np.testing.assert_array_equal(strip_scale(mesh, feats, axes(mesh, 0.0), h, one), one)
+    np.testing.assert_array_equal(strip_scale(w, h, one), one)
     big = np.full((mesh.n_faces, 2), 10.0)  # quads already shorter than the strip
-    np.testing.assert_array_equal(strip_scale(mesh, feats, axes(mesh, 0.0), 2.0, big), big)
+    np.testing.assert_array_equal(strip_scale(w, 2.0, big), big)
 
 
 mf = pytest.importorskip("manifold3d")

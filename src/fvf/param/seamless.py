@@ -64,7 +64,7 @@ from .frame_field import (
 from .rounding import MixedIntegerSolver, integer_lattice
 from .seams import ROTATIONS, SeamSystem, feature_rows, seam_system
 from .sizing import curvature_log_scale
-from .strips import strip_scale
+from .strips import strip_scale, strip_widths
 from .uv_folds import flip_count as _flip_count
 from .uv_folds import repair_folds
 
@@ -476,7 +476,8 @@ def seamless_parameterization(
         clock(f"frame scaling ({scaling})")
         sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations, size)
         if iso:
-            sc = strip_scale(mesh, np.asarray(features, np.int64), _frame_axes(mesh, cm), h, sc)
+            widths = strip_widths(mesh, np.asarray(features, np.int64), _frame_axes(mesh, cm), h)
+            sc = strip_scale(widths, h, sc)
     frame = _local_frame(cm, h, sc)
     b = _rhs(mesh, frame)
     g = fs.K.T @ b

@@ -108,16 +108,12 @@ def strip_widths(
     return out
 
 
-def strip_scale(
-    mesh: TriMesh, features: np.ndarray, axes: np.ndarray, h: float, scale: np.ndarray
-) -> np.ndarray:
+def strip_scale(widths: np.ndarray, h: float, scale: np.ndarray) -> np.ndarray:
     """The frame scales (a, b) with the thin strips stretched to one quad, float64 (m, 2).
 
     ``scale`` (m, 2) is the frame's scale (quads of edge h / scale); where a face's
-    :func:`strip_widths` w times its scale is below :data:`STRIP_WIDTH` h, the scale
-    becomes h / w (the strip one quad across). ``axes`` (m, 2, 3) as in
-    :func:`strip_widths`.
+    :func:`strip_widths` w (m, 2) times its scale is below :data:`STRIP_WIDTH` h, the
+    scale becomes h / w (the strip one quad across).
     """
-    w = strip_widths(mesh, features, axes, h)
-    thin = w * scale < STRIP_WIDTH * h
-    return np.where(thin, np.maximum(scale, h / np.where(thin, w, 1.0)), scale)
+    thin = widths * scale < STRIP_WIDTH * h
+    return np.where(thin, np.maximum(scale, h / np.where(thin, widths, 1.0)), scale)
