@@ -151,6 +151,34 @@ def sized_pictures() -> None:
         print("finger", name, len(made.quads), "quads")
 
 
+def strip_pictures() -> None:
+    """A tray with 1 mm walls at 2,000 quads (walls 0.26 quad edges thick): a corner of
+    the result, cut out (its cut edges are no boundary of the mesh), seen from inside, with
+    the rim one quad across (``fvf.param.strips``)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "param"))
+    import wild_corpus
+
+    V, F = wild_corpus.mesh("cad_thin_tray")
+    made = fvf.quad_mesh((V, F), target_faces=2000)
+    Vq, Q = np.asarray(made.vertices), np.asarray(made.quads)
+    centre = Vq[Q].mean(axis=1)
+    corner = Q[(centre[:, 0] < 14) & (centre[:, 1] < 14) & (centre[:, 2] > 8)]
+    used, local = np.unique(corner, return_inverse=True)
+    local = local.reshape(-1, 4)
+    tris = fvf.TriMesh(Vq[used], np.concatenate([local[:, [0, 1, 2]], local[:, [0, 2, 3]]]))
+    sides = np.sort(np.stack([local, np.roll(local, -1, axis=1)], axis=2).reshape(-1, 2), 1)
+    wire = list(Vq[used][np.unique(sides, axis=0)])
+    fvf.viz.render(
+        tris,
+        OUT / "thin_tray_corner.png",
+        streamlines=wire,
+        title=f"tray with 1 mm walls, {len(Q)} quads: a corner of the rim",
+        size=(640, 480),
+        view=(45, 40, "z"),
+    )
+    print("thin tray", len(Q), "quads")
+
+
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     picture("spot", fvf.spot(), 1500)
@@ -158,6 +186,7 @@ def main() -> None:
     symmetric_pictures()
     wild_pictures()
     sized_pictures()
+    strip_pictures()
     bob = SHARED / "bob_tri.obj"
     if bob.exists():
         picture("bob", fvf.TriMesh(*fvf.read_mesh(bob)), 1500)
