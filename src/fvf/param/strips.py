@@ -12,7 +12,7 @@ feature patch (a connected set of faces not separated by features) whose extent 
 the frame axis $X$, between features parallel to $Y$ on both sides, is $w_X$, the target
 gradient is lengthened to
 
-.. math:: |\nabla u| = \max\!\big(a / h,\; 1 / w_X\big) \quad\text{when } w_X\,a < \tfrac{3}{4} h,
+$$|\nabla u| = \max\!\big(a / h,\; 1 / w_X\big) \quad\text{when } w_X\,a < \tfrac{3}{4} h,$$
 
 ($a$ the frame's scale, :mod:`fvf.param.frame_field`) and likewise along $Y$, so that the
 real solution already puts the two features about one unit apart and rounding keeps them
