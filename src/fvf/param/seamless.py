@@ -221,10 +221,8 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
 def _frame_axes(mesh: TriMesh, cm: CutMesh) -> np.ndarray:
     """The unit frame axes X, J X per face as ambient vectors, float64 (m, 2, 3)."""
     c, s = np.cos(cm.angles), np.sin(cm.angles)
-    B = mesh.face_bases
-    X = c[:, None] * B[:, 0] + s[:, None] * B[:, 1]
-    Y = -s[:, None] * B[:, 0] + c[:, None] * B[:, 1]
-    return np.stack([X, Y], axis=1)
+    X = mesh.from_local(np.stack([c, s], axis=1))
+    return np.stack([X, mesh.from_local(np.stack([-s, c], axis=1))], axis=1)
 
 
 def _check_lattice_size(rows: int, cols: int, cones: int, chains: int, iso: int) -> None:

@@ -87,7 +87,7 @@ def strip_widths(
     tangent = ((b - a) / length[:, None])[edge]
     ef = mesh.edge_faces[e][edge]
     sides = np.where(ef >= 0, patch[np.maximum(ef, 0)], -1)  # (p, 2) patches beside
-    centroid = mesh.vertices[mesh.faces].mean(axis=1)
+    centroid = mesh.face_centroids
     pairs = cKDTree(centroid).sparse_distance_matrix(cKDTree(pts), radius, output_type="ndarray")
     f, s = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
     same = (sides[s, 0] == patch[f]) | (sides[s, 1] == patch[f])
