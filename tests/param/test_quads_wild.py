@@ -43,8 +43,8 @@ CLI_XFAIL: dict[str, str] = {}
 
 #: Corpus meshes kept to the slow suite: the ribbon (one attempt, 13 s at the default
 #: target; its rule is tested by test_a_ribbon_gets_one_attempt_and_the_reason), the
-#: tray and the fins (12-15 s each to their typed errors at the default target; the tray
-#: at 2,000 quads is in tests/param/test_strips.py).
+#: tray and the fins (12-15 s each to their typed errors at the default target; the
+#: tray's stretched rims are tested in tests/param/test_strips.py).
 SLOW = {"tiny_strip", "cad_thin_tray", "cad_flush_fins"}
 
 

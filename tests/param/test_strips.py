@@ -8,6 +8,8 @@ import pytest
 
 import fvf
 import quadcheck
+from fvf.param.features import CREASE_ANGLE, MIN_CHAIN, sharp_edges
+from fvf.param.seamless import edge_length_for
 from fvf.param.strips import STRIP_WIDTH, feature_patches, strip_scale, strip_widths
 
 
@@ -100,12 +102,33 @@ def tray(wall=1.0):
     return _from_manifold(box + rib)
 
 
+@pytest.fixture(scope="module")
+def tray_mesh():
+    V, F = tray()
+    mesh = fvf.TriMesh(V, F)
+    h = edge_length_for(mesh, 2000, None)
+    return mesh, h, sharp_edges(mesh, CREASE_ANGLE, MIN_CHAIN * h)
+
+
+def test_the_tray_rim_rounds_to_zero_width_without_the_stretch_and_to_one_with_it(tray_mesh):
+    """Walls 0.26 quad edges thick: with the features as iso-lines the rims collapse (uv
+    triangles flipped or degenerate); stretched, no uv triangle is flipped."""
+    mesh, h, feats = tray_mesh
+    with pytest.warns(fvf.FlippedParameterizationWarning):
+        plain = fvf.seamless_parameterization(mesh, edge_length=h, features=feats)
+    assert plain.flipped.size > 0
+    param = fvf.seamless_parameterization(mesh, edge_length=h, features=feats, thin_strips=True)
+    assert param.flipped.size == 0
+    assert not np.array_equal(param.info["scale"], plain.info["scale"])
+
+
+@pytest.mark.slow
 def test_a_thin_walled_tray_gets_one_quad_across_its_rim():
-    """Walls 0.26 quad edges thick: their rims become one row of quads (no vertex inside
-    the rim), at the asked count; valid by quadcheck. Without the stretch every attempt
-    folds or flips (the uniform retries would need about 14 times the quads)."""
+    """``fvf.quad_mesh`` reaches the stretched attempt after the others fail: valid by
+    quadcheck, at the asked count, one row of quads along the rim (no vertex inside it)."""
     V, F = tray()
     r = fvf.quad_mesh((V, F), target_faces=2000)
+    assert "thin strips one quad across" in r.attempts[-1]
     assert 1600 < len(r.quads) < 2600
     verdict = quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads))
     assert verdict.valid, verdict.reasons

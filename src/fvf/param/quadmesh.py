@@ -121,12 +121,14 @@ class _Plan:
     h: float
     isolines: bool = False
     sized: bool = False
+    strips: bool = False
 
     def __str__(self) -> str:
         surface = "remeshed" if self.remeshed else "input"
         lines = ", features as iso-lines" if self.isolines else ""
+        strips = ", thin strips one quad across" if self.strips else ""
         sized = ", sized by curvature" if self.sized else ""
-        return f"{surface} surface, {self.align} field{lines}{sized}, h = {self.h:.4g}"
+        return f"{surface} surface, {self.align} field{lines}{strips}{sized}, h = {self.h:.4g}"
 
 
 def _plans(
@@ -150,6 +152,8 @@ def _plans(
         _Plan(can, other, h * MORE_QUADS),
         _Plan(can, "curvature", h * MORE_QUADS**2, sized=True),
     ]
+    # thin walls' rims one quad across (param.strips): last, where all else failed
+    plans += [dataclasses.replace(p, isolines=True, strips=True) for p in first] if features else []
     return list(dict.fromkeys(plans))
 
 
@@ -211,6 +215,7 @@ def _attempt(
         align=plan.align,
         features=features,
         feature_isolines=plan.isolines,
+        thin_strips=plan.strips,
         sizing=size,
         **opts["seamless"],
     )

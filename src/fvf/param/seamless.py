@@ -375,6 +375,7 @@ def seamless_parameterization(
     progress: bool | ProgressCallback | None = None,
     features: npt.ArrayLike | None = None,
     feature_isolines: bool = True,
+    thin_strips: bool = False,
     sizing: str | npt.ArrayLike | None = None,
 ) -> SeamlessParameterization:
     """A global parameterization whose iso-lines follow a cross field, seamless across cuts.
@@ -431,6 +432,11 @@ def seamless_parameterization(
     feature_isolines : bool
         False: the features only hold the default field (two parallel features closer
         than about half an edge length h would otherwise share an iso-line and fold).
+    thin_strips : bool
+        With features as iso-lines: stretch the frame across strips between parallel
+        features narrower than 3/4 h (a thin wall's rim), so that each is one quad
+        across instead of collapsing (:mod:`fvf.param.strips`). :func:`fvf.quad_mesh`
+        tries it after its other attempts.
     sizing : None, "curvature" or array_like float (n,)
         Quads of varying size: a conformal log scale s per vertex, quads of edge
         h e^{-s} (:mod:`fvf.param.sizing`); ``"curvature"`` for
@@ -473,7 +479,7 @@ def seamless_parameterization(
     if sc is None:
         clock(f"frame scaling ({scaling})")
         sc = _frame_scale(mesh, cm, fs, solver, h, scaling, scale_iterations, size)
-        if iso:
+        if iso and thin_strips:
             widths = strip_widths(mesh, np.asarray(features, np.int64), _frame_axes(mesh, cm), h)
             sc = strip_scale(widths, h, sc)
     frame = _local_frame(cm, h, sc)
