@@ -230,3 +230,17 @@ def test_the_exact_closest_point_is_the_closest_of_the_whole_surface():
     )
     _, p = closest_surface_points(mesh, X, exact=True)
     np.testing.assert_allclose(np.linalg.norm(p - X, axis=1), brute, rtol=0, atol=1e-12)
+
+
+def test_a_quad_centred_inside_a_thin_wall_is_folded_against_either_wall():
+    """A quad from the top edge of a 1-wide slab's outer face down to its inner face: its
+    centre lies on the slab's mid-plane, as close to both walls. Judged against one wall it
+    faces the right way, against the other it is folded; the verdict looks at both (an
+    exact closest point breaks the tie either way, as an independent checker may), so it
+    is folded in both orientations."""
+    mf = pytest.importorskip("manifold3d")
+    m = mf.Manifold.cube([1.0, 10.0, 10.0]).to_mesh64()
+    slab = fvf.TriMesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    P = np.array([[0, 6, 10], [0, 4, 10], [1, 4, 8], [1, 6, 8]], dtype=float)
+    for quad in ([0, 1, 2, 3], [3, 2, 1, 0]):
+        assert fvf.folded_quads(slab, P, np.array([quad])).tolist() == [0]

@@ -285,13 +285,17 @@ def test_a_backend_failure_ends_an_attempt_not_the_call(monkeypatch):
     assert "RuntimeError: Failed to resize" in made.attempts[0] and made.validity.valid
 
 
-def test_features_are_iso_lines_in_the_first_attempts_then_hold_the_field_only():
+def test_features_are_iso_lines_first_then_hold_the_field_then_iso_lines_with_strips():
     from fvf.param import quadmesh
     from fvf.param.quad_parts import component_parts
 
     part = component_parts(fvf.icosphere(2))[0]
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
     iso = [p.isolines for p in plans]
-    assert iso[:2] == [True, True] and not any(iso[2:])
+    strips = [p.strips for p in plans]
+    # the first two and, with the thin strips stretched, the last two (param.strips)
+    assert iso[:2] == [True, True] and not any(iso[2:-2]) and iso[-2:] == [True, True]
+    assert strips[-2:] == [True, True] and not any(strips[:-2])
     assert [(p.remeshed, p.h) for p in plans[:2]] == [(p.remeshed, p.h) for p in plans[2:4]]
+    assert [(p.remeshed, p.h) for p in plans[-2:]] == [(p.remeshed, p.h) for p in plans[:2]]
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))

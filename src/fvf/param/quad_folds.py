@@ -93,6 +93,9 @@ RELAX_STEP = 0.5
 #: Quads whose nearby surface samples :func:`reference_normals` gathers at once (the
 #: samples' indices are Python lists: at 20,000 quads on 750k faces, 0.7 GB at once).
 BALL_CHUNK = 2048
+#: Two closest points count as tied (a point on the mid-surface of a thin wall) when their
+#: distances differ by less than this fraction.
+TIE = 1e-6
 #: Relaxation steps per region before the region grows by one ring of quads.
 STEPS_PER_RING = 10
 #: Rings of quads the free region may grow by around the folded quads.
@@ -149,6 +152,18 @@ def closest_surface_points(
     return face, point
 
 
+def _closest_and_tied(
+    mesh: TriMesh, points: np.ndarray, tree: cKDTree
+) -> tuple[np.ndarray, np.ndarray]:
+    """The exact closest triangle of each point (:func:`closest_surface_points`) and the
+    one tied with it whose normal turns most (see :func:`_refine_closest`), int64 (k,)
+    each."""
+    face, point = closest_surface_points(mesh, points, tree)
+    samples, owner = surface_sample_tree(mesh)
+    tied = _refine_closest(mesh, np.asarray(points, np.float64), face, point, samples, owner)
+    return face, tied
+
+
 def _refine_closest(
     mesh: TriMesh,
     x: np.ndarray,
@@ -156,15 +171,19 @@ def _refine_closest(
     point: np.ndarray,
     samples: cKDTree,
     owner: np.ndarray,
-) -> None:
+) -> np.ndarray:
     """Replace, in place, ``face`` (k,) and ``point`` (k, 3) by the closest triangle among
     those with a sample within the found distance plus the widest sample gap (a closer
-    triangle has a sample there)."""
+    triangle has a sample there). Returns, per query, the triangle as close to within
+    :data:`TIE` (relative) whose normal turns farthest from the chosen one's, int64 (k,)
+    (the chosen one where none is: a point on the mid-surface of a thin wall has both
+    walls as closest points)."""
+    tied = face.copy()
     radius = np.linalg.norm(point - x, axis=1) + _sample_gap(mesh)
     near = samples.query_ball_point(x, radius)
     query = np.repeat(np.arange(x.shape[0]), [len(n) for n in near])
     if query.size == 0:
-        return
+        return tied
     pairs = np.unique(np.stack([query, owner[np.concatenate(near).astype(np.int64)]], 1), axis=0)
     q, f = pairs[:, 0], pairs[:, 1]
     best = _closest_on_triangles(mesh.vertices[mesh.faces[f]], x[q])
@@ -175,6 +194,15 @@ def _refine_closest(
     better = d2[win] < now[q[win]]
     face[q[win][better]] = f[win][better]
     point[q[win][better]] = best[win][better]
+    low = np.full(x.shape[0], np.inf)
+    np.minimum.at(low, q, d2)
+    close = d2 <= low[q] * (1.0 + TIE) ** 2
+    turn = np.einsum("kd,kd->k", mesh.face_normals[f], mesh.face_normals[face[q]])
+    pick = np.lexsort((turn, ~close, q))  # per query: close ones first, most turned first
+    first = pick[np.unique(q[pick], return_index=True)[1]]
+    ok = close[first]
+    tied[q[first][ok]] = f[first][ok]
+    return tied
 
 
 def _sample_gap(mesh: TriMesh) -> float:
@@ -338,17 +366,18 @@ def _folded_over(mesh: TriMesh, face: np.ndarray, smooth: np.ndarray) -> np.ndar
 
 
 def _surface_at(
-    mesh: TriMesh, points: np.ndarray, tree: cKDTree, exact: bool = False
+    mesh: TriMesh, points: np.ndarray, tree: cKDTree, face: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Two normals of the surface at each point, from the closest input triangle, unit
-    (k, 3) each:
+    """Two normals of the surface at each point, from the closest input triangle (or the
+    given ``face`` (k,)), unit (k, 3) each:
 
     - the side: its vertices' summed normals (:func:`centre_normals`), or its own normal
       where the two disagree and it is not folded over (:func:`_folded_over`);
     - the reference: its own normal, or its vertices' summed normals where it is folded
       over (a crumpled scan).
     """
-    face, _ = closest_surface_points(mesh, points, tree, exact=exact)
+    if face is None:
+        face, _ = closest_surface_points(mesh, points, tree)
     raw = mesh.face_normals[face]
     smooth = _vertex_sum_normals(mesh, face)
     folded = _folded_over(mesh, face, smooth)
@@ -362,9 +391,31 @@ def _fold_mask(
 ) -> np.ndarray:
     """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
     the surface at the centre (module docstring); ``exact``: the surface at the centre's
-    exact closest point (the verdict), else among nearby triangles (the repair's steps)."""
+    exact closest point, and folded when folded against either of two tied closest
+    triangles (the verdict), else among nearby triangles (the repair's steps)."""
+    centre = V[Q].mean(axis=1)
+    if not exact:
+        return _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree))
+    face, tied = _closest_and_tied(mesh, centre, tree)
+    mask = _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face))
+    two = np.flatnonzero(tied != face)
+    if two.size:
+        at = _surface_at(mesh, centre[two], tree, tied[two])
+        mask[two] |= _folded_against(mesh, V, Q[two], tree, at)
+    return mask
+
+
+def _folded_against(
+    mesh: TriMesh,
+    V: np.ndarray,
+    Q: np.ndarray,
+    tree: cKDTree,
+    surface: tuple[np.ndarray, np.ndarray],
+) -> np.ndarray:
+    """The test of :func:`_fold_mask` for the surface normals (side, reference) at the
+    quads' centres."""
     P = V[Q]
-    side, Nc = _surface_at(mesh, P.mean(axis=1), tree, exact)
+    side, Nc = surface
     N = reference_normals(mesh, V, Q, tree, side)
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
