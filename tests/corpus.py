@@ -168,8 +168,9 @@ def _shared(name: str) -> Callable[[], fvf.TriMesh]:
 
 # ---------------------------------------------------------------------------- entries
 
-#: Shared meshes too big for the fast suite (tests mark them ``slow``).
-SLOW = ("camelhead.off", "stanford-bunny.obj", "nefertiti.obj")
+#: Shared meshes too big or too slow for the fast suite's API sweep (tests mark them
+#: ``slow``; woody: 34 s, its quad mesh at a quarter of its faces takes six attempts).
+SLOW = ("camelhead.off", "stanford-bunny.obj", "nefertiti.obj", "woody.obj")
 
 #: Entries with boundary, for the boundary tests.
 WITH_BOUNDARY = ("disk", "annulus", "square", "sliver", "woody.obj", "camelhead.off")
