@@ -219,10 +219,10 @@ def _local_frame(cm: CutMesh, h: float, scale: np.ndarray | None) -> np.ndarray:
 
 
 def _frame_axes(mesh: TriMesh, cm: CutMesh) -> np.ndarray:
-    """The unit frame axes X, J X per face as ambient vectors, float64 (m, 2, 3)."""
-    c, s = np.cos(cm.angles), np.sin(cm.angles)
-    X = mesh.from_local(np.stack([c, s], axis=1))
-    return np.stack([X, mesh.from_local(np.stack([-s, c], axis=1))], axis=1)
+    """The unit frame axes X, J X per face (:func:`_local_frame` at h = 1) as ambient
+    vectors, float64 (m, 2, 3)."""
+    local = _local_frame(cm, 1.0, None)
+    return np.stack([mesh.from_local(local[:, 0]), mesh.from_local(local[:, 1])], axis=1)
 
 
 def _check_lattice_size(rows: int, cols: int, cones: int, chains: int, iso: int) -> None:
