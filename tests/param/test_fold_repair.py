@@ -57,6 +57,26 @@ def test_responses_rows_and_columns_equal_the_dense_response_matrix(block, monke
         np.testing.assert_allclose(vals, R[kept, c], atol=1e-10)
 
 
+def test_moves_rank_candidates_on_a_bounded_set_of_flipped_faces(monkeypatch):
+    """Rows of R cost four solves per face: a sweep ranks on at most MOVE_ROW_FACES flipped
+    faces, those already solved first, then evenly spaced new ones (none when the known
+    ones fill the budget); fewer flipped faces are all used."""
+    from fvf.param import uv_folds as folds
+
+    monkeypatch.setattr(folds, "MOVE_ROW_FACES", 5)
+    rng = np.random.default_rng(3)
+    K = sp.csr_array(sp.random_array((200, 30), density=0.2, rng=rng) + sp.eye_array(200, 30))
+    solver = MixedIntegerSolver((K.T @ K).tocsr(), np.array([2, 7]), backend="scipy")
+    R = _Responses(solver, K)
+    bad = np.array([1, 4, 9, 16, 25, 36, 49])
+    np.testing.assert_array_equal(folds._ranking_faces(bad[:5], R), bad[:5])
+    np.testing.assert_array_equal(folds._ranking_faces(bad, R), [1, 9, 16, 25, 49])
+    R.rows(np.array([16, 17, 18, 19, 36 * 4, 36 * 4 + 1]))  # face 4's rows and face 36's
+    np.testing.assert_array_equal(folds._ranking_faces(bad, R), [1, 4, 16, 36, 49])
+    R.rows((np.array([1, 9, 16, 25, 49])[:, None] * 4).ravel())
+    np.testing.assert_array_equal(folds._ranking_faces(bad, R), [1, 4, 9, 16, 25, 36, 49])
+
+
 def test_integer_moves_keep_the_real_unknowns_they_were_given():
     """Moves are chosen on the fit K y + R Δw of the y given (which need not minimize the
     solver's fit, e.g. after a local repair); the y returned has exactly that fit, its
