@@ -113,7 +113,7 @@ def test_hausdorff_with_chunked_queries_is_unchanged(monkeypatch):
     qm = extract_quads(mesh, torus_uv(mesh, 12, 6, (0.3, 0.2)))
     V, Q = qm.vertices, qm.quads
     edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())
-    step = 0.25 * min(mesh.mean_edge_length, edge)
+    step = quality.HAUSDORFF_STEP * edge
     tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
     a = quality.surface_samples(V, tris, step)
     b = quality.surface_samples(mesh.vertices, mesh.faces, step)

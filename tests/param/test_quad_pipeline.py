@@ -58,6 +58,23 @@ def test_the_gate_passes_a_grid_and_names_each_planted_defect():
     assert "Hausdorff" in str(check_quad_mesh(mesh, lifted, Q))
 
 
+@pytest.mark.parametrize("lift", [0.9, 1.1])
+def test_the_gate_measures_hausdorff_within_its_step_on_a_finer_input(lift):
+    """A 6 × 6 quad grid lifted ``lift`` quad edges above a 47 × 47 triangulated plane
+    (sides not multiples of each other): the distance is exactly ``lift`` edges; the gate
+    measures it to within HAUSDORFF_STEP above and passes or fails it at one edge."""
+    from fvf.param.quad_validity import _hausdorff
+    from fvf.param.quality import HAUSDORFF_STEP
+
+    Vi, Qi = grid_quads(47)
+    mesh = fvf.TriMesh(Vi, np.concatenate([Qi[:, [0, 1, 2]], Qi[:, [0, 2, 3]]]))
+    V, Q = grid_quads(6)
+    V = V + [0.0, 0.0, lift / 6]
+    got = _hausdorff(mesh, V, Q)
+    assert lift - 1e-9 <= got <= lift + HAUSDORFF_STEP, got
+    assert check_quad_mesh(mesh, V, Q).valid == (lift < 1)
+
+
 def test_the_gate_finds_a_pinched_vertex():
     """Two grids sharing one corner: every edge is manifold, the corner is not."""
     V, Q = grid_quads(2)

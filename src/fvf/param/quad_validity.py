@@ -31,7 +31,7 @@ from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_folds import folded_quads
-from .quality import surface_samples
+from .quality import HAUSDORFF_STEP, surface_samples
 
 __all__ = [
     "QuadValidity",
@@ -235,7 +235,7 @@ def check_quad_mesh(
 def _hausdorff(mesh: TriMesh, V: np.ndarray, Q: np.ndarray) -> float:
     """Two-sided Hausdorff distance of sampled surfaces, in mean quad edge lengths."""
     edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())
-    step = 0.25 * min(mesh.mean_edge_length, edge)
+    step = HAUSDORFF_STEP * edge
     tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
     a = surface_samples(V, tris, step)
     b = surface_samples(mesh.vertices, mesh.faces, step)

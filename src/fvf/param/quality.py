@@ -115,6 +115,11 @@ def _quad_areas(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.minimum(a1, a2)
 
 
+#: Sampling step of both surfaces for Hausdorff distances, in quad edges. The distances are
+#: within about this much of the exact ones (the quad mesh's gate asks for at most one edge);
+#: a step of a quarter of the input's edges instead, on a 750k-face input to 20,000 quads,
+#: sampled 2 × 10⁷ points for 33 s and moved the distance by 0.01 edges.
+HAUSDORFF_STEP = 0.25
 #: Triangle sides sampled per :func:`segment_points` call in :func:`surface_samples`.
 SIDE_CHUNK = 500_000
 
@@ -129,6 +134,8 @@ def surface_samples(V: np.ndarray, T: np.ndarray, step: float) -> np.ndarray:
     """
     P = V[T]  # (k, 3, 3)
     a, b = P.reshape(-1, 3), np.roll(P, -1, axis=1).reshape(-1, 3)
+    longer = np.linalg.norm(b - a, axis=1) > step  # a shorter side's only point is a vertex
+    a, b = a[longer], b[longer]
     out = [V]
     for lo in range(0, a.shape[0], SIDE_CHUNK):  # its temporaries are 5 × the points
         out.append(segment_points(a[lo : lo + SIDE_CHUNK], b[lo : lo + SIDE_CHUNK], step)[0])
@@ -207,7 +214,7 @@ def quad_quality(
     area = _quad_areas(V, Q)
     logs = np.abs(np.log(np.maximum(area, 1e-300) / area.mean()))
     diag = float(np.linalg.norm(mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)))
-    step = 0.25 * min(mesh.mean_edge_length, float(np.sqrt(area.mean())))
+    step = HAUSDORFF_STEP * float(np.sqrt(area.mean()))
     tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
     quad_pts = surface_samples(V, tris, step)
     in_pts = surface_samples(mesh.vertices, mesh.faces, step)
