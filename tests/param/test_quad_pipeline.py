@@ -163,6 +163,32 @@ def test_a_coarse_box_is_remeshed_then_quad_meshed(method):
     assert np.array_equal(made.vertex_faces, faces) or made.vertex_faces.shape == faces.shape
 
 
+def test_the_remeshed_surface_of_a_thin_walled_box_has_no_zero_area_triangles():
+    """pymeshlab's remeshing of an open box with 3.55 mm walls and two floor holes leaves
+    triangles with three vertices on one crease line; they are split away (T-junction
+    splits; again at another edge length where some lie in a row), and the surface keeps
+    its topology."""
+    mf = pytest.importorskip("manifold3d")
+    pytest.importorskip("pymeshlab")
+    from fvf.mesh.defects import zero_area_faces
+    from fvf.mesh.trimesh import DEGENERATE_AREA_RTOL
+    from fvf.param.remesh import REMESH_FRACTION, _pymeshlab_remesh
+
+    L, W, H, t = 106.48, 48.05, 31.08, 3.552
+    box = mf.Manifold.cube([L, W, H]) - mf.Manifold.cube([L - 2 * t, W - 2 * t, H]).translate(
+        [t, t, t]
+    )
+    for d, x, y in ((8.34, 72.67, 22.99), (7.01, 76.02, 9.17)):
+        box = box - mf.Manifold.cylinder(3 * H, d / 2, d / 2, 32).translate([x, y, -H])
+    m = box.to_mesh64()
+    mesh = fvf.TriMesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    h = 3.711  # pymeshlab 2025.7: 5 zero-area triangles, 3 in a row (remeshed again)
+    V, F = _pymeshlab_remesh(mesh, REMESH_FRACTION * h, 35.0)
+    assert zero_area_faces(V, F, DEGENERATE_AREA_RTOL).any()  # the case exists
+    S = remesh_for_quads(mesh, h)
+    assert S.is_closed and S.euler_characteristic == mesh.euler_characteristic
+
+
 # ---------------------------------------------------------------------------- components
 def test_every_component_is_meshed_and_a_tiny_one_is_left_out_with_a_warning(monkeypatch):
     from fvf.param import quadmesh

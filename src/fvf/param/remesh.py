@@ -13,7 +13,12 @@ Two remeshers:
 * ``"pymeshlab"`` (the optional extra ``[remesh]``; MeshLab is GPL-3.0): isotropic
   explicit remeshing (split, collapse, flip, tangential smoothing, reprojection) to the
   edge length :data:`REMESH_FRACTION` · h, keeping the edges whose dihedral angle exceeds
-  the crease angle as edges (the features) and the boundary;
+  the crease angle as edges (the features) and the boundary. Along a kept crease it can
+  leave zero-area triangles whose three vertices lie on the crease line (on thin-walled
+  CAD parts, 5–70 of them); each is removed and the triangle across its longest side split
+  at its apex (:func:`fvf.split_t_junctions`), which keeps the surface, and where some lie
+  in a row (a pocket of collinear triangles) the remeshing runs again at a slightly other
+  edge length (:data:`RETARGET`);
 * ``"subdivide"`` (NumPy only, the fallback): midpoint subdivision of every triangle into
   four until the mean edge is at most :data:`REMESH_FRACTION` · h. It keeps the surface
   and its features exactly but improves no triangle's shape.
@@ -33,7 +38,9 @@ from typing import Literal
 import numpy as np
 
 from ..errors import MeshError, QuadExtractionError
-from ..mesh.trimesh import TriMesh
+from ..mesh.defects import zero_area_faces
+from ..mesh.repair import split_t_junctions
+from ..mesh.trimesh import DEGENERATE_AREA_RTOL, TriMesh
 
 __all__ = [
     "REMESH_FRACTION",
@@ -48,6 +55,9 @@ Remesher = Literal["auto", "pymeshlab", "subdivide"]
 #: Remeshed edge length as a fraction of the quad edge length h (two triangle edges per
 #: quad edge).
 REMESH_FRACTION = 0.5
+#: Edge lengths (× the asked one) pymeshlab's remeshing is run at again while zero-area
+#: triangles are left (a random thin-walled box: 3 left at the asked length, none at 1.02×).
+RETARGET = (1.02, 0.98)
 #: The input is remeshed first when its mean edge exceeds this fraction of h (too coarse:
 #: fewer than about two triangles per quad)…
 COARSE_FRACTION = 1.0
@@ -124,7 +134,7 @@ def remesh_for_quads(
         while _mean_edge(V, F) > target and F.shape[0] < 4_000_000:
             V, F = subdivide_midpoints(V, F)
     else:
-        V, F = _pymeshlab_remesh(mesh, target, crease_angle)
+        V, F = _pymeshlab_without_flat_faces(mesh, target, crease_angle)
     try:
         return TriMesh(V, F)
     except MeshError as exc:
@@ -147,6 +157,21 @@ def subdivide_midpoints(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.nd
         [np.stack(t, axis=1) for t in ((a, mc, mb), (b, ma, mc), (c, mb, ma), (ma, mb, mc))]
     )
     return W, G.astype(np.int64)
+
+
+def _pymeshlab_without_flat_faces(
+    mesh: TriMesh, target: float, crease_angle: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """pymeshlab's remeshing with its zero-area triangles split away
+    (:func:`fvf.split_t_junctions`); where some are left (several in a row along a crease),
+    the remeshing once more at each edge length of :data:`RETARGET` × ``target``."""
+    for scale in (1.0, *RETARGET):
+        V, F = _pymeshlab_remesh(mesh, scale * target, crease_angle)
+        fixed = split_t_junctions(V, F)
+        V, F = fixed.vertices, fixed.faces
+        if not zero_area_faces(V, F, DEGENERATE_AREA_RTOL).any():
+            break
+    return V, F
 
 
 def _pymeshlab_remesh(
