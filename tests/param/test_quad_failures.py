@@ -39,12 +39,24 @@ def test_places_group_the_attempts_points_and_put_the_most_failed_first():
     ]
     places = failure_places(sphere, spots, h=0.1)
     assert [p.attempts for p in places] == [2, 1]  # a in two attempts, b in one
-    assert np.allclose(places[0].centre, np.concatenate([spots[1], spots[3]]).mean(axis=0))
-    assert np.allclose(places[1].centre, spots[0].mean(axis=0))
+    for place, pts in zip(places, (np.concatenate([spots[1], spots[3]]), spots[0]), strict=True):
+        d = np.linalg.norm(pts - pts.mean(axis=0), axis=1)
+        assert np.array_equal(place.centre, pts[d.argmin()])  # the member nearest the mean
     assert all(p.thickness == np.inf for p in places)  # 4.0 across, h = 0.1
     assert resolving_edge(places, h=0.1) is None
     assert describe_places(places, 4, 0.1, sphere.total_area).count("Where:") == 2
     assert failure_places(sphere, [np.zeros((0, 3))], h=0.1) == []
+
+
+def test_a_place_strung_around_a_rim_is_named_by_a_point_on_it_not_its_mean():
+    """Failure points every 0.15 around a circle of radius 2 are one place (linked within
+    two quad edges, h = 0.1); their mean is the circle's centre, off the surface."""
+    sphere = icosphere(3, radius=2.0)
+    t = np.arange(0.0, 2 * np.pi, 0.075)
+    ring = np.stack([2 * np.cos(t), 2 * np.sin(t), np.zeros_like(t)], axis=1)
+    (place,) = failure_places(sphere, [ring], h=0.1)
+    assert np.linalg.norm(place.centre) == pytest.approx(2.0)
+    assert any(np.array_equal(place.centre, p) for p in ring)
 
 
 def test_a_place_thinner_than_the_quads_asks_for_quads_as_long_as_it_is_thick():

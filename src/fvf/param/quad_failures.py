@@ -54,7 +54,8 @@ class Place:
     Attributes
     ----------
     centre : float64 (3,)
-        Mean of its failure points.
+        Its failure point nearest to their mean (a point of the surface: the mean of a
+        place strung along a thin wall's rim can lie in the air).
     attempts : int
         How many attempts failed there.
     thickness : float
@@ -91,7 +92,9 @@ def failure_places(mesh: TriMesh, spots: list[np.ndarray], h: float) -> list[Pla
     link = sp.coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(X),) * 2)
     n, label = connected_components(link, directed=False)
     count = np.bincount(label, minlength=n)
-    centre = np.stack([np.bincount(label, X[:, k], n) for k in range(3)], axis=1) / count[:, None]
+    mean = np.stack([np.bincount(label, X[:, k], n) for k in range(3)], axis=1) / count[:, None]
+    first = np.lexsort((np.linalg.norm(X - mean[label], axis=1), label))
+    centre = X[first[np.searchsorted(label[first], np.arange(n))]]  # nearest member
     seen = np.unique(np.stack([label, attempt], axis=1), axis=0)
     tries = np.bincount(seen[:, 0], minlength=n)
     order = np.lexsort((-count, -tries))[:MAX_PLACES]
