@@ -328,6 +328,29 @@ def test_a_backend_failure_ends_an_attempt_not_the_call(monkeypatch):
     assert "RuntimeError: Failed to resize" in made.attempts[0] and made.validity.valid
 
 
+def test_a_plan_whose_remeshing_fails_is_named_in_the_log(monkeypatch):
+    """A sized plan is resolved (its surface remeshed, its sizing measured) before it
+    runs; when that fails, the log line names that plan, not the one before it."""
+    from fvf.param import quadmesh
+
+    def resolved(part, plan, *args):
+        if plan.sized:
+            raise fvf.QuadExtractionError("planted remeshing failure")
+        return plan
+
+    def attempt(part, plan, *args):
+        raise fvf.QuadExtractionError("planted attempt failure")
+
+    monkeypatch.setattr(quadmesh, "_resolved", resolved)
+    monkeypatch.setattr(quadmesh, "_attempt", attempt)
+    with pytest.raises(fvf.QuadMeshError) as info:
+        fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    lines = info.value.attempts
+    assert any("sized by curvature" in a for a in lines)
+    for a in lines:
+        assert ("sized by curvature" in a) == ("planted remeshing" in a), a
+
+
 def test_features_are_iso_lines_first_then_hold_the_field_then_iso_lines_with_strips():
     from fvf.param import quadmesh
     from fvf.param.quad_parts import component_parts

@@ -311,6 +311,7 @@ def _mesh_part(
     tried = 0
     for planned in plans:
         tried += 1
+        plan: _Plan | None = None
         try:
             plan = _resolved(part, planned, plans, surfaces, opts)
             if plan is None:
@@ -324,7 +325,8 @@ def _mesh_part(
         except (ParameterError, UndeclaredCacheKeyError):
             raise  # the caller's option, or a bug: not a reason to try another way
         except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
-            log.append(f"{plan}: {type(exc).__name__}: {_first_line(exc)}")
+            # resolving a sized plan remeshes: if that fails, the plan as planned failed
+            log.append(f"{plan or planned}: {type(exc).__name__}: {_first_line(exc)}")
             where = getattr(exc, "where", None)
             spots.append(np.zeros((0, 3)) if where is None else np.asarray(where))
             continue
