@@ -351,7 +351,7 @@ def test_a_plan_whose_remeshing_fails_is_named_in_the_log(monkeypatch):
         assert ("sized by curvature" in a) == ("planted remeshing" in a), a
 
 
-def test_features_are_iso_lines_first_then_hold_the_field_then_iso_lines_with_strips():
+def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field():
     from fvf.param import quadmesh
     from fvf.param.quad_parts import component_parts
 
@@ -359,9 +359,9 @@ def test_features_are_iso_lines_first_then_hold_the_field_then_iso_lines_with_st
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
     iso = [p.isolines for p in plans]
     strips = [p.strips for p in plans]
-    # the first two and, with the thin strips stretched, the last two (param.strips)
-    assert iso[:2] == [True, True] and not any(iso[2:-2]) and iso[-2:] == [True, True]
-    assert strips[-2:] == [True, True] and not any(strips[:-2])
-    assert [(p.remeshed, p.h) for p in plans[:2]] == [(p.remeshed, p.h) for p in plans[2:4]]
-    assert [(p.remeshed, p.h) for p in plans[-2:]] == [(p.remeshed, p.h) for p in plans[:2]]
+    # input, then remeshed: each as iso-lines, then with thin strips stretched (param.strips)
+    assert iso[:4] == [True] * 4 and not any(iso[4:])
+    assert strips[:4] == [False, True, False, True] and not any(strips[4:])
+    assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[1:4:2]]
+    assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[4:6]]
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))

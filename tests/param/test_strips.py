@@ -124,7 +124,7 @@ def test_the_tray_rim_rounds_to_zero_width_without_the_stretch_and_to_one_with_i
 
 @pytest.mark.slow
 def test_a_thin_walled_tray_gets_one_quad_across_its_rim():
-    """``fvf.quad_mesh`` reaches the stretched attempt after the others fail: valid by
+    """``fvf.quad_mesh`` meshes it with the strips stretched: valid by
     quadcheck, at the asked count, one row of quads along the rim (no vertex inside it)."""
     V, F = tray()
     r = fvf.quad_mesh((V, F), target_faces=2000)
@@ -146,3 +146,23 @@ def test_a_thin_walled_tray_gets_one_quad_across_its_rim():
         | np.isclose(y, 70)
     )
     assert top.sum() > 100 and on_rim_line.all()
+
+
+def test_a_thin_sheet_is_meshed_at_its_second_attempt_with_one_quad_across_its_sides():
+    """A 60 × 40 × 1 box of 12 triangles at 300 quads (sides 0.25 quad edges tall): the
+    plain attempt collapses the sides, the next one (the same surface, the strips
+    stretched) is valid by quadcheck at about the count asked, each side one quad tall
+    (every quad vertex on the top or the bottom face's plane)."""
+    V = np.array([[x, y, z] for x in (0, 60.0) for y in (0, 40.0) for z in (0, 1.0)])
+    F = np.array(
+        [
+            [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+            [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
+        ]
+    )  # fmt: skip
+    r = fvf.quad_mesh((V, F), target_faces=300)
+    assert len(r.attempts) == 2 and "thin strips one quad across" in r.attempts[1]
+    assert 240 < len(r.quads) < 420
+    Vq = np.asarray(r.vertices)
+    assert quadcheck.check(V, F, Vq, np.asarray(r.quads)).valid
+    assert np.all(np.isclose(Vq[:, 2], 0.0) | np.isclose(Vq[:, 2], 1.0))

@@ -143,7 +143,10 @@ def _plans(
     skip_input = remesh is True or (why is not None and "angle" in why)  # slivers: remesh first
     first = [] if skip_input else [_Plan(False, align, h)]
     first += [_Plan(can, align, h)]
-    plans = [dataclasses.replace(p, isolines=True) for p in first] if features else []
+    plans = []
+    for p in first if features else []:  # features as iso-lines; then thin strips stretched
+        plans += [dataclasses.replace(p, isolines=True)]
+        plans += [dataclasses.replace(p, isolines=True, strips=True)]
     plans += first + [_Plan(can, other, h)]
     # quads smaller where the surface turns faster (skipped where nothing is that curved)
     plans += [dataclasses.replace(p, align="curvature", sized=True) for p in first]
@@ -152,8 +155,6 @@ def _plans(
         _Plan(can, other, h * MORE_QUADS),
         _Plan(can, "curvature", h * MORE_QUADS**2, sized=True),
     ]
-    # thin walls' rims one quad across (param.strips): last, where all else failed
-    plans += [dataclasses.replace(p, isolines=True, strips=True) for p in first] if features else []
     return list(dict.fromkeys(plans))
 
 
