@@ -33,7 +33,7 @@ VALID_XFAIL = {
     "cad_thin_tray": "QuadMeshError at 500 quads: walls 0.13 quad edges thick, the rib's "
     "quads fold (valid at 2,000)",
     "cad_flush_fins": "QuadMeshError at 500 quads: fins 0.3 quad edges thick flush with the "
-    "plate's faces (coplanar comb faces; valid at 2,000 with 2.6 times the quads)",
+    "plate's faces (coplanar comb faces; valid at 2,000)",
 }
 # Measured at TARGET_SLOW quads (slow suite).
 PROMISE_XFAIL_SLOW: dict[str, str] = {}

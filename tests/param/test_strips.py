@@ -166,3 +166,28 @@ def test_a_thin_sheet_is_meshed_at_its_second_attempt_with_one_quad_across_its_s
     Vq = np.asarray(r.vertices)
     assert quadcheck.check(V, F, Vq, np.asarray(r.quads)).valid
     assert np.all(np.isclose(Vq[:, 2], 0.0) | np.isclose(Vq[:, 2], 1.0))
+
+
+def test_a_tray_with_two_ribs_is_valid_from_a_stretched_attempt_with_its_cones_untidied():
+    """A 0.94 mm tray, 95 × 71 × 20, with ribs 10 and 18 tall (a random CSG part, seed 15
+    of benchmarks/random_parts.py), at 2,000 quads: valid by quadcheck from an attempt
+    with the strips stretched, near the count asked. With the cones tidied in that attempt
+    (pairs across a wall moved apart) every attempt failed."""
+    mf = pytest.importorskip("manifold3d")
+    t = 0.9434821622093402
+    L, W, H = 95.41946943721219, 70.79085556680288, 20.3322027337857
+    s = mf.Manifold.cube([L, W, H]) - mf.Manifold.cube([L - 2 * t, W - 2 * t, H]).translate(
+        [t, t, t]
+    )
+    for x, height in (
+        (67.49382167195532, 10.312775893916585),
+        (43.25756150579815, 18.00544100933545),
+    ):
+        s = s + mf.Manifold.cube([t, W - 2 * t, height]).translate([x, t, 0])
+    m = s.to_mesh64()
+    V = np.asarray(m.vert_properties)[:, :3].astype(np.float64)
+    F = np.asarray(m.tri_verts).astype(np.int64)
+    r = fvf.quad_mesh((V, F), target_faces=2000)
+    assert "thin strips one quad across" in r.attempts[-1]
+    assert 1600 < len(r.quads) < 2600
+    assert quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads)).valid

@@ -218,7 +218,7 @@ def _attempt(
         feature_isolines=plan.isolines,
         thin_strips=plan.strips,
         sizing=size,
-        **opts["seamless"],
+        **(_without_tidying(opts["seamless"]) if plan.strips else opts["seamless"]),
     )
     report("quad extraction", 0, 1)
     try:
@@ -243,6 +243,13 @@ def _attempt(
         param,
         surface,
     )
+
+
+def _without_tidying(options: dict) -> dict:
+    """The seamless options of a thin-strips attempt: its cones are not tidied. Across a
+    wall thinner than a quad the cones of its two faces sit one above the other, closer
+    than the tidying radius h, and moving them apart shears the wall's one row of quads."""
+    return {**options, "cone_cancel_radius": 0.0}
 
 
 def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
