@@ -436,7 +436,8 @@ def seamless_parameterization(
         With features as iso-lines: stretch the frame across strips between parallel
         features narrower than 3/4 h (a thin wall's rim), so that each is one quad
         across instead of collapsing (:mod:`fvf.param.strips`). :func:`fvf.quad_mesh`
-        tries it after its other attempts.
+        tries it on each surface after the plain iso-line attempt, with
+        ``cone_cancel_radius=0``.
     sizing : None, "curvature" or array_like float (n,)
         Quads of varying size: a conformal log scale s per vertex, quads of edge
         h e^{-s} (:mod:`fvf.param.sizing`); ``"curvature"`` for
