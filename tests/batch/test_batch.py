@@ -773,7 +773,16 @@ def test_three_sigints_end_quietly(tmp_path):
     assert (out / "summary.csv").exists()
 
 
-def test_sigint_while_the_cluster_starts_is_an_interrupt(tmp_path, monkeypatch):
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler for the test: a process started in the background by a
+    non-interactive shell inherits SIGINT ignored, and an ignored press reaches nothing."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_sigint_while_the_cluster_starts_is_an_interrupt(tmp_path, monkeypatch, python_sigint):
     """Ctrl-C while the local cluster starts: exit 130, not "could not start a local Dask
     cluster" (exit 2) when its workers die of the same Ctrl-C (a terminal sends it to the
     whole process group); a cluster that did start is closed, not left to the exit hooks."""
