@@ -120,7 +120,7 @@ def test_hausdorff_with_chunked_queries_is_unchanged(monkeypatch):
     from scipy.spatial import cKDTree
 
     expected = max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max()) / edge
-    monkeypatch.setattr(quad_validity, "QUERY_CHUNK", 777)
+    monkeypatch.setattr(quality, "QUERY_CHUNK", 777)
     assert quad_validity._hausdorff(mesh, V, Q) == expected
 
 

@@ -25,13 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_folds import folded_quads
-from .quality import HAUSDORFF_STEP, surface_samples
+from .quality import sampled_hausdorff
 
 __all__ = [
     "QuadValidity",
@@ -235,23 +234,4 @@ def check_quad_mesh(
 def _hausdorff(mesh: TriMesh, V: np.ndarray, Q: np.ndarray) -> float:
     """Two-sided Hausdorff distance of sampled surfaces, in mean quad edge lengths."""
     edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())
-    step = HAUSDORFF_STEP * edge
-    tris = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
-    a = surface_samples(V, tris, step)
-    b = surface_samples(mesh.vertices, mesh.faces, step)
-    h = max(_farthest(b, a), _farthest(a, b))  # one tree at a time
-    return float(h / edge)
-
-
-#: Query points per k-d tree call of :func:`_farthest` (its distances and indices: 16 MB).
-QUERY_CHUNK = 1_000_000
-
-
-def _farthest(x: np.ndarray, y: np.ndarray) -> float:
-    """max over y of the distance to the nearest point of x (both float64 (·, 3)), the
-    queries in chunks of :data:`QUERY_CHUNK` (at 750k input faces each side has about 10⁷
-    samples: their distances and indices at once were 0.3 GB)."""
-    tree = cKDTree(x)
-    return max(
-        float(tree.query(y[lo : lo + QUERY_CHUNK])[0].max()) for lo in range(0, len(y), QUERY_CHUNK)
-    )
+    return max(sampled_hausdorff(mesh, V, Q, edge)) / edge
