@@ -128,6 +128,15 @@ def closest_surface_points(
         gap: the closest point of the whole surface (two walls nearly equally close, as
         at a quad's centre inside a thin wall, are told apart).
     """
+    face, point, _ = _closest(mesh, points, tree, exact)
+    return face, point
+
+
+def _closest(
+    mesh: TriMesh, points: npt.ArrayLike, tree: cKDTree | None, exact: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`closest_surface_points` and, with ``exact``, per point the triangle tied with
+    the closest one whose normal turns most (:func:`_refine_closest`; else the closest)."""
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if tree is None:
         tree = cKDTree(mesh.face_centroids)
@@ -147,21 +156,8 @@ def closest_surface_points(
     j = np.argmin(d2, axis=1)
     rows = np.arange(x.shape[0])
     face, point = cand[rows, j].astype(np.int64), best[rows, j]
-    if exact:
-        _refine_closest(mesh, x, face, point, samples, owner)
-    return face, point
-
-
-def _closest_and_tied(
-    mesh: TriMesh, points: np.ndarray, tree: cKDTree
-) -> tuple[np.ndarray, np.ndarray]:
-    """The exact closest triangle of each point (:func:`closest_surface_points`) and the
-    one tied with it whose normal turns most (see :func:`_refine_closest`), int64 (k,)
-    each."""
-    face, point = closest_surface_points(mesh, points, tree)
-    samples, owner = surface_sample_tree(mesh)
-    tied = _refine_closest(mesh, np.asarray(points, np.float64), face, point, samples, owner)
-    return face, tied
+    tied = _refine_closest(mesh, x, face, point, samples, owner) if exact else face
+    return face, point, tied
 
 
 def _refine_closest(
@@ -396,7 +392,7 @@ def _fold_mask(
     centre = V[Q].mean(axis=1)
     if not exact:
         return _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree))
-    face, tied = _closest_and_tied(mesh, centre, tree)
+    face, _, tied = _closest(mesh, centre, tree, exact=True)
     mask = _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face))
     two = np.flatnonzero(tied != face)
     if two.size:
