@@ -259,8 +259,8 @@ def _ranking_faces(bad: np.ndarray, R: _Responses) -> np.ndarray:
     known = R.known(bad * 4)
     new = bad[~known]
     room = max(MOVE_ROW_FACES - int(known.sum()), 0)
-    if new.size > room:
-        new = new[np.linspace(0, new.size - 1, room).round().astype(np.int64)] if room else new[:0]
+    if new.size > room:  # (none when room is 0: linspace gives no index)
+        new = new[np.linspace(0, new.size - 1, room).round().astype(np.int64)]
     return np.sort(np.concatenate([bad[known], new]))
 
 
