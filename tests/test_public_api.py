@@ -1253,6 +1253,11 @@ SPECS: dict[str, Spec] = {
         lambda r, mesh, c: (r.shape == (mesh.n_vertices, 5) and (r >= 0).all()) or pytest.fail(),
         error=_needs_vertices(8),
     ),
+    "mirror_distance": Spec(  # the identity as σ: every vertex is its own image
+        lambda fn, mesh, c: fn(c.basis, np.arange(mesh.n_vertices)),
+        lambda r, mesh, c: np.array_equal(r, np.zeros(mesh.n_vertices)) or pytest.fail(),
+        error=_needs_vertices(8),
+    ),
     "fit_functional_map": Spec(
         lambda fn, mesh, c: fn(
             c.basis, c.basis, np.stack([c.f, c.g], 1), np.stack([c.f, c.g], 1), k=6

@@ -17,7 +17,13 @@ from .correspondence import (
     matching_descriptors,
     symmetry_map,
 )
-from .descriptors import heat_kernel_signature, hks_times, wave_kernel_signature, wks_energies
+from .descriptors import (
+    heat_kernel_signature,
+    hks_times,
+    mirror_distance,
+    wave_kernel_signature,
+    wks_energies,
+)
 from .evaluation import (
     cumulative_error_curve,
     geodesic_distances,
@@ -50,6 +56,7 @@ __all__ = [
     "map_quality",
     "heat_kernel_signature",
     "wave_kernel_signature",
+    "mirror_distance",
     "hks_times",
     "wks_energies",
     "FunctionalMapEnergy",

@@ -1,4 +1,5 @@
-"""Choosing among candidate maps: the fitted map, its mirror, a wider fit, the turned fit.
+"""Choosing among candidate maps: the fitted map, its mirror, a wider fit, the turned fit,
+the mirror fit.
 
 On a near-symmetric shape (a body, an animal) the fitted functional map can land in the
 basin of the map composed with the left-right symmetry σ of the source (limbs swapped),
@@ -17,9 +18,16 @@ So :func:`fvf.match` builds the candidates
 with C_σ the functional map of the source's orientation-reversing self-map (the fit of
 :func:`fvf.symmetry_map`, ZoomOut to ``k_score``), and, when the choice between those two
 is not decisive (:data:`DECISIVE_CONFIDENCE`), the fit at a wider size (``K_WIDE`` of
-:mod:`.correspondence`) and, for an orientation-preserving match, C_fit C_τ with C_τ the
-source's turned self-map (:func:`turned_self_map`: the body turned end for end). Each is
-refined by ZoomOut to the final size k and converted to a vertex map π, and the
+:mod:`.correspondence`), for an orientation-preserving match C_fit C_τ with C_τ the
+source's turned self-map (:func:`turned_self_map`: the body turned end for end), and the
+mirror fit: the fit with each shape's distance to its own mirror image appended to the
+descriptors (:func:`mirror_descriptors`; σ of both shapes). That distance is about 0 on
+the plane of symmetry and large on paired limbs, so the mirror fit does not send a tail
+to a leg, which the kernel signatures alone can when a tail is shaped like a lower leg;
+it is not in the first pair of candidates because it weakens the orientation term's
+share of the fit, and a decisive first choice ends the search. Each is
+refined by ZoomOut to about 100 eigenpairs (``K_CHOICE`` of :mod:`.correspondence`; only
+the chosen one goes on to the final size k) and converted to a vertex map π, and the
 functional map C_π = Φ_2ᵀ[A_V2] Π Φ_1 of that vertex map (unit-area meshes, ``k_score``
 eigenpairs) is scored by its distortion
 
@@ -69,8 +77,9 @@ import numpy as np
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .basis import SpectralBasis
+from .descriptors import mirror_distance
 from .evaluation import geodesic_distances, orientation_agreement
-from .fmap_fit import fit_functional_map, laplacian_mask
+from .fmap_fit import DescriptorOperators, fit_functional_map, laplacian_mask
 from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
 
 __all__ = [
@@ -84,7 +93,8 @@ __all__ = [
     "geodesic_distortion",
     "GeodesicProbe",
     "turned_self_map",
-    "symmetry_self_map",
+    "symmetry_vertex_map",
+    "mirror_descriptors",
     "RefinedCandidate",
     "ORIENTATION_FACTOR",
     "DISTORTION_FLOOR",
@@ -116,6 +126,18 @@ GEODESIC_SAMPLES = 50
 #: it as that many copies in every term of the fit).
 TURN_WEIGHT = 25
 
+#: Weight of each mirror-distance column (:func:`mirror_descriptors`) in the mirror fit,
+#: in copies of one column: its four columns weigh as 12 of the 50 wave kernel
+#: signatures.
+MIRROR_WEIGHT = 3.0
+
+#: Scales s of the columns exp(−(m / s)²) of :func:`mirror_descriptors`, in units of
+#: the mean mirror distance.
+MIRROR_SCALES = (0.25, 0.5, 1.0)
+
+#: Eigenpairs of the biharmonic distance in :func:`mirror_descriptors`.
+MIRROR_EIGENPAIRS = 30
+
 
 @dataclass(frozen=True)
 class MapCandidate:
@@ -125,8 +147,9 @@ class MapCandidate:
     ----------
     name : str
         ``"fit"`` (the fitted map), ``"fit∘symmetry"`` (composed with the source's
-        self-symmetry), ``"wide fit"`` (the fit at the wider size) or ``"fit∘turn"``
-        (composed with the source's turned self-map, :func:`turned_self_map`).
+        self-symmetry), ``"wide fit"`` (the fit at the wider size), ``"fit∘turn"``
+        (composed with the source's turned self-map, :func:`turned_self_map`) or
+        ``"mirror fit"`` (the fit with :func:`mirror_descriptors`).
     energy : float
         E of eq. E, the number compared (lower wins).
     distortion : float
@@ -299,6 +322,7 @@ def turned_self_map(
     k_score: int,
     step: int,
     samples: np.ndarray | None,
+    operators: DescriptorOperators | None = None,
 ) -> np.ndarray:
     """C_τ: the orientation-preserving self-map of mesh 1 that turns φ_1 to −φ_1.
 
@@ -320,6 +344,8 @@ def turned_self_map(
     k_fit, k_score, step : int
     samples : int64 (s,), optional
         Vertex samples of mesh 1 for ZoomOut (None: every vertex).
+    operators : DescriptorOperators, optional
+        The operators of ``descriptors`` at a size of at least k_fit (default: computed).
 
     Returns
     -------
@@ -329,10 +355,15 @@ def turned_self_map(
     phi = phi / np.sqrt(basis.mesh.vertex_areas @ (phi * phi))
     extra = np.sqrt(TURN_WEIGHT) * phi[:, None]  # as TURN_WEIGHT copies in every term
     d_1, d_2 = np.hstack([descriptors, extra]), np.hstack([descriptors, -extra])
-    return _self_map(basis, d_1, d_2, "preserving", weights, k_fit, k_score, step, samples)
+    pair = None
+    if operators is not None:  # only the appended column's operators are new
+        extra_ops = DescriptorOperators.of(basis.truncate(k_fit), extra)
+        pair = (operators.joined(extra_ops), operators.joined(extra_ops.scaled(-1.0)))
+    tau = _self_map(basis, d_1, d_2, "preserving", weights, k_fit, k_score, step, samples, pair)
+    return functional_map_from_p2p(tau, basis, basis, k_fit)
 
 
-def symmetry_self_map(
+def symmetry_vertex_map(
     basis: SpectralBasis,
     descriptors: np.ndarray,
     weights: dict,
@@ -341,14 +372,48 @@ def symmetry_self_map(
     k_score: int,
     step: int,
     samples: np.ndarray | None,
+    operators: DescriptorOperators | None = None,
 ) -> np.ndarray:
-    """C_σ: the orientation-reversing self-map of mesh 1 (the fit of
-    :func:`fvf.symmetry_map`), ZoomOut to ``k_score``, as a (k_fit, k_fit) functional map.
+    """σ: the orientation-reversing self-map of the mesh (the fit of
+    :func:`fvf.symmetry_map`, ZoomOut to ``k_score``), as a vertex map.
 
-    Parameters and returns as for :func:`turned_self_map`.
+    Parameters as for :func:`turned_self_map`.
+
+    Returns
+    -------
+    int64 (n,)
+        For each vertex, its mirror image.
     """
     d = descriptors
-    return _self_map(basis, d, d, "reversing", weights, k_fit, k_score, step, samples)
+    pair = None if operators is None else (operators, operators)
+    return _self_map(basis, d, d, "reversing", weights, k_fit, k_score, step, samples, pair)
+
+
+def mirror_descriptors(basis: SpectralBasis, symmetry: np.ndarray) -> np.ndarray:
+    """Descriptor columns of the distance to the mirror image, for the mirror fit.
+
+    m = :func:`fvf.spectral.descriptors.mirror_distance` divided by its area-weighted
+    mean, then the columns m and exp(−(m / s)²) for s in :data:`MIRROR_SCALES` (near 0
+    on the plane of symmetry, 1 on it), each of unit A_V norm and scaled by
+    √:data:`MIRROR_WEIGHT`.
+
+    Parameters
+    ----------
+    basis : SpectralBasis
+        Unit-area basis with at least :data:`MIRROR_EIGENPAIRS` eigenpairs.
+    symmetry : int64 (n,)
+        σ of :func:`symmetry_vertex_map`.
+
+    Returns
+    -------
+    float64 (n, 1 + len(MIRROR_SCALES))
+    """
+    a = basis.mesh.vertex_areas
+    m = mirror_distance(basis, symmetry, MIRROR_EIGENPAIRS)
+    m = m / max(float(a @ m), 1e-300)
+    D = np.stack([m] + [np.exp(-((m / s) ** 2)) for s in MIRROR_SCALES], axis=1)
+    norm = np.sqrt(a @ (D * D))
+    return np.sqrt(MIRROR_WEIGHT) * D / np.where(norm > 0, norm, 1.0)
 
 
 def _self_map(
@@ -361,14 +426,17 @@ def _self_map(
     k_score: int,
     step: int,
     samples: np.ndarray | None,
+    operators: tuple[DescriptorOperators, DescriptorOperators] | None = None,
 ) -> np.ndarray:
-    """Fit a (k_fit, k_fit) self-map from descriptors d_1 to d_2, ZoomOut to ``k_score``,
-    and return its functional map."""
-    C = fit_functional_map(basis, basis, d_1, d_2, k=k_fit, orientation=orientation, **weights)
+    """Fit a (k_fit, k_fit) self-map from descriptors d_1 to d_2 (their operators given
+    or computed), ZoomOut to ``k_score``, and return its vertex map, int64 (n,)."""
+    C = fit_functional_map(
+        basis, basis, d_1, d_2, k=k_fit, orientation=orientation, operators=operators, **weights
+    )
     k_z = max(min(k_score, basis.k), k_fit)
     pair = None if samples is None else (samples, samples)
     _, p2p = zoomout(C, basis, basis, k_z, step=step, samples=pair)
-    return functional_map_from_p2p(p2p, basis, basis, k_fit)
+    return p2p
 
 
 def descriptor_error(

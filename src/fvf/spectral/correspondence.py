@@ -19,9 +19,10 @@ The pipeline (each step public, in :mod:`.descriptors`, :mod:`.fmap_fit`, :mod:`
 5. ZoomOut to k (:func:`fvf.zoomout`) on farthest-point samples, then the vertex map
    on all vertices; with ``check_symmetry`` (default), from two starts, the fitted map
    and its composition with mesh 1's left-right symmetry, and, when those two do not
-   decide, from the fit at ``K_WIDE`` and from the fit turned end for end; the candidate
-   nearest to an isometry that carries the descriptors over, of the requested
-   orientation, is kept (:mod:`.candidates`).
+   decide, from the fit at ``K_WIDE``, from the fit turned end for end and from the fit
+   with the distances to the mirror image; the candidates are refined to ``K_CHOICE``,
+   the one nearest to an isometry that carries the descriptors over, of the requested
+   orientation, is kept (:mod:`.candidates`) and refined on to k.
 6. Carry the map back to the vertices the user passed.
 """
 
@@ -57,13 +58,14 @@ from .candidates import (
     MapCandidate,
     RefinedCandidate,
     choose_candidate,
+    mirror_descriptors,
     refine_start,
-    symmetry_self_map,
+    symmetry_vertex_map,
     turned_self_map,
 )
 from .descriptors import check_landmarks, wave_kernel_signature, wks_energies
-from .fmap_fit import fit_functional_map
-from .zoomout import farthest_point_samples, zoomout
+from .fmap_fit import DescriptorOperators, fit_functional_map
+from .zoomout import farthest_point_samples, functional_map_from_p2p, zoomout
 
 __all__ = [
     "MatchResult",
@@ -105,6 +107,14 @@ def peak_bytes(n: int, k: int) -> int:
 #: the remeshed FAUST bodies the fit at 15 lands in a whole-body flip on some pairs where
 #: the fit at 30 does not (docs/correspondence.md, *Flips on near-symmetric shapes*).
 K_WIDE = 30
+
+#: The candidates of :func:`match` are refined by ZoomOut to about this size (the first
+#: size of ZoomOut's steps from the start at or above it), scored and compared there;
+#: only the chosen one is refined on to k. ZoomOut's work grows with the square of the
+#: size, so a rejected candidate costs about a quarter of a refinement to k = 200. At
+#: 60, FAUST_r 082 ← 083 ranks a whole-body rotation first (energies 2 % apart), as it
+#: does not at 100 or 200 (docs/correspondence.md).
+K_CHOICE = 100
 
 
 @dataclass(frozen=True, eq=False)
@@ -374,7 +384,18 @@ def _correspond(
     timings["descriptors"] = time.perf_counter() - t
     report("match", 2, stages)
     t = time.perf_counter()
-    C_fit = fit_functional_map(unit_1, unit_2, d1, d2, k=k_fit, orientation=orientation, **weights)
+    ops_1 = DescriptorOperators.of(unit_1.truncate(k_fit), d1)  # shared by the small fits
+    ops_2 = ops_1 if p2 is None else DescriptorOperators.of(unit_2.truncate(k_fit), d2)
+    C_fit = fit_functional_map(
+        unit_1,
+        unit_2,
+        d1,
+        d2,
+        k=k_fit,
+        orientation=orientation,
+        operators=(ops_1, ops_2),
+        **weights,
+    )
     timings["fit"] = time.perf_counter() - t
     report("match", 3, stages)
     n_min = min(unit_1.mesh.n_vertices, unit_2.mesh.n_vertices)
@@ -394,13 +415,24 @@ def _correspond(
     if stages == 5:
         kw = {"k_fit": k_fit, "k_score": K_SCORE, "step": zoomout_step}
         own = None if sample_idx is None else sample_idx[0]
-        C_sigma = symmetry_self_map(unit_1, d1, weights, samples=own, **kw)
+        sigma_1 = symmetry_vertex_map(unit_1, d1, weights, samples=own, operators=ops_1, **kw)
+        C_sigma = functional_map_from_p2p(sigma_1, unit_1, unit_1, k_fit)
         starts = {"fit": C_fit, "fit∘symmetry": C_fit @ C_sigma}
         timings["symmetry"] = time.perf_counter() - t
         report("match", 4, stages)
         t = time.perf_counter()
         C, p2p, alternatives, confidence = _choose(
-            starts, unit_1, unit_2, (d1, d2), weights, orientation, k, zoomout_step, sample_idx
+            starts,
+            unit_1,
+            unit_2,
+            (d1, d2),
+            weights,
+            orientation,
+            k,
+            zoomout_step,
+            sample_idx,
+            sigma_1,
+            (ops_1, ops_2),
         )
     else:
         C, p2p = zoomout(
@@ -425,14 +457,18 @@ def _choose(
     k: int,
     step: int,
     samples: tuple[np.ndarray, np.ndarray] | None,
+    sigma_1: np.ndarray,
+    operators: tuple[DescriptorOperators, DescriptorOperators],
 ) -> tuple[np.ndarray, np.ndarray, tuple[MapCandidate, ...], float]:
-    """Refine the starts, choose by eq. E of :mod:`.candidates`; when that choice is not
-    decisive, refine the wider fit (``K_WIDE``) too and choose again."""
+    """Refine the starts to about :data:`K_CHOICE`, choose by eq. E of
+    :mod:`.candidates`; when that choice is not decisive, refine the further starts of
+    :func:`_further_starts` too and choose again. The chosen map is refined on to k.
+    ``sigma_1`` is mesh 1's symmetry, int64 (n_1,); ``operators`` those of the
+    descriptors on each mesh at the size of the fit."""
     sign = {"preserving": 1.0, "reversing": -1.0}.get(orientation or "", 0.0)
     probe = GeodesicProbe.on(
         unit_2.mesh, None if samples is None else samples[1][:GEODESIC_SAMPLES]
     )
-    s1 = None if samples is None else samples[0]
 
     def refine(name: str, C0: np.ndarray) -> RefinedCandidate:
         return refine_start(
@@ -440,7 +476,7 @@ def _choose(
             C0,
             unit_1,
             unit_2,
-            k_final=k,
+            k_final=choice_size(C0.shape[1], k, step),
             k_score=K_SCORE,
             step=step,
             samples=samples,
@@ -452,17 +488,80 @@ def _choose(
     chosen = choose_candidate(refined, sign)
     C_fit = next(iter(starts.values()))
     if chosen[3] < DECISIVE_CONFIDENCE and C_fit.shape[1] < K_WIDE <= k:
-        d1, d2 = descriptors
-        C_wide = fit_functional_map(
+        more = _further_starts(
+            C_fit,
+            unit_1,
+            unit_2,
+            descriptors,
+            weights,
+            orientation,
+            step,
+            samples,
+            sigma_1,
+            operators,
+        )
+        refined += [refine(n, C0) for n, C0 in more.items()]
+        chosen = choose_candidate(refined, sign)
+    C, p2p, candidates, confidence = chosen
+    if C.shape[1] < k:  # on from the size of the choice, as one ZoomOut would have gone
+        C, p2p = zoomout(C, unit_1, unit_2, k, step=step, samples=samples)
+    return C, p2p, candidates, confidence
+
+
+def choice_size(k_start: int, k: int, step: int) -> int:
+    """The size a start of size ``k_start`` is refined to before the choice:
+    :data:`K_CHOICE` rounded up to ZoomOut's sizes k_start + j ``step``, at most k, so
+    that refining the chosen map on to k passes through the sizes of one ZoomOut."""
+    j = max(0, -(-(K_CHOICE - k_start) // step))
+    return min(k, k_start + j * step)
+
+
+def _further_starts(
+    C_fit: np.ndarray,
+    unit_1: SpectralBasis,
+    unit_2: SpectralBasis,
+    descriptors: tuple[np.ndarray, np.ndarray],
+    weights: dict,
+    orientation: str | None,
+    step: int,
+    samples: tuple[np.ndarray, np.ndarray] | None,
+    sigma_1: np.ndarray,
+    operators: tuple[DescriptorOperators, DescriptorOperators],
+) -> dict[str, np.ndarray]:
+    """The starts of an undecided choice: the wide fit (``K_WIDE``), for an
+    orientation-preserving match the fit turned end for end, and the mirror fit (the
+    descriptors with both meshes' :func:`~.candidates.mirror_descriptors`)."""
+    d1, d2 = descriptors
+    ops_1, ops_2 = operators
+    k_fit = C_fit.shape[1]
+    kw = {"k_fit": k_fit, "k_score": K_SCORE, "step": step}
+    s1, s2 = (None, None) if samples is None else samples
+    starts = {
+        "wide fit": fit_functional_map(
             unit_1, unit_2, d1, d2, k=K_WIDE, orientation=orientation, **weights
         )
-        refined.append(refine("wide fit", C_wide))
-        if orientation == "preserving":  # the body turned end for end
-            kw = {"k_fit": C_fit.shape[1], "k_score": K_SCORE, "step": step}
-            C_turn = turned_self_map(unit_1, d1, weights, samples=s1, **kw)
-            refined.append(refine("fit∘turn", C_fit @ C_turn))
-        chosen = choose_candidate(refined, sign)
-    return chosen
+    }
+    if orientation == "preserving":  # the body turned end for end
+        C_turn = turned_self_map(unit_1, d1, weights, samples=s1, operators=ops_1, **kw)
+        starts["fit∘turn"] = C_fit @ C_turn
+    sigma_2 = symmetry_vertex_map(unit_2, d2, weights, samples=s2, operators=ops_2, **kw)
+    m1 = mirror_descriptors(unit_1, sigma_1)
+    m2 = mirror_descriptors(unit_2, sigma_2)
+    with_mirror = (  # only the mirror columns' operators are new
+        ops_1.joined(DescriptorOperators.of(unit_1.truncate(k_fit), m1)),
+        ops_2.joined(DescriptorOperators.of(unit_2.truncate(k_fit), m2)),
+    )
+    starts["mirror fit"] = fit_functional_map(
+        unit_1,
+        unit_2,
+        np.hstack([d1, m1]),
+        np.hstack([d2, m2]),
+        k=k_fit,
+        orientation=orientation,
+        operators=with_mirror,
+        **weights,
+    )
+    return starts
 
 
 @overload
@@ -569,11 +668,13 @@ def match(
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
         Also try the fitted map composed with mesh 1's left-right symmetry, and, when
-        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        the two do not decide, the fit at 30 eigenpairs, the fit turned end for end and
+        the fit with the distances to the mirror image, and keep the candidate of
         lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
         are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
-        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
-        ZoomOut; guards near-symmetric shapes against flips.
+        a second full ZoomOut, and, when undecided, mesh 2's symmetry, two fits and
+        three more full ZoomOuts; guards near-symmetric shapes against flips and swapped
+        limbs.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).
@@ -682,11 +783,13 @@ def match_result(
         a mesh has fewer, or None); the final map is computed on all vertices.
     check_symmetry : bool
         Also try the fitted map composed with mesh 1's left-right symmetry, and, when
-        the two do not decide, the fit at 30 eigenpairs, and keep the candidate of
+        the two do not decide, the fit at 30 eigenpairs, the fit turned end for end and
+        the fit with the distances to the mirror image, and keep the candidate of
         lowest energy (:mod:`fvf.spectral.candidates`; the choice and its confidence
         are in :class:`MatchResult`). Costs a small fit, a ZoomOut to 30 eigenpairs and
-        a second full ZoomOut, and, when undecided, a fit at 30 and a third full
-        ZoomOut; guards near-symmetric shapes against flips.
+        a second full ZoomOut, and, when undecided, mesh 2's symmetry, two fits and
+        three more full ZoomOuts; guards near-symmetric shapes against flips and swapped
+        limbs.
     progress : bool or callable, optional
         ``True``: a tqdm bar; a callable: called as ``progress("match", done, total)``
         after each step (bases, descriptors, fit, candidates, ZoomOut).

@@ -32,6 +32,7 @@ __all__ = [
     "hks_times",
     "wks_energies",
     "check_landmarks",
+    "mirror_distance",
 ]
 
 #: Eigenvalues below this fraction of the largest one count as zero (constant functions).
@@ -254,3 +255,55 @@ def wave_kernel_signature(
     w = np.exp(-((e[:, None] - np.log(lam)[None, :]) ** 2) / (2.0 * sigma**2))  # (E, r)
     w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
     return _kernel_signature(basis, w, phi, landmarks)
+
+
+def mirror_distance(basis: SpectralBasis, symmetry: npt.ArrayLike, k: int = 30) -> np.ndarray:
+    """How far each vertex lies from its own mirror image: d_B(x, σ(x)).
+
+    With σ a self-map of the mesh (its left-right symmetry, :func:`fvf.symmetry_map`),
+    d_B is the biharmonic distance of Lipman, Rustamov and Funkhouser (2010),
+
+    .. math::
+
+        d_B(x, y)^2 = \\sum_{i=1}^{k-1} \\frac{(\\varphi_i(x) - \\varphi_i(y))^2}{\\lambda_i^2},
+
+    smooth, close to the geodesic distance at large scale and cheap from the eigenpairs.
+    The result is about 0 on the plane of symmetry (spine, head, tail) and grows along
+    limbs that come in pairs (a foot is far from the other foot), so it tells a tail from
+    a leg where the kernel signatures may not. Invariant under isometries when σ is.
+
+    Parameters
+    ----------
+    basis : SpectralBasis
+        At least k eigenpairs; λ_0 ≈ 0 is skipped.
+    symmetry : array_like of int (n,)
+        σ: for each vertex, its image.
+    k : int
+        Eigenpairs used (the first min(k, basis.k)).
+
+    Returns
+    -------
+    float64 (n,) >= 0.
+
+    Raises
+    ------
+    LandmarkError
+        ``symmetry`` not of length n or holding an index outside [0, n).
+    """
+    n = basis.eigenvectors.shape[0]
+    sigma = np.asarray(symmetry)
+    if sigma.shape != (n,) or not np.issubdtype(sigma.dtype, np.integer):
+        raise LandmarkError(
+            f"symmetry must be an integer array of shape ({n},), one image per vertex; "
+            f"got {sigma.dtype} {sigma.shape}."
+        )
+    bad = np.flatnonzero((sigma < 0) | (sigma >= n))
+    if bad.size:
+        raise LandmarkError(
+            f"symmetry at vertices {format_indices(bad)} points outside [0, {n}): give "
+            "each vertex's image on the same mesh."
+        )
+    lam, phi = _nonzero_spectrum(basis, min(int(k), basis.k))
+    E = phi / lam
+    diff = E - E[sigma]
+    return np.sqrt(np.einsum("ij,ij->i", diff, diff))

@@ -53,6 +53,7 @@ from .fmaps import split_sizes
 
 __all__ = [
     "FunctionalMapEnergy",
+    "DescriptorOperators",
     "fit_functional_map",
     "descriptor_operators",
     "orientation_operators",
@@ -155,6 +156,60 @@ def orientation_operators(
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class DescriptorOperators:
+    """The reduced operators of descriptor columns on one basis, kept for several fits.
+
+    A fit at size k uses the leading k × k blocks (the entry (i, j) of either operator
+    involves φ_i and φ_j only), so the operators of the fits at 15 and at 30 eigenpairs,
+    of the self-maps and of the mirror fit of one :func:`fvf.match` are computed once.
+
+    Attributes
+    ----------
+    multiplication : float64 (p, k, k)
+        :func:`descriptor_operators`.
+    orientation : float64 (p, k, k)
+        :func:`orientation_operators`.
+    """
+
+    __repr__ = short_repr
+    _repr_html_ = html_repr
+
+    multiplication: np.ndarray
+    orientation: np.ndarray
+
+    @classmethod
+    def of(cls, basis: SpectralBasis, descriptors: npt.ArrayLike) -> DescriptorOperators:
+        """Both operators of ``descriptors`` (n, p) at the size of ``basis``."""
+        return cls(
+            descriptor_operators(basis, descriptors), orientation_operators(basis, descriptors)
+        )
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(p, k): descriptor columns and basis size."""
+        return self.multiplication.shape[0], self.multiplication.shape[1]
+
+    def sized(self, k: int) -> DescriptorOperators:
+        """The leading k × k blocks (k at most the size held)."""
+        if not 1 <= k <= self.shape[1]:
+            raise BasisSizeError(f"operators of size {self.shape[1]} cannot give size {k}")
+        return DescriptorOperators(self.multiplication[:, :k, :k], self.orientation[:, :k, :k])
+
+    def scaled(self, sign: float) -> DescriptorOperators:
+        """The operators of ``sign`` times the descriptors (both are linear in them)."""
+        return DescriptorOperators(sign * self.multiplication, sign * self.orientation)
+
+    def joined(self, other: DescriptorOperators) -> DescriptorOperators:
+        """The columns of ``self`` then those of ``other`` (sized to the smaller)."""
+        k = min(self.shape[1], other.shape[1])
+        a, b = self.sized(k), other.sized(k)
+        return DescriptorOperators(
+            np.concatenate([a.multiplication, b.multiplication]),
+            np.concatenate([a.orientation, b.orientation]),
+        )
+
+
 def laplacian_mask(
     eigenvalues_1: np.ndarray,
     eigenvalues_2: np.ndarray,
@@ -234,6 +289,7 @@ class FunctionalMapEnergy:
         w_orth: float = 0.0,
         orientation: str | None = "preserving",
         laplacian: str = "resolvent",
+        operators: tuple[DescriptorOperators, DescriptorOperators] | None = None,
     ) -> FunctionalMapEnergy:
         """Reduce descriptors and build every term (see the module docstring).
 
@@ -249,11 +305,15 @@ class FunctionalMapEnergy:
         orientation : {"preserving", "reversing", None}
             Sign s of the orientation term, or None to leave it out.
         laplacian : {"resolvent", "squared"}
+        operators : (DescriptorOperators, DescriptorOperators), optional
+            The descriptors' operators on mesh 1 and mesh 2, already computed at sizes
+            of at least k_1 and k_2 (default: computed here).
 
         Raises
         ------
         BasisSizeError
-            Descriptor arrays with different column counts.
+            Descriptor arrays with different column counts, or operators of other
+            descriptors or too small.
         ParameterError
             A negative or non-finite weight, or an unknown option.
         """
@@ -293,11 +353,20 @@ class FunctionalMapEnergy:
             w_orth=float(w_orth),
             weights=dict(weights, orientation=orientation, laplacian=laplacian),
         )
+        if operators is not None:
+            o1, o2 = _given_operators(operators, F.shape[1], k1, k2)
         if w_dcomm > 0:
-            energy.add_pair(w_dcomm, *_operator_pair(descriptor_operators, basis_1, basis_2, F, G))
+            if operators is None:
+                X, Y = _operator_pair(descriptor_operators, basis_1, basis_2, F, G)
+            else:
+                X, Y = o1.multiplication, o2.multiplication
+            energy.add_pair(w_dcomm, X, Y)
         sign = ORIENTATIONS[orientation]
         if w_orient > 0 and sign != 0:
-            P, Q = _operator_pair(orientation_operators, basis_1, basis_2, F, G)
+            if operators is None:
+                P, Q = _operator_pair(orientation_operators, basis_1, basis_2, F, G)
+            else:
+                P, Q = o1.orientation, o2.orientation
             energy.add_pair(w_orient, P, sign * Q)
         phi1_0, phi2_0 = basis_1.eigenvectors[0, 0], basis_2.eigenvectors[0, 0]
         c0 = np.zeros(k2)
@@ -435,6 +504,21 @@ class FunctionalMapEnergy:
         return np.concatenate([c0[:, None], res.x.reshape(k2, k1 - 1)], axis=1)
 
 
+def _given_operators(
+    operators: tuple[DescriptorOperators, DescriptorOperators], p: int, k1: int, k2: int
+) -> tuple[DescriptorOperators, DescriptorOperators]:
+    """The caller's operators, checked against p columns and sized to (k_1, k_2)."""
+    out = []
+    for ops, k, name in zip(operators, (k1, k2), ("mesh 1", "mesh 2"), strict=True):
+        if ops.shape[0] != p or ops.shape[1] < k:
+            raise BasisSizeError(
+                f"the operators given for {name} hold {ops.shape[0]} descriptors at size "
+                f"{ops.shape[1]}; the fit needs {p} at size {k} or more"
+            )
+        out.append(ops.sized(k))
+    return out[0], out[1]
+
+
 def _operator_pair(
     operators: Callable[[SpectralBasis, np.ndarray], np.ndarray],
     basis_1: SpectralBasis,
@@ -471,6 +555,7 @@ def fit_functional_map(
     orientation: str | None = "preserving",
     laplacian: str = "resolvent",
     solver: str = "auto",
+    operators: tuple[DescriptorOperators, DescriptorOperators] | None = None,
 ) -> np.ndarray:
     """The functional map C_12 that best preserves descriptors (see the module docstring).
 
@@ -493,6 +578,9 @@ def fit_functional_map(
     laplacian : {"resolvent", "squared"}
         Penalty of the Laplacian commutativity (:func:`laplacian_mask`).
     solver : {"auto", "direct", "lbfgs"}
+    operators : (DescriptorOperators, DescriptorOperators), optional
+        The descriptors' operators on each mesh at a size of at least k_1 and k_2, to
+        share among several fits (default: computed here).
 
     Returns
     -------
@@ -522,5 +610,6 @@ def fit_functional_map(
         w_orth=w_orth,
         orientation=orientation,
         laplacian=laplacian,
+        operators=operators,
     )
     return energy.minimize(solver)
