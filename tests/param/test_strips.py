@@ -191,3 +191,23 @@ def test_a_tray_with_two_ribs_is_valid_from_a_stretched_attempt_with_its_cones_u
     assert "thin strips one quad across" in r.attempts[-1]
     assert 1600 < len(r.quads) < 2600
     assert quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads)).valid
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    reason="the hole's top and bottom faces put their four cones each about 0.6 h from the "
+    "rim, at angles 2-6 degrees apart; the rounding puts the cones on the rim's iso-line, the "
+    "band between rim and cones collapses, and the wall's quads join a top cone to a bottom "
+    "cone across the rim (folded); docs/quads.md, Thin walls",
+    raises=fvf.QuadMeshError,
+    strict=True,
+)
+def test_a_plate_with_a_hole_two_quads_across_gets_valid_quads():
+    """A 60 × 40 × 1 plate with an 8.6 mm hole (2.1 quad edges across) at 300 quads."""
+    mf = pytest.importorskip("manifold3d")
+    hole = mf.Manifold.cylinder(3.0, 4.3, 4.3, 48).translate([20.0, 20.0, -1.0])
+    m = (mf.Manifold.cube([60.0, 40.0, 1.0]) - hole).to_mesh64()
+    V = np.asarray(m.vert_properties)[:, :3].astype(np.float64)
+    F = np.asarray(m.tri_verts).astype(np.int64)
+    r = fvf.quad_mesh((V, F), target_faces=300)
+    assert quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads)).valid
