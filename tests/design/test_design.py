@@ -116,6 +116,22 @@ def test_unconstrained_design_is_the_smoothest_unit_field():
     assert abs(connection_energy(mesh, u) - lam[0]) < 8 * np.finfo(float).eps * top
 
 
+def test_a_degenerate_smoothest_eigenspace_gives_its_most_uniform_member():
+    """The regular tetrahedron's smoothest vector fields span three complex dimensions
+    (λ = 1 three times); a basis member the solver returns can vanish on a face (one did,
+    1e-6 of the longest). design_field returns a member of the eigenspace (its energy is
+    λ_0) with no face shorter than 0.3 of the longest (the eigenbasis' best has 0.68)."""
+    X = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    tet = fvf.TriMesh(X, np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]))
+    lam, _ = smoothest_fields(tet, 3)
+    assert np.allclose(lam, lam[0], rtol=1e-10)  # the case is degenerate
+    u = design_field(tet)
+    length = np.linalg.norm(u, axis=1)
+    assert length.min() > 0.3 * length.max()
+    assert abs(l2(tet, u) - 1) < 1e-12
+    assert abs(connection_energy(tet, u) - lam[0]) < 1e-10
+
+
 # ---------------------------------------------------------------------------- soft
 def test_soft_constraints_tighten_with_weight(rng):
     """Soft error decreases monotonically with the weight, and the soft solution tends

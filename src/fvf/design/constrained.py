@@ -62,6 +62,7 @@ from .alignment import ALIGN_STRENGTH, alignment_targets
 from .connection import ConnectionKind, check_kind, connection_laplacian, smoothest_fields
 from .holonomy import smoothing_length
 from .indices import fill_vanishing_faces
+from .nfields import from_power, to_power
 
 __all__ = [
     "design_field",
@@ -536,8 +537,11 @@ def design_field(
         constrained face as the direction of the set nearest to the given one (so a hard
         constraint is returned exactly). With no constraints and no alignment: the
         smoothest field of unit L2 norm, Σ A_F |u|² = 1, the lowest eigenfield of
-        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`). Where the
-        minimiser vanishes (a cone at the centre of a face of a symmetric shape, or
+        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`); on meshes
+        of up to ``DEGENERATE_PROBE_FACES`` faces whose lowest eigenvalue is repeated,
+        the member of its eigenspace whose shortest face vector is longest (of the
+        eigenbasis and seeded combinations), not whichever basis the solver returns.
+        Where the minimiser vanishes (a cone at the centre of a face of a symmetric shape, or
         round-off where an N-field localises), the face gets the direction of a
         neighbour at length ``FILL_RTOL`` (1e-6) times the largest
         (:func:`fvf.design.indices.fill_vanishing_faces`): the cone sits on a vertex
@@ -591,17 +595,19 @@ def design_field(
         )
 
     def smoothest() -> NField:  # nothing to meet: the smoothest N-field
-        fields = smoothest_fields(
+        small = mesh.n_faces <= DEGENERATE_PROBE_FACES
+        energies, fields = smoothest_fields(
             mesh,
-            1,
+            min(DEGENERATE_PROBE, mesh.n_faces) if small else 1,
             kind,
             n=n,
             backend=backend,
             progress=progress,
             curvature_smoothing=curvature_smoothing,
             log_scale=log_scale,
-        )[1]
-        return NField(_with_directions(mesh, fields[0]), n)
+        )
+        u = _most_uniform(mesh, energies, fields, n)
+        return NField(_with_directions(mesh, u), n)
 
     if f.size == 0 and align is None:
         return smoothest()
@@ -709,6 +715,40 @@ def _given_constraints(
     if faces is None or directions is None:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=complex)
     return constraint_targets(mesh, faces, directions, normalize)
+
+
+#: On meshes of up to this many faces (dense eigenpairs) :func:`design_field` computes
+#: :data:`DEGENERATE_PROBE` smoothest fields, so that within a degenerate lowest
+#: eigenspace (a symmetric mesh: the regular tetrahedron's vector fields span three
+#: complex dimensions) it can choose a member instead of taking the solver's.
+DEGENERATE_PROBE_FACES = 600
+DEGENERATE_PROBE = 3
+#: Eigenvalues within this relative distance of the lowest belong to its eigenspace.
+DEGENERATE_RTOL = 1e-8
+#: Seeded combinations of a degenerate eigenbasis tried by :func:`_most_uniform`.
+UNIFORM_TRIALS = 32
+
+
+def _most_uniform(mesh: TriMesh, energies: np.ndarray, fields: np.ndarray, n: int) -> np.ndarray:
+    """The lowest eigenfield, or within a degenerate lowest eigenspace the member whose
+    shortest face vector is longest (relative to its longest) among the eigenbasis and
+    :data:`UNIFORM_TRIALS` seeded combinations of it: a basis the solver returns can
+    vanish on a face by chance (float64 (m, 3), one representative per face)."""
+    lam = np.asarray(energies, dtype=float)
+    same = np.abs(lam - lam[0]) <= DEGENERATE_RTOL * max(float(np.abs(lam).max()), 1.0)
+    if same.sum() < 2:
+        return fields[0]
+    Z = np.stack([to_power(mesh, fields[k], n) for k in np.flatnonzero(same)])  # (d, m)
+    rng = np.random.default_rng(0)
+    coef = rng.standard_normal((UNIFORM_TRIALS, len(Z))) + 1j * rng.standard_normal(
+        (UNIFORM_TRIALS, len(Z))
+    )
+    trials = np.concatenate([Z, coef @ Z])  # every row a member of the eigenspace
+    size = np.abs(trials)
+    score = size.min(axis=1) / np.maximum(size.max(axis=1), 1e-300)
+    best = trials[int(np.argmax(score))]
+    scale = np.sqrt(mesh.face_areas @ np.abs(best) ** 2)
+    return from_power(mesh, best / scale, n)  # unit L2 norm, as the eigenfields
 
 
 def _with_directions(mesh: TriMesh, u: np.ndarray) -> np.ndarray:
