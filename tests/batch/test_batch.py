@@ -286,6 +286,7 @@ def test_run_job_without_dask_resumes_by_content_hash(tmp_path):
     assert run_job(job(K + 1))["n"] == 42
 
 
+@pytest.mark.slow  # 6-8 s
 def test_quad_task_is_fvf_quad_with_its_figures(tmp_path):
     """The quad task makes the quads fvf.quad_mesh makes by default (not from the fields
     task's field), stores them by name and puts fvf.quad_quality's scalars in the row."""

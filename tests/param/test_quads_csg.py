@@ -138,6 +138,7 @@ def test_each_part_gets_a_valid_quad_mesh(name):
     assert 400 <= len(Q) <= 900
 
 
+@pytest.mark.slow  # 6-8 s
 def test_quads_beside_a_hole_never_share_a_corner_point():
     """At 1,500 quads the quad vertices beside the sphere's holes, put back on the open
     surface, fell on the same convex corner of a hole's boundary: every attempt had quads
