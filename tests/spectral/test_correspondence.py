@@ -456,7 +456,7 @@ def test_docstring_examples(module):
 
 
 # ---------------------------------------------------------------------------- command
-def test_cli_match_and_symmetry(tmp_path, sym_shape):
+def test_cli_match_and_symmetry(tmp_path, sym_shape, capsys):
     """`fvf match` and `fvf symmetry` on files: the mirror pair and the symmetric shape."""
     from fvf.cli.main import main
 
@@ -469,6 +469,10 @@ def test_cli_match_and_symmetry(tmp_path, sym_shape):
     assert main(["match", str(a), str(b), "-o", str(tmp_path / "map.npz"), *small]) == 0
     with np.load(tmp_path / "map.npz") as data:
         assert np.mean(data["p2p_21"] == sym) > 0.99 and data["C_12"].shape == (40, 40)
+    # the choice and how sure it is: an exactly symmetric shape against its mirror image,
+    # an exact tie that only the orientation factor breaks, 1 - 1/ρ = 0.75
+    out = capsys.readouterr().out
+    assert "chosen: fit of 3 distinct candidate maps, confidence 0.75" in out
     truth = tmp_path / "truth.txt"
     np.savetxt(truth, sym, fmt="%d")
     args = ["match", str(a), str(b), "-o", str(tmp_path / "m2.npz"), "--truth", str(truth)]

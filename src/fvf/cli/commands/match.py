@@ -130,6 +130,8 @@ def run(args: argparse.Namespace) -> int:
     save_npz(args.output, arrays)
     times = ", ".join(f"{k} {v:.1f} s" for k, v in result.timings.items())
     print(f"matched {result.p2p_21.size} vertices ({times})")
+    if result.confidence is not None:
+        print(_choice_line(result.alternatives, result.confidence))
     if args.png:
         names = (Path(args.mesh_1).name, Path(args.mesh_2).name)
         if Path(args.mesh_1).resolve() == Path(args.mesh_2).resolve():
@@ -148,3 +150,16 @@ def run(args: argparse.Namespace) -> int:
             )
             print(f"wrote {errors_png}")
     return EXIT_OK
+
+
+def _choice_line(alternatives, confidence: float) -> str:
+    """One line on the candidate map chosen and how sure the choice is."""
+    chosen = next(c.name for c in alternatives if c.chosen)
+    others = [c.name for c in alternatives if not c.chosen]
+    if not others:
+        return f"chosen: {chosen} (every candidate refined into the same map)"
+    return (
+        f"chosen: {chosen} of {len(alternatives)} distinct candidate maps, confidence "
+        f"{confidence:.2f} (1 - its energy / the runner-up's, {others[0]}; near 0: "
+        "about as good, --landmarks decide)"
+    )
