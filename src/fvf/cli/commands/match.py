@@ -25,7 +25,11 @@ from ..common import (
 from ..registry import register_command
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import numpy as np
+
+    from fvf.spectral.candidates import MapCandidate
 
 
 def _read_landmarks(path: str) -> np.ndarray:
@@ -152,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _choice_line(alternatives, confidence: float) -> str:
+def _choice_line(alternatives: Sequence[MapCandidate], confidence: float) -> str:
     """One line on the candidate map chosen and how sure the choice is."""
     chosen = next(c.name for c in alternatives if c.chosen)
     others = [c.name for c in alternatives if not c.chosen]
