@@ -80,14 +80,14 @@ def test_mirror_distance_is_the_biharmonic_distance(symmetric):
     [(np.zeros(5, np.int64), r"shape \(642,\)"), (np.full(642, 0.5), "integer array")],
 )
 def test_mirror_distance_rejects_a_map_of_another_shape(symmetric, bad, match):
-    with pytest.raises(fvf.LandmarkError, match=match):
+    with pytest.raises(fvf.FieldShapeError, match=match):
         mirror_distance(symmetric[1], bad)
 
 
 def test_mirror_distance_names_images_off_the_mesh(symmetric):
     sigma = symmetric[2].copy()
     sigma[[3, 9]] = [-1, 642]
-    with pytest.raises(fvf.LandmarkError, match=r"vertices \[3, 9\]"):
+    with pytest.raises(fvf.FieldShapeError, match=r"entries at \[3, 9\]"):
         mirror_distance(symmetric[1], sigma)
 
 

@@ -25,6 +25,7 @@ import numpy.typing as npt
 
 from ..errors import CorrespondenceError, LandmarkError, ParameterError, format_indices
 from .basis import SpectralBasis
+from .fmaps import check_p2p
 
 __all__ = [
     "heat_kernel_signature",
@@ -287,22 +288,12 @@ def mirror_distance(basis: SpectralBasis, symmetry: npt.ArrayLike, k: int = 30) 
 
     Raises
     ------
-    LandmarkError
-        ``symmetry`` not of length n or holding an index outside [0, n).
+    FieldShapeError
+        ``symmetry`` not an integer array of length n, or holding an index outside
+        [0, n) (named).
     """
     n = basis.eigenvectors.shape[0]
-    sigma = np.asarray(symmetry)
-    if sigma.shape != (n,) or not np.issubdtype(sigma.dtype, np.integer):
-        raise LandmarkError(
-            f"symmetry must be an integer array of shape ({n},), one image per vertex; "
-            f"got {sigma.dtype} {sigma.shape}."
-        )
-    bad = np.flatnonzero((sigma < 0) | (sigma >= n))
-    if bad.size:
-        raise LandmarkError(
-            f"symmetry at vertices {format_indices(bad)} points outside [0, {n}): give "
-            "each vertex's image on the same mesh."
-        )
+    sigma = check_p2p(symmetry, n, n, "symmetry")  # a vertex map from the mesh to itself
     lam, phi = _nonzero_spectrum(basis, min(int(k), basis.k))
     E = phi / lam
     diff = E - E[sigma]

@@ -28,18 +28,19 @@ def split_sizes(k: int | tuple[int, int] | None) -> tuple[int | None, int | None
     return k, k
 
 
-def check_p2p(p2p_21: npt.ArrayLike, n_1: int, n_2: int) -> np.ndarray:
-    """Validate a vertex map from mesh 2 to mesh 1: int64 (n_2,) with values in [0, n_1)."""
+def check_p2p(p2p_21: npt.ArrayLike, n_1: int, n_2: int, name: str = "p2p_21") -> np.ndarray:
+    """Validate a vertex map from mesh 2 to mesh 1: int64 (n_2,) with values in [0, n_1);
+    ``name`` is the argument's name in the error."""
     p = np.asarray(p2p_21)
     if p.shape != (n_2,) or not np.issubdtype(p.dtype, np.integer):
         raise FieldShapeError(
-            f"p2p_21 must be an integer array of shape ({n_2},) (one vertex of mesh 1 per "
+            f"{name} must be an integer array of shape ({n_2},) (one vertex of mesh 1 per "
             f"vertex of mesh 2); got {p.dtype} {p.shape}."
         )
     bad = np.flatnonzero((p < 0) | (p >= n_1))
     if bad.size:
         raise FieldShapeError(
-            f"p2p_21 entries at {format_indices(bad)} are outside [0, {n_1}) (mesh 1 has "
+            f"{name} entries at {format_indices(bad)} are outside [0, {n_1}) (mesh 1 has "
             f"{n_1} vertices)."
         )
     return p.astype(np.int64)
