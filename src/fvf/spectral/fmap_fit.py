@@ -161,8 +161,9 @@ class DescriptorOperators:
     """The reduced operators of descriptor columns on one basis, kept for several fits.
 
     A fit at size k uses the leading k × k blocks (the entry (i, j) of either operator
-    involves φ_i and φ_j only), so the operators of the fits at 15 and at 30 eigenpairs,
-    of the self-maps and of the mirror fit of one :func:`fvf.match` are computed once.
+    involves φ_i and φ_j only), so :func:`fvf.match` computes the operators of its
+    descriptors once at k_fit for the fit, the two self-maps and the mirror fit (whose
+    appended columns add their own); the wide fit, at a larger size, computes its own.
 
     Attributes
     ----------
