@@ -463,18 +463,18 @@ class FunctionalMapEnergy:
         c0 = self.first_column if self.first_column is not None else np.zeros(k2)
         if solver == "auto":
             solver = "direct" if k2 * (k1 - 1) <= DIRECT_MAX_UNKNOWNS else "lbfgs"
-        if solver == "direct" and self.w_orth:
-            return self.minimize("lbfgs", C0=self._quadratic_minimizer(c0))
         if solver == "direct":
-            return self._quadratic_minimizer(c0)
+            H, b = self.hessian()
+            C = self._quadratic_minimizer(c0, H, b)
+            return self._lbfgs(c0, C, (H, b)) if self.w_orth else C
         if solver != "lbfgs":
             raise ParameterError(f"solver must be 'auto', 'direct' or 'lbfgs'; got {solver!r}")
         return self._lbfgs(c0, C0)
 
-    def _quadratic_minimizer(self, c0: np.ndarray) -> np.ndarray:
-        """Exact minimizer of the quadratic terms (w_orth ignored), first column c0."""
+    def _quadratic_minimizer(self, c0: np.ndarray, H: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Exact minimizer of the quadratic terms (w_orth ignored), first column c0, from
+        the normal equations H, b of :meth:`hessian`."""
         k2, k1 = self.shape
-        H, b = self.hessian()
         free = (np.arange(k2 * k1) % k1) != 0  # every column but the first
         rhs = b[free] - H[np.ix_(free, ~free)] @ c0
         Hff = H[np.ix_(free, free)]
@@ -484,15 +484,41 @@ class FunctionalMapEnergy:
             x = sla.lstsq(Hff, rhs, check_finite=False)[0]
         return np.concatenate([c0[:, None], x.reshape(k2, k1 - 1)], axis=1)
 
-    def _lbfgs(self, c0: np.ndarray, C0: np.ndarray | None) -> np.ndarray:
-        """L-BFGS-B on E over every column but the first (fixed to c0), from C0."""
+    def _lbfgs(
+        self,
+        c0: np.ndarray,
+        C0: np.ndarray | None,
+        normal: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """L-BFGS-B on E over every column but the first (fixed to c0), from C0.
+
+        With the normal equations ``normal`` = (H, b) of :meth:`hessian`, the quadratic
+        terms and their gradient are ½ xᵀHx − bᵀx and Hx − b (one dense product instead
+        of the operator terms; E up to a constant, the same minimizer); only the
+        orthogonality term is evaluated from C."""
         k2, k1 = self.shape
         start = np.zeros((k2, k1)) if C0 is None else np.array(C0, dtype=float)
         start[:, 0] = c0
 
-        def fun(x):
-            C = np.concatenate([c0[:, None], x.reshape(k2, k1 - 1)], axis=1)
-            return self.value(C), self.gradient(C)[:, 1:].ravel()
+        def full(x):
+            return np.concatenate([c0[:, None], x.reshape(k2, k1 - 1)], axis=1)
+
+        if normal is None:
+
+            def fun(x):
+                C = full(x)
+                return self.value(C), self.gradient(C)[:, 1:].ravel()
+
+        else:
+            H, b = normal
+
+            def fun(x):
+                C = full(x)
+                Hx = H @ C.ravel()
+                G = C.T @ C - np.eye(k1)
+                value = 0.5 * C.ravel() @ Hx - b @ C.ravel() + 0.25 * self.w_orth * (G * G).sum()
+                grad = (Hx - b).reshape(k2, k1) + self.w_orth * C @ G
+                return float(value), grad[:, 1:].ravel()
 
         g0 = np.abs(fun(start[:, 1:].ravel())[1]).max()
         res = so.minimize(
@@ -502,7 +528,7 @@ class FunctionalMapEnergy:
             method="L-BFGS-B",
             options={"maxiter": 5000, "ftol": 1e-15, "gtol": 1e-10 * max(g0, 1e-300)},
         )
-        return np.concatenate([c0[:, None], res.x.reshape(k2, k1 - 1)], axis=1)
+        return full(res.x)
 
 
 def _given_operators(
