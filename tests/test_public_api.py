@@ -276,6 +276,12 @@ def _quad_input_error(mesh):
     return None
 
 
+def _quad_mesh_warns(mesh):
+    """24 quads on a 20-face icosahedron: its twelve cones of 60° leave corners about 48°
+    from square, a valid but distorted result (``fvf.DistortedQuadsWarning``)."""
+    return (errors.DistortedQuadsWarning,) if mesh.n_faces < 100 else ()
+
+
 def _quad_mesh_input_error(mesh):
     """Quad meshing takes every mesh: several components, boundary loops (domes close them
     for the parameterization); a component too small for quads is a typed error."""
@@ -1168,18 +1174,21 @@ SPECS: dict[str, Spec] = {
         lambda r, mesh, c: _check_quads(r, mesh),
         error=_quad_mesh_input_error,
         max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
+        warns=_quad_mesh_warns,
     ),
     "quad_quality": Spec(
         lambda fn, mesh, c: fn(mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))),
         lambda r, mesh, c: (r.closed == mesh.is_closed and r.manifold) or pytest.fail(repr(r)),
         error=_quad_mesh_input_error,
         max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
+        warns=_quad_mesh_warns,
     ),
     "folded_quads": Spec(
         lambda fn, mesh, c: fn(mesh, *fvf.quad_mesh(mesh, target_faces=max(24, mesh.n_faces // 4))),
         lambda r, mesh, c: (r.dtype == np.int64 and r.size == 0) or pytest.fail(repr(r)),
         error=_quad_mesh_input_error,
         max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
+        warns=_quad_mesh_warns,
     ),
     "symmetrize_cross_field": Spec(
         lambda fn, mesh, c: fn(mesh, c.u, np.arange(mesh.n_vertices)),
@@ -1201,6 +1210,7 @@ SPECS: dict[str, Spec] = {
         lambda r, mesh, c: isinstance(r, fvf.QuadQuality) or pytest.fail(repr(r)),
         error=_quad_mesh_input_error,
         max_faces=30_000,  # docs/quads.md: ~90 s at 86k faces
+        warns=_quad_mesh_warns,
     ),
     # -- shape correspondence (tests/spectral/test_correspondence.py has the known answers)
     "match": Spec(

@@ -81,6 +81,7 @@ __all__ = [
     "NotEnoughEigenpairsError",
     "FoldedQuadWarning",
     "QuadCountRaisedWarning",
+    "DistortedQuadsWarning",
     "format_indices",
 ]
 
@@ -470,6 +471,12 @@ class QuadCountRaisedWarning(FvfWarning):
     the size asked failed at parts of the surface narrower than a quad edge (a finger, a
     spike), and quads small enough for them succeeded; the message says where and how
     many."""
+
+
+class DistortedQuadsWarning(FvfWarning):
+    """A component of a quad mesh is valid but distorted (corner angles far from 90°, as
+    an input's long fan triangles can leave it): no later attempt gave an undistorted
+    one; the message gives the measure and what to try."""
 
 
 class FoldedQuadWarning(FvfWarning):

@@ -198,3 +198,36 @@ def test_tidy_equals_the_four_edits_with_one_factorization(monkeypatch):
     np.testing.assert_allclose(w, v, atol=1e-12)  # each call normalizes again: rounding
     assert separately >= 2 and len(factored) == 1  # the uniform matrix is not needed here
     assert fvf.singularities(mesh, w, n=4)[0].size < fvf.singularities(mesh, u, n=4)[0].size
+
+
+def test_a_cone_near_a_curve_moves_one_radius_off_it_on_its_side(disk):
+    """A +1/4 cone 0.6 r outside a ring of vertices (the curve: a feature iso-line) moves
+    to at least r from it, still outside (paths do not cross the curve), within 2 r, with
+    its index; the −1/4 one at the centre, 2.5 r away, stays; held faces keep their
+    direction."""
+    from fvf.design.cancellation import keep_singularities_off_curves
+
+    r = 0.2
+    radius = np.linalg.norm(disk.vertices[:, :2], axis=1)
+    ring = np.flatnonzero(np.abs(radius - 0.5) < 1e-9)
+    u = dipole_field(disk, np.array([0.5 + 0.6 * r, 0.0]), np.zeros(2), 0.25, -0.25)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    ids, ind = fvf.singularities(disk, u, n=4)
+    cone = ids[ind > 0][0]
+    assert 0.5 * r < radius[cone] - 0.5 < 0.7 * r
+    held = np.flatnonzero(np.abs(radius[disk.faces].mean(axis=1) - 0.5) < 0.03)
+    v = keep_singularities_off_curves(disk, u, 4, curve_vertices=ring, radius=r, held=held)
+    ids2, ind2 = fvf.singularities(disk, v, n=4)
+    assert sorted(ind2.tolist()) == [-0.25, 0.25]
+    moved = ids2[ind2 > 0][0]
+    assert radius[moved] - 0.5 >= r - 1e-9  # edge paths are longer than radial distances
+    assert np.linalg.norm(disk.vertices[moved] - disk.vertices[cone]) <= 2 * r
+    assert ids2[ind2 < 0][0] == ids[ind < 0][0]
+
+    def turn(w):
+        return np.abs(np.angle(fvf.to_power(disk, w, 4) / fvf.to_power(disk, u, 4))[held]).max() / 4
+
+    free = keep_singularities_off_curves(disk, u, 4, curve_vertices=ring, radius=r)
+    assert turn(v) < 0.02 < 0.1 < turn(free)  # measured 0.0097 and 0.126 rad
+    same = keep_singularities_off_curves(disk, u, 4, curve_vertices=ring, radius=0.5 * r)
+    np.testing.assert_array_equal(same, u)  # 0.6 r is far enough for a radius of r / 2

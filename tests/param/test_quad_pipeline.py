@@ -130,6 +130,39 @@ def test_feature_edges_are_integer_iso_lines_of_the_parameterization():
     assert np.abs(fa - fb).min(axis=1).max() > 1e-3  # not iso-lines by themselves
 
 
+@pytest.mark.parametrize("sections", [48, 32, 12])
+def test_rims_of_tessellated_holes_and_bosses_are_features(sections):
+    """A plate with a hole and a boss, tessellated as CSG tools do (48 sections: wall
+    facets 7.5° apart, 12: OpenSCAD's default for small circles, 30°): every rim edge is
+    sharp (90°) and its sides bend only about the wall's axial edges, across it, so the
+    rims are features besides the box's 12 edges; the wall facets are not."""
+    mf = pytest.importorskip("manifold3d")
+    solid = mf.Manifold.cube([60.0, 40.0, 1.0])
+    solid = solid - mf.Manifold.cylinder(3.0, 4.3, 4.3, sections).translate([20.0, 20.0, -1.0])
+    solid = solid + mf.Manifold.cylinder(6.0, 5.0, 5.0, sections).translate([45.0, 20.0, 0.5])
+    m = solid.to_mesh64()
+    mesh = fvf.TriMesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    sharp = sharp_edges(mesh)
+    E = mesh.vertices[mesh.edges[sharp]]
+    on_rim = np.isin(np.round(E[:, :, 2], 9), [0.0, 1.0, 6.5]).all(axis=1)  # horizontal
+    assert sharp.size == 12 + 4 * sections  # two rims of the hole, two of the boss
+    assert on_rim.all()
+
+
+def test_noise_makes_few_features_with_the_cross_bend_rule():
+    """On a noisy sphere the edges the cross-bend rule adds (sides bent only about axes
+    across the edge) are a small part of those the smooth-sides rule takes: noise bends
+    about every axis."""
+    from fvf.param.features import SMOOTH_SIDES, _side_roughness, dihedral_angles
+
+    S = fvf.jittered_sphere(4, 1.0, seed=0)
+    d = dihedral_angles(S)
+    smooth_sides = (d > 35.0) & (_side_roughness(S, d > 35.0, d) < SMOOTH_SIDES * 35.0)
+    both = sharp_edges(S, 35.0)
+    assert np.isin(np.flatnonzero(smooth_sides), both).all()
+    assert both.size <= 1.02 * smooth_sides.sum()  # 869 against 860 measured
+
+
 def test_user_feature_edges_must_be_edges():
     mesh = fvf.icosphere(1)
     assert feature_edge_ids(mesh, mesh.edges[[3, 1]][:, ::-1]).tolist() == [3, 1]
@@ -307,6 +340,42 @@ def test_an_invalid_attempt_is_never_returned(monkeypatch):
     with pytest.raises(fvf.QuadMeshError, match="planted") as info:
         fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
     assert len(info.value.attempts) >= 3 and info.value.best is not None
+
+
+def test_corner_distortion_of_a_grid_and_a_sheared_grid():
+    from fvf.param.quadmesh import corner_distortion
+
+    V, Q = grid_quads(5)
+    assert corner_distortion(V, Q) < 1e-12
+    sheared = V.copy()
+    sheared[:, 0] += sheared[:, 1]  # every corner 45° or 135°
+    assert corner_distortion(sheared, Q) == pytest.approx(45.0)
+
+
+def test_a_distorted_attempt_yields_to_a_later_one_or_comes_with_a_warning(monkeypatch):
+    """A valid result whose corners are far from 90° (DISTORTED_CORNERS) is set aside
+    while the next attempts run; with every result distorted, the first comes back with
+    a DistortedQuadsWarning and the log names each."""
+    from fvf.param import quadmesh
+
+    real = quadmesh.corner_distortion
+    seen = []
+
+    def first_distorted(V, Q):
+        seen.append(Q.shape[0])
+        return 60.0 if len(seen) == 1 else real(V, Q)
+
+    monkeypatch.setattr(quadmesh, "corner_distortion", first_distorted)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fvf.DistortedQuadsWarning)
+        made = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    assert "valid but distorted" in made.attempts[0] and "valid," in made.attempts[1]
+    monkeypatch.setattr(quadmesh, "corner_distortion", lambda V, Q: 60.0)
+    with pytest.warns(fvf.DistortedQuadsWarning, match="60° from 90°"):
+        made = fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    assert len(made.attempts) >= 3 and not any(": valid," in a for a in made.attempts)
+    assert "valid but distorted, 144 quads" in made.attempts[0] and len(made.quads) == 144
+    assert made.validity.valid
 
 
 def test_a_backend_failure_ends_an_attempt_not_the_call(monkeypatch):

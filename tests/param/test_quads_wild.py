@@ -48,7 +48,15 @@ CLI_XFAIL: dict[str, str] = {}
 #: cut (8-9 s each; holes and boundary loops are tested in the default suite by
 #: tests/param/test_quads_csg.py's sphere with three holes). The U channel is valid from
 #: its second attempt (0.6 s).
-SLOW = {"tiny_strip", "cad_thin_tray", "cad_flush_fins", "scan_body_holes", "scan_potato_hole"}
+SLOW = {  # 5-8 s each
+    "tiny_strip",
+    "cad_thin_tray",
+    "cad_flush_fins",
+    "cad_plate_holes",
+    "cad_two_parts",
+    "scan_body_holes",
+    "scan_potato_hole",
+}
 
 
 def _cases(xfails: dict[str, str], slow: bool = False) -> list:

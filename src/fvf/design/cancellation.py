@@ -75,12 +75,17 @@ __all__ = [
     "tidy_close_singularities",
     "close_singularity_pairs",
     "close_equal_pairs",
+    "keep_singularities_off_curves",
     "KEEP_WEIGHT",
+    "HOLD_WEIGHT",
     "SEPARATION",
 ]
 
 #: Weight μ of keeping the original angles, relative to the smoothness term.
 KEEP_WEIGHT = 1e-3
+#: Weight of keeping the angle on the faces :func:`keep_singularities_off_curves` holds
+#: (those whose direction is a constraint), relative to the smoothness term.
+HOLD_WEIGHT = 1e3
 #: Distance, in units of the radius, at which :func:`separate_close_singularities` puts
 #: the moved singularity from the one it stays away from.
 SEPARATION = 1.25
@@ -154,9 +159,12 @@ def _greedy_close_pairs(
     return pairs
 
 
-def _edge_graph(mesh: TriMesh) -> sp.csr_array:
-    """The vertex graph weighted by edge length, sparse (n, n) (upper triangle)."""
+def _edge_graph(mesh: TriMesh, keep: np.ndarray | None = None) -> sp.csr_array:
+    """The vertex graph weighted by edge length, sparse (n, n) (upper triangle); only the
+    edges ``keep`` (bool (E,)) when given."""
     E, X = mesh.edges, mesh.vertices
+    if keep is not None:
+        E = E[keep]
     n = mesh.n_vertices
     w = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
     return sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
@@ -216,7 +224,12 @@ class _Reangler:
     Σ w_e (δ_e + Δψ_s − Δψ_t)² + μ Σ A_t Δψ_t² / r² for any turnings δ."""
 
     def __init__(
-        self, mesh: TriMesh, radius: float, backend: Backend, uniform: bool = False
+        self,
+        mesh: TriMesh,
+        radius: float,
+        backend: Backend,
+        uniform: bool = False,
+        held: np.ndarray | None = None,
     ) -> None:
         _, _, w = connection_pairs(mesh, "knoppel")
         if uniform:  # the dual graph's own Laplacian (see _edit)
@@ -233,6 +246,8 @@ class _Reangler:
         )
         self.w = w
         mu = KEEP_WEIGHT * mesh.face_areas / radius**2
+        if held is not None:  # faces whose direction is a constraint: kept
+            mu[held] *= HOLD_WEIGHT / KEEP_WEIGHT
         H = (self.D.T @ sp.diags_array(w) @ self.D + sp.diags_array(mu)).tocsr()
         self.fac = factor_hermitian(H, backend, solves="few")
 
@@ -245,13 +260,16 @@ class _Reanglers:
     factored when first used; shared by consecutive edits of the same field
     (:func:`tidy_close_singularities`), so that the dual-graph matrix is factored once."""
 
-    def __init__(self, mesh: TriMesh, radius: float, backend: Backend) -> None:
+    def __init__(
+        self, mesh: TriMesh, radius: float, backend: Backend, held: np.ndarray | None = None
+    ) -> None:
         self._args = (mesh, radius, backend)
+        self._held = held
         self._built: dict[bool, _Reangler] = {}
 
     def __call__(self, uniform: bool = False) -> _Reangler:
         if uniform not in self._built:
-            self._built[uniform] = _Reangler(*self._args, uniform=uniform)
+            self._built[uniform] = _Reangler(*self._args, uniform=uniform, held=self._held)
         return self._built[uniform]
 
 
@@ -273,7 +291,7 @@ def _checked(
         raise ParameterError(f"rounds must be an integer >= 0; got {rounds!r}")
     u = as_face_field(mesh, u, "u")
     check_nonzero(mesh, u, "its singularities")
-    rot = None if rotations is None else as_connection_rotations(mesh, rotations)
+    rot = _rotations(mesh, rotations)
     return n, radius, u / np.linalg.norm(u, axis=1, keepdims=True), rot
 
 
@@ -577,13 +595,10 @@ def split_large_singularities(
     float64 (m, 3), checked by the caller; returns the edited field, float64 (m, 3).
     """
     reanglers = _Reanglers(mesh, radius, backend)
-    rot = (
-        None
-        if connection_rotations is None
-        else as_connection_rotations(mesh, connection_rotations)
-    )
     rules = _splitting(mesh, radius, max_step)
-    return _edit(mesh, u, n, radius, rounds, reanglers, *rules, rot)
+    return _edit(
+        mesh, u, n, radius, rounds, reanglers, *rules, _rotations(mesh, connection_rotations)
+    )
 
 
 def _splitting(mesh: TriMesh, radius: float, max_step: int) -> tuple[Callable, Callable]:
@@ -673,3 +688,107 @@ def tidy_close_singularities(
         partial(_cancelling, mesh),  # pairs the moves brought close
         lambda r: _splitting(mesh, r, max_step),  # index beyond max_step / N
     )
+
+
+def keep_singularities_off_curves(
+    mesh: TriMesh,
+    u: np.ndarray,
+    n: int,
+    *,
+    curve_vertices: np.ndarray,
+    radius: float,
+    held: np.ndarray | None = None,
+    rounds: int = 2,
+    backend: Backend = "auto",
+    connection_rotations: npt.ArrayLike | None = None,
+) -> np.ndarray:
+    """The N-field with its singularities near curves (not on them) moved to ``radius``.
+
+    A singular vertex at distance 0 < d < r (shortest edge paths) from ``curve_vertices``
+    (the vertices of sharp features that become integer iso-lines of a parameterization)
+    moves to the vertex nearest to it, along edges that touch no curve vertex (so it stays
+    on its side of the curves), among those at least r from the curves and
+    :data:`SEPARATION` · r from every other singularity, within 2 r; by the index move of
+    the module docstring and the re-solve of step 3 with the ``held`` faces kept. A cone
+    at 0.6 r from an iso-line would otherwise round onto it (the quads between collapse)
+    or one unit away (they double), whichever the greedy rounding meets first. An edit is
+    kept when the indices are the same and fewer singularities are near the curves.
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    u : float64 (m, 3)
+        Unit representatives, one per face (checked by the caller).
+    n : int
+    curve_vertices : int64 (c,)
+    radius : float
+        The distance r (for a quad mesh, the edge length h).
+    held : int64 (k,), optional
+        Faces whose direction is a constraint (kept by weight :data:`HOLD_WEIGHT`).
+    rounds : int
+    backend : {"auto", "cholmod", "cvxopt", "cholespy", "scipy"}
+    connection_rotations : float (E,), optional
+        As in :func:`cancel_close_singularities`.
+
+    Returns
+    -------
+    float64 (m, 3)
+        The edited field (u itself when no singularity is near a curve, or no move helps).
+    """
+    curve = np.unique(np.asarray(curve_vertices, dtype=np.int64))
+    if curve.size == 0 or radius <= 0:
+        return u
+    reanglers = _Reanglers(mesh, radius, backend, held=held)
+    rules = _off_curves(mesh, curve, radius)
+    return _edit(
+        mesh, u, n, radius, rounds, reanglers, *rules, _rotations(mesh, connection_rotations)
+    )
+
+
+def _rotations(mesh: TriMesh, connection_rotations: npt.ArrayLike | None) -> np.ndarray | None:
+    """The checked ``connection_rotations`` float64 (E,), or None."""
+    if connection_rotations is None:
+        return None
+    return as_connection_rotations(mesh, connection_rotations)
+
+
+def _off_curves(mesh: TriMesh, curve: np.ndarray, radius: float) -> tuple[Callable, Callable]:
+    """``moves_for`` and ``better`` of :func:`keep_singularities_off_curves`."""
+    G = _edge_graph(mesh)
+    to_curve = dijkstra(G, directed=False, indices=curve, min_only=True, limit=2.0 * radius)
+    on_curve = np.zeros(mesh.n_vertices, dtype=bool)
+    on_curve[curve] = True
+    E = mesh.edges
+    inside = ~on_curve[E].any(axis=1)  # paths that stay on their side of the curves
+    Gs = _edge_graph(mesh, inside)
+
+    def near(ids: np.ndarray) -> np.ndarray:
+        return ids[(to_curve[ids] > 0) & (to_curve[ids] < radius)]
+
+    def moves_for(ids, steps):
+        movers = near(ids)
+        if movers.size == 0:
+            return []
+        step_of = dict(zip(ids.tolist(), steps.tolist(), strict=True))
+        far = SEPARATION * radius
+        others = np.setdiff1d(ids, movers)
+        ok = to_curve >= radius
+        if others.size:
+            ok &= dijkstra(G, directed=False, indices=others, min_only=True, limit=far) >= far
+        D = dijkstra(Gs, directed=False, indices=movers, limit=2.0 * radius)
+        moves = []
+        X = mesh.vertices
+        for k, a in enumerate(movers.tolist()):  # a few singularities
+            da = np.where(ok, D[k], np.inf)
+            c = int(np.argmin(da))
+            if np.isfinite(da[c]):
+                moves.append((a, c, int(np.sign(step_of[a]))))
+                ok &= np.linalg.norm(X - X[c], axis=1) >= far
+        return moves
+
+    def better(before: tuple, after: tuple) -> bool:
+        return np.array_equal(np.sort(after[1]), np.sort(before[1])) and (
+            near(after[0]).size < near(before[0]).size
+        )
+
+    return moves_for, better

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import (
+    DistortedQuadsWarning,
     ParameterError,
     ProblemSizeError,
     QuadCountRaisedWarning,
@@ -83,6 +84,11 @@ SIZED_WARN = 1.5
 DOME_AREA_LIMIT = 4.0
 #: Ring spacing of the domes that close open components, in quad edges.
 CAP_SPACING = 0.5
+#: A valid attempt whose corner angles are this far from 90° (degrees) at the 95th
+#: percentile is distorted: the next attempts are tried, and it is returned only when none
+#: of them is valid and undistorted (valid results measure 3–20°; an exporter's fan
+#: triangles around a hole with its rims as iso-lines gave 60°).
+DISTORTED_CORNERS = 45.0
 #: Each retry with more quads shrinks h by this factor (1.5× the quads).
 MORE_QUADS = 1.0 / np.sqrt(1.5)
 #: At most this many quads per input triangle (area / h² over the face count): finer quads
@@ -316,6 +322,7 @@ def _mesh_part(
     surfaces: dict = {}
     want = topology_signature(part.mesh.n_vertices, part.mesh.faces)
     best = None
+    distorted: tuple | None = None  # the first valid but distorted result
     tried = 0
     for planned in plans:
         tried += 1
@@ -340,11 +347,20 @@ def _mesh_part(
             continue
         verdict = check_quad_mesh(part.mesh, V, Q, signature=want)
         if verdict.valid:
-            log.append(f"{plan}: valid, {Q.shape[0]} quads")
-            return V, Q, vf, param, surface, verdict, log
+            corners = corner_distortion(V, Q)
+            if corners <= DISTORTED_CORNERS:
+                log.append(f"{plan}: valid, {Q.shape[0]} quads")
+                return V, Q, vf, param, surface, verdict, log
+            log.append(f"{plan}: valid but distorted, {Q.shape[0]} quads, {corners:.0f}°")
+            distorted = distorted or (V, Q, vf, param, surface, verdict, log, corners)
+            continue
         log.append(f"{plan}: {Q.shape[0]} quads, invalid: {verdict}")
         spots.append(V[Q[verdict.folded]].mean(axis=1))
         best = best or (V, Q)
+    if distorted is not None:
+        *made, corners = distorted
+        _warn_distorted(part, corners)
+        return tuple(made)
     places = failure_places(part.mesh, spots, plans[0].h)
     raise QuadMeshError(
         f"no valid quad mesh of component {part.label} ({part.mesh.n_faces} triangles) after "
@@ -481,6 +497,9 @@ def quad_mesh(
     SmallComponentWarning
         Components smaller than :data:`MIN_COMPONENT_QUADS` quads that could not be meshed
         were left out (named in the message and in ``dropped_components``).
+    DistortedQuadsWarning
+        A component's only valid result has corners more than :data:`DISTORTED_CORNERS`
+        degrees from square at the 95th percentile (every other attempt failed).
     """
     steps = _check_options(fold_repair_steps, remesh)
     if features is None:  # (user features name the input's vertices: no weld then)
@@ -647,6 +666,27 @@ def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
             ),
             stacklevel=user_stacklevel(),
         )
+
+
+def corner_distortion(V: np.ndarray, Q: np.ndarray) -> float:
+    """The 95th percentile of |corner angle − 90°| over the quads' corners, degrees:
+    V float64 (n, 3), Q int64 (q, 4)."""
+    a = V[np.roll(Q, -1, axis=1)] - V[Q]
+    b = V[np.roll(Q, 1, axis=1)] - V[Q]
+    cos = np.einsum("qkd,qkd->qk", a, b)
+    sin = np.linalg.norm(np.cross(a, b), axis=2)
+    return float(np.percentile(np.abs(np.degrees(np.arctan2(sin, cos)) - 90.0), 95))
+
+
+def _warn_distorted(part: Part, corners: float) -> None:
+    warnings.warn(
+        f"component {part.label}: the quads are valid but distorted (corner angles "
+        f"{corners:.0f}° from 90° at the 95th percentile; no other attempt was valid). "
+        "Try another target_faces, or remesh=True so that the input's long triangles "
+        "do not shape the quads",
+        DistortedQuadsWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_raised(part: Part, exc: QuadMeshError, h: float, edge: float) -> None:

@@ -34,7 +34,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..calculus import hat_gradients, vertex_to_face
-from ..design.cancellation import tidy_close_singularities
+from ..design.cancellation import keep_singularities_off_curves, tidy_close_singularities
 from ..design.holonomy import as_log_scale
 from ..errors import (
     FlippedParameterizationWarning,
@@ -469,11 +469,14 @@ def seamless_parameterization(
         u = tidy_close_singularities(
             mesh, u, 4, radius=r, max_step=2, backend=backend, connection_rotations=rot
         )
+    iso = features is not None and feature_isolines
+    if iso and field is None:
+        clock("moving cones off the feature iso-lines")
+        u = _cones_off_features(mesh, u, np.asarray(features, np.int64), h, rot, backend)
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u, rot)
     _check_cones(mesh, cm)
     clock(f"transitions across the cut ({int(cm.cut.sum())} edges, {cm.singular.size} cones)")
-    iso = features is not None and feature_isolines
     fs = _fit_system(mesh, cm, np.asarray(features, np.int64) if iso else None)
     clock(f"Poisson fit ({fs.K.shape[1]} unknowns, {fs.integer.size} integers)")
     solver = MixedIntegerSolver((fs.K.T @ fs.K).tocsr(), fs.integer, backend)
@@ -534,6 +537,30 @@ def seamless_parameterization(
         residual_real=res_real,
         residual=res,
         info=info,
+    )
+
+
+def _cones_off_features(
+    mesh: TriMesh,
+    u: np.ndarray,
+    features: np.ndarray,
+    h: float,
+    rot: np.ndarray | None,
+    backend: Backend,
+) -> np.ndarray:
+    """The field with its cones closer than h to a feature iso-line (not on one) moved h
+    away from it, the faces the features hold kept
+    (:func:`fvf.design.cancellation.keep_singularities_off_curves`)."""
+    held, _ = feature_constraints(mesh, features)
+    return keep_singularities_off_curves(
+        mesh,
+        u,
+        4,
+        curve_vertices=np.unique(mesh.edges[features]),
+        radius=h,
+        held=held,
+        backend=backend,
+        connection_rotations=rot,
     )
 
 
