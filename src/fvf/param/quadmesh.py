@@ -498,8 +498,8 @@ def quad_mesh(
         Components smaller than :data:`MIN_COMPONENT_QUADS` quads that could not be meshed
         were left out (named in the message and in ``dropped_components``).
     DistortedQuadsWarning
-        A component's only valid result has corners more than :data:`DISTORTED_CORNERS`
-        degrees from square at the 95th percentile (every other attempt failed).
+        A component's valid results all have corners more than :data:`DISTORTED_CORNERS`
+        degrees from square at the 95th percentile (the first is returned).
     """
     steps = _check_options(fold_repair_steps, remesh)
     if features is None:  # (user features name the input's vertices: no weld then)
@@ -681,9 +681,10 @@ def corner_distortion(V: np.ndarray, Q: np.ndarray) -> float:
 def _warn_distorted(part: Part, corners: float) -> None:
     warnings.warn(
         f"component {part.label}: the quads are valid but distorted (corner angles "
-        f"{corners:.0f}° from 90° at the 95th percentile; no other attempt was valid). "
-        "Try another target_faces, or remesh=True so that the input's long triangles "
-        "do not shape the quads",
+        f"{corners:.0f}° from 90° at the 95th percentile; no attempt gave undistorted "
+        "ones). Try more quads (a coarse input's cones crowd few quads), or remeshing "
+        "first (remesh=True, fvf quad --remesh always) so that the input's long "
+        "triangles do not shape them",
         DistortedQuadsWarning,
         stacklevel=user_stacklevel(),
     )
