@@ -244,3 +244,21 @@ def test_a_quad_centred_inside_a_thin_wall_is_folded_against_either_wall():
     P = np.array([[0, 6, 10], [0, 4, 10], [1, 4, 8], [1, 6, 8]], dtype=float)
     for quad in ([0, 1, 2, 3], [3, 2, 1, 0]):
         assert fvf.folded_quads(slab, P, np.array([quad])).tolist() == [0]
+
+
+@pytest.mark.parametrize(("sub", "amp", "seed"), [(3, 0.9, 0), (3, 1.2, 1), (4, 1.5, 2)])
+def test_the_verdict_is_at_least_as_strict_as_the_independent_check(sub, amp, seed):
+    """Quads of a smooth sphere judged against a crumpled one (231–1538 of its triangles
+    folded over against their neighbours): every quad the independent checker finds
+    folded (against the normal of the triangle closest to the quad's centre) is folded
+    by ``folded_quads`` too. With the crumpled triangle's smoothed normal in the verdict
+    it missed 1, 17 and 14 of them (an OpenSCAD knob at 2,000 quads was returned with one
+    quad over a 0.2 mm ledge that the checker called folded)."""
+    import quadcheck
+
+    crumpled = fvf.jittered_sphere(sub, amp, seed=seed)
+    made = fvf.quad_mesh(fvf.icosphere(3), target_faces=300)
+    V, Q = np.asarray(made.vertices), np.asarray(made.quads)
+    judged = quadcheck.check(crumpled.vertices, crumpled.faces, V, Q).folded
+    assert judged.size > 0  # measured 1, 18, 18
+    assert np.setdiff1d(judged, folded_quads(crumpled, V, Q)).size == 0

@@ -30,16 +30,20 @@ far wall of a part thinner than a quad.) The quad is **folded** when :math:`n_q 
 \le 0` — it faces away from the surface at its own scale — or when neither of its diagonal
 splits has both halves facing the surface (:math:`n_{012}` and :math:`n_{023}`, or
 :math:`n_{123}` and :math:`n_{130}`, each with a positive dot product with :math:`N_q` and
-with the normal of the input triangle closest to :math:`c_q` — or, where that triangle is
-folded over against both the sum of its vertices' normals and the triangles across its
-edges, that sum): a bow tie, or a quad bent over a ridge so far that it cannot be drawn as
-two triangles on the surface. (A single input triangle is not a reference: crumpled inputs
-such as the TOSCA lion have triangles folded over against their neighbours — 137 of its
-10k face away from the mean normal of their two rings — and there a quad whose four
-half-triangles all agree with the surface around it, dot products 0.21–0.99, faces away
-from its nearest triangle. The normals of the triangles holding the corners vary at the
-scale of the input triangles: on armadillo at 7724 quads 37 quads have a corner whose
-triangle faces away from :math:`n_q`.)
+with the normal of the input triangle closest to :math:`c_q`): a bow tie, or a quad bent
+over a ridge so far that it cannot be drawn as two triangles on the surface. The verdict
+(:func:`folded_quads`, the validity gate) takes that triangle's own normal, so that it is
+at least as strict as a judge that does (``tests/param/quadcheck.py``); the repair's steps
+take, where that triangle is folded over against both the sum of its vertices' normals
+and the triangles across its edges, that sum. (A single input triangle is a harsh
+reference: crumpled inputs such as the TOSCA lion have triangles folded over against
+their neighbours — 137 of its 10k face away from the mean normal of their two rings — and
+there a quad whose four half-triangles all agree with the surface around it, dot products
+0.21–0.99, faces away from its nearest triangle; such a quad fails the verdict, and the
+attempt with it. A knurled knob's 0.2 mm ledge under a 1.3 mm quad is the same case on a
+CAD part. The normals of the triangles holding the corners vary at the scale of the input
+triangles: on armadillo at 7724 quads 37 quads have a corner whose triangle faces away
+from :math:`n_q`.)
 
 **Repair** (:func:`untangle_quads`). Only the corners of folded quads move (the region
 grows by one ring of quads when that is not enough): each step moves a free vertex a
@@ -362,15 +366,19 @@ def _folded_over(mesh: TriMesh, face: np.ndarray, smooth: np.ndarray) -> np.ndar
 
 
 def _surface_at(
-    mesh: TriMesh, points: np.ndarray, tree: cKDTree, face: np.ndarray | None = None
+    mesh: TriMesh,
+    points: np.ndarray,
+    tree: cKDTree,
+    face: np.ndarray | None = None,
+    own: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Two normals of the surface at each point, from the closest input triangle (or the
     given ``face`` (k,)), unit (k, 3) each:
 
     - the side: its vertices' summed normals (:func:`centre_normals`), or its own normal
       where the two disagree and it is not folded over (:func:`_folded_over`);
-    - the reference: its own normal, or its vertices' summed normals where it is folded
-      over (a crumpled scan).
+    - the reference: its own normal, or (unless ``own``) its vertices' summed normals
+      where it is folded over (a crumpled scan).
     """
     if face is None:
         face, _ = closest_surface_points(mesh, points, tree)
@@ -379,7 +387,7 @@ def _surface_at(
     folded = _folded_over(mesh, face, smooth)
     disagree = np.einsum("kd,kd->k", raw, smooth) <= 0
     side = np.where((disagree & ~folded)[:, None], raw, smooth)
-    return side, np.where(folded[:, None], smooth, raw)
+    return side, raw if own else np.where(folded[:, None], smooth, raw)
 
 
 def _fold_mask(
@@ -387,16 +395,18 @@ def _fold_mask(
 ) -> np.ndarray:
     """bool (len(Q),): n_q · N_q ≤ 0, or no diagonal split whose halves both face N_q and
     the surface at the centre (module docstring); ``exact``: the surface at the centre's
-    exact closest point, and folded when folded against either of two tied closest
-    triangles (the verdict), else among nearby triangles (the repair's steps)."""
+    exact closest point, its own normal even where it is folded over, and folded when
+    folded against either of two tied closest triangles (the verdict: at least as strict
+    as a judge that takes the closest triangle's normal), else among nearby triangles
+    (the repair's steps)."""
     centre = V[Q].mean(axis=1)
     if not exact:
         return _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree))
     face, _, tied = _closest(mesh, centre, tree, exact=True)
-    mask = _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face))
+    mask = _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face, own=True))
     two = np.flatnonzero(tied != face)
     if two.size:
-        at = _surface_at(mesh, centre[two], tree, tied[two])
+        at = _surface_at(mesh, centre[two], tree, tied[two], own=True)
         mask[two] |= _folded_against(mesh, V, Q[two], tree, at)
     return mask
 
