@@ -48,14 +48,17 @@ CLI_XFAIL: dict[str, str] = {}
 #: cut (8-9 s each; holes and boundary loops are tested in the default suite by
 #: tests/param/test_quads_csg.py's sphere with three holes). The U channel is valid from
 #: its second attempt (0.6 s).
-SLOW = {  # 5-8 s each
+SLOW = {  # 4-8 s each
     "tiny_strip",
     "cad_thin_tray",
     "cad_flush_fins",
     "cad_plate_holes",
     "cad_two_parts",
+    "cad_sliver_cylinder",
     "scan_body_holes",
     "scan_potato_hole",
+    "scan_multipart",
+    "scan_torus",
 }
 
 
