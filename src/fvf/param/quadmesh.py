@@ -57,7 +57,7 @@ from .quad_folds import (
 from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
-from .quality import quad_boundary_vertices
+from .quality import corner_distortion, quad_boundary_vertices
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 from .sizing import curvature_log_scale
@@ -666,16 +666,6 @@ def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
             ),
             stacklevel=user_stacklevel(),
         )
-
-
-def corner_distortion(V: np.ndarray, Q: np.ndarray) -> float:
-    """The 95th percentile of |corner angle − 90°| over the quads' corners, degrees:
-    V float64 (n, 3), Q int64 (q, 4)."""
-    a = V[np.roll(Q, -1, axis=1)] - V[Q]
-    b = V[np.roll(Q, 1, axis=1)] - V[Q]
-    cos = np.einsum("qkd,qkd->qk", a, b)
-    sin = np.linalg.norm(np.cross(a, b), axis=2)
-    return float(np.percentile(np.abs(np.degrees(np.arctan2(sin, cos)) - 90.0), 95))
 
 
 def _warn_distorted(part: Part, corners: float) -> None:

@@ -102,6 +102,12 @@ def _corner_angles(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(sin, cos))
 
 
+def corner_distortion(V: np.ndarray, Q: np.ndarray) -> float:
+    """The 95th percentile of |corner angle − 90°| over the quads' corners, degrees
+    (:attr:`QuadQuality.angle_deviation_p95`): V float64 (n, 3), Q int64 (q, 4)."""
+    return float(np.percentile(np.abs(_corner_angles(V, Q) - 90.0), 95))
+
+
 def _quad_areas(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     p0, p1, p2, p3 = (V[Q[:, i]] for i in range(4))
     a1 = 0.5 * (
