@@ -557,11 +557,18 @@ def _separation_targets(
     clear = dijkstra(G, directed=False, indices=fixed, min_only=True, limit=far) >= far
     clear[singular] = False
     D = dijkstra(G, directed=False, indices=[a for a, _ in pairs], limit=4.0 * radius)
-    out: list[int] = []
-    ok = clear  # vertices still allowed: clear, and far from the targets chosen so far
+    return _greedy_targets(mesh, D, clear, far)
+
+
+def _greedy_targets(mesh: TriMesh, D: np.ndarray, allowed: np.ndarray, far: float) -> list[int]:
+    """For each row k of the distances D (s, n) from a moving singularity: the nearest
+    ``allowed`` vertex (bool (n,)) at least ``far`` (3D) from the targets chosen for the
+    rows before it; −1 where none is reachable. O(n) per row."""
+    ok = allowed.copy()
     X = mesh.vertices
-    for k in range(len(pairs)):  # O(n) per pair
-        da = np.where(ok, D[k], np.inf)
+    out: list[int] = []
+    for row in D:  # a few singularities
+        da = np.where(ok, row, np.inf)
         c = int(np.argmin(da))
         if not np.isfinite(da[c]):
             out.append(-1)
@@ -776,15 +783,12 @@ def _off_curves(mesh: TriMesh, curve: np.ndarray, radius: float) -> tuple[Callab
         if others.size:
             ok &= dijkstra(G, directed=False, indices=others, min_only=True, limit=far) >= far
         D = dijkstra(Gs, directed=False, indices=movers, limit=2.0 * radius)
-        moves = []
-        X = mesh.vertices
-        for k, a in enumerate(movers.tolist()):  # a few singularities
-            da = np.where(ok, D[k], np.inf)
-            c = int(np.argmin(da))
-            if np.isfinite(da[c]):
-                moves.append((a, c, int(np.sign(step_of[a]))))
-                ok &= np.linalg.norm(X - X[c], axis=1) >= far
-        return moves
+        targets = _greedy_targets(mesh, D, ok, far)
+        return [
+            (a, c, int(np.sign(step_of[a])))
+            for a, c in zip(movers.tolist(), targets, strict=True)
+            if c >= 0
+        ]
 
     def better(before: tuple, after: tuple) -> bool:
         return np.array_equal(np.sort(after[1]), np.sort(before[1])) and (
