@@ -462,7 +462,8 @@ def seamless_parameterization(
     require_order(field, 4, "seamless_parameterization")
     size = _log_scale(mesh, sizing, h, align if field is None else None)
     clock("cross field" if field is None else "reading the cross field")
-    u, rot = _cross_field(mesh, field, align, h, features, size, clock.substages("cross field"))
+    held = None if features is None or field is not None else feature_constraints(mesh, features)
+    u, rot = _cross_field(mesh, field, align, h, held, size, clock.substages("cross field"))
     if cone_cancel_radius > 0:
         clock("cancelling and separating close cones")
         r = cone_cancel_radius * h
@@ -470,9 +471,10 @@ def seamless_parameterization(
             mesh, u, 4, radius=r, max_step=2, backend=backend, connection_rotations=rot
         )
     iso = features is not None and feature_isolines
-    if iso and field is None:
+    if iso and held is not None:  # the default field, held along the features
         clock("moving cones off the feature iso-lines")
-        u = _cones_off_features(mesh, u, np.asarray(features, np.int64), h, rot, backend)
+        edges = np.asarray(features, np.int64)
+        u = _cones_off_features(mesh, u, edges, held[0], h, rot, backend)
     clock("combing and cut graph")
     cm = cut_mesh(mesh, u, rot)
     _check_cones(mesh, cm)
@@ -544,14 +546,14 @@ def _cones_off_features(
     mesh: TriMesh,
     u: np.ndarray,
     features: np.ndarray,
+    held: np.ndarray,
     h: float,
     rot: np.ndarray | None,
     backend: Backend,
 ) -> np.ndarray:
     """The field with its cones closer than h to a feature iso-line (not on one) moved h
-    away from it, the faces the features hold kept
+    away from it, the faces ``held`` along the features (int64 (k,)) kept
     (:func:`fvf.design.cancellation.keep_singularities_off_curves`)."""
-    held, _ = feature_constraints(mesh, features)
     return keep_singularities_off_curves(
         mesh,
         u,
@@ -580,16 +582,16 @@ def _cross_field(
     field: npt.ArrayLike | None,
     align: Alignment,
     h: float,
-    features: npt.ArrayLike | None,
+    held: tuple[np.ndarray, np.ndarray] | None,
     log_scale: np.ndarray | None,
     progress: ProgressCallback | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The unit cross field (m, 3) the fit follows and the connection's rotations (E,) its
     cones are measured against (None: Levi-Civita): the user's field, or the default one
-    held along the feature edges, designed for the metric scaled by ``log_scale``."""
+    held to ``held`` (the faces and directions of :func:`feature_constraints`), designed
+    for the metric scaled by ``log_scale``."""
     if field is not None:
         return unit_cross_field(mesh, field), None
-    held = None if features is None else feature_constraints(mesh, features)
     u = default_cross_field(
         mesh, align, edge_length=h, constraints=held, progress=progress, log_scale=log_scale
     )
