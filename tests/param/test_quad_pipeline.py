@@ -434,3 +434,24 @@ def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field
     assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[1:4:2]]
     assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[4:6]]
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))
+
+
+def test_an_attempts_log_line_is_its_errors_first_clause_cut_at_a_word(monkeypatch):
+    """The advice after an attempt's first "; " is said once at the end of the error, not
+    per attempt; a long first clause is cut at a word with an ellipsis."""
+    from fvf.param import quadmesh
+
+    advice = "; try another target — more quads resolve small features"
+    long = "word " * 100
+
+    def attempt(part, plan, *args):
+        raise fvf.QuadExtractionError((long if plan.remeshed else "12 uv triangles") + advice)
+
+    monkeypatch.setattr(quadmesh, "_attempt", attempt)
+    with pytest.raises(fvf.QuadMeshError) as info:
+        fvf.quad_mesh(fvf.torus(24, 12), target_faces=150)
+    lines = info.value.attempts
+    assert any(a.endswith("QuadExtractionError: 12 uv triangles") for a in lines), lines
+    cut = [a for a in lines if "word" in a]
+    assert cut and all(a.endswith("word …") and len(a) < 400 for a in cut), cut
+    assert not any("try another target" in a for a in lines)

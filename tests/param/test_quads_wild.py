@@ -256,3 +256,20 @@ def test_a_ribbon_gets_one_attempt_and_the_reason():
             warnings.simplefilter("ignore", fvf.FvfWarning)
             fvf.quad_mesh((V, F), target_faces=100)
     assert len(err.value.attempts) == 1 and "9.4 times its area" in str(err.value)
+
+
+@pytest.mark.slow
+def test_a_part_without_thin_strips_gets_no_stretched_attempt(tmp_path):
+    """The two parts' iso-line attempts on the exporter's triangles fail; the stretched
+    attempt after each would be the same attempt (no strip narrower than a quad: the
+    same 16 and 100 flipped triangles), so it is skipped and the remeshed surface is
+    tried next."""
+    if not wc.available("cad_two_parts"):
+        pytest.skip("cad_two_parts needs manifold3d")
+    V, F = wc.load(wc.write_corpus(tmp_path, ["cad_two_parts"])["cad_two_parts"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = fvf.quad_mesh(fvf.TriMesh(V, F), target_faces=2000)
+    assert qc.check(V, F, r.vertices, r.quads).valid
+    assert len(r.attempts) == 4, r.attempts
+    assert not any("thin strips" in a for a in r.attempts), r.attempts

@@ -10,7 +10,14 @@ import fvf
 import quadcheck
 from fvf.param.features import CREASE_ANGLE, MIN_CHAIN, feature_coverage, sharp_edges
 from fvf.param.seamless import edge_length_for
-from fvf.param.strips import STRIP_WIDTH, feature_patches, strip_scale, strip_widths
+from fvf.param.strips import (
+    STRIP_SLACK,
+    STRIP_WIDTH,
+    feature_patches,
+    has_thin_strips,
+    strip_scale,
+    strip_widths,
+)
 
 
 def plane(xs, ys):
@@ -85,6 +92,29 @@ def test_only_strips_narrower_than_a_quad_are_stretched(strip):
     np.testing.assert_array_equal(strip_scale(w, h, one), one)
     big = np.full((mesh.n_faces, 2), 10.0)  # quads already shorter than the strip
     np.testing.assert_array_equal(strip_scale(w, 2.0, big), big)
+
+
+def test_a_strip_is_found_before_any_field_exactly_up_to_the_slack(strip):
+    """The strip 0.5 wide counts for quads up to 0.5 / (STRIP_SLACK STRIP_WIDTH) long,
+    not for longer ones; the features of one row, or none, bound no strip."""
+    mesh, feats = strip
+    edge = 0.5 / (STRIP_SLACK * STRIP_WIDTH)
+    assert has_thin_strips(mesh, feats, 1.01 * edge)
+    assert not has_thin_strips(mesh, feats, 0.99 * edge)
+    assert not has_thin_strips(mesh, edges_on(mesh, 4.0), 10.0)
+    assert not has_thin_strips(mesh, np.empty(0, np.int64), 10.0)
+
+
+def test_features_far_apart_or_across_each_other_bound_no_strip():
+    """Rows 4 apart at quads of edge 2 (a strip two quads wide), and a row crossed by a
+    column (features at right angles), are no thin strips; at edge 4 the rows are."""
+    mesh = plane(np.arange(11.0), np.arange(9.0))
+    rows = np.concatenate([edges_on(mesh, 2.0), edges_on(mesh, 6.0)])
+    assert not has_thin_strips(mesh, rows, 2.0)
+    assert has_thin_strips(mesh, rows, 4.0)
+    E = mesh.vertices[mesh.edges]
+    column = np.flatnonzero(np.all(np.abs(E[:, :, 0] - 5.0) < 1e-12, axis=1))
+    assert not has_thin_strips(mesh, np.concatenate([edges_on(mesh, 4.0), column]), 1.0)
 
 
 mf = pytest.importorskip("manifold3d")

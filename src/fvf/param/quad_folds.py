@@ -184,8 +184,9 @@ def _refine_closest(
     query = np.repeat(np.arange(x.shape[0]), [len(n) for n in near])
     if query.size == 0:
         return tied
-    pairs = np.unique(np.stack([query, owner[np.concatenate(near).astype(np.int64)]], 1), axis=0)
-    q, f = pairs[:, 0], pairs[:, 1]
+    m = np.int64(mesh.n_faces)
+    key = np.unique(query * m + owner[np.concatenate(near).astype(np.int64)])  # (query, face)
+    q, f = key // m, key % m
     best = _closest_on_triangles(mesh.vertices[mesh.faces[f]], x[q])
     d2 = np.einsum("kd,kd->k", best - x[q], best - x[q])
     order = np.lexsort((d2, q))

@@ -61,6 +61,7 @@ from .quality import corner_distortion, quad_boundary_vertices
 from .remesh import Remesher, needs_remesh, remesh_for_quads
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 from .sizing import curvature_log_scale
+from .strips import has_thin_strips
 
 __all__ = ["quad_mesh", "MIN_COMPONENT_QUADS", "MAX_QUADS_PER_FACE", "QUAD_BYTES"]
 
@@ -196,11 +197,21 @@ def _resolved(
     part: Part, plan: _Plan, plans: list[_Plan], surfaces: dict, opts: dict
 ) -> _Plan | None:
     """``plan`` as it runs: a sized plan whose sizing is trivial (:func:`_sizing`) is its
-    plan of one size, or None (skipped) when that one is in ``plans`` too."""
+    plan of one size, or None (skipped) when that one is in ``plans`` too; a thin-strips
+    plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is skipped."""
+    if plan.strips and not _has_strips(part, plan, surfaces, opts):
+        return None
     if not plan.sized or _sizing(part, plan, surfaces, opts)[1] is not None:
         return plan
     uniform = dataclasses.replace(plan, sized=False)
     return None if uniform in plans else uniform
+
+
+def _has_strips(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> bool:
+    """Whether the features of ``plan``'s surface bound a strip thin enough to stretch."""
+    surface = _surface(part, plan.h if plan.remeshed else None, surfaces, opts)
+    features = _features(part, surface, plan.h, opts)
+    return features is not None and has_thin_strips(surface, features, plan.h)
 
 
 def _attempt(
@@ -386,9 +397,15 @@ def _captured(quiet: bool) -> Iterator[list]:
         yield caught
 
 
-def _first_line(exc: BaseException) -> str:
+def _first_line(exc: BaseException, limit: int = 240) -> str:
+    """What went wrong in an attempt, for its log line: the error's first line up to its
+    first ``"; "`` (the advice after it is given once, at the end of the error), cut at a
+    word within ``limit`` characters."""
     text = str(exc).strip().splitlines()
-    return text[0][:300] if text else ""
+    first = text[0].split("; ")[0] if text else ""
+    if len(first) <= limit:
+        return first
+    return first[:limit].rsplit(" ", 1)[0] + " …"
 
 
 def _advice(opts: dict) -> str:

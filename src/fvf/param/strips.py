@@ -29,7 +29,13 @@ from scipy.spatial import cKDTree
 from ..mesh.geometry import segment_counts, segment_points
 from ..mesh.trimesh import TriMesh
 
-__all__ = ["STRIP_WIDTH", "feature_patches", "strip_widths", "strip_scale"]
+__all__ = [
+    "STRIP_WIDTH",
+    "feature_patches",
+    "strip_widths",
+    "strip_scale",
+    "has_thin_strips",
+]
 
 #: A strip narrower than this many (local) quad edges is stretched to one quad across.
 STRIP_WIDTH = 0.75
@@ -37,6 +43,9 @@ STRIP_WIDTH = 0.75
 PARALLEL_DEGREES = 20.0
 #: Feature samples per quad edge.
 SAMPLES_PER_EDGE = 8
+#: :func:`has_thin_strips` looks for strips up to this many times wider than a stretched
+#: one (the fitted frame scale shortens quads by up to about this factor).
+STRIP_SLACK = 2.0
 
 
 def feature_patches(mesh: TriMesh, features: np.ndarray) -> np.ndarray:
@@ -117,3 +126,49 @@ def strip_scale(widths: np.ndarray, h: float, scale: np.ndarray) -> np.ndarray:
     """
     thin = widths * scale < STRIP_WIDTH * h
     return np.where(thin, np.maximum(scale, h / np.where(thin, widths, 1.0)), scale)
+
+
+def has_thin_strips(mesh: TriMesh, features: np.ndarray, h: float) -> bool:
+    r"""Whether stretching thin strips (:func:`strip_scale`) can change anything, decided
+    before any cross field exists.
+
+    The field is held along the features, so beside them its axes are the nearest
+    feature's tangent $t$ and $n_f \times t$. :func:`strip_widths` with those axes is
+    asked for a strip narrower than :data:`STRIP_SLACK` · :data:`STRIP_WIDTH` · h (the
+    slack covers the frame's own scale). Without one, an attempt with thin strips would be
+    the attempt without them (:func:`fvf.quad_mesh` skips it).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    features : int (k,)
+        Feature edges, indices into ``mesh.edges``.
+    h : float
+        The quad edge length.
+
+    Returns
+    -------
+    bool
+    """
+    e = np.asarray(features, dtype=np.int64)
+    if e.size == 0:
+        return False
+    limit = STRIP_SLACK * STRIP_WIDTH * h
+    a, b = mesh.vertices[mesh.edges[e, 0]], mesh.vertices[mesh.edges[e, 1]]
+    step = h / SAMPLES_PER_EDGE
+    pts = segment_points(a, b, step, centred=True, max_count=4096)[0]
+    length = np.linalg.norm(b - a, axis=1)
+    tangent = np.repeat((b - a) / length[:, None], segment_counts(length, step, 4096), axis=0)
+    near = cKDTree(pts).query(mesh.face_centroids, distance_upper_bound=limit)[1]
+    faces = np.flatnonzero(near < pts.shape[0])
+    if faces.size == 0:
+        return False
+    n = mesh.face_normals[faces]
+    t = tangent[near[faces]]
+    t = t - np.einsum("kd,kd->k", t, n)[:, None] * n
+    norm = np.linalg.norm(t, axis=1)
+    ok = norm > 1e-12  # a feature along the face's normal gives it no axis
+    X = np.zeros((mesh.n_faces, 3))
+    X[faces[ok]] = t[ok] / norm[ok, None]
+    axes = np.stack([X, np.cross(mesh.face_normals, X)], axis=1)
+    return bool((strip_widths(mesh, e, axes, limit) < limit).any())
