@@ -180,6 +180,26 @@ def test_midpoint_subdivision_keeps_the_surface_and_quadruples_the_faces():
 
 
 @pytest.mark.parametrize("method", ["subdivide", "pymeshlab"])
+def test_the_remeshed_edge_is_the_fraction_asked_of_the_quad_edge(method):
+    """The default fraction and the finer one of fvf.quad_mesh's later attempts: the mean
+    edge is at most the fraction's (subdivision: halved until it is; pymeshlab's isotropic
+    remeshing: within a fifth of it)."""
+    from fvf.param.remesh import FINE_REMESH_FRACTION, REMESH_FRACTION
+
+    if method == "pymeshlab":
+        pytest.importorskip("pymeshlab")
+    mesh = fvf.TriMesh(*box())
+    h = 1.0
+    edges = {}
+    for fraction in (REMESH_FRACTION, FINE_REMESH_FRACTION):
+        S = remesh_for_quads(mesh, h, method=method, fraction=fraction)
+        assert S.is_closed and S.euler_characteristic == 2
+        edges[fraction] = S.mean_edge_length
+        assert edges[fraction] <= fraction * h * (1.2 if method == "pymeshlab" else 1.0)
+    assert edges[FINE_REMESH_FRACTION] < edges[REMESH_FRACTION]
+
+
+@pytest.mark.parametrize("method", ["subdivide", "pymeshlab"])
 def test_a_coarse_box_is_remeshed_then_quad_meshed(method):
     if method == "pymeshlab":
         pytest.importorskip("pymeshlab")
@@ -428,12 +448,18 @@ def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
     iso = [p.isolines for p in plans]
     strips = [p.strips for p in plans]
-    # input, then remeshed: each as iso-lines, then with thin strips stretched (param.strips)
-    assert iso[:4] == [True] * 4 and not any(iso[4:])
-    assert strips[:4] == [False, True, False, True] and not any(strips[4:])
-    assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[1:4:2]]
-    assert [(p.remeshed, p.h) for p in plans[:4:2]] == [(p.remeshed, p.h) for p in plans[4:6]]
+    # input, remeshed, finely remeshed: each as iso-lines, then with thin strips stretched
+    # (param.strips); then the input and the remeshed surface holding the field
+    assert iso[:6] == [True] * 6 and not any(iso[6:])
+    assert strips[:6] == [False, True] * 3 and not any(strips[6:])
+    surfaces = [(p.remeshed, p.fine, p.h) for p in plans]
+    assert surfaces[:6:2] == surfaces[1:6:2]
+    assert surfaces[:6:2] == [(False, False, 0.3), (True, False, 0.3), (True, True, 0.3)]
+    assert surfaces[6:8] == surfaces[:4:2]
+    assert not any(p.fine for p in plans[6:])
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))
+    never = quadmesh._plans(part, 0.3, "curvature", True, "never", True)
+    assert not any(p.remeshed or p.fine for p in never)
 
 
 def test_an_attempts_log_line_is_its_errors_first_clause_cut_at_a_word(monkeypatch):

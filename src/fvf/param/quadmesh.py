@@ -58,7 +58,13 @@ from .quad_parts import Part, component_parts, join_parts
 from .quad_result import QuadMeshResult
 from .quad_validity import check_quad_mesh, topology_signature
 from .quality import corner_distortion, quad_boundary_vertices
-from .remesh import Remesher, needs_remesh, remesh_for_quads
+from .remesh import (
+    FINE_REMESH_FRACTION,
+    REMESH_FRACTION,
+    Remesher,
+    needs_remesh,
+    remesh_for_quads,
+)
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 from .sizing import curvature_log_scale
 from .strips import has_thin_strips
@@ -129,9 +135,10 @@ class _Plan:
     isolines: bool = False
     sized: bool = False
     strips: bool = False
+    fine: bool = False  # remeshed at FINE_REMESH_FRACTION h, not REMESH_FRACTION h
 
     def __str__(self) -> str:
-        surface = "remeshed" if self.remeshed else "input"
+        surface = ("finely remeshed" if self.fine else "remeshed") if self.remeshed else "input"
         lines = ", features as iso-lines" if self.isolines else ""
         strips = ", thin strips one quad across" if self.strips else ""
         sized = ", sized by curvature" if self.sized else ""
@@ -151,7 +158,8 @@ def _plans(
     first = [] if skip_input else [_Plan(False, align, h)]
     first += [_Plan(can, align, h)]
     plans = []
-    for p in first if features else []:  # features as iso-lines; then thin strips stretched
+    fine = [_Plan(True, align, h, fine=True)] if can else []
+    for p in first + fine if features else []:  # features as iso-lines; then strips stretched
         plans += [dataclasses.replace(p, isolines=True)]
         plans += [dataclasses.replace(p, isolines=True, strips=True)]
     plans += first + [_Plan(can, other, h)]
@@ -165,15 +173,20 @@ def _plans(
     return list(dict.fromkeys(plans))
 
 
-def _surface(part: Part, h: float | None, surfaces: dict, opts: dict) -> TriMesh:
-    """The closed component (``h`` None) or it remeshed for quads of edge ``h`` (kept in
-    ``surfaces`` for the next attempts)."""
-    if h is None:
+def _surface(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> TriMesh:
+    """The closed component, or it remeshed for quads of edge ``plan.h`` (kept in
+    ``surfaces`` for the next attempts), as ``plan`` asks."""
+    if not plan.remeshed:
         return part.closed
-    key = round(h, 12)
+    fraction = FINE_REMESH_FRACTION if plan.fine else REMESH_FRACTION
+    key = (round(plan.h, 12), fraction)
     if key not in surfaces:
         surfaces[key] = remesh_for_quads(
-            part.closed, h, crease_angle=opts["crease_angle"], method=opts["remesher"]
+            part.closed,
+            plan.h,
+            crease_angle=opts["crease_angle"],
+            method=opts["remesher"],
+            fraction=fraction,
         )
     return surfaces[key]
 
@@ -183,10 +196,10 @@ def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMes
     curvature (:mod:`.sizing`), None when the plan is not sized or the sizing asks
     nowhere for quads :data:`SIZED_REFINEMENT` times shorter than h (measured on the
     surface remeshed for h: a CAD part's sharp edges show their curvature there)."""
-    surface = _surface(part, plan.h if plan.remeshed else None, surfaces, opts)
+    surface = _surface(part, plan, surfaces, opts)
     if not plan.sized:
         return surface, None
-    key = ("sizing", round(plan.h, 12), plan.remeshed)
+    key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine)
     if key not in surfaces:
         s = curvature_log_scale(surface, plan.h)
         surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
@@ -209,7 +222,7 @@ def _resolved(
 
 def _has_strips(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> bool:
     """Whether the features of ``plan``'s surface bound a strip thin enough to stretch."""
-    surface = _surface(part, plan.h if plan.remeshed else None, surfaces, opts)
+    surface = _surface(part, plan, surfaces, opts)
     features = _features(part, surface, plan.h, opts)
     return features is not None and has_thin_strips(surface, features, plan.h)
 
