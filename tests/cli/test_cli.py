@@ -593,3 +593,18 @@ def test_python_dash_m_fvf_is_the_command():
     assert r.returncode == 0 and "usage: fvf" in r.stdout and "quad" in r.stdout, r.stderr
     bad = subprocess.run([sys.executable, "-m", "fvf", "nosuch"], capture_output=True, text=True)
     assert bad.returncode == 2 and "invalid choice" in bad.stderr
+
+
+def test_a_multi_line_error_is_one_line_of_clauses():
+    """fvf.quad_mesh's error has a line per attempt: on the command line each becomes a
+    clause ("; " between them), a line ending in ":" or "." runs on with a space."""
+    from fvf.cli.main import _one_line
+
+    exc = fvf.QuadMeshError(
+        "no valid quad mesh after 2 attempts:\n  input: 3 flipped\n  remeshed: 2   folded\n"
+        "Where: (0, 0, 1).\nWhat to try: more quads."
+    )
+    assert _one_line(exc) == (
+        "QuadMeshError: no valid quad mesh after 2 attempts: input: 3 flipped; "
+        "remeshed: 2 folded; Where: (0, 0, 1). What to try: more quads."
+    )

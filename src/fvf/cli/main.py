@@ -18,7 +18,8 @@ that is an input); 3 a feature unavailable here (``fvf.viz`` or its ``[viz]`` ex
 missing, no display for ``view``); 4 the computation failed (e.g. a flow overflowed, out
 of memory); 5 an output could not be written (disk full, file size limit); 6 a flow grew
 beyond ``--growth-limit`` (the output is written); 130 / 143
-interrupted (SIGINT / SIGTERM). Errors are one line on stderr, ``fvf: error: <cause>``;
+interrupted (SIGINT / SIGTERM). Errors are one line on stderr, ``fvf: error: <cause>``
+(the lines of a longer message as clauses separated by ``"; "``);
 ``--debug`` shows the traceback instead. Warnings (fvf's :class:`~fvf.errors.FvfWarning`)
 are one line each, ``fvf: warning: <cause>``.
 
@@ -152,7 +153,11 @@ def _one_line(exc: BaseException) -> str:
     else:
         text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
         text = f"{type(exc).__name__}: {text}" if type(exc).__module__.startswith("fvf") else text
-    return " ".join(text.split()) or type(exc).__name__
+    lines = [" ".join(line.split()) for line in text.splitlines()]
+    out = ""
+    for line in filter(None, lines):  # a multi-line message's lines (one per attempt) as clauses
+        out += line if not out else ("; " if out[-1] not in ":.;" else " ") + line
+    return out or type(exc).__name__
 
 
 #: Python spellings in the library's messages and the command's options that say the same.
