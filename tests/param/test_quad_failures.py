@@ -82,14 +82,17 @@ def test_the_error_names_the_finger_and_its_thickness():
 @pytest.mark.slow
 def test_a_finger_gets_quads_sized_by_curvature_and_a_warning():
     """The uniform attempts at 250 quads fail at the finger; an attempt sized by curvature
-    is valid with 1.6 times the quads (the uniform retry below needs 4.6 times)."""
+    is valid with 3.5 times the quads, fewer than the uniform retry below needs (4.6
+    times). (On the surface remeshed at 0.7 h the finger keeps about 2.4 triangles around
+    it and the first two sized attempts fold; remeshed at h/2 the second was valid with
+    1.6 times.)"""
     V, F = finger_on_a_ball()
     with pytest.warns(fvf.QuadCountRaisedWarning, match="sized by curvature"):
         result = fvf.quad_mesh((V, F), target_faces=250)
     verdict = quadcheck.check(V, F, result.vertices, result.quads)
     assert verdict.valid, verdict.summary()
     assert "sized by curvature" in result.attempts[-1]
-    assert 250 < len(result.quads) < 2.5 * 250
+    assert 250 < len(result.quads) < 4 * 250
 
 
 @pytest.mark.slow
