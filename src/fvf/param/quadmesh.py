@@ -223,8 +223,17 @@ def _resolved(
 def _has_strips(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> bool:
     """Whether the features of ``plan``'s surface bound a strip thin enough to stretch."""
     surface = _surface(part, plan, surfaces, opts)
-    features = _features(part, surface, plan.h, opts)
+    features = _plan_features(part, plan, surfaces, opts)
     return features is not None and has_thin_strips(surface, features, plan.h)
+
+
+def _plan_features(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> np.ndarray | None:
+    """:func:`_features` on ``plan``'s surface, kept in ``surfaces`` for the next attempts
+    on it (the thin-strips check and each attempt ask for them)."""
+    key = ("features", round(plan.h, 12), plan.remeshed, plan.fine)
+    if key not in surfaces:
+        surfaces[key] = _features(part, _surface(part, plan, surfaces, opts), plan.h, opts)
+    return surfaces[key]
 
 
 def _attempt(
@@ -238,7 +247,7 @@ def _attempt(
     """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
     surface, size = _sizing(part, plan, surfaces, opts)
     f = None if field is None else _transfer_field(part.mesh, surface, field)
-    features = _features(part, surface, plan.h, opts)
+    features = _plan_features(part, plan, surfaces, opts)
     param = seamless_parameterization(
         surface,
         field=f,

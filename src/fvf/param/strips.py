@@ -59,6 +59,19 @@ def feature_patches(mesh: TriMesh, features: np.ndarray) -> np.ndarray:
     return connected_components(G, directed=False)[1].astype(np.int64)
 
 
+def _feature_samples(
+    mesh: TriMesh, edges: np.ndarray, step: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points about ``step`` apart along the feature ``edges`` (int64 (k,), into
+    ``mesh.edges``), float64 (p, 3); the feature edge of each, int64 (p,); and its unit
+    tangent, float64 (p, 3)."""
+    a, b = mesh.vertices[mesh.edges[edges, 0]], mesh.vertices[mesh.edges[edges, 1]]
+    pts = segment_points(a, b, step, centred=True, max_count=4096)[0]
+    length = np.linalg.norm(b - a, axis=1)
+    edge = np.repeat(np.arange(edges.size), segment_counts(length, step, 4096))
+    return pts, edge, ((b - a) / length[:, None])[edge]
+
+
 def strip_widths(
     mesh: TriMesh, features: np.ndarray, axes: np.ndarray, radius: float
 ) -> np.ndarray:
@@ -88,12 +101,7 @@ def strip_widths(
     if e.size == 0:
         return out
     patch = feature_patches(mesh, e)
-    a, b = mesh.vertices[mesh.edges[e, 0]], mesh.vertices[mesh.edges[e, 1]]
-    step = radius / SAMPLES_PER_EDGE
-    pts = segment_points(a, b, step, centred=True, max_count=4096)[0]
-    length = np.linalg.norm(b - a, axis=1)
-    edge = np.repeat(np.arange(e.size), segment_counts(length, step, 4096))  # of each point
-    tangent = ((b - a) / length[:, None])[edge]
+    pts, edge, tangent = _feature_samples(mesh, e, radius / SAMPLES_PER_EDGE)
     ef = mesh.edge_faces[e][edge]
     sides = np.where(ef >= 0, patch[np.maximum(ef, 0)], -1)  # (p, 2) patches beside
     centroid = mesh.face_centroids
@@ -154,11 +162,7 @@ def has_thin_strips(mesh: TriMesh, features: np.ndarray, h: float) -> bool:
     if e.size == 0:
         return False
     limit = STRIP_SLACK * STRIP_WIDTH * h
-    a, b = mesh.vertices[mesh.edges[e, 0]], mesh.vertices[mesh.edges[e, 1]]
-    step = h / SAMPLES_PER_EDGE
-    pts = segment_points(a, b, step, centred=True, max_count=4096)[0]
-    length = np.linalg.norm(b - a, axis=1)
-    tangent = np.repeat((b - a) / length[:, None], segment_counts(length, step, 4096), axis=0)
+    pts, _, tangent = _feature_samples(mesh, e, h / SAMPLES_PER_EDGE)
     near = cKDTree(pts).query(mesh.face_centroids, distance_upper_bound=limit)[1]
     faces = np.flatnonzero(near < pts.shape[0])
     if faces.size == 0:
