@@ -15,7 +15,9 @@ rim of a tessellated hole or boss, whose wall facets meet at 7.5° (48 sections)
 the surface by :math:`\theta_f` about its own direction, of which
 :math:`\theta_f\,|\cos\angle(f, e)|` is a bend about an axis along e (a second, rounded
 crease beside it); that part must stay below :data:`CROSS_BEND` degrees. Only chains of
-such edges at least :data:`MIN_CHAIN` quad edges long count.
+such edges at least :data:`MIN_CHAIN` quad edges long count, and not those that lie within
+that length of a vertex where :data:`STAR_EDGES` or more of their edges meet: a spike's
+tip, whose steep sides are sharp edges about a point, smaller than the quads.
 
 The default cross field is constrained on every face next to a feature edge to the
 direction of that edge (hard constraints of :func:`fvf.design_field`; the longest
@@ -57,6 +59,10 @@ SMOOTH_SIDES = 1.0 / 6.0
 #: along it stays below this many degrees (a tessellated cylinder's wall: 0; on the shared
 #: scans at 0.5° the lion gains one feature edge of 91, the knight two of 77, none else).
 CROSS_BEND = 0.5
+#: A chain of sharp edges within the chain length asked of it (MIN_CHAIN quad edges) of a
+#: vertex where at least this many of them meet is no feature: the tip of a scan's spike,
+#: whose sides (and often the ring below them) are sharp edges about a point.
+STAR_EDGES = 3
 
 
 def dihedral_angles(mesh: TriMesh) -> np.ndarray:
@@ -78,7 +84,9 @@ def sharp_edges(
 
     With ``min_length`` > 0, only chains of sharp edges (connected through shared
     vertices) at least that long are kept: a CAD crease runs on, the creases of a scan's
-    noise or of a coarse organic mesh are short and scattered.
+    noise or of a coarse organic mesh are short and scattered. Chains within
+    ``min_length`` of a vertex where :data:`STAR_EDGES` or more of their edges meet (a
+    spike's tip) are dropped with them.
     """
     a = float(crease_angle)
     if not (0.0 < a < 180.0):
@@ -95,9 +103,31 @@ def sharp_edges(
     n = mesh.n_vertices
     graph = sp.coo_matrix((np.ones(sharp.size), (E[:, 0], E[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
+    own = label[E[:, 0]]  # (k,) each sharp edge's chain
     length = np.linalg.norm(mesh.vertices[E[:, 1]] - mesh.vertices[E[:, 0]], axis=1)
-    chain = np.bincount(label[E[:, 0]], weights=length, minlength=n)
-    return sharp[chain[label[E[:, 0]]] >= min_length]
+    chain = np.bincount(own, weights=length, minlength=n)
+    tip = _is_tip(mesh.vertices, E, label, min_length)
+    return sharp[(chain[own] >= min_length) & ~tip[own]]
+
+
+def _is_tip(X: np.ndarray, E: np.ndarray, label: np.ndarray, radius: float) -> np.ndarray:
+    """Per chain label (n,), bool: the chain of sharp edges ``E`` int (k, 2) lies within
+    ``radius`` of its vertex with the most of them (its hub), where :data:`STAR_EDGES` or
+    more meet: the tip of a spike, a point at the quad scale."""
+    n = X.shape[0]
+    degree = np.bincount(E.ravel(), minlength=n)  # in the graph of the sharp edges
+    verts = np.unique(E)
+    v = verts[np.lexsort((degree[verts], label[verts]))]  # by chain, the hub last
+    chain = label[v]
+    last = np.r_[chain[1:] != chain[:-1], True]
+    hub = np.full(n, -1, dtype=np.int64)
+    hub[chain[last]] = v[last]
+    far = np.linalg.norm(X[v] - X[hub[chain]], axis=1) > radius
+    tip = np.zeros(n, dtype=bool)
+    tip[chain[last]] = (np.bincount(chain, weights=far, minlength=n)[chain[last]] == 0) & (
+        degree[v[last]] >= STAR_EDGES
+    )
+    return tip
 
 
 def _side_roughness(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray) -> np.ndarray:
