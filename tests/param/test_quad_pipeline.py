@@ -3,6 +3,7 @@ components, remeshing, sharp features, open surfaces (domes), the result object.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 import fvf
 from fvf.param.caps import boundary_loops, capped, cut_caps
 from fvf.param.features import (
+    MIN_CHAIN,
     feature_constraints,
     feature_coverage,
     feature_edge_ids,
@@ -161,6 +163,26 @@ def test_noise_makes_few_features_with_the_cross_bend_rule():
     both = sharp_edges(S, 35.0)
     assert np.isin(np.flatnonzero(smooth_sides), both).all()
     assert both.size <= 1.02 * smooth_sides.sum()  # 869 against 860 measured
+
+
+def test_a_spikes_sharp_sides_are_no_feature_but_a_box_corners_edges_are():
+    """A vertex of a sphere pulled out 1.5 edges (a scan's spike) makes sharp edges about
+    it: its sides and the ring below them, all within 1.8 edges of the tip. As chains they
+    are long enough (MIN_CHAIN h, h = 2 edges), but they lie within that length of the tip,
+    where five meet: no feature. The box's 12 edges meet three at a corner, and its far
+    corners are 2.3 away: a feature at h = 0.5, a point at h = 1.5."""
+    S = fvf.icosphere(4)
+    e = S.mean_edge_length
+    V = S.vertices.copy()
+    V[0] *= 1 + 1.5 * e  # valence 5
+    spike = fvf.TriMesh(V, S.faces)
+    sharp = sharp_edges(spike)
+    assert sharp.size == 10 and np.bincount(spike.edges[sharp].ravel()).max() == 5
+    assert sharp_edges(spike, 35.0, MIN_CHAIN * 2 * e).size == 0
+    assert sharp_edges(spike, 35.0, 1.0 * e).size == 10  # a chain farther than asked: kept
+    B = fvf.TriMesh(*box())
+    assert sharp_edges(B, 35.0, MIN_CHAIN * 0.5).size == 12
+    assert sharp_edges(B, 35.0, MIN_CHAIN * 1.5).size == 0
 
 
 def test_user_feature_edges_must_be_edges():
@@ -460,6 +482,31 @@ def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))
     never = quadmesh._plans(part, 0.3, "curvature", True, "never", True)
     assert not any(p.remeshed or p.fine for p in never)
+
+
+def test_an_open_surface_whose_only_features_are_its_rims_tries_them_as_iso_lines_later():
+    """A scan with holes: its boundary loops are its only features (the domes' own edges
+    do not count), so the attempts holding the field come first and those with the rims
+    as iso-lines after them; a sharp edge of its own puts the iso-lines first again."""
+    from fvf.param import quadmesh
+    from fvf.param.quad_parts import component_parts
+
+    S = fvf.icosphere(3)
+    top = S.face_centroids[:, 2] > 0.8  # a hole at the top
+    holed = fvf.TriMesh(*fvf.remove_unreferenced_vertices(S.vertices, S.faces[~top])[:2])
+    part = component_parts(holed)[0]
+    part = dataclasses.replace(part, cap=capped(part.mesh, 0.05))
+    opts = {"crease_angle": 35.0, "features": True, "user_edges": None}
+    found = quadmesh._features(part, part.closed, 0.3, opts)
+    assert quadmesh._only_rims(part, found)
+    assert not quadmesh._only_rims(part, np.concatenate([found, [0]]))  # edge 0: not a rim
+    plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True, rims_only=True)
+    iso = [p.isolines for p in plans]
+    k, n = iso.index(True), sum(iso)  # (the dome's slivers: the input is remeshed first)
+    assert k >= 2 and n >= 4 and iso == [False] * k + [True] * n + [False] * (len(iso) - k - n)
+    first = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
+    assert [p.isolines for p in first][:n] == [True] * n
+    assert sorted(map(str, plans)) == sorted(map(str, first))  # the same, in another order
 
 
 def test_an_attempts_log_line_is_its_errors_first_clause_cut_at_a_word(monkeypatch):

@@ -37,6 +37,7 @@ from ..mesh.trimesh import TriMesh
 from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
 from .caps import capped, cut_caps, snap_boundary
+from .decimation import decimated_for_quads
 from .extraction import extract_quads
 from .features import (
     CREASE_ANGLE,
@@ -136,9 +137,11 @@ class _Plan:
     sized: bool = False
     strips: bool = False
     fine: bool = False  # remeshed at FINE_REMESH_FRACTION h, not REMESH_FRACTION h
+    decimated: bool = False  # the input surface decimated (set as the plan runs)
 
     def __str__(self) -> str:
         surface = ("finely remeshed" if self.fine else "remeshed") if self.remeshed else "input"
+        surface = "decimated" if self.decimated else surface
         lines = ", features as iso-lines" if self.isolines else ""
         strips = ", thin strips one quad across" if self.strips else ""
         sized = ", sized by curvature" if self.sized else ""
@@ -146,9 +149,17 @@ class _Plan:
 
 
 def _plans(
-    part: Part, h: float, align: Alignment, retry: bool, remesh: bool | str, features: bool
+    part: Part,
+    h: float,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    features: bool,
+    rims_only: bool = False,
 ) -> list[_Plan]:
-    """The attempts for one component, in order (``docs/quads.md``)."""
+    """The attempts for one component, in order (``docs/quads.md``); with ``rims_only``
+    (the only features are the rims of the domes over its holes: a scan with holes) those
+    with the features as iso-lines follow the first without."""
     if not retry:
         return [_Plan(remesh is True, align, h, features)]
     other: Alignment = "smooth" if align == "curvature" else "curvature"
@@ -157,12 +168,13 @@ def _plans(
     skip_input = remesh is True or (why is not None and "angle" in why)  # slivers: remesh first
     first = [] if skip_input else [_Plan(False, align, h)]
     first += [_Plan(can, align, h)]
-    plans = []
+    lines = []
     fine = [_Plan(True, align, h, fine=True)] if can else []
     for p in first + fine if features else []:  # features as iso-lines; then strips stretched
-        plans += [dataclasses.replace(p, isolines=True)]
-        plans += [dataclasses.replace(p, isolines=True, strips=True)]
-    plans += first + [_Plan(can, other, h)]
+        lines += [dataclasses.replace(p, isolines=True)]
+        lines += [dataclasses.replace(p, isolines=True, strips=True)]
+    plain = first + [_Plan(can, other, h)]
+    plans = plain + lines if rims_only else lines + plain
     # quads smaller where the surface turns faster (skipped where nothing is that curved)
     plans += [dataclasses.replace(p, align="curvature", sized=True) for p in first]
     plans += [
@@ -176,6 +188,8 @@ def _plans(
 def _surface(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> TriMesh:
     """The closed component, or it remeshed for quads of edge ``plan.h`` (kept in
     ``surfaces`` for the next attempts), as ``plan`` asks."""
+    if plan.decimated:
+        return surfaces[("decimated", round(plan.h, 12))]
     if not plan.remeshed:
         return part.closed
     fraction = FINE_REMESH_FRACTION if plan.fine else REMESH_FRACTION
@@ -199,7 +213,7 @@ def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMes
     surface = _surface(part, plan, surfaces, opts)
     if not plan.sized:
         return surface, None
-    key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine)
+    key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine, plan.decimated)
     if key not in surfaces:
         s = curvature_log_scale(surface, plan.h)
         surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
@@ -211,13 +225,26 @@ def _resolved(
 ) -> _Plan | None:
     """``plan`` as it runs: a sized plan whose sizing is trivial (:func:`_sizing`) is its
     plan of one size, or None (skipped) when that one is in ``plans`` too; a thin-strips
-    plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is skipped."""
+    plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is skipped; a plan
+    on the input surface runs on it decimated where the input is far finer than the quads
+    (:mod:`.decimation`)."""
+    if not plan.remeshed and opts["decimate"] and _decimated(part, plan.h, surfaces):
+        plan = dataclasses.replace(plan, decimated=True)
     if plan.strips and not _has_strips(part, plan, surfaces, opts):
         return None
     if not plan.sized or _sizing(part, plan, surfaces, opts)[1] is not None:
         return plan
     uniform = dataclasses.replace(plan, sized=False)
-    return None if uniform in plans else uniform
+    return None if dataclasses.replace(uniform, decimated=False) in plans else uniform
+
+
+def _decimated(part: Part, h: float, surfaces: dict) -> bool:
+    """Whether the closed component, decimated for quads of edge ``h``
+    (:func:`fvf.param.decimation.decimated_for_quads`, kept in ``surfaces``), replaces it."""
+    key = ("decimated", round(h, 12))
+    if key not in surfaces:
+        surfaces[key] = decimated_for_quads(part.closed, h)
+    return surfaces[key] is not None
 
 
 def _has_strips(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> bool:
@@ -230,7 +257,7 @@ def _has_strips(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> bool:
 def _plan_features(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> np.ndarray | None:
     """:func:`_features` on ``plan``'s surface, kept in ``surfaces`` for the next attempts
     on it (the thin-strips check and each attempt ask for them)."""
-    key = ("features", round(plan.h, 12), plan.remeshed, plan.fine)
+    key = ("features", round(plan.h, 12), plan.remeshed, plan.fine, plan.decimated)
     if key not in surfaces:
         surfaces[key] = _features(part, _surface(part, plan, surfaces, opts), plan.h, opts)
     return surfaces[key]
@@ -561,6 +588,7 @@ def quad_mesh(
         "user_edges": user_edges,
         "seamless": options,
         "quiet": retry,
+        "decimate": remesh != "never",
     }
     opts["whole"] = mesh
     report = make_progress(options.get("progress"))
@@ -616,14 +644,15 @@ def _mesh_parts(
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         found = _features(part, part.closed, hp, opts)
         featured = found is not None and found.size > 0
+        rims = found is not None and featured and _only_rims(part, found)
         dome = _dome_ratio(part)
         tries = retry and dome <= DOME_AREA_LIMIT
-        plans = _plans(part, hp, align, tries, remesh, featured)
+        plans = _plans(part, hp, align, tries, remesh, featured, rims)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
             _warn_if_sized(part, made[-1][1], hp)
         except QuadMeshError as exc:
-            finer = _finer(part, exc, plans, align, tries, remesh, featured)
+            finer = _finer(part, exc, plans, align, tries, remesh, featured, rims)
             if finer:
                 with contextlib.suppress(QuadMeshError):
                     made.append((part, _mesh_part(part, finer, fp, opts, report)))
@@ -668,6 +697,16 @@ def _dome_note(ratio: float) -> str:
     )
 
 
+def _only_rims(part: Part, features: np.ndarray) -> bool:
+    """Whether the features (edge ids of ``part.closed``) on the open surface itself are
+    only its boundary loops (the rims of the domes: a scan with holes; edges on a dome
+    do not count)."""
+    if part.cap is None:
+        return False
+    on_input = (part.closed.edges[features] < part.mesh.n_vertices).all(axis=1)
+    return bool(np.isin(features[on_input], part.cap.rim).all())
+
+
 def _finer(
     part: Part,
     exc: QuadMeshError,
@@ -676,6 +715,7 @@ def _finer(
     retry: bool,
     remesh: bool | str,
     featured: bool,
+    rims: bool,
 ) -> list[_Plan]:
     """The first :data:`FINER_ATTEMPTS` attempts again at the quad edge that resolves the
     narrow parts where every attempt failed (:func:`resolving_edge`), when that edge is
@@ -687,7 +727,7 @@ def _finer(
         return []
     if part.mesh.total_area / edge**2 > MAX_QUADS_PER_FACE * part.mesh.n_faces:
         return []
-    return _plans(part, edge, align, retry, remesh, featured)[:FINER_ATTEMPTS]
+    return _plans(part, edge, align, retry, remesh, featured, rims)[:FINER_ATTEMPTS]
 
 
 def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
