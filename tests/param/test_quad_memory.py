@@ -121,7 +121,7 @@ def test_hausdorff_with_chunked_queries_is_unchanged(monkeypatch):
 
     expected = max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max()) / edge
     monkeypatch.setattr(quality, "QUERY_CHUNK", 777)
-    assert quad_validity._hausdorff(mesh, V, Q) == expected
+    assert quad_validity.check_quad_mesh(mesh, V, Q).hausdorff == expected
 
 
 def test_reference_normals_in_chunks_of_quads_are_unchanged(monkeypatch):

@@ -65,16 +65,34 @@ def test_the_gate_measures_hausdorff_within_its_step_on_a_finer_input(lift):
     """A 6 × 6 quad grid lifted ``lift`` quad edges above a 47 × 47 triangulated plane
     (sides not multiples of each other): the distance is exactly ``lift`` edges; the gate
     measures it to within HAUSDORFF_STEP above and passes or fails it at one edge."""
-    from fvf.param.quad_validity import _hausdorff
     from fvf.param.quality import HAUSDORFF_STEP
 
     Vi, Qi = grid_quads(47)
     mesh = fvf.TriMesh(Vi, np.concatenate([Qi[:, [0, 1, 2]], Qi[:, [0, 2, 3]]]))
     V, Q = grid_quads(6)
     V = V + [0.0, 0.0, lift / 6]
-    got = _hausdorff(mesh, V, Q)
+    verdict = check_quad_mesh(mesh, V, Q)
+    got = verdict.hausdorff
     assert lift - 1e-9 <= got <= lift + HAUSDORFF_STEP, got
-    assert check_quad_mesh(mesh, V, Q).valid == (lift < 1)
+    assert verdict.valid == (lift < 1)
+    assert max(verdict.one_sided) == pytest.approx(got / 6)  # the mesh's units (edge 1/6)
+
+
+def test_the_results_quality_takes_the_gates_hausdorff_and_folds():
+    """``result.quality`` does not sample both surfaces again: its Hausdorff distances are
+    the gate's (sampled every quarter mean quad edge, where quad_quality samples every
+    quarter of the square root of the mean quad area) and agree with a fresh measurement
+    to within that step."""
+    mesh = fvf.icosphere(3)
+    made = fvf.quad_mesh(mesh, target_faces=200)
+    fresh = fvf.quad_quality(mesh, made.vertices, made.quads)
+    diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    to, back = (d / diag for d in made.validity.one_sided)
+    assert made.quality.hausdorff_to_input == to and made.quality.hausdorff_from_input == back
+    step = 0.25 * np.sqrt(4 * np.pi / len(made.quads)) / diag
+    assert abs(fresh.hausdorff_to_input - to) < step
+    assert abs(fresh.hausdorff_from_input - back) < step
+    assert made.quality.n_folded == fresh.n_folded == 0
 
 
 def test_the_gate_finds_a_pinched_vertex():

@@ -11,7 +11,7 @@ import numpy as np
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_validity import QuadValidity
-from .quality import QuadQuality, quad_quality
+from .quality import QuadQuality, measured_quality
 from .seamless import SeamlessParameterization
 
 __all__ = ["QuadMeshResult"]
@@ -91,10 +91,15 @@ class QuadMeshResult:
     @cached_property
     def quality(self) -> QuadQuality:
         """:func:`fvf.quad_quality` of the quads against the input (computed once; with the
-        parameterization's figures when it lives on the input itself)."""
+        parameterization's figures when it lives on the input itself; the Hausdorff
+        distances and folded quads those the validity gate measured, when it judged the
+        whole input)."""
         on_input = len(self.parameterizations) == 1 and self.surfaces[0] is self.mesh
         p = self.parameterizations[0] if on_input else None
-        return quad_quality(self.mesh, self.vertices, self.quads, parameterization=p)
+        v = self.validity  # measured against the kept components: all of them, or not used
+        whole = self.dropped_components.size == 0 and np.isfinite(v.one_sided).all()
+        gate = (v.one_sided, v.folded.size) if whole else None
+        return measured_quality(self.mesh, self.vertices, self.quads, None, p, gate)
 
     def summary(self) -> str:
         """One line: quads, irregular vertices, corner angles, Hausdorff distance, folds."""

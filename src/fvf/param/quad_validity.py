@@ -57,12 +57,16 @@ class QuadValidity:
         Folded quads.
     hausdorff : float
         Two-sided Hausdorff distance in mean quad edge lengths (``nan`` if not measured).
+    one_sided : tuple of float
+        The sampled one-sided Hausdorff distances (quads to input, input to quads), in the
+        mesh's units (``nan`` if not measured).
     """
 
     valid: bool
     problems: tuple[str, ...]
     folded: np.ndarray
     hausdorff: float
+    one_sided: tuple[float, float] = (np.nan, np.nan)
 
     __repr__ = short_repr  # arrays by dtype and shape
     _repr_html_ = html_repr  # a table in Jupyter
@@ -127,8 +131,10 @@ def topology_signature(n_vertices: int, faces: np.ndarray) -> list[tuple[int, in
     ``faces`` int (k, s), s = 3 or 4, consistently oriented and manifold.
     """
     F = np.asarray(faces, dtype=np.int64)
-    d = np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
-    und, inv, cnt = np.unique(np.sort(d, axis=1), axis=0, return_inverse=True, return_counts=True)
+    d = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    n = max(int(n_vertices), 1)
+    key, cnt = np.unique(d[:, 0] * n + d[:, 1], return_counts=True)  # the undirected edges
+    und = np.stack([key // n, key % n], axis=1)
     count, label = quad_components(n_vertices, F) if F.shape[1] == 4 else _tri_labels(n_vertices, F)
     used = np.zeros(n_vertices, dtype=bool)
     used[F.ravel()] = True
@@ -225,13 +231,9 @@ def check_quad_mesh(
     folded = folded_quads(mesh, V, Q)
     if folded.size:
         problems.append(f"quads {format_indices(folded)} are folded against the surface")
-    dist = _hausdorff(mesh, V, Q) if hausdorff else np.nan
+    edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())
+    sides = sampled_hausdorff(mesh, V, Q, edge) if hausdorff else (np.nan, np.nan)
+    dist = max(sides) / edge  # in mean quad edges
     if hausdorff and not dist <= HAUSDORFF_EDGES:
         problems.append(f"the surfaces are {dist:.2f} quad edges apart (Hausdorff > 1)")
-    return QuadValidity(not problems, tuple(problems), folded, float(dist))
-
-
-def _hausdorff(mesh: TriMesh, V: np.ndarray, Q: np.ndarray) -> float:
-    """Two-sided Hausdorff distance of sampled surfaces, in mean quad edge lengths."""
-    edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())
-    return max(sampled_hausdorff(mesh, V, Q, edge)) / edge
+    return QuadValidity(not problems, tuple(problems), folded, float(dist), sides)

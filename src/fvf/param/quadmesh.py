@@ -319,7 +319,21 @@ def _without_tidying(options: dict) -> dict:
 
 
 def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray | None:
-    """Edge ids of ``surface`` the field is held along: sharp edges and the user's."""
+    """Edge ids of ``surface`` the field is held along: the component's features
+    (:func:`_own_features`, found once per quad edge) carried over to ``surface``."""
+    found = opts.setdefault("own features", {})
+    key = (part.label, round(h, 12))
+    if key not in found:
+        found[key] = _own_features(part, h, opts)
+    edges = found[key]
+    if edges is None or surface is part.closed:
+        return edges
+    return transferred_features(part.closed, edges, surface, opts["crease_angle"], h)
+
+
+def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
+    """Edge ids of the closed component: its sharp edges, the rims of its domes and the
+    user's feature edges (None when there are no features to look for)."""
     mesh = part.closed
     chain = MIN_CHAIN * h
     found = [sharp_edges(mesh, opts["crease_angle"], chain)] if opts["features"] else []
@@ -334,10 +348,7 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
         found.append(feature_edge_ids(mesh, mine[(mine >= 0).all(axis=1)]))
     if not found:
         return None
-    edges = np.unique(np.concatenate(found))
-    if surface is not mesh:
-        edges = transferred_features(mesh, edges, surface, opts["crease_angle"], h)
-    return edges
+    return np.unique(np.concatenate(found))
 
 
 def _snapped(
