@@ -94,3 +94,35 @@ def test_quad_mesh_runs_on_the_decimated_surface_and_returns_quads_on_the_input(
     kept = fvf.quad_mesh(S, target_faces=100, remesh="never")  # the input as it is
     assert kept.attempts[0].startswith("component 0: input surface")
     assert kept.surfaces[0].n_faces == S.n_faces
+
+
+def test_a_component_with_sharp_features_is_not_decimated(monkeypatch):
+    """Quadric collapses move creases (on a CAD part they left two vertices at one
+    corner): a box subdivided to 3,072 triangles, 77 per quad at 40 quads, is meshed on
+    its input; the finer sphere is decimated."""
+    import sys as _sys
+
+    quadmesh = _sys.modules["fvf.param.quadmesh"]
+    calls = []
+
+    def spy(mesh, h):
+        calls.append(mesh.n_faces)
+        return decimated_for_quads(mesh, h)
+
+    monkeypatch.setattr(quadmesh, "decimated_for_quads", spy)
+    V = np.array([[x, y, z] for x in (0, 2) for y in (0, 1) for z in (0, 0.5)], float)
+    box = fvf.TriMesh(*fvf.param.remesh.subdivide_midpoints(*_box_faces(V)))
+    for _ in range(3):
+        box = fvf.TriMesh(*fvf.param.remesh.subdivide_midpoints(box.vertices, box.faces))
+    assert triangles_per_quad(box, np.sqrt(box.total_area / 40)) > MAX_TRIANGLES_PER_QUAD
+    made = fvf.quad_mesh(box, target_faces=40)
+    assert calls == [] and made.attempts[0].startswith("component 0: input surface")
+    fvf.quad_mesh(fvf.icosphere(5), target_faces=100)
+    assert calls == [20480]
+
+
+def _box_faces(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 12 outward triangles of the box with corners V (8, 3), x-major order."""
+    F = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+         [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]  # fmt: skip
+    return V, np.array(F, dtype=np.int64)

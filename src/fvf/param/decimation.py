@@ -14,9 +14,11 @@ attempts on the input surface there instead.
 The decimated surface is used where the input would be, nowhere else: the quad vertices
 made on it are put back on the input at their closest points, and the result is judged
 against the input (:func:`fvf.param.quad_validity.check_quad_mesh`), as for a remeshed
-surface. The decimation is the optional ``fast-simplification`` (the ``[remesh]`` extra,
-MIT); without it, or when its result is not a closed manifold with the input's Euler
-characteristic and components and no zero-area triangle, the input is used as it is.
+surface. A component with sharp features is not decimated (:func:`fvf.quad_mesh` checks:
+the collapses move creases). The decimation is the optional ``fast-simplification`` (the
+``[remesh]`` extra, MIT); without it, or when its result is not a closed manifold with the
+input's Euler characteristic and components and no zero-area triangle, the input is used
+as it is.
 """
 
 from __future__ import annotations

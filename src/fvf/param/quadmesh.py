@@ -228,7 +228,7 @@ def _resolved(
     plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is skipped; a plan
     on the input surface runs on it decimated where the input is far finer than the quads
     (:mod:`.decimation`)."""
-    if not plan.remeshed and opts["decimate"] and _decimated(part, plan.h, surfaces):
+    if not plan.remeshed and opts["decimate"] and _decimated(part, plan.h, surfaces, opts):
         plan = dataclasses.replace(plan, decimated=True)
     if plan.strips and not _has_strips(part, plan, surfaces, opts):
         return None
@@ -238,12 +238,16 @@ def _resolved(
     return None if dataclasses.replace(uniform, decimated=False) in plans else uniform
 
 
-def _decimated(part: Part, h: float, surfaces: dict) -> bool:
+def _decimated(part: Part, h: float, surfaces: dict, opts: dict) -> bool:
     """Whether the closed component, decimated for quads of edge ``h``
-    (:func:`fvf.param.decimation.decimated_for_quads`, kept in ``surfaces``), replaces it."""
+    (:func:`fvf.param.decimation.decimated_for_quads`, kept in ``surfaces``), replaces it:
+    not where it has sharp features (the collapses move creases; the rims of its domes
+    do not count)."""
     key = ("decimated", round(h, 12))
     if key not in surfaces:
-        surfaces[key] = decimated_for_quads(part.closed, h)
+        found = _features(part, part.closed, h, opts)
+        sharp = found is not None and found.size > 0 and not _only_rims(part, found)
+        surfaces[key] = None if sharp else decimated_for_quads(part.closed, h)
     return surfaces[key] is not None
 
 
