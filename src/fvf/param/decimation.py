@@ -99,9 +99,8 @@ def _checked(mesh: TriMesh, V: np.ndarray, F: np.ndarray) -> TriMesh | None:
         out = TriMesh(V, F)
     except MeshError:
         return None
-    chi = out.n_vertices - out.edges.shape[0] + out.n_faces
-    want = mesh.n_vertices - mesh.edges.shape[0] + mesh.n_faces
-    closed = out.is_closed and mesh.is_closed
-    if chi != want or not closed or out.n_components != mesh.n_components:
-        return None
-    return out
+    same = (out.euler_characteristic, out.n_components) == (
+        mesh.euler_characteristic,
+        mesh.n_components,
+    )
+    return out if same and out.is_closed and mesh.is_closed else None
