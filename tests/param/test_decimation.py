@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 import fvf
+import quadcheck
+from fvf.param import quadmesh
 from fvf.param.decimation import (
     MAX_TRIANGLES_PER_QUAD,
     TRIANGLES_PER_QUAD,
     decimated_for_quads,
     triangles_per_quad,
 )
+from test_quad_pipeline import box
 
 pytest.importorskip("fast_simplification")
-
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import quadcheck  # noqa: E402
 
 
 def _h_for(mesh: fvf.TriMesh, per_quad: float) -> float:
@@ -100,9 +100,6 @@ def test_a_component_with_sharp_features_is_not_decimated(monkeypatch):
     """Quadric collapses move creases (on a CAD part they left two vertices at one
     corner): a box subdivided to 3,072 triangles, 77 per quad at 40 quads, is meshed on
     its input; the finer sphere is decimated."""
-    import sys as _sys
-
-    quadmesh = _sys.modules["fvf.param.quadmesh"]
     calls = []
 
     def spy(mesh, h):
@@ -110,19 +107,13 @@ def test_a_component_with_sharp_features_is_not_decimated(monkeypatch):
         return decimated_for_quads(mesh, h)
 
     monkeypatch.setattr(quadmesh, "decimated_for_quads", spy)
-    V = np.array([[x, y, z] for x in (0, 2) for y in (0, 1) for z in (0, 0.5)], float)
-    box = fvf.TriMesh(*fvf.param.remesh.subdivide_midpoints(*_box_faces(V)))
-    for _ in range(3):
-        box = fvf.TriMesh(*fvf.param.remesh.subdivide_midpoints(box.vertices, box.faces))
-    assert triangles_per_quad(box, np.sqrt(box.total_area / 40)) > MAX_TRIANGLES_PER_QUAD
-    made = fvf.quad_mesh(box, target_faces=40)
+    V, F = box()
+    for _ in range(4):
+        V, F = fvf.param.remesh.subdivide_midpoints(V, F)
+    fine_box = fvf.TriMesh(V, F)
+    h = np.sqrt(fine_box.total_area / 40)
+    assert triangles_per_quad(fine_box, h) > MAX_TRIANGLES_PER_QUAD
+    made = fvf.quad_mesh(fine_box, target_faces=40)
     assert calls == [] and made.attempts[0].startswith("component 0: input surface")
     fvf.quad_mesh(fvf.icosphere(5), target_faces=100)
     assert calls == [20480]
-
-
-def _box_faces(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 12 outward triangles of the box with corners V (8, 3), x-major order."""
-    F = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-         [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]  # fmt: skip
-    return V, np.array(F, dtype=np.int64)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import MeshError
 from ..mesh.defects import zero_area_faces
+from ..mesh.repair import remove_unreferenced_vertices
 from ..mesh.trimesh import DEGENERATE_AREA_RTOL, TriMesh
 
 __all__ = [
@@ -89,13 +90,12 @@ def decimated_for_quads(mesh: TriMesh, edge_length: float) -> TriMesh | None:
 def _checked(mesh: TriMesh, V: np.ndarray, F: np.ndarray) -> TriMesh | None:
     """The decimated surface as a TriMesh, or None when it is not one the attempts can use
     in place of ``mesh`` (:func:`decimated_for_quads`)."""
-    used = np.unique(F)
-    remap = np.full(V.shape[0], -1, dtype=np.int64)
-    remap[used] = np.arange(used.size)
-    V, F = V[used], remap[F]
-    if F.shape[0] == 0 or zero_area_faces(V, F, DEGENERATE_AREA_RTOL).any():
+    if F.shape[0] == 0:
         return None
     try:
+        V, F, _ = remove_unreferenced_vertices(V, F)
+        if zero_area_faces(V, F, DEGENERATE_AREA_RTOL).any():
+            return None
         out = TriMesh(V, F)
     except MeshError:
         return None

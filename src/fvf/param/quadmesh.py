@@ -246,7 +246,7 @@ def _decimated(part: Part, h: float, surfaces: dict, opts: dict) -> bool:
     key = ("decimated", round(h, 12))
     if key not in surfaces:
         found = _features(part, part.closed, h, opts)
-        sharp = found is not None and found.size > 0 and not _only_rims(part, found)
+        sharp = _featured(found) and not _only_rims(part, found)
         surfaces[key] = None if sharp else decimated_for_quads(part.closed, h)
     return surfaces[key] is not None
 
@@ -658,8 +658,8 @@ def _mesh_parts(
         if not part.mesh.is_closed:
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         found = _features(part, part.closed, hp, opts)
-        featured = found is not None and found.size > 0
-        rims = found is not None and featured and _only_rims(part, found)
+        featured = _featured(found)
+        rims = featured and _only_rims(part, found)
         dome = _dome_ratio(part)
         tries = retry and dome <= DOME_AREA_LIMIT
         plans = _plans(part, hp, align, tries, remesh, featured, rims)
@@ -712,11 +712,16 @@ def _dome_note(ratio: float) -> str:
     )
 
 
-def _only_rims(part: Part, features: np.ndarray) -> bool:
+def _featured(features: np.ndarray | None) -> bool:
+    """Whether :func:`_features` found any."""
+    return features is not None and features.size > 0
+
+
+def _only_rims(part: Part, features: np.ndarray | None) -> bool:
     """Whether the features (edge ids of ``part.closed``) on the open surface itself are
     only its boundary loops (the rims of the domes: a scan with holes; edges on a dome
     do not count)."""
-    if part.cap is None:
+    if part.cap is None or features is None:
         return False
     on_input = (part.closed.edges[features] < part.mesh.n_vertices).all(axis=1)
     return bool(np.isin(features[on_input], part.cap.rim).all())
