@@ -81,6 +81,7 @@ __all__ = [
     "NotEnoughEigenpairsError",
     "FoldedQuadWarning",
     "QuadCountRaisedWarning",
+    "DenseFeaturesWarning",
     "DistortedQuadsWarning",
     "format_indices",
 ]
@@ -471,6 +472,14 @@ class QuadCountRaisedWarning(FvfWarning):
     the size asked failed at parts of the surface narrower than a quad edge (a finger, a
     spike), and quads small enough for them succeeded; the message says where and how
     many."""
+
+
+class DenseFeaturesWarning(FvfWarning):
+    """A component's sharp edges are denser than the quads can follow (a thread, a knurl:
+    longer than all edges of quads of edge ``h``, about twice the area over ``h``,
+    :data:`fvf.param.features.DENSE_FEATURES`): they are neither iso-lines nor held, and
+    the component is meshed as a smooth surface; the message gives the density and the
+    quad count at which they would be followed."""
 
 
 class DistortedQuadsWarning(FvfWarning):

@@ -3,6 +3,7 @@ components, remeshing, sharp features, open surfaces (domes), the result object.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import warnings
 
@@ -15,6 +16,7 @@ from fvf.param.features import (
     MIN_CHAIN,
     feature_constraints,
     feature_coverage,
+    feature_density,
     feature_edge_ids,
     sharp_edges,
 )
@@ -486,8 +488,10 @@ def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field
 
     part = component_parts(fvf.icosphere(2))[0]
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
-    iso = [p.isolines for p in plans]
-    strips = [p.strips for p in plans]
+    at_h = [p for p in plans if p.h == 0.3]
+    assert plans[: len(at_h)] == at_h  # the quad edge asked first, then shorter ones
+    iso = [p.isolines for p in at_h]
+    strips = [p.strips for p in at_h]
     # input, remeshed, finely remeshed: each as iso-lines, then with thin strips stretched
     # (param.strips); then the input and the remeshed surface holding the field
     assert iso[:6] == [True] * 6 and not any(iso[6:])
@@ -497,9 +501,35 @@ def test_features_are_iso_lines_plain_then_with_strips_first_then_hold_the_field
     assert surfaces[:6:2] == [(False, False, 0.3), (True, False, 0.3), (True, True, 0.3)]
     assert surfaces[6:8] == surfaces[:4:2]
     assert not any(p.fine for p in plans[6:])
+    # at 1.5x and 2.25x the quads the features are iso-lines first again (remeshed, strips)
+    finer = sorted({p.h for p in plans} - {0.3}, reverse=True)
+    assert np.allclose(finer, [0.3 * quadmesh.MORE_QUADS, 0.3 * quadmesh.MORE_QUADS**2])
+    for h in finer:
+        first = next(p for p in plans if p.h == h)
+        assert first.isolines and first.strips and first.remeshed and not first.fine
+        assert sum(p.isolines for p in plans if p.h == h) == 1
     assert not any(p.isolines for p in quadmesh._plans(part, 0.3, "curvature", True, "auto", False))
     never = quadmesh._plans(part, 0.3, "curvature", True, "never", True)
     assert not any(p.remeshed or p.fine for p in never)
+
+
+def test_a_thin_strips_plan_without_a_strip_is_the_plain_one_or_skipped(monkeypatch):
+    """Without a thin strip a strips plan is its plan without strips: skipped at the quad
+    edge asked (the plain iso-line plan is in the list already), run plain at 1.5x."""
+    from fvf.param import quadmesh
+    from fvf.param.quad_parts import component_parts
+
+    part = component_parts(fvf.icosphere(2))[0]
+    plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
+    opts = {"decimate": False}
+    for has in (False, True):
+        monkeypatch.setattr(quadmesh, "_has_strips", lambda *args, has=has: has)
+        for plan in (p for p in plans if p.strips):
+            got = quadmesh._resolved(part, plan, plans, {}, opts)
+            plain = dataclasses.replace(plan, strips=False)
+            want = plan if has else (None if plain in plans else plain)
+            assert got == want, (has, str(plan))
+    assert any(p.strips and dataclasses.replace(p, strips=False) not in plans for p in plans)
 
 
 def test_an_open_surface_whose_only_features_are_its_rims_tries_them_as_iso_lines_later():
@@ -519,11 +549,13 @@ def test_an_open_surface_whose_only_features_are_its_rims_tries_them_as_iso_line
     assert quadmesh._only_rims(part, found)
     assert not quadmesh._only_rims(part, np.concatenate([found, [0]]))  # edge 0: not a rim
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True, rims_only=True)
-    iso = [p.isolines for p in plans]
-    k, n = iso.index(True), sum(iso)  # (the dome's slivers: the input is remeshed first)
-    assert k >= 2 and n >= 4 and iso == [False] * k + [True] * n + [False] * (len(iso) - k - n)
+    for h in sorted({p.h for p in plans}, reverse=True):  # at each quad edge, in turn
+        iso = [p.isolines for p in plans if p.h == h]
+        k, n = iso.index(True), sum(iso)  # (the dome's slivers: the input is remeshed first)
+        assert k >= 1 and n >= 1 and iso == [False] * k + [True] * n + [False] * (len(iso) - k - n)
     first = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
-    assert [p.isolines for p in first][:n] == [True] * n
+    n = sum(p.isolines for p in plans if p.h == 0.3)
+    assert n >= 4 and [p.isolines for p in first][:n] == [True] * n
     assert sorted(map(str, plans)) == sorted(map(str, first))  # the same, in another order
 
 
@@ -546,3 +578,60 @@ def test_an_attempts_log_line_is_its_errors_first_clause_cut_at_a_word(monkeypat
     cut = [a for a in lines if "word" in a]
     assert cut and all(a.endswith("word …") and len(a) < 400 for a in cut), cut
     assert not any("try another target" in a for a in lines)
+
+
+def star_prism(teeth=60, depth=0.3, length=2.0):
+    """A prism over a star of ``teeth`` points (radii 1 and 1 − depth), its ends fanned
+    from their centres: sharp edges everywhere, like a knurl (V, F)."""
+    k = 2 * teeth
+    t = 2 * np.pi * np.arange(k) / k
+    r = np.where(np.arange(k) % 2 == 0, 1.0, 1.0 - depth)
+    ring = np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+    V = np.vstack(
+        [np.c_[ring, np.zeros(k)], np.c_[ring, np.full(k, length)], [[0, 0, 0], [0, 0, length]]]
+    )
+    i = np.arange(k)
+    j = (i + 1) % k
+    side = np.r_[np.c_[i, j, j + k], np.c_[i, j + k, i + k]]
+    ends = np.r_[np.c_[np.full(k, 2 * k), j, i], np.c_[np.full(k, 2 * k + 1), i + k, j + k]]
+    return V, np.r_[side, ends]
+
+
+def test_feature_density_is_the_features_length_over_area_over_h():
+    M = fvf.TriMesh(*box())  # 2 x 1 x 0.5: edges 14 long, area 7
+    sharp = sharp_edges(M, 35.0)
+    assert sharp.size == 12
+    assert np.isclose(feature_density(M, sharp, 0.25), 14 * 0.25 / 7)
+    assert feature_density(M, sharp[:0], 0.25) == 0.0
+
+
+def test_sharp_edges_denser_than_the_quads_are_no_features():
+    """A knurl at a quad size coarser than its teeth: its sharp edges are longer than all
+    edges the quads have (density above DENSE_FEATURES), so none is a feature and the
+    call says so; with quads fine enough they are features again."""
+    from fvf.param import quadmesh
+    from fvf.param.features import DENSE_FEATURES
+    from fvf.param.quad_parts import component_parts
+
+    M = fvf.TriMesh(*star_prism())
+    part = component_parts(M)[0]
+    sharp = sharp_edges(M, 35.0)
+    assert sharp.size == 120 + 2 * 120  # the teeth's ridges and valleys, the two rims
+    coarse = (
+        2.5
+        * DENSE_FEATURES
+        * M.total_area
+        / np.linalg.norm(
+            M.vertices[M.edges[sharp, 1]] - M.vertices[M.edges[sharp, 0]], axis=1
+        ).sum()
+    )
+    assert feature_density(M, sharp, coarse) == pytest.approx(2.5 * DENSE_FEATURES)
+    opts = {"crease_angle": 35.0, "features": True, "user_edges": None}
+    assert quadmesh._own_features(part, coarse, opts) is None
+    assert opts["dense features"] == {part.label: pytest.approx(2.5 * DENSE_FEATURES)}
+    fine = {"crease_angle": 35.0, "features": True, "user_edges": None}
+    assert np.array_equal(quadmesh._own_features(part, coarse / 3, fine), sharp)
+    assert "dense features" not in fine
+    with pytest.warns(fvf.DenseFeaturesWarning, match="are 5 times as long"):
+        with contextlib.suppress(fvf.QuadMeshError):  # one attempt, as a smooth surface
+            fvf.quad_mesh(M, edge_length=coarse, retry=False)

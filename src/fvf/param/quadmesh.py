@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import (
+    DenseFeaturesWarning,
     DistortedQuadsWarning,
     ParameterError,
     ProblemSizeError,
@@ -41,7 +42,9 @@ from .decimation import decimated_for_quads
 from .extraction import extract_quads
 from .features import (
     CREASE_ANGLE,
+    DENSE_FEATURES,
     MIN_CHAIN,
+    feature_density,
     feature_edge_ids,
     sharp_edges,
     transferred_features,
@@ -177,11 +180,13 @@ def _plans(
     plans = plain + lines if rims_only else lines + plain
     # quads smaller where the surface turns faster (skipped where nothing is that curved)
     plans += [dataclasses.replace(p, align="curvature", sized=True) for p in first]
-    plans += [
-        _Plan(can, "curvature", h * MORE_QUADS, sized=True),
-        _Plan(can, other, h * MORE_QUADS),
-        _Plan(can, "curvature", h * MORE_QUADS**2, sized=True),
-    ]
+    for k, finer in enumerate((h * MORE_QUADS, h * MORE_QUADS**2)):
+        # the features as iso-lines again at more quads: holes through a floor thinner
+        # than a quad need their cones a quad edge apart (thin strips stretched, or plain)
+        held = [_Plan(can, "curvature", finer, sized=True)]
+        held += [_Plan(can, other, finer)] if k == 0 else []
+        iso = [_Plan(can, align, finer, isolines=True, strips=True)] if features else []
+        plans += held + iso if rims_only else iso + held
     return list(dict.fromkeys(plans))
 
 
@@ -209,13 +214,16 @@ def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMes
     """The surface of ``plan`` and its conformal log scale (n,) for quads sized by
     curvature (:mod:`.sizing`), None when the plan is not sized or the sizing asks
     nowhere for quads :data:`SIZED_REFINEMENT` times shorter than h (measured on the
-    surface remeshed for h: a CAD part's sharp edges show their curvature there)."""
+    surface remeshed for h: a CAD part's sharp edges show their curvature there), or the
+    component's sharp edges are denser than the quads (:func:`_own_features`: its thread's
+    curvature would ask for quads at the thread's scale everywhere)."""
     surface = _surface(part, plan, surfaces, opts)
     if not plan.sized:
         return surface, None
     key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine, plan.decimated)
     if key not in surfaces:
-        s = curvature_log_scale(surface, plan.h)
+        dense = part.label in opts.get("dense features", {})  # meshed as smooth: unsized
+        s = np.zeros(surface.n_vertices) if dense else curvature_log_scale(surface, plan.h)
         surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
     return surface, surfaces[key]
 
@@ -224,14 +232,16 @@ def _resolved(
     part: Part, plan: _Plan, plans: list[_Plan], surfaces: dict, opts: dict
 ) -> _Plan | None:
     """``plan`` as it runs: a sized plan whose sizing is trivial (:func:`_sizing`) is its
-    plan of one size, or None (skipped) when that one is in ``plans`` too; a thin-strips
-    plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is skipped; a plan
+    plan of one size, or None (skipped) when that one is in ``plans`` too; likewise a
+    thin-strips plan without a thin strip (:func:`fvf.param.strips.has_thin_strips`) is
+    the plan without strips, or skipped; a plan
     on the input surface runs on it decimated where the input is far finer than the quads
     (:mod:`.decimation`)."""
     if not plan.remeshed and opts["decimate"] and _decimated(part, plan.h, surfaces, opts):
         plan = dataclasses.replace(plan, decimated=True)
     if plan.strips and not _has_strips(part, plan, surfaces, opts):
-        return None
+        plain = dataclasses.replace(plan, strips=False)
+        return None if dataclasses.replace(plain, decimated=False) in plans else plain
     if not plan.sized or _sizing(part, plan, surfaces, opts)[1] is not None:
         return plan
     uniform = dataclasses.replace(plan, sized=False)
@@ -336,11 +346,19 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
 
 
 def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
-    """Edge ids of the closed component: its sharp edges, the rims of its domes and the
-    user's feature edges (None when there are no features to look for)."""
+    """Edge ids of the closed component: its sharp edges (none where they are denser than
+    the quads, :data:`fvf.param.features.DENSE_FEATURES`: kept in ``opts`` for
+    :func:`_warn_dense`), the rims of its domes and the user's feature edges (None when
+    there are no features to look for)."""
     mesh = part.closed
-    chain = MIN_CHAIN * h
-    found = [sharp_edges(mesh, opts["crease_angle"], chain)] if opts["features"] else []
+    found = []
+    if opts["features"]:
+        sharp = sharp_edges(mesh, opts["crease_angle"], MIN_CHAIN * h)
+        density = feature_density(mesh, sharp, h)
+        if density > DENSE_FEATURES:  # a thread, a knurl: texture at this quad size
+            opts.setdefault("dense features", {})[part.label] = density
+        else:
+            found.append(sharp)
     if part.cap is not None:
         found.append(part.cap.rim)
     if opts["user_edges"] is not None:  # ids of the whole input's edges -> the part's
@@ -658,6 +676,7 @@ def _mesh_parts(
         if not part.mesh.is_closed:
             part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
         found = _features(part, part.closed, hp, opts)
+        _warn_dense(part, hp, opts)
         featured = _featured(found)
         rims = featured and _only_rims(part, found)
         dome = _dome_ratio(part)
@@ -765,6 +784,24 @@ def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
             ),
             stacklevel=user_stacklevel(),
         )
+
+
+def _warn_dense(part: Part, h: float, opts: dict) -> None:
+    """:class:`fvf.DenseFeaturesWarning` when the component's sharp edges were left out
+    as denser than the quads (:func:`_own_features`)."""
+    density = opts.get("dense features", {}).get(part.label)
+    if density is None:
+        return
+    warnings.warn(
+        f"component {part.label}: its sharp edges are {density:.3g} times as long as the "
+        f"area over the quad edge ({h:.3g}): longer than all edges of the quads (about "
+        f"{DENSE_FEATURES:g} times; a thread, a knurl), so they are not followed and the "
+        "surface is meshed as smooth; about "
+        f"{(density / DENSE_FEATURES) ** 2:.3g} times the quads would follow them, or pass "
+        "the edges to keep as features=",
+        DenseFeaturesWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_distorted(part: Part, corners: float) -> None:
