@@ -605,7 +605,7 @@ def test_feature_density_is_the_features_length_over_area_over_h():
     assert feature_density(M, sharp[:0], 0.25) == 0.0
 
 
-def test_sharp_edges_denser_than_the_quads_are_no_features():
+def test_sharp_edges_denser_than_the_quads_are_no_features(monkeypatch):
     """A knurl at a quad size coarser than its teeth: its sharp edges are longer than all
     edges the quads have (density above DENSE_FEATURES), so none is a feature and the
     call says so; with quads fine enough they are features again."""
@@ -628,10 +628,20 @@ def test_sharp_edges_denser_than_the_quads_are_no_features():
     assert feature_density(M, sharp, coarse) == pytest.approx(2.5 * DENSE_FEATURES)
     opts = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert quadmesh._own_features(part, coarse, opts) is None
-    assert opts["dense features"] == {part.label: pytest.approx(2.5 * DENSE_FEATURES)}
+    assert opts["dense features"] == {
+        (part.label, round(coarse, 12)): pytest.approx(2.5 * DENSE_FEATURES)
+    }
     fine = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert np.array_equal(quadmesh._own_features(part, coarse / 3, fine), sharp)
     assert "dense features" not in fine
+    # meshed as smooth: not sized by the teeth's curvature (here a sizing that asks for
+    # quads e times shorter everywhere), where at the finer h it is
+    curved = lambda surface, h: np.ones(surface.n_vertices)  # noqa: E731
+    monkeypatch.setattr(quadmesh, "curvature_log_scale", curved)
+    for h, unsized in ((coarse, True), (coarse / 3, False)):
+        plan = quadmesh._Plan(False, "curvature", h, sized=True)
+        fresh = {"crease_angle": 35.0, "features": True, "user_edges": None}
+        assert (quadmesh._sizing(part, plan, {}, fresh)[1] is None) == unsized
     with pytest.warns(fvf.DenseFeaturesWarning, match="are 5 times as long"):
         with contextlib.suppress(fvf.QuadMeshError):  # one attempt, as a smooth surface
             fvf.quad_mesh(M, edge_length=coarse, retry=False)

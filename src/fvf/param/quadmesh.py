@@ -222,10 +222,17 @@ def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMes
         return surface, None
     key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine, plan.decimated)
     if key not in surfaces:
-        dense = part.label in opts.get("dense features", {})  # meshed as smooth: unsized
+        dense = _dense(part, plan.h, opts)
         s = np.zeros(surface.n_vertices) if dense else curvature_log_scale(surface, plan.h)
         surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
     return surface, surfaces[key]
+
+
+def _dense(part: Part, h: float, opts: dict) -> bool:
+    """Whether the component's sharp edges are denser than quads of edge ``h``
+    (:func:`_own_features`, found here if not yet)."""
+    _features(part, part.closed, h, opts)
+    return (part.label, round(h, 12)) in opts.get("dense features", {})
 
 
 def _resolved(
@@ -356,7 +363,7 @@ def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
         sharp = sharp_edges(mesh, opts["crease_angle"], MIN_CHAIN * h)
         density = feature_density(mesh, sharp, h)
         if density > DENSE_FEATURES:  # a thread, a knurl: texture at this quad size
-            opts.setdefault("dense features", {})[part.label] = density
+            opts.setdefault("dense features", {})[(part.label, round(h, 12))] = density
         else:
             found.append(sharp)
     if part.cap is not None:
@@ -789,7 +796,7 @@ def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
 def _warn_dense(part: Part, h: float, opts: dict) -> None:
     """:class:`fvf.DenseFeaturesWarning` when the component's sharp edges were left out
     as denser than the quads (:func:`_own_features`)."""
-    density = opts.get("dense features", {}).get(part.label)
+    density = opts.get("dense features", {}).get((part.label, round(h, 12)))
     if density is None:
         return
     warnings.warn(
