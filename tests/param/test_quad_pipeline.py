@@ -645,3 +645,23 @@ def test_sharp_edges_denser_than_the_quads_are_no_features(monkeypatch):
     with pytest.warns(fvf.DenseFeaturesWarning, match="are 5 times as long"):
         with contextlib.suppress(fvf.QuadMeshError):  # one attempt, as a smooth surface
             fvf.quad_mesh(M, edge_length=coarse, retry=False)
+
+
+def test_a_result_at_more_quads_than_asked_says_so(monkeypatch):
+    """When only an attempt at 1.5x the quads is valid, the result comes with a
+    QuadCountRaisedWarning naming its edge; at the edge asked, none."""
+    from fvf.param import quadmesh
+
+    real = quadmesh._plans
+
+    def finer_only(part, h, *args, **kwargs):
+        return [p for p in real(part, h, *args, **kwargs) if p.h < h and not p.sized][:1]
+
+    mesh = fvf.torus(24, 12)
+    asked = fvf.quad_mesh(mesh, target_faces=150)  # filterwarnings: error
+    monkeypatch.setattr(quadmesh, "_plans", finer_only)
+    with pytest.warns(fvf.QuadCountRaisedWarning, match="with quads of edge") as caught:
+        made = fvf.quad_mesh(mesh, target_faces=150)
+    assert made.validity.valid and len(made.quads) > 1.3 * len(asked.quads)
+    edge = float(str(caught[0].message).split("with quads of edge ")[1].split(":")[0])
+    assert edge == pytest.approx(asked.parameterization.edge_length * quadmesh.MORE_QUADS, 3e-3)

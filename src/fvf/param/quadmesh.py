@@ -691,7 +691,7 @@ def _mesh_parts(
         plans = _plans(part, hp, align, tries, remesh, featured, rims)
         try:
             made.append((part, _mesh_part(part, plans, fp, opts, report)))
-            _warn_if_sized(part, made[-1][1], hp)
+            _warn_if_raised(part, made[-1][1], hp)
         except QuadMeshError as exc:
             finer = _finer(part, exc, plans, align, tries, remesh, featured, rims)
             if finer:
@@ -776,21 +776,31 @@ def _finer(
     return _plans(part, edge, align, retry, remesh, featured, rims)[:FINER_ATTEMPTS]
 
 
-def _warn_if_sized(part: Part, made: tuple, h: float) -> None:
-    """A :class:`~fvf.errors.QuadCountRaisedWarning` when an attempt sized by curvature
-    made more than :data:`SIZED_WARN` times the quads asked."""
+def _warn_if_raised(part: Part, made: tuple, h: float) -> None:
+    """A :class:`~fvf.errors.QuadCountRaisedWarning` when the valid attempt made more quads
+    than asked: sized by curvature with more than :data:`SIZED_WARN` times the quads, or
+    of one size at a shorter edge than ``h`` (the retries at 1.5× and 2.25× the quads)."""
     Q, param = made[1], made[3]
     ratio = Q.shape[0] * h * h / part.mesh.total_area
     if param.info["log_scale"] is not None and ratio > SIZED_WARN:
-        warnings.warn(
-            QuadCountRaisedWarning(
-                f"quad_mesh: component {part.label} was meshed with quads sized by "
-                f"curvature, {Q.shape[0]} quads, {ratio:.2g} times the quads asked (edge "
-                f"{h:.3g}): the attempts of one size failed, and where the surface's radius "
-                "of curvature is below a quad edge the quads are about that radius"
-            ),
-            stacklevel=user_stacklevel(),
+        why = (
+            "with quads sized by curvature: the attempts of one size failed, and where the "
+            "surface's radius of curvature is below a quad edge the quads are about that radius"
         )
+    elif param.edge_length < h * (1.0 - 1e-9):
+        why = (
+            f"with quads of edge {param.edge_length:.3g}: the attempts at the edge asked "
+            "failed (features closer than a quad edge, cones that landed on one grid point)"
+        )
+    else:
+        return
+    warnings.warn(
+        QuadCountRaisedWarning(
+            f"quad_mesh: component {part.label} was meshed {why}; {Q.shape[0]} quads, "
+            f"{ratio:.2g} times the quads asked (edge {h:.3g})"
+        ),
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_dense(part: Part, h: float, opts: dict) -> None:
