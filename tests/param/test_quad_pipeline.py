@@ -258,6 +258,44 @@ def test_a_coarse_box_is_remeshed_then_quad_meshed(method):
     assert np.array_equal(made.vertex_faces, faces) or made.vertex_faces.shape == faces.shape
 
 
+def test_a_box_far_finer_than_its_remeshing_is_decimated_first_and_stays_the_box(monkeypatch):
+    """A 12-triangle box midpoint-subdivided to 12,288 triangles has more than
+    PRE_DECIMATE times the 600 or so triangles remeshed at 0.175: pymeshlab decimates it
+    first (planar quadrics) and the remeshed surface is the box's, as from the box itself:
+    vertices on its faces (within MeshLab's single precision), its twelve edges sharp,
+    about as many triangles."""
+    pytest.importorskip("pymeshlab")
+    import pymeshlab
+
+    from fvf.param import remesh
+
+    V, F = box()
+    fine = fvf.TriMesh(*subdivide_midpoints(*subdivide_midpoints(*subdivide_midpoints(V, F))))
+    fine = fvf.TriMesh(*subdivide_midpoints(*subdivide_midpoints(fine.vertices, fine.faces)))
+    assert fine.n_faces == 12 * 4**5
+    h = 0.25
+    assert fine.n_faces > remesh.PRE_DECIMATE * 2.31 * fine.total_area / (0.7 * h) ** 2
+    calls = []
+    real = pymeshlab.MeshSet.meshing_decimation_quadric_edge_collapse
+
+    def counted(self, **kwargs):
+        calls.append(kwargs["targetfacenum"])
+        return real(self, **kwargs)
+
+    monkeypatch.setattr(pymeshlab.MeshSet, "meshing_decimation_quadric_edge_collapse", counted)
+    S = remesh_for_quads(fine, h, method="pymeshlab")
+    coarse = remesh_for_quads(fvf.TriMesh(V, F), h, method="pymeshlab")
+    assert len(calls) == 1  # the fine box only
+    assert S.is_closed and S.euler_characteristic == 2
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    off = np.minimum(np.abs(S.vertices - lo), np.abs(S.vertices - hi)).min(axis=1)
+    assert off.max() < 1e-4 * np.ptp(V)  # on the box (the decimation: single precision)
+    assert abs(S.n_faces - coarse.n_faces) <= 0.1 * coarse.n_faces
+    E = S.vertices[S.edges[sharp_edges(S, 35.0)]]
+    length = np.linalg.norm(E[:, 1] - E[:, 0], axis=1).sum()
+    assert length == pytest.approx(4 * (2.0 + 1.0 + 0.5), rel=1e-3)  # the box's edges
+
+
 def test_the_remeshed_surface_of_a_thin_walled_box_has_no_zero_area_triangles():
     """pymeshlab's remeshing of an open box with 3.55 mm walls and two floor holes leaves
     triangles with three vertices on one crease line; they are split away (T-junction

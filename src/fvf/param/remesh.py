@@ -61,6 +61,15 @@ REMESH_FRACTION = 0.7
 #: iso-lines follow those on the first (:func:`fvf.quad_mesh`): thin fins and walls that
 #: need it (the random parts: 35 valid with them, 34 without, 499 vs 453 CPU s).
 FINE_REMESH_FRACTION = 0.5
+#: pymeshlab's remeshing of an input with more than PRE_DECIMATE times the triangles it
+#: makes (about 2.31 A / ℓ² at edge ℓ) first decimates the input to PRE_DECIMATE_TO times
+#: them by MeshLab's quadric edge collapse with planar quadrics, normals and topology kept
+#: (a random CSG part midpoint-subdivided to 418k triangles, remeshed at 0.7 h: 12 s
+#: instead of 85 s, the same faces within 0.5 %, distance to the input 0.06–0.07 h both,
+#: the same χ and sharp edges within 2 %): each remeshing iteration reprojects onto the
+#: input, which then costs with its triangles, not the quads'.
+PRE_DECIMATE = 8.0
+PRE_DECIMATE_TO = 4.0
 #: Edge lengths (× the asked one) pymeshlab's remeshing is run at again while zero-area
 #: triangles are left (a random thin-walled box: 3 left at the asked length, none at 1.02×).
 RETARGET = (1.02, 0.98)
@@ -195,9 +204,17 @@ def _pymeshlab_remesh(
         raise MissingExtraError("remeshing needs pymeshlab: pip install 'fvf[remesh]'") from exc
     length = getattr(pymeshlab, "PureValue", None) or pymeshlab.AbsoluteValue
     ms = pymeshlab.MeshSet()
+    made = 2.31 * mesh.total_area / (target * target)  # the remeshing's triangles, about
     try:
         ms.add_mesh(pymeshlab.Mesh(mesh.vertices, mesh.faces.astype(np.int32)))
         with _quiet():
+            if mesh.n_faces > PRE_DECIMATE * made:
+                ms.meshing_decimation_quadric_edge_collapse(
+                    targetfacenum=int(PRE_DECIMATE_TO * made),
+                    planarquadric=True,
+                    preservenormal=True,
+                    preservetopology=True,
+                )
             ms.meshing_isotropic_explicit_remeshing(
                 targetlen=length(target),
                 featuredeg=float(crease_angle),
