@@ -222,17 +222,24 @@ def _sizing(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> tuple[TriMes
         return surface, None
     key = ("sizing", round(plan.h, 12), plan.remeshed, plan.fine, plan.decimated)
     if key not in surfaces:
-        dense = _dense(part, plan.h, opts)
+        dense = _density(part, plan.h, opts) is not None  # meshed as smooth: unsized
         s = np.zeros(surface.n_vertices) if dense else curvature_log_scale(surface, plan.h)
         surfaces[key] = s if float(s.max(initial=0.0)) > np.log(SIZED_REFINEMENT) else None
     return surface, surfaces[key]
 
 
-def _dense(part: Part, h: float, opts: dict) -> bool:
-    """Whether the component's sharp edges are denser than quads of edge ``h``
-    (:func:`_own_features`, found here if not yet)."""
+def _density(part: Part, h: float, opts: dict) -> float | None:
+    """:func:`fvf.param.features.feature_density` of the component's sharp edges where it
+    is above :data:`fvf.param.features.DENSE_FEATURES` at quad edge ``h`` (they are then
+    no features: :func:`_own_features`, found here if not yet), else None."""
     _features(part, part.closed, h, opts)
-    return (part.label, round(h, 12)) in opts.get("dense features", {})
+    return opts.get("dense features", {}).get(_part_key(part, h))
+
+
+def _part_key(part: Part, h: float) -> tuple[int, float]:
+    """The key of what is found once per component and quad edge (its own features, their
+    density)."""
+    return (part.label, round(h, 12))
 
 
 def _resolved(
@@ -248,11 +255,16 @@ def _resolved(
         plan = dataclasses.replace(plan, decimated=True)
     if plan.strips and not _has_strips(part, plan, surfaces, opts):
         plain = dataclasses.replace(plan, strips=False)
-        return None if dataclasses.replace(plain, decimated=False) in plans else plain
+        return None if _planned(plain, plans) else plain
     if not plan.sized or _sizing(part, plan, surfaces, opts)[1] is not None:
         return plan
     uniform = dataclasses.replace(plan, sized=False)
-    return None if dataclasses.replace(uniform, decimated=False) in plans else uniform
+    return None if _planned(uniform, plans) else uniform
+
+
+def _planned(plan: _Plan, plans: list[_Plan]) -> bool:
+    """Whether ``plan`` (decimated or not as it runs) is in the list as planned."""
+    return dataclasses.replace(plan, decimated=False) in plans
 
 
 def _decimated(part: Part, h: float, surfaces: dict, opts: dict) -> bool:
@@ -343,7 +355,7 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
     """Edge ids of ``surface`` the field is held along: the component's features
     (:func:`_own_features`, found once per quad edge) carried over to ``surface``."""
     found = opts.setdefault("own features", {})
-    key = (part.label, round(h, 12))
+    key = _part_key(part, h)
     if key not in found:
         found[key] = _own_features(part, h, opts)
     edges = found[key]
@@ -355,7 +367,7 @@ def _features(part: Part, surface: TriMesh, h: float, opts: dict) -> np.ndarray 
 def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
     """Edge ids of the closed component: its sharp edges (none where they are denser than
     the quads, :data:`fvf.param.features.DENSE_FEATURES`: kept in ``opts`` for
-    :func:`_warn_dense`), the rims of its domes and the user's feature edges (None when
+    :func:`_density`), the rims of its domes and the user's feature edges (None when
     there are no features to look for)."""
     mesh = part.closed
     found = []
@@ -363,7 +375,7 @@ def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
         sharp = sharp_edges(mesh, opts["crease_angle"], MIN_CHAIN * h)
         density = feature_density(mesh, sharp, h)
         if density > DENSE_FEATURES:  # a thread, a knurl: texture at this quad size
-            opts.setdefault("dense features", {})[(part.label, round(h, 12))] = density
+            opts.setdefault("dense features", {})[_part_key(part, h)] = density
         else:
             found.append(sharp)
     if part.cap is not None:
@@ -806,7 +818,7 @@ def _warn_if_raised(part: Part, made: tuple, h: float) -> None:
 def _warn_dense(part: Part, h: float, opts: dict) -> None:
     """:class:`fvf.DenseFeaturesWarning` when the component's sharp edges were left out
     as denser than the quads (:func:`_own_features`)."""
-    density = opts.get("dense features", {}).get((part.label, round(h, 12)))
+    density = _density(part, h, opts)
     if density is None:
         return
     warnings.warn(
