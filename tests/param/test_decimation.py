@@ -109,7 +109,7 @@ def test_a_component_with_sharp_features_is_not_decimated(monkeypatch):
     monkeypatch.setattr(quadmesh, "decimated_for_quads", spy)
     V, F = box()
     for _ in range(4):
-        V, F = fvf.param.remesh.subdivide_midpoints(V, F)
+        V, F = fvf.mesh.shapes.midpoint_subdivision(V, F)
     fine_box = fvf.TriMesh(V, F)
     h = np.sqrt(fine_box.total_area / 40)
     assert triangles_per_quad(fine_box, h) > MAX_TRIANGLES_PER_QUAD

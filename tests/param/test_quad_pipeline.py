@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import fvf
+from fvf.mesh.shapes import midpoint_subdivision
 from fvf.param.caps import boundary_loops, capped, cut_caps
 from fvf.param.features import (
     MIN_CHAIN,
@@ -21,7 +22,7 @@ from fvf.param.features import (
     sharp_edges,
 )
 from fvf.param.quad_validity import check_quad_mesh, topology_signature
-from fvf.param.remesh import needs_remesh, remesh_for_quads, subdivide_midpoints
+from fvf.param.remesh import needs_remesh, remesh_for_quads
 
 
 def box(a=2.0, b=1.0, c=0.5):
@@ -135,7 +136,7 @@ def test_feature_edges_are_integer_iso_lines_of_the_parameterization():
     them); the other coordinate moves along it."""
     V, F = box()
     for _ in range(3):
-        V, F = subdivide_midpoints(V, F)
+        V, F = midpoint_subdivision(V, F)
     mesh = fvf.TriMesh(V, F)
     sharp = sharp_edges(mesh)
     p = fvf.seamless_parameterization(mesh, features=sharp, target_faces=300)
@@ -215,7 +216,7 @@ def test_user_feature_edges_must_be_edges():
 # ---------------------------------------------------------------------------- remeshing
 def test_midpoint_subdivision_keeps_the_surface_and_quadruples_the_faces():
     V, F = box()
-    W, G = subdivide_midpoints(V, F)
+    W, G = midpoint_subdivision(V, F)
     mesh = fvf.TriMesh(W, G)
     assert G.shape[0] == 48 and mesh.euler_characteristic == 2
     assert np.isclose(mesh.total_area, fvf.TriMesh(V, F).total_area)
@@ -270,8 +271,8 @@ def test_a_box_far_finer_than_its_remeshing_is_decimated_first_and_stays_the_box
     from fvf.param import remesh
 
     V, F = box()
-    fine = fvf.TriMesh(*subdivide_midpoints(*subdivide_midpoints(*subdivide_midpoints(V, F))))
-    fine = fvf.TriMesh(*subdivide_midpoints(*subdivide_midpoints(fine.vertices, fine.faces)))
+    fine = fvf.TriMesh(*midpoint_subdivision(*midpoint_subdivision(*midpoint_subdivision(V, F))))
+    fine = fvf.TriMesh(*midpoint_subdivision(*midpoint_subdivision(fine.vertices, fine.faces)))
     assert fine.n_faces == 12 * 4**5
     h = 0.25
     assert fine.n_faces > remesh.PRE_DECIMATE * 2.31 * fine.total_area / (0.7 * h) ** 2

@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import MeshError, QuadExtractionError
 from ..mesh.defects import zero_area_faces
 from ..mesh.repair import split_t_junctions
+from ..mesh.shapes import midpoint_subdivision
 from ..mesh.trimesh import DEGENERATE_AREA_RTOL, TriMesh
 
 __all__ = [
@@ -151,7 +152,7 @@ def remesh_for_quads(
     if method == "subdivide":
         V, F = mesh.vertices, mesh.faces
         while _mean_edge(V, F) > target and F.shape[0] < 4_000_000:
-            V, F = subdivide_midpoints(V, F)
+            V, F = midpoint_subdivision(V, F)
     else:
         V, F = _pymeshlab_without_flat_faces(mesh, target, crease_angle)
     try:
@@ -162,20 +163,6 @@ def remesh_for_quads(
 
 def _mean_edge(V: np.ndarray, F: np.ndarray) -> float:
     return float(np.linalg.norm(V[F] - V[np.roll(F, -1, axis=1)], axis=2).mean())
-
-
-def subdivide_midpoints(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One midpoint subdivision: each triangle into four, float64 (n', 3), int64 (4m, 3)."""
-    e = np.stack([F[:, [1, 2]], F[:, [2, 0]], F[:, [0, 1]]], axis=1).reshape(-1, 2)
-    und, inv = np.unique(np.sort(e, axis=1), axis=0, return_inverse=True)
-    mid = V.shape[0] + inv.reshape(-1, 3)  # midpoint opposite corner 0, 1, 2
-    W = np.concatenate([V, 0.5 * (V[und[:, 0]] + V[und[:, 1]])])
-    a, b, c = F[:, 0], F[:, 1], F[:, 2]
-    ma, mb, mc = mid[:, 0], mid[:, 1], mid[:, 2]
-    G = np.concatenate(
-        [np.stack(t, axis=1) for t in ((a, mc, mb), (b, ma, mc), (c, mb, ma), (ma, mb, mc))]
-    )
-    return W, G.astype(np.int64)
 
 
 def _pymeshlab_without_flat_faces(
