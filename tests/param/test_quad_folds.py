@@ -196,6 +196,60 @@ def test_a_flat_quad_on_a_cad_sliver_is_not_folded():
     assert folded_quads(mesh, P, [[3, 2, 1, 0]]).size == 1
 
 
+def _wall_under_a_sliver() -> tuple[fvf.TriMesh, np.ndarray, np.ndarray]:
+    """A CAD wall (the plane y = 0, two triangles 100 × 28) under a top face (z = 28) whose
+    triangle along the crease is a sliver 0.3 wide, and a 20 × 2 grid of unit quads on the
+    wall just under the crease, facing −y like the wall."""
+    L, H = 100.0, 28.0
+    V = np.array(
+        [[0, 0, 0], [L, 0, 0], [0, 0, H], [L, 0, H], [0, 3, H], [L, 3, H], [L / 2, 0.3, H]],
+        dtype=float,
+    )
+    F = np.array([[0, 1, 3], [0, 3, 2], [2, 3, 6], [2, 6, 4], [6, 3, 5], [6, 5, 4]])
+    X, Z = np.meshgrid(np.arange(40.0, 61.0), [H - 2, H - 1, H], indexing="ij")
+    Vq = np.stack([X.ravel(), np.zeros(X.size), Z.ravel()], axis=1)
+    i = np.arange(X.size).reshape(X.shape)
+    Q = np.stack([i[:-1, :-1], i[1:, :-1], i[1:, 1:], i[:-1, 1:]], axis=-1).reshape(-1, 4)
+    return fvf.TriMesh(V, F), Vq, Q
+
+
+def test_a_quad_on_a_large_cad_face_is_judged_against_that_face():
+    """The wall's samples lie ~2 apart (48 per side of a 100-long triangle), so the balls
+    of the top row's quads (radius 0.71, centres 0.5 under the crease) hold samples of the
+    top face's sliver and none of the wall: measured by the samples alone, six of these
+    flat quads had only the top face under them and were called folded. The triangle
+    under a quad's centre counts with its area in the ball: none is folded; reversed,
+    all are."""
+    from fvf.param.quad_folds import surface_sample_tree
+
+    mesh, V, Q = _wall_under_a_sliver()
+    n = np.cross(V[Q[:, 2]] - V[Q[:, 0]], V[Q[:, 3]] - V[Q[:, 1]])
+    assert np.allclose(n / np.linalg.norm(n, axis=1, keepdims=True), [0, -1, 0])
+    samples, owner = surface_sample_tree(mesh)
+    c = V[Q].mean(axis=1)
+    near = [owner[k] for k in samples.query_ball_point(c, np.sqrt(0.5))]
+    alone = [q for q, f in enumerate(near) if len(f) and np.all(f >= 2)]  # the case exists
+    assert len(alone) >= 3
+    assert folded_quads(mesh, V, Q).size == 0
+    assert folded_quads(mesh, V, Q[:, ::-1]).size == len(Q)
+
+
+@pytest.mark.parametrize("height", [0.0, 0.3])
+def test_the_area_in_a_ball_is_a_disk_or_half_of_one(height):
+    """:func:`_area_in_ball` on a triangle much larger than the ball: π r² with
+    r² = ρ² − height² inside it, about half that centred on an edge (the grid's column on
+    the edge counts: within 1/DISK_GRID of a half)."""
+    from fvf.param.quad_folds import DISK_GRID, _area_in_ball
+
+    mesh = fvf.TriMesh(np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0]]), np.array([[0, 1, 2]]))
+    rho = 0.5
+    c = np.array([[3.0, 3.0, height], [3.0, 0.0, -height]])
+    got = _area_in_ball(mesh, np.array([0, 0]), c, np.array([rho, rho]))
+    disk = np.pi * (rho**2 - height**2)
+    assert got[0] == pytest.approx(disk, rel=1e-12)
+    assert 0.5 <= got[1] / disk <= 0.5 + 1.0 / DISK_GRID
+
+
 def test_a_notched_cylinder_gets_a_valid_quad_mesh():
     """End to end, judged by ``quadcheck`` (independent of fvf's gate): the gate used to
     reject every attempt on this part for quads like the one above."""

@@ -16,14 +16,18 @@ diagonal). Its reference normal is the vector area of the input surface the quad
 
 .. math::
 
-    N_q = \sum_{f \in P_q} A_f N_f ,
-    \qquad P_q = \{f : |x_f - c_q| \le \rho_q\},
+    N_q = \sum_f |f \cap B_q|\, N_f ,
+    \qquad B_q = \{x : |x - c_q| \le \rho_q\},
     \qquad \rho_q = \tfrac12 \min(|p_2 - p_0|, |p_3 - p_1|),
 
-over the input triangles whose centroids :math:`x_f` lie within half the quad's shorter
-diagonal of its centroid :math:`c_q = \tfrac14 \sum_k p_k` (the surface under the quad);
-when there is none, :math:`P_q` is the triangle holding the surface point closest to
-:math:`c_q`. (Measured on dense samples of the triangles; samples facing away from the
+over the parts of the input triangles within half the quad's shorter diagonal of its
+centroid :math:`c_q = \tfrac14 \sum_k p_k` (the surface under the quad); when there is
+none, the normal of the surface at the point closest to :math:`c_q`. The areas
+:math:`|f \cap B_q|` are counted on dense samples of the triangles, but that of the
+triangle holding the point closest to :math:`c_q` on a grid of the disk where the ball
+meets its plane: on a CAD face of one 100 mm triangle the samples lie 2.3 mm apart, and a
+1.5 mm quad on it would otherwise be measured against the samples of the next face across
+an edge and be called folded. (Samples facing away from the
 surface's side at :math:`c_q` — the summed vertex normals of the closest triangle, or its
 own normal where the two disagree and it is not folded over — are left out: they are the
 far wall of a part thinner than a quad.) The quad is **folded** when :math:`n_q \cdot N_q
@@ -100,6 +104,9 @@ BALL_CHUNK = 2048
 #: Two closest points count as tied (a point on the mid-surface of a thin wall) when their
 #: distances differ by less than this fraction.
 TIE = 1e-6
+#: Points per side of the square grid whose points in the unit disk measure the area of
+#: the triangle under a quad's centre within the quad's ball (:func:`_area_in_ball`).
+DISK_GRID = 9
 #: Relaxation steps per region before the region grows by one ring of quads.
 STEPS_PER_RING = 10
 #: Rings of quads the free region may grow by around the folded quads.
@@ -305,26 +312,61 @@ def reference_normals(
     quads: np.ndarray,
     tree: cKDTree,
     side: np.ndarray | None = None,
+    face: np.ndarray | None = None,
 ) -> np.ndarray:
     """N_q of the module docstring, float64 (q, 3): the vector area of the input surface
     under each quad, on the side of the surface at its centre (not normalized); ``tree``
-    holds ``mesh.face_centroids``; ``side`` (q, 3), the side at the quads' centres when
-    already known (:func:`_surface_at`)."""
+    holds ``mesh.face_centroids``; ``side`` (q, 3), the side at the quads' centres, and
+    ``face`` (q,), the input triangle closest to them, when already known
+    (:func:`_surface_at`).
+
+    The closest triangle's share is its area within the ball (:func:`_area_in_ball`), the
+    other triangles' their samples in it (:func:`surface_sample_tree`): a CAD face of
+    100 mm has samples 2.3 mm apart, none of them within the ball of a 1.5 mm quad lying
+    on it, which would leave that quad measured against the next face across an edge."""
     P = vertices[quads]
     c = P.mean(axis=1)
     rho = 0.5 * np.minimum(
         np.linalg.norm(P[:, 2] - P[:, 0], axis=1), np.linalg.norm(P[:, 3] - P[:, 1], axis=1)
     )
+    if face is None:
+        face = closest_surface_points(mesh, c, tree)[0]
     if side is None:
-        side = _surface_at(mesh, c, tree)[0]
+        side = _surface_at(mesh, c, tree, face)[0]
     samples, owner = surface_sample_tree(mesh)
     weight = mesh.face_areas / np.bincount(owner, minlength=mesh.n_faces)  # area per sample
     AN = weight[:, None] * mesh.face_normals
+    own = _area_in_ball(mesh, face, c, rho)[:, None] * mesh.face_normals[face]
     out = np.empty((len(c), 3))
     for lo in range(0, len(c), BALL_CHUNK):  # the samples near a chunk of quads at a time
         at = slice(lo, lo + BALL_CHUNK)
-        out[at] = _area_under(samples, owner, AN, c[at], rho[at], side[at])
+        out[at] = _area_under(samples, owner, AN, c[at], rho[at], side[at], face[at], own[at])
     return out
+
+
+def _area_in_ball(mesh: TriMesh, face: np.ndarray, c: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """Area of each triangle ``face`` (k,) within the ball of radius ``rho`` (k,) about
+    ``c`` (k, 3), float64 (k,): the disk where the ball meets the triangle's plane, times
+    the fraction of a fixed grid of it (:data:`DISK_GRID` points per side) inside the
+    triangle."""
+    T = mesh.vertices[mesh.faces[face]]  # (k, 3 corners, 3)
+    n = mesh.face_normals[face]
+    height = np.einsum("kd,kd->k", c - T[:, 0], n)
+    centre = c - height[:, None] * n  # the disk's centre, in the plane
+    r = np.sqrt(np.maximum(rho * rho - height * height, 0.0))
+    e1 = T[:, 1] - T[:, 0]
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n, e1)
+    t = np.linspace(-1.0, 1.0, DISK_GRID)
+    x, y = (a.ravel() for a in np.meshgrid(t, t))
+    x, y = x[x * x + y * y <= 1.0], y[x * x + y * y <= 1.0]
+    G = centre[:, None] + r[:, None, None] * (x[:, None] * e1[:, None] + y[:, None] * e2[:, None])
+    inside = np.ones(G.shape[:2], dtype=bool)  # (k, g): on the inner side of all three edges
+    for i in range(3):
+        a, b = T[:, i], T[:, (i + 1) % 3]
+        out = np.einsum("kd,kgd->kg", np.cross(b - a, n), G - a[:, None])
+        inside &= out <= 1e-12 * np.einsum("kd,kd->k", b - a, b - a)[:, None]
+    return np.pi * r * r * inside.mean(axis=1)
 
 
 def _area_under(
@@ -334,20 +376,27 @@ def _area_under(
     c: np.ndarray,
     rho: np.ndarray,
     side: np.ndarray,
+    face: np.ndarray,
+    own: np.ndarray,
 ) -> np.ndarray:
     """N_q of quads centred at c (k, 3) with radii rho (k,), float64 (k, 3); AN (m, 3) the
-    area vector of the surface per sample of each input triangle."""
+    area vector of the surface per sample of each input triangle; ``own`` (k, 3) the area
+    vector of the closest triangle ``face`` (k,) within the ball, which its samples do not
+    add to."""
     near = samples.query_ball_point(c, rho)  # each quad's own radius: one large quad
     counts = np.fromiter((len(n) for n in near), np.int64, len(near))  # costs its own
     rows = np.repeat(np.arange(len(c)), counts)
     cols = owner[np.fromiter(chain.from_iterable(near), np.int64, int(counts.sum()))]
     del near
     same = np.einsum("kd,kd->k", AN[cols], side[rows]) > 0  # not the far wall of a thin part
+    same &= cols != face[rows]
     rows, cols = rows[same], cols[same]
     out = np.stack(
         [np.bincount(rows, weights=AN[cols, k], minlength=len(c)) for k in range(3)], axis=1
-    )
-    empty = np.flatnonzero(np.bincount(rows, minlength=len(c)) == 0)
+    ).astype(np.float64)  # (no samples at all: bincount's integer zeros)
+    counted = np.einsum("kd,kd->k", own, side) > 0
+    out[counted] += own[counted]
+    empty = np.flatnonzero((np.bincount(rows, minlength=len(c)) == 0) & ~counted)
     out[empty] = side[empty]
     return out
 
@@ -402,13 +451,15 @@ def _fold_mask(
     (the repair's steps)."""
     centre = V[Q].mean(axis=1)
     if not exact:
-        return _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree))
+        face = closest_surface_points(mesh, centre, tree)[0]
+        return _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face), face)
     face, _, tied = _closest(mesh, centre, tree, exact=True)
-    mask = _folded_against(mesh, V, Q, tree, _surface_at(mesh, centre, tree, face, own=True))
+    at = _surface_at(mesh, centre, tree, face, own=True)
+    mask = _folded_against(mesh, V, Q, tree, at, face)
     two = np.flatnonzero(tied != face)
     if two.size:
         at = _surface_at(mesh, centre[two], tree, tied[two], own=True)
-        mask[two] |= _folded_against(mesh, V, Q[two], tree, at)
+        mask[two] |= _folded_against(mesh, V, Q[two], tree, at, tied[two])
     return mask
 
 
@@ -418,12 +469,13 @@ def _folded_against(
     Q: np.ndarray,
     tree: cKDTree,
     surface: tuple[np.ndarray, np.ndarray],
+    face: np.ndarray,
 ) -> np.ndarray:
     """The test of :func:`_fold_mask` for the surface normals (side, reference) at the
-    quads' centres."""
+    quads' centres, the input triangle ``face`` (q,) under each."""
     P = V[Q]
     side, Nc = surface
-    N = reference_normals(mesh, V, Q, tree, side)
+    N = reference_normals(mesh, V, Q, tree, side, face)
 
     def faces_up(a: int, b: int, c: int) -> np.ndarray:
         n = np.cross(P[:, b] - P[:, a], P[:, c] - P[:, a])
