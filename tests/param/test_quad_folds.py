@@ -250,6 +250,30 @@ def test_the_area_in_a_ball_is_a_disk_or_half_of_one(height):
     assert 0.5 <= got[1] / disk <= 0.5 + 1.0 / DISK_GRID
 
 
+def test_points_on_a_cad_part_are_their_own_exact_closest_points():
+    """A CSG box with 3.55 mm walls and two holes (faces of 100 mm beside the holes' small
+    triangles): of 5,000 points on its surface, the search among the nearest centroids and
+    samples puts some up to half a millimetre away; the exact search (which
+    ``fvf.quad_mesh`` uses to put the quad vertices of a remeshed surface on the input)
+    returns every point itself."""
+    mf = pytest.importorskip("manifold3d")
+    L, W, H, t = 106.48, 48.05, 31.08, 3.552
+    box = mf.Manifold.cube([L, W, H]) - mf.Manifold.cube([L - 2 * t, W - 2 * t, H]).translate(
+        [t, t, t]
+    )
+    for d, x, y in ((8.34, 72.67, 22.99), (7.01, 76.02, 9.17)):
+        box = box - mf.Manifold.cylinder(3 * H, d / 2, d / 2, 32).translate([x, y, -H])
+    m = box.to_mesh64()
+    mesh = fvf.TriMesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    rng = np.random.default_rng(0)
+    f = rng.choice(mesh.n_faces, 5000, p=mesh.face_areas / mesh.total_area)
+    X = np.einsum("kc,kcd->kd", rng.dirichlet([1, 1, 1], 5000), mesh.vertices[mesh.faces[f]])
+    _, near = closest_surface_points(mesh, X)
+    assert (np.linalg.norm(near - X, axis=1) > 0.1).sum() >= 10  # the case exists
+    _, exact = closest_surface_points(mesh, X, exact=True)
+    assert np.linalg.norm(exact - X, axis=1).max() < 1e-7
+
+
 def test_a_notched_cylinder_gets_a_valid_quad_mesh():
     """End to end, judged by ``quadcheck`` (independent of fvf's gate): the gate used to
     reject every attempt on this part for quads like the one above."""

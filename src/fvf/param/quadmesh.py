@@ -332,7 +332,7 @@ def _attempt(
         V, Q = cut_caps(part.cap, V, Q)
     on_surface = V
     if surface is not part.mesh:
-        vf, V = closest_surface_points(part.mesh, V)
+        vf, V = closest_surface_points(part.mesh, V, exact=True)
     if part.cap is not None:
         V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
     return (
