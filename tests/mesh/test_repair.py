@@ -672,3 +672,35 @@ def test_a_t_junction_is_closed_not_left_as_a_slit():
     assert not dropped.is_closed and set(dropped.boundary_vertices) == {a, b, c}
     same = fvf.split_t_junctions(s.vertices, s.faces)
     assert not same.changed and np.array_equal(same.faces, s.faces)
+
+
+def test_two_zero_area_faces_sharing_their_long_edge_are_flipped_then_split():
+    """A pocket: u, a, b, w on one line, the zero-area faces (u, w, a) and (w, u, b) share
+    the long edge uw, with p's fan above and q's below. Flipping uw and splitting the two
+    faces across the new long edges gives the six faces of the diamond with the line
+    u-a-b-w as edges: the area (1), orientation and boundary kept."""
+    V = np.array([[0, 0, 0], [0.3, 0, 0], [0.6, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0]], float)
+    u, a, b, w, p, q = range(6)
+    F = np.array([[u, a, p], [a, w, p], [u, q, b], [b, q, w], [u, w, a], [w, u, b]])
+    fixed = fvf.split_t_junctions(V, F)
+    assert "flipped the long edge shared by each pair of zero-area faces in [4, 5]" in fixed.log[0]
+    mesh = fvf.TriMesh(fixed.vertices, fixed.faces)
+    assert mesh.n_faces == 6 and mesh.euler_characteristic == 1
+    assert mesh.n_boundary_loops == 1
+    assert np.allclose(mesh.face_normals, [0, 0, 1])  # every face oriented as the input's
+    assert mesh.total_area == pytest.approx(1.0)
+    line = {tuple(sorted(e)) for e in mesh.edges.tolist()}
+    assert {(u, a), (a, b), (b, w)} <= line and (u, w) not in line
+    assert fixed.face_map[4:].tolist() == [-1, -1]  # flipped, then removed
+    assert sorted(np.bincount(fixed.face_origin, minlength=4).tolist()) == [1, 1, 2, 2]
+
+
+def test_a_split_that_would_add_an_edge_the_mesh_has_is_not_made():
+    """A flat pillow: (u, w, a) with a on uw, the face (w, u, p) across uw, and (u, a, p),
+    (a, w, p) folded over it. Splitting (w, u, p) at a would make a second edge ap, shared
+    by four faces; the zero-area face is left for remove_degenerate_faces instead."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 0, 0], [0.5, 1, 0]], float)
+    u, w, a, p = range(4)
+    F = np.array([[w, u, p], [u, w, a], [u, a, p], [a, w, p]])
+    fixed = fvf.split_t_junctions(V, F)
+    assert not fixed.changed and np.array_equal(fixed.faces, F)

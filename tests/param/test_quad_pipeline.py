@@ -300,8 +300,10 @@ def test_a_box_far_finer_than_its_remeshing_is_decimated_first_and_stays_the_box
 def test_the_remeshed_surface_of_a_thin_walled_box_has_no_zero_area_triangles():
     """pymeshlab's remeshing of an open box with 3.55 mm walls and two floor holes leaves
     triangles with three vertices on one crease line; they are split away (T-junction
-    splits; again at another edge length where some lie in a row), and the surface keeps
-    its topology."""
+    splits, pairs sharing their long edge flipped first; again at another edge length where
+    some are left), and the surface keeps its topology. pymeshlab's output depends on the
+    process's address layout: in about one process in 60 it has 349 such triangles (pairs
+    along the whole inner rim) instead of 5, which only the flips resolve."""
     mf = pytest.importorskip("manifold3d")
     pytest.importorskip("pymeshlab")
     from fvf.mesh.defects import zero_area_faces

@@ -345,15 +345,17 @@ def remove_duplicate_vertices(
     return _result(V[kept], F2, n, F.shape[0], vertex_origin=kept, vertex_map=vertex_map, log=log)
 
 
-#: Passes of :func:`split_t_junctions` at most (a pass splits each face once).
-T_JUNCTION_PASSES = 4
+#: Passes of :func:`split_t_junctions` at most (a pass splits or flips each face once; a
+#: pocket of zero-area faces in a row along a crease takes one pass per face in the row).
+T_JUNCTION_PASSES = 32
 
 
 def split_t_junctions(
     vertices: npt.ArrayLike, faces: npt.ArrayLike, area_rtol: float = DEGENERATE_AREA_RTOL
 ) -> RepairResult:
     """Remove zero-area faces whose apex lies on their longest edge and split the face
-    across that edge at the apex (:mod:`fvf.mesh.t_junctions`), so that no slit is left.
+    across that edge at the apex, so that no slit is left; flip the long edge shared by two
+    zero-area faces first (:mod:`fvf.mesh.t_junctions`).
 
     Parameters
     ----------
@@ -366,19 +368,28 @@ def split_t_junctions(
     -------
     RepairResult
         Vertices unchanged; ``face_map`` is ``-1`` for the removed faces, and both halves
-        of a split face have it as ``face_origin``. Zero-area faces it cannot resolve (on
-        the boundary, in chains) are left for :func:`remove_degenerate_faces`.
+        of a split face have it as ``face_origin``; a flipped pair keeps its two face
+        indices. Zero-area faces it cannot resolve (on the boundary, on a non-manifold
+        edge) are left for :func:`remove_degenerate_faces`.
     """
     V, F = raw_arrays(vertices, faces)
     total = _result(V.copy(), F.copy(), V.shape[0], F.shape[0])
     for _ in range(T_JUNCTION_PASSES):
-        G, origin, removed, split = t_junction_splits(V, total.faces, area_rtol)
-        if removed.size == 0:
+        G, origin, removed, split, flipped = t_junction_splits(V, total.faces, area_rtol)
+        if removed.size == 0 and flipped.size == 0:
             break
-        log = (
-            f"split_t_junctions: removed zero-area faces {format_indices(removed)} and split "
-            f"the faces across their long edges {format_indices(split)} at their apexes"
-        )
+        done = []
+        if removed.size:
+            done.append(
+                f"removed zero-area faces {format_indices(removed)} and split the faces "
+                f"across their long edges {format_indices(split)} at their apexes"
+            )
+        if flipped.size:
+            done.append(
+                "flipped the long edge shared by each pair of zero-area faces in "
+                f"{format_indices(flipped.ravel())}"
+            )
+        log = "split_t_junctions: " + "; ".join(done)
         m = total.faces.shape[0]
         total = total.then(_result(V.copy(), G, V.shape[0], m, face_origin=origin, log=log))
     return total
