@@ -80,8 +80,9 @@ def t_junction_splits(
     apex = F[flat, corner]
     n = V.shape[0]
     keys = _edge_keys(F, n)
-    ok = two & (long_corner[g] < 0) & ~np.isin(_key(apex, F[g, j], n), keys)
-    ok &= _first_use(g, ok)  # one split per face and pass
+    made = _key(apex, F[g, j], n)  # the edge a split makes
+    ok = two & (long_corner[g] < 0) & ~np.isin(made, keys)
+    ok &= _first_use(g, ok) & _first_use(made, ok)  # one split per face and edge and pass
     out = F.copy()
     pairs = np.zeros((0, 2), dtype=np.int64)
     if not ok.any():  # flips only where nothing is split, so that no two make one edge
@@ -127,12 +128,15 @@ def _pocket_pairs(
     t, s, c, k = flat[mine], g[mine], corner[mine], j[mine]
     u, w, a, b = F[t, (c + 1) % 3], F[t, (c + 2) % 3], F[t, c], F[s, k]
     ok = (F[s, (k + 1) % 3] == w) & (F[s, (k + 2) % 3] == u) & (a != b)
-    ok &= ~np.isin(_key(a, b, n), keys)
+    made = _key(a, b, n)
+    ok &= ~np.isin(made, keys)
+    ok &= _first_use(made, ok)
     return np.stack([t[ok], s[ok]], axis=1).astype(np.int64)
 
 
 def _first_use(g: np.ndarray, ok: np.ndarray) -> np.ndarray:
-    """``ok`` and the first of the flat faces that would split the same face g."""
+    """``ok`` and the first of the entries with the same value of g (a face to split, an
+    edge to make)."""
     first = np.zeros(g.size, dtype=bool)
     idx = np.flatnonzero(ok)
     _, at = np.unique(g[idx], return_index=True)

@@ -25,7 +25,10 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="closed triangle mesh (OBJ, OFF, PLY, STL; several parts allowed)")
+    p.add_argument(
+        "mesh",
+        help="triangle mesh (OBJ, OFF, PLY, STL; several parts and boundary loops allowed)",
+    )
     p.add_argument("data", nargs="*", help=".npz data file(s) holding the --field key")
     p.add_argument("--faces", type=integer, required=True, metavar="N", help="target quads")
     p.add_argument(
