@@ -200,10 +200,14 @@ def _wild_remesh(method: str, V, F, target: int):
     """(Vq, Q) of one remesher on the welded arrays (V, F); fvf errors propagate."""
     import numpy as np
 
-    if method == "fvf":
+    if method == "fvf":  # as `fvf quad FILE`: zero-area faces repaired as `fvf repair` does
         import fvf
 
-        return fvf.quad_mesh(fvf.TriMesh(V, F), target_faces=target)
+        try:
+            mesh = fvf.TriMesh(V, F)
+        except fvf.DegenerateFaceError:
+            mesh = fvf.repair_mesh(V, F).mesh
+        return fvf.quad_mesh(mesh, target_faces=target)
     if method == "instant":  # as fvf.param.peer.instant_meshes, without fvf's validation
         import pynanoinstantmeshes as pim
 
