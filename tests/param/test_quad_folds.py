@@ -256,15 +256,10 @@ def test_points_on_a_cad_part_are_their_own_exact_closest_points():
     samples puts some up to half a millimetre away; the exact search (which
     ``fvf.quad_mesh`` uses to put the quad vertices of a remeshed surface on the input)
     returns every point itself."""
-    mf = pytest.importorskip("manifold3d")
-    L, W, H, t = 106.48, 48.05, 31.08, 3.552
-    box = mf.Manifold.cube([L, W, H]) - mf.Manifold.cube([L - 2 * t, W - 2 * t, H]).translate(
-        [t, t, t]
-    )
-    for d, x, y in ((8.34, 72.67, 22.99), (7.01, 76.02, 9.17)):
-        box = box - mf.Manifold.cylinder(3 * H, d / 2, d / 2, 32).translate([x, y, -H])
-    m = box.to_mesh64()
-    mesh = fvf.TriMesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts))
+    pytest.importorskip("manifold3d")
+    import wild_corpus as wc
+
+    mesh = fvf.TriMesh(*wc.open_box_two_holes())
     rng = np.random.default_rng(0)
     f = rng.choice(mesh.n_faces, 5000, p=mesh.face_areas / mesh.total_area)
     X = np.einsum("kc,kcd->kd", rng.dirichlet([1, 1, 1], 5000), mesh.vertices[mesh.faces[f]])

@@ -185,6 +185,19 @@ def _circle(r: float, n: int, cx: float = 0.0, cy: float = 0.0, cw: bool = False
     return np.stack([cx + r * np.cos(t), cy + r * np.sin(t)], 1)
 
 
+def open_box_two_holes() -> Mesh:
+    """A random-part-like open box (106 × 48 × 31 mm, 3.55 mm walls and floor) with two
+    floor holes: 100 mm faces beside the holes' small triangles (not in the corpus; the
+    tests of the fold gate and of the remeshing use it)."""
+    mf = _manifold()
+    L, W, H, t = 106.48, 48.05, 31.08, 3.552
+    inner = mf.Manifold.cube([L - 2 * t, W - 2 * t, H]).translate([t, t, t])
+    box = mf.Manifold.cube([L, W, H]) - inner
+    for d, x, y in ((8.34, 72.67, 22.99), (7.01, 76.02, 9.17)):
+        box = box - mf.Manifold.cylinder(3 * H, d / 2, d / 2, 32).translate([x, y, -H])
+    return _from_manifold(box)
+
+
 def cad_box_hole() -> Mesh:
     mf = _manifold()
     box = mf.Manifold.cube([40.0, 30.0, 20.0], center=True)
