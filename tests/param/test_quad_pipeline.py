@@ -700,3 +700,26 @@ def test_a_result_at_more_quads_than_asked_says_so(monkeypatch):
     assert made.validity.valid and len(made.quads) > 1.3 * len(asked.quads)
     edge = float(str(caught[0].message).split("with quads of edge ")[1].split(":")[0])
     assert edge == pytest.approx(asked.parameterization.edge_length * quadmesh.MORE_QUADS, 3e-3)
+
+
+def _barycentric_off(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """How far each point P (k, 3) is from lying in its triangle T (k, 3, 3), in the
+    triangle's own terms: the residual of P = a + s e1 + t e2 (least squares) plus how far
+    (s, t, 1 - s - t) fall below zero, float (k,)."""
+    a, e1, e2 = T[:, 0], T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
+    E = np.stack([e1, e2], axis=2)  # (k, 3, 2)
+    st = np.stack([np.linalg.lstsq(E[i], P[i] - a[i], rcond=None)[0] for i in range(len(P))])
+    residual = np.linalg.norm(np.einsum("kdc,kc->kd", E, st) + a - P, axis=1)
+    bary = np.stack([st[:, 0], st[:, 1], 1 - st.sum(axis=1)], axis=1)
+    return residual / np.linalg.norm(e1, axis=1) + np.maximum(-bary, 0).max(axis=1)
+
+
+def test_every_quad_vertex_lies_on_the_input_triangle_named_for_it():
+    """Spot at 2,000 quads: the untangling moves four quad vertices on the input surface,
+    one of them onto another triangle; ``vertex_faces`` names the triangle each vertex
+    lies on after the move (it named the one before, 0.35 quad edges away)."""
+    mesh = fvf.spot()
+    made = fvf.quad_mesh(mesh, target_faces=2000)
+    assert "input surface" in made.attempts[-1]  # the untangling ran on the input itself
+    T = mesh.vertices[mesh.faces[made.vertex_faces]]
+    assert _barycentric_off(made.vertices, T).max() < 1e-6

@@ -327,7 +327,7 @@ def _attempt(
         raise
     repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
     report("quad extraction", 1, 1)
-    V, vf, Q = repair.vertices, qm.vertex_face, qm.quads
+    V, vf, Q = repair.vertices, repair.vertex_face, qm.quads
     if part.cap is not None:
         V, Q = cut_caps(part.cap, V, Q)
     on_surface = V
