@@ -2,16 +2,24 @@ r"""``fvf.quad_mesh`` on seeded random CSG parts: hollow boxes with thin walls, 
 
 Run from the repository root (needs manifold3d, ``pip install -e '.[test]'``)::
 
-    .venv/bin/python benchmarks/random_parts.py [--seeds 0 40] [--quads 2000]
+    .venv/bin/python benchmarks/random_parts.py [--seeds 0 40] [--quads 2000] [--family shapes]
 
 Part ``seed`` is drawn by ``numpy.random.default_rng(seed)``: a box of 40–120 × 30–80 ×
 10–40 mm; with probability 0.7 hollowed from the top with walls and floor $t$ of 0.8–4 mm
 and zero to two ribs across it ($t$ thick, 0.3–0.9 of the height); zero to three holes of
 3–10 mm through the floor (32 segments); with probability 0.5 a boss of 5–15 mm under it
-(48 segments). Each part is meshed at ``--quads`` quads in this process (BLAS on one thread,
+(48 segments).
+
+``--family shapes`` (:func:`shape`), a family the pipeline was not tuned on: by ``seed mod
+4`` a bracket (the hull of three cylinders of 3–6 mm radius, 5–12 mm high) with one to
+three holes; one to four spheres of 5–20 mm unioned and cut flat; a 2–6 mm plate with
+bosses and a slot, rotated, with a 10 mm cube beside it (two parts); a cylinder with a
+bore and a bar across its foot.
+
+Each part is meshed at ``--quads`` quads in this process (BLAS on one thread,
 threadpoolctl) and the output judged by the independent checker
-``tests/param/quadcheck.py``. One line per part (seed, wall, triangles, quads, valid or
-the error, attempts, CPU seconds), then the valid count and the CPU total.
+``tests/param/quadcheck.py``. One line per part (seed, wall or kind, triangles, quads,
+valid or the error, attempts, CPU seconds), then the valid count and the CPU total.
 """
 
 from __future__ import annotations
@@ -53,10 +61,48 @@ def part(seed: int):
     return s, t
 
 
+def shape(seed: int):
+    """The manifold3d solid of part ``seed`` of ``--family shapes`` (module docstring) and
+    its kind (0–3)."""
+    import manifold3d as mf
+
+    M, r, kind = mf.Manifold, np.random.default_rng(1000 + seed), seed % 4
+    if kind == 0:  # a bracket with holes
+        c = M.cylinder(r.uniform(5, 12), r.uniform(3, 6), r.uniform(3, 6), 48)
+        at = [(0, 0), (r.uniform(30, 60), 0), (0, r.uniform(20, 50))]
+        s = M.batch_hull([c.translate([x, y, 0]) for x, y in at])
+        for _ in range(r.integers(1, 4)):
+            d = r.uniform(1, 3)
+            s = s - M.cylinder(40, d, d, 32).translate([r.uniform(5, 25), r.uniform(2, 15), -10])
+    elif kind == 1:  # spheres cut flat
+        s = M.sphere(r.uniform(10, 20), 64)
+        for _ in range(r.integers(1, 4)):
+            s = s + M.sphere(r.uniform(5, 12), 48).translate(r.uniform(-15, 15, 3))
+        s = s - M.cube([100, 100, 100]).translate([-50, -50, r.uniform(-5, 5)])
+    elif kind == 2:  # a rotated plate with bosses and a slot, and a cube beside it
+        s = M.cube([r.uniform(40, 80), r.uniform(20, 40), r.uniform(2, 6)])
+        for _ in range(r.integers(1, 4)):
+            d = r.uniform(2, 5)
+            s = s + M.cylinder(r.uniform(4, 12), d, d, 40).translate(
+                [r.uniform(5, 35), r.uniform(5, 15), 1]
+            )
+        s = s - M.cube([20, r.uniform(1.5, 4), 30]).translate([10, 8, -10])
+        s = s.rotate([r.uniform(0, 90), r.uniform(0, 90), 0])
+        s = s + M.cube([10, 10, 10]).translate([120, 0, 0])
+    else:  # a cylinder with a bore and a bar across its foot
+        d = r.uniform(10, 20)
+        s = M.cylinder(r.uniform(5, 20), d, d, 64)
+        b = r.uniform(3, 8)
+        s = s - M.cylinder(50, b, b, 48).translate([0, 0, -10])
+        s = s + M.cube([r.uniform(20, 40), 4, 4]).translate([0, -2, 0])
+    return s, kind
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", nargs=2, type=int, default=[0, 40], metavar=("FIRST", "END"))
     ap.add_argument("--quads", type=int, default=2000)
+    ap.add_argument("--family", choices=["boxes", "shapes"], default="boxes")
     args = ap.parse_args()
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
     from threadpoolctl import threadpool_limits
@@ -69,7 +115,7 @@ def main() -> None:
     valid = total = 0
     cpu = 0.0
     for seed in range(*args.seeds):
-        solid, t = part(seed)
+        solid, t = part(seed) if args.family == "boxes" else shape(seed)
         m = solid.to_mesh64()
         V = np.asarray(m.vert_properties)[:, :3].astype(np.float64)
         F = np.asarray(m.tri_verts).astype(np.int64)
@@ -82,7 +128,8 @@ def main() -> None:
             ok, res = False, f"{'-':>6s} {type(exc).__name__:8s}"
         dt = time.process_time() - start
         valid, total, cpu = valid + ok, total + 1, cpu + dt
-        print(f"{seed:4d}  t={t:4.2f}  {F.shape[0]:5d}  {res:20s} {dt:6.1f}", flush=True)
+        label = f"t={t:4.2f}" if args.family == "boxes" else f"kind {t}"
+        print(f"{seed:4d}  {label:6s}  {F.shape[0]:5d}  {res:20s} {dt:6.1f}", flush=True)
     print(f"valid {valid} / {total}   CPU {cpu:.1f} s")
 
 
