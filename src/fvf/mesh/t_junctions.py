@@ -79,7 +79,7 @@ def t_junction_splits(
     long_corner[flat] = corner
     apex = F[flat, corner]
     n = V.shape[0]
-    keys = _edge_keys(F, n)
+    keys = _key(runs.edges[:, 0], runs.edges[:, 1], n)  # the mesh's edges, sorted
     made = _key(apex, F[g, j], n)  # the edge a split makes
     ok = two & (long_corner[g] < 0) & ~np.isin(made, keys)
     ok &= _first_use(g, ok) & _first_use(made, ok)  # one split per face and edge and pass
@@ -104,11 +104,6 @@ def t_junction_splits(
 def _key(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     """The undirected edge (a, b) as one int64 key."""
     return np.minimum(a, b) * n + np.maximum(a, b)
-
-
-def _edge_keys(F: np.ndarray, n: int) -> np.ndarray:
-    """The keys (:func:`_key`) of the edges of F (n vertices), sorted, int64."""
-    return np.unique(_key(F, np.roll(F, -1, axis=1), n))
 
 
 def _pocket_pairs(
