@@ -86,6 +86,13 @@ CACHED_QUANTITIES: Mapping[str, CachedQuantity] = _declare(
         "extract_field and the brackets (fvf.operators), fvf.design.connection",
     ),
     CachedQuantity(
+        "surface_aabb",
+        "libigl's AABB tree of the triangles (igl.AABB), or None without libigl",
+        "about 150m bytes",
+        "fvf.param.quad_folds.surface_aabb",
+        "closest_surface_points (quad fold repair, quad vertices put back on the input)",
+    ),
+    CachedQuantity(
         "surface_sample_tree",
         "a cKDTree of points spread over every triangle and the triangle of each, int64 (p,)",
         "about 56p bytes, p ≤ m · 1225 points (≈ 4m on a mesh of even triangles)",
