@@ -192,3 +192,52 @@ def test_a_released_solver_keeps_its_integers_and_cannot_solve():
     np.testing.assert_array_equal(solver.S, S)
     with pytest.raises(AttributeError):
         solver.real(K.T @ rng.standard_normal(80))
+
+
+def _fit_with_flips(m: int, flipped: int) -> np.ndarray:
+    """A fit (4m,) whose first ``flipped`` faces have det ≤ 0 (rows s_x, s_y, t_x, t_y)."""
+    J = np.tile([1.0, 0.0, 0.0, 1.0], (m, 1))
+    J[:flipped, 3] = -1.0
+    return J.ravel()
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "roundings"),
+    [(10, 32, 2), (10, 33, 1), (40, 40, 2), (40, 41, 1), (10, 105, 1)],
+)
+def test_repair_gives_up_after_a_rounding_worse_than_its_start(
+    first, second, roundings, monkeypatch
+):
+    """A re-rounding of the stiffened fit that leaves more flips than the repair started
+    with and more than WORSE_FLOOR (32) ends the repair: no later rounding is made. With
+    the local steps doing nothing, the rounding counts are scripted."""
+    from types import SimpleNamespace
+
+    from fvf.param import uv_folds as folds
+
+    assert folds.WORSE_FLOOR == 32
+    m = 400
+    made = []
+    script = iter([second, 5, 5, 5, 5, 5, 5])
+
+    class Solver:
+        integer = real_idx = np.arange(0)
+
+        def __init__(self, *args):
+            made.append(1)
+
+        def rounded(self, g, batch):
+            return _fit_with_flips(m, next(script))
+
+        def release(self):
+            pass
+
+    monkeypatch.setattr(folds, "MixedIntegerSolver", Solver)
+    monkeypatch.setattr(folds, "local_repair", lambda mesh, K, real, y, b, w, backend: (y, w))
+    monkeypatch.setattr(folds, "integer_moves", lambda solver, K, g, y: y)
+    monkeypatch.setattr(folds, "stiffen", lambda mesh, w, fit, b: w)
+    K = sp.eye_array(4 * m, format="csr")
+    y0 = _fit_with_flips(m, first)
+    best, _ = folds.repair_folds(SimpleNamespace(n_faces=m), K, Solver(), y0, y0, rounds=3)
+    assert len(made) - 1 == roundings  # the caller's solver, then one per re-rounding
+    assert flip_count(K @ best) == min(first, second, 5 if roundings > 1 else first)
