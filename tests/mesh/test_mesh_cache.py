@@ -105,7 +105,7 @@ def fill_cache(mesh: fvf.TriMesh) -> dict[str, object]:
     results["rotations"] = holonomy.holonomy_rotations(mesh, ell)
     for method in ("unfolded", "edges", "heat"):
         results[method] = geodesic_distances(mesh, [0, 5], method=method)
-    results["closest"] = closest_surface_points(mesh, 1.01 * mesh.vertices)
+    results["closest"] = closest_surface_points(mesh, 1.01 * mesh.vertices, exact=True)
     results["vector areas"] = vertex_vector_areas(mesh)
     return results
 

@@ -191,34 +191,38 @@ def _aabb_closest(mesh: TriMesh, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     (built once per mesh, :func:`surface_aabb`): (faces int64 (k,), points float64
     (k, 3)), or None when libigl is not installed or fails (the caller searches the
     candidates instead)."""
-    tree = surface_aabb(mesh)
-    if tree is None or x.shape[0] == 0:
+    built = surface_aabb(mesh)
+    if built is None or x.shape[0] == 0:
         return None
+    tree, V, F = built
     try:
-        _, face, point = tree.squared_distance(mesh.vertices, mesh.faces, x)
+        _, face, point = tree.squared_distance(V, F, x)
     except (RuntimeError, ValueError, TypeError):  # a binding's complaint: search instead
         return None
     return np.asarray(face, np.int64).reshape(-1), np.asarray(point, np.float64).reshape(-1, 3)
 
 
-def surface_aabb(mesh: TriMesh) -> Any:
-    """libigl's axis-aligned bounding box tree of ``mesh`` (``igl.AABB``), built once and
-    cached on the mesh; None when libigl (``pip install 'fvf[fast]'``) is missing or
-    cannot build it. 5,000 points near a remeshed CSG box of 9,406 triangles take 7 ms
-    against 160 ms for the candidate search of :func:`closest_surface_points`
-    (``python benchmarks/bench_closest.py``)."""
+def surface_aabb(mesh: TriMesh) -> tuple[Any, np.ndarray, np.ndarray] | None:
+    """libigl's axis-aligned bounding box tree of ``mesh`` (``igl.AABB``) with the
+    vertices (float64 (n, 3)) and faces (int64 (m, 3)) it was built on and is queried
+    with, built once and cached on the mesh; None when libigl
+    (``pip install 'fvf[fast]'``) is missing or cannot build it. 5,000 points near a
+    remeshed CSG box of 9,406 triangles take 7 ms against 160 ms for the candidate search
+    of :func:`closest_surface_points` (``python benchmarks/bench_closest.py``)."""
 
-    def build() -> Any:
+    def build() -> tuple[Any, np.ndarray, np.ndarray] | None:
         try:
             import igl
         except ImportError:
             return None
+        V = np.ascontiguousarray(mesh.vertices, np.float64)
+        F = np.ascontiguousarray(mesh.faces, np.int64)
         try:
             tree = igl.AABB()
-            tree.init(mesh.vertices, mesh.faces)
+            tree.init(V, F)
         except (RuntimeError, ValueError, TypeError, AttributeError):
             return None
-        return tree
+        return tree, V, F
 
     return mesh.cached("surface_aabb", build)
 
