@@ -140,10 +140,11 @@ def describe_places(places: list[Place], n_attempts: int, h: float, area: float)
     if edge is not None:
         lines.append(
             f"The surface is thinner than a quad edge there (a finger, a spike, a knife "
-            f"edge: {edge:.3g} against the quad edge {h:.3g}). Uniform quads resolve it at "
-            f"an edge of about {edge:.3g} (about {area / edge**2:.3g} quads); or thicken, "
-            "smooth or cut off those parts first (a scan's spikes: fvf.flatten_spikes, "
-            "fvf repair --despike)."
+            f"edge: {edge:.3g} against the quad edge {h:.3g}). Uniform quads need an edge "
+            f"of about {edge:.3g} there (about {area / edge**2:.3g} quads; at least that: "
+            "finer quads can fail at thinner parts elsewhere, a scan's toes after its "
+            "fingers); or thicken, smooth or cut off those parts first (a scan's spikes: "
+            "fvf.flatten_spikes, fvf repair --despike)."
         )
     return "\n".join(lines) + "\n"
 
