@@ -3,6 +3,7 @@ r"""``fvf.quad_mesh`` on seeded random CSG parts: hollow boxes with thin walls, 
 Run from the repository root (needs manifold3d, ``pip install -e '.[test]'``)::
 
     .venv/bin/python benchmarks/random_parts.py [--seeds 0 40] [--quads 2000] [--family shapes]
+    .venv/bin/python benchmarks/random_parts.py --family mixed --stl
 
 Part ``seed`` is drawn by ``numpy.random.default_rng(seed)``: a box of 40–120 × 30–80 ×
 10–40 mm; with probability 0.7 hollowed from the top with walls and floor $t$ of 0.8–4 mm
@@ -16,6 +17,15 @@ three holes; one to four spheres of 5–20 mm unioned and cut flat; a 2–6 mm p
 bosses and a slot, rotated, with a 10 mm cube beside it (two parts); a cylinder with a
 bore and a bar across its foot.
 
+``--family mixed`` (:func:`mixed`), written to look for crashes rather than to measure:
+one to five cubes, cylinders and cones (12–96 segments), spheres and tori, 4–40 mm, each
+flattened to a plate or rod 2–10 % thick with probability 0.3, turned and moved at random,
+joined by union, difference or intersection; with probability 0.3 a second part beside
+it; the whole scaled by a power of ten from $10^{-3}$ to $10^{3}$. ``--stl`` gives each
+part to fvf as ``fvf quad FILE`` would get it: a binary STL soup read back by
+``fvf.read_mesh`` (welded), zero-area faces repaired as ``fvf repair`` does. A foreign
+exception (not an ``fvf.FvfError``) is printed as ``FOREIGN``.
+
 Each part is meshed at ``--quads`` quads in this process (BLAS on one thread,
 threadpoolctl) and the output judged by the independent checker
 ``tests/param/quadcheck.py``. One line per part (seed, wall or kind, triangles, quads,
@@ -26,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -98,12 +109,68 @@ def shape(seed: int):
     return s, kind
 
 
+def mixed(seed: int):
+    """The manifold3d solid of part ``seed`` of ``--family mixed`` (module docstring) and
+    its scale (a power of ten)."""
+    import manifold3d as mf
+
+    M, r = mf.Manifold, np.random.default_rng(2000 + seed)
+
+    def primitive():
+        size = r.uniform(4, 40, 3)
+        kind = r.integers(4)
+        if kind == 0:
+            p = M.cube(size.tolist(), center=True)
+        elif kind == 1:
+            p = M.cylinder(
+                size[2], size[0] / 2, r.uniform(0.2, 1) * size[0] / 2, int(r.integers(12, 97)), True
+            )
+        elif kind == 2:
+            p = M.sphere(size[0] / 2, int(r.integers(16, 65)))
+        else:  # a torus: a circle revolved
+            ring = mf.CrossSection.circle(size[1] / 6, 24).translate([size[0] / 2 + size[1] / 6, 0])
+            p = M.revolve(ring, int(r.integers(24, 73)))
+        if r.random() < 0.3:  # a thin plate or a thin rod
+            p = p.scale([1, 1, r.uniform(0.02, 0.1)])
+        return p.rotate(r.uniform(0, 360, 3).tolist()).translate(r.uniform(-15, 15, 3).tolist())
+
+    s = primitive()
+    for _ in range(r.integers(1, 5)):
+        op = r.integers(3)
+        other = primitive()
+        s = s + other if op == 0 else s - other if op == 1 else s ^ other
+        if s.is_empty():
+            s = primitive()
+    if r.random() < 0.3:  # a second part beside it
+        s = s + primitive().translate([80, 0, 0])
+    scale = 10.0 ** int(r.integers(-3, 4))
+    return s.scale([scale] * 3), scale
+
+
+def _through_stl(V: np.ndarray, F: np.ndarray, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(V, F) written as a binary STL soup and read back as ``fvf quad FILE`` reads it:
+    welded by ``fvf.read_mesh``, zero-area faces repaired by ``fvf.repair_mesh``."""
+    import fvf
+    import wild_corpus
+
+    wild_corpus.write_stl(path, V, F)
+    V, F = fvf.read_mesh(path)
+    try:
+        fvf.TriMesh(V, F)
+    except fvf.DegenerateFaceError:
+        fixed = fvf.repair_mesh(V, F)
+        V, F = fixed.vertices, fixed.faces
+    return V, F
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", nargs=2, type=int, default=[0, 40], metavar=("FIRST", "END"))
     ap.add_argument("--quads", type=int, default=2000)
-    ap.add_argument("--family", choices=["boxes", "shapes"], default="boxes")
+    ap.add_argument("--family", choices=["boxes", "shapes", "mixed"], default="boxes")
+    ap.add_argument("--stl", action="store_true", help="each part through a binary STL soup")
     args = ap.parse_args()
+    tmp = tempfile.TemporaryDirectory()
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
     from threadpoolctl import threadpool_limits
 
@@ -115,20 +182,25 @@ def main() -> None:
     valid = total = 0
     cpu = 0.0
     for seed in range(*args.seeds):
-        solid, t = part(seed) if args.family == "boxes" else shape(seed)
+        make = {"boxes": part, "shapes": shape, "mixed": mixed}[args.family]
+        solid, t = make(seed)
         m = solid.to_mesh64()
         V = np.asarray(m.vert_properties)[:, :3].astype(np.float64)
         F = np.asarray(m.tri_verts).astype(np.int64)
         start = time.process_time()
         try:
+            if args.stl:  # as `fvf quad FILE` gets it: a soup, welded, zero-area faces repaired
+                V, F = _through_stl(V, F, Path(tmp.name) / f"{seed}.stl")
             r = fvf.quad_mesh((V, F), target_faces=args.quads)
             ok = quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads)).valid
             res = f"{len(r.quads):6d} {'valid' if ok else 'INVALID':8s} {len(r.attempts):2d}"
         except fvf.FvfError as exc:
             ok, res = False, f"{'-':>6s} {type(exc).__name__:8s}"
+        except Exception as exc:  # noqa: BLE001 -- a foreign exception is a bug: reported
+            ok, res = False, f"{'-':>6s} FOREIGN {type(exc).__name__}: {str(exc)[:60]}"
         dt = time.process_time() - start
         valid, total, cpu = valid + ok, total + 1, cpu + dt
-        label = f"t={t:4.2f}" if args.family == "boxes" else f"kind {t}"
+        label = {"boxes": f"t={t:4.2f}", "shapes": f"kind {t}", "mixed": f"x{t:g}"}[args.family]
         print(f"{seed:4d}  {label:6s}  {F.shape[0]:5d}  {res:20s} {dt:6.1f}", flush=True)
     print(f"valid {valid} / {total}   CPU {cpu:.1f} s")
 
