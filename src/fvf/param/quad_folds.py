@@ -139,15 +139,19 @@ def closest_surface_points(
     faces : int64 (k,)
         The input triangle holding each closest point.
     closest : float64 (k, 3)
-        The closest point on that triangle: with libigl, the closest point of the whole
-        surface (:func:`surface_aabb`); without it, searched among the ``min(CANDIDATES, m)``
+        The closest point on that triangle, searched among the ``min(CANDIDATES, m)``
         triangles whose centroids are nearest each query point and the triangles of the
         :data:`SAMPLE_CANDIDATES` nearest points of a dense sampling of the surface
         (:func:`surface_sample_tree`; long thin triangles, whose centroids lie far from
-        most of their points, are found through it). With ``exact``, also among the
-        triangles of every sample within the distance found plus the sampling's widest
-        gap: the closest point of the whole surface (two walls nearly equally close, as
-        at a quad's centre inside a thin wall, are told apart).
+        most of their points, are found through it). With ``exact``, the closest point of
+        the whole surface (two walls nearly equally close, as at a quad's centre inside a
+        thin wall, are told apart): libigl's AABB tree when installed
+        (:func:`surface_aabb`), else also among the triangles of every sample within the
+        distance found plus the sampling's widest gap. The untangling's steps use the
+        search, not the tree: it keeps a moved vertex near the triangles it was on, where
+        the exact closest point can lie on the far side of a part thinner than a quad
+        (the 750k armadillo at 20,000 quads with the tree in the steps: 104 quad vertices
+        ended up to 1.2 quad edges elsewhere, the quads 1.5 quad edges from the input).
     """
     face, point, _ = _closest(mesh, points, tree, exact)
     return face, point
@@ -159,7 +163,7 @@ def _closest(
     """:func:`closest_surface_points` and, with ``exact``, per point the triangle tied with
     the closest one whose normal turns most (:func:`_refine_closest`; else the closest)."""
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    found = _aabb_closest(mesh, x)
+    found = _aabb_closest(mesh, x) if exact else None  # the repair's steps stay local
     if found is not None:
         face, point = found
         tied = _refine_closest(mesh, x, face, point, *surface_sample_tree(mesh)) if exact else face
@@ -206,9 +210,10 @@ def surface_aabb(mesh: TriMesh) -> tuple[Any, np.ndarray, np.ndarray] | None:
     """libigl's axis-aligned bounding box tree of ``mesh`` (``igl.AABB``) with the
     vertices (float64 (n, 3)) and faces (int64 (m, 3)) it was built on and is queried
     with, built once and cached on the mesh; None when libigl
-    (``pip install 'fvf[fast]'``) is missing or cannot build it. 5,000 points near a
-    remeshed CSG box of 9,406 triangles take 7 ms against 160 ms for the candidate search
-    of :func:`closest_surface_points` (``python benchmarks/bench_closest.py``)."""
+    (``pip install 'fvf[fast]'``) is missing or cannot build it. Exact closest points of
+    5,000 points near a remeshed CSG box of 9,406 triangles take 0.11 s with it against
+    0.25 s without (most of it the search for tied triangles after either:
+    ``python benchmarks/bench_closest.py``)."""
 
     def build() -> tuple[Any, np.ndarray, np.ndarray] | None:
         try:
