@@ -202,12 +202,9 @@ def _wild_remesh(method: str, V, F, target: int):
 
     if method == "fvf":  # as `fvf quad FILE`: zero-area faces repaired as `fvf repair` does
         import fvf
+        import wild_corpus
 
-        try:
-            mesh = fvf.TriMesh(V, F)
-        except fvf.DegenerateFaceError:
-            mesh = fvf.repair_mesh(V, F).mesh
-        return fvf.quad_mesh(mesh, target_faces=target)
+        return fvf.quad_mesh(wild_corpus.repaired_as_cli(V, F), target_faces=target)
     if method == "instant":  # as fvf.param.peer.instant_meshes, without fvf's validation
         import pynanoinstantmeshes as pim
 

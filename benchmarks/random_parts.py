@@ -154,13 +154,7 @@ def _through_stl(V: np.ndarray, F: np.ndarray, path: Path) -> tuple[np.ndarray, 
     import wild_corpus
 
     wild_corpus.write_stl(path, V, F)
-    V, F = fvf.read_mesh(path)
-    try:
-        fvf.TriMesh(V, F)
-    except fvf.DegenerateFaceError:
-        fixed = fvf.repair_mesh(V, F)
-        V, F = fixed.vertices, fixed.faces
-    return V, F
+    return wild_corpus.repaired_as_cli(*fvf.read_mesh(path))
 
 
 def main() -> None:
@@ -181,8 +175,8 @@ def main() -> None:
     warnings.simplefilter("ignore")
     valid = total = 0
     cpu = 0.0
+    make = {"boxes": part, "shapes": shape, "mixed": mixed}[args.family]
     for seed in range(*args.seeds):
-        make = {"boxes": part, "shapes": shape, "mixed": mixed}[args.family]
         solid, t = make(seed)
         m = solid.to_mesh64()
         V = np.asarray(m.vert_properties)[:, :3].astype(np.float64)

@@ -68,6 +68,7 @@ __all__ = [
     "available",
     "write_corpus",
     "load",
+    "repaired_as_cli",
     "write_stl",
     "read_stl",
 ]
@@ -652,3 +653,17 @@ def load(path: str | os.PathLike) -> Mesh:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", fvf.VerticesWeldedWarning)
         return fvf.read_mesh(Path(path))
+
+
+def repaired_as_cli(V: np.ndarray, F: np.ndarray) -> Mesh:
+    """(V, F) as ``fvf quad FILE`` meshes them: unchanged, or with zero-area faces (an
+    exporter's T-junctions and collapsed slivers) repaired by :func:`fvf.repair_mesh`'s
+    default steps, as ``fvf repair`` does."""
+    import fvf
+
+    try:
+        fvf.TriMesh(V, F)
+    except fvf.DegenerateFaceError:
+        fixed = fvf.repair_mesh(V, F)
+        return fixed.vertices, fixed.faces
+    return V, F

@@ -91,7 +91,7 @@ CACHED_QUANTITIES: Mapping[str, CachedQuantity] = _declare(
         "is queried with, or None without libigl",
         "about 160m bytes in the tree (not counted by cache_info) + 24n + 24m",
         "fvf.param.quad_folds.surface_aabb",
-        "closest_surface_points (quad fold repair, quad vertices put back on the input)",
+        "closest_surface_points(exact=True) (quad vertices put back on the input, the gate)",
     ),
     CachedQuantity(
         "surface_sample_tree",

@@ -166,8 +166,7 @@ def _closest(
     found = _aabb_closest(mesh, x) if exact else None  # the repair's steps stay local
     if found is not None:
         face, point = found
-        tied = _refine_closest(mesh, x, face, point, *surface_sample_tree(mesh)) if exact else face
-        return face, point, tied
+        return face, point, _refine_closest(mesh, x, face, point, *surface_sample_tree(mesh))
     if tree is None:
         tree = cKDTree(mesh.face_centroids)
     c = min(CANDIDATES, mesh.n_faces)
