@@ -58,6 +58,22 @@ def test_edges_and_adjacency(closed):
     assert np.array_equal(f0[np.arange(len(E)), (pos + 1) % 3], E[:, 1])
 
 
+def test_edge_ids_finds_each_side_in_either_order_and_nothing_else(closed, rng):
+    E = closed.edges
+    pick = rng.choice(closed.n_edges, 50, replace=False)
+    flip = rng.random(50) < 0.5
+    pairs = np.where(flip[:, None], E[pick][:, ::-1], E[pick])
+    assert np.array_equal(closed.edge_ids(pairs), pick)
+    F = closed.faces
+    n = closed.n_vertices
+    joined = set(map(tuple, E.tolist()))
+    a, b = rng.integers(0, n, 200), rng.integers(0, n, 200)
+    none = [(i, j) for i, j in zip(a, b, strict=True) if (min(i, j), max(i, j)) not in joined]
+    assert (closed.edge_ids(np.array(none)) == -1).all()
+    assert (closed.edge_ids([[-1, F[0, 0]], [F[0, 0], n], [n, n + 1]]) == -1).all()
+    assert closed.edge_ids(np.zeros((0, 2), np.int64)).shape == (0,)
+
+
 def test_face_bases_and_converters(closed, rng):
     B, N = closed.face_bases, closed.face_normals
     assert B.shape == (closed.n_faces, 2, 3)

@@ -208,12 +208,10 @@ def _edited_turnings(
     full = np.zeros(mesh.n_edges)
     full[interior] = delta
     E = mesh.edges
-    nv = mesh.n_vertices
-    key = E[:, 0] * nv + E[:, 1]
     ends = [(a, b) for a, b, _ in moves]
     for (_, _, s), path in zip(moves, _edge_paths(mesh, ends, limit), strict=True):
         x0, x1 = path[:-1], path[1:]
-        e = np.searchsorted(key, np.minimum(x0, x1) * nv + np.maximum(x0, x1))
+        e = mesh.edge_ids(np.stack([x0, x1], axis=1))
         along = np.where(E[e, 0] == x0, 1.0, -1.0)
         full[e] -= along * s * TWO_PI / n
     return interior, full[interior]

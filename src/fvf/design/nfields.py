@@ -413,20 +413,15 @@ def _as_cut_mask(mesh: TriMesh, cut: CutGraph | npt.ArrayLike) -> np.ndarray:
             )
         mask = c.copy()
     elif np.issubdtype(c.dtype, np.integer) and c.ndim == 2 and c.shape[1] == 2:
-        lo, hi = np.minimum(c[:, 0], c[:, 1]), np.maximum(c[:, 0], c[:, 1])
-        nv = mesh.n_vertices
-        key = mesh.edges[:, 0] * nv + mesh.edges[:, 1]
-        want = lo.astype(np.int64) * nv + hi
-        pos = np.searchsorted(key, want)
-        pos_c = np.minimum(pos, E - 1)
-        bad = np.flatnonzero((lo < 0) | (hi >= nv) | (key[pos_c] != want))
+        ids = mesh.edge_ids(c)
+        bad = np.flatnonzero(ids < 0)
         if bad.size:
             raise CutGraphError(
                 f"cut rows {format_indices(bad)} are not edges of the mesh (e.g. "
                 f"{c[bad[0]].tolist()}). Fix: give vertex pairs from mesh.edges."
             )
         mask = np.zeros(E, dtype=bool)
-        mask[pos] = True
+        mask[ids] = True
     else:
         raise CutGraphError(
             f"cut must be a CutGraph, a bool array ({E},) or an int array (k, 2) of vertex "

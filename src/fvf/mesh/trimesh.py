@@ -422,6 +422,26 @@ class TriMesh:
         """Undirected edges ``(i, j)`` with ``i < j``, sorted, int64 (E, 2)."""
         return self._connectivity[0]
 
+    def edge_ids(self, pairs: npt.ArrayLike) -> np.ndarray:
+        """Index into :attr:`edges` of each vertex pair, int64 (k,); -1 where it is none.
+
+        Parameters
+        ----------
+        pairs : int array_like (k, 2)
+            Vertex pairs in either order; pairs out of range or not joined by a triangle
+            side give -1.
+        """
+        P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        lo, hi = P.min(axis=1), P.max(axis=1)
+        n, E = self.n_vertices, self.edges
+        if E.shape[0] == 0:
+            return np.full(P.shape[0], -1, dtype=np.int64)
+        keys = E[:, 0] * n + E[:, 1]  # sorted: edges are sorted by (i, j)
+        want = np.clip(lo, 0, n) * n + np.clip(hi, 0, n)
+        pos = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+        found = (keys[pos] == want) & (lo >= 0) & (hi < n)
+        return np.where(found, pos, -1).astype(np.int64)
+
     @cached_property
     def edge_corners(self) -> np.ndarray:
         """Corner ``3t + a`` opposite each edge on each side, int64 (E, 2); -1 if missing.

@@ -182,10 +182,7 @@ def capped(mesh: TriMesh, spacing: float) -> Capped:
     G = np.concatenate(F).astype(np.int64)
     closed = TriMesh(W, G)
     is_cap = np.arange(G.shape[0]) >= mesh.n_faces
-    pairs = np.sort(np.concatenate(rim), axis=1)
-    keys = closed.edges[:, 0] * closed.n_vertices + closed.edges[:, 1]
-    rim_ids = np.searchsorted(keys, pairs[:, 0] * closed.n_vertices + pairs[:, 1])
-    return Capped(closed, is_cap, rim_ids.astype(np.int64))
+    return Capped(closed, is_cap, closed.edge_ids(np.concatenate(rim)))
 
 
 def cut_caps(cap: Capped, vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

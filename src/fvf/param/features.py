@@ -196,19 +196,14 @@ def feature_edge_ids(mesh: TriMesh, pairs: npt.ArrayLike) -> np.ndarray:
         return np.empty(0, dtype=np.int64)
     if P.ndim != 2 or P.shape[1] != 2 or not np.issubdtype(P.dtype, np.integer):
         raise ParameterError(f"feature edges must be integer vertex pairs (k, 2); got {P.shape}")
-    P = np.sort(P.astype(np.int64), axis=1)
-    n = mesh.n_vertices
-    keys = mesh.edges[:, 0] * n + mesh.edges[:, 1]
-    want = P[:, 0] * n + P[:, 1]
-    pos = np.searchsorted(keys, want)
-    pos = np.minimum(pos, keys.size - 1)
-    bad = np.flatnonzero((keys[pos] != want) | (P.min(axis=1) < 0) | (P.max(axis=1) >= n))
+    ids = mesh.edge_ids(P)
+    bad = np.flatnonzero(ids < 0)
     if bad.size:
         raise ParameterError(
             f"feature edges {format_indices(bad)} are not edges of the mesh (vertex pairs "
             "joined by a triangle side, 0-based)"
         )
-    return pos.astype(np.int64)
+    return ids
 
 
 def feature_constraints(mesh: TriMesh, edges: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
