@@ -109,3 +109,15 @@ def test_an_x_up_body_is_drawn_standing(tmp_path):
     img = np.asarray(Image.open(info.path).convert("RGB")).astype(int)
     ys, xs = np.nonzero((img < 240).any(2))
     assert np.ptp(ys) > 1.5 * np.ptp(xs)
+
+
+@pytest.mark.parametrize("legs", [(10.0, 10.0), (1.0, 1.0)])
+def test_a_wedge_with_equal_legs_across_y_gets_an_up_axis(legs):
+    """A CAD wedge 20 long on y, its right-triangle legs equal on x and z: mirror plane
+    across y, and x and z tie for the thinnest extent (no candidate was left: a crash)."""
+    a, b = legs
+    tri = np.array([[0.0, 0.0], [a, 0.0], [0.0, b]])  # (x, z)
+    V = np.array([[x, y, z] for y in (0.0, 20.0) for x, z in tri])
+    assert camera.detect_up_axis(V) in ("y", "z", "x", "-x")
+    cube = np.array([[x, y, z] for x in (0.0, 1.0) for y in (0.0, 1.0) for z in (0.0, 1.0)])
+    assert camera.detect_up_axis(cube) in ("y", "z", "x", "-x")

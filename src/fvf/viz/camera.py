@@ -248,7 +248,8 @@ def detect_up_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> st
     which ``up="y"`` does). A shape whose plane of mirror symmetry has the y normal
     (:func:`mirror_axis`; bodies and animals are left-right symmetric, and the axis
     across is never up) cannot be y-up: of z, x and −x (the thinnest extent left out)
-    the one it stands on best is up: a body or an animal stored x-up.
+    the one it stands on best is up: a body or an animal stored x-up. When x and z tie
+    for the thinnest extent (a wedge with equal legs, a cube) none is left: y.
 
     Measured on the shared meshes (stability on −y, −z): Nefertiti −0.02, +0.23 → z;
     armadillo +0.08, −0.25; spot +0.16, −0.18; lion +0.24, −0.24; bunny +0.27, −0.49;
@@ -274,7 +275,7 @@ def detect_up_axis(points: np.ndarray, centroid: np.ndarray | None = None) -> st
     mirror = mirror_axis(P, c)
     if mirror == 1:  # y is across the mirror plane: the candidate standing best
         candidates = [a for a in ("z", "x", "-x") if ext[_AXES[a[-1]]] > ext.min()]
-        return max(candidates, key=lambda a: _stability_of(P, c, a))
+        return max(candidates, key=lambda a: _stability_of(P, c, a), default="y")
     candidates = [a for a in ("z",) if _AXES[a] != mirror and ext[_AXES[a]] > ext.min()]
     scores = {a: _stability_of(P, c, a) for a in candidates}
     sy = _stability_of(P, c, "y")
