@@ -78,3 +78,34 @@ def test_demo_view_aims_every_picture_and_keeps_both_sides_opposite(tmp_path, mo
     one, two = seen
     assert [(v.azimuth, v.elevation, v.turn) for v in one] == [(40.0, 5.0, 0.0)]
     assert [(v.azimuth, v.elevation, v.turn) for v in two] == [(40.0, 5.0, 0.0), (40.0, 5.0, 180.0)]
+
+
+@pytest.mark.parametrize("command", ["render", "quad", "symmetry", "flow"])
+@pytest.mark.parametrize("name", ["d.npz", "p.jpg", "p"])
+def test_a_picture_under_a_name_of_another_kind_is_refused_and_nothing_is_replaced(
+    command, name, tmp_path, capsys
+):
+    """``-o d.npz`` for a picture used to replace the user's data file with PNG bytes:
+    refused before any work, exit status 2, one line naming the fix, the file unchanged."""
+    from fvf.cli.main import main
+
+    ball = fvf.icosphere(1)
+    mesh = tmp_path / "m.obj"
+    fvf.write_mesh(mesh, ball.vertices, ball.faces)
+    target = tmp_path / name
+    target.write_bytes(b"the user's data")
+    argv = [a if a != "p.png" else str(target) for a in COMMANDS[command]]
+    argv = [str(mesh) if a in ("m.obj", "a.off") else a for a in argv]
+    argv = [str(tmp_path / a) if a.endswith((".npz", ".obj")) and "/" not in a else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "PNG, PDF or SVG" in err and "Fix:" in err, err
+    assert target.read_bytes() == b"the user's data"
+
+
+def test_the_library_refuses_a_picture_suffix_before_drawing(tmp_path):
+    viz = pytest.importorskip("fvf.viz")
+    pytest.importorskip("matplotlib")
+    with pytest.raises(fvf.OutputError, match="PNG, PDF or SVG"):
+        viz.render(fvf.icosphere(1), tmp_path / "x.jpg")
+    assert not (tmp_path / "x.jpg").exists()

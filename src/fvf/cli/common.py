@@ -319,12 +319,17 @@ def progress_option(args: argparse.Namespace) -> Any:
 def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) -> None:
     """Refuse, before any work, outputs that are inputs (unless --force), two outputs
     that name one file (the second would replace the first), and outputs that cannot be
-    written (:func:`check_output_places`: a read-only folder is exit status 5 at once)."""
+    written (:func:`check_output_places`: a read-only folder is exit status 5 at once), and
+    pictures (``--png``) whose suffix is not a picture format's
+    (:func:`fvf.io.picturefile.picture_format`)."""
     from fvf.errors import OutputError
     from fvf.io.atomic import check_not_input
+    from fvf.io.picturefile import picture_format
 
     seen: dict[str, str] = {}
     for option, path in outputs:
+        if path is not None and option == "--png":
+            picture_format(path)
         if path is not None:
             check_not_input(path, inputs(args), force=args.force, option=option)
             key = str(Path(path).resolve())

@@ -14,15 +14,15 @@ from typing import Any
 import numpy as np
 
 from ..io.atomic import atomic_path
+from ..io.picturefile import PICTURE_FORMATS, picture_format
 from ._deps import require
 from .colors import index_color, index_label
 from .scene import NO_DATA_COLOR, Scene
 
 __all__ = ["FORMATS", "Layout", "compose", "has_colorbar", "layout", "marker_label"]
 
-#: The picture formats, by the output's suffix (anything else: PNG). PDF and SVG hold the
-#: title, colorbar and legend as vector graphics and the rendered panels as an image.
-FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+#: The picture formats, by the output's suffix (:mod:`fvf.io.picturefile`).
+FORMATS = PICTURE_FORMATS
 
 TITLE_HEIGHT = 34
 COLORBAR_WIDTH = 100
@@ -235,10 +235,12 @@ def compose(
 ) -> None:
     """Write the panels with title, colorbar and legend, ``width`` x ``height`` pixels.
 
-    The format follows the suffix of ``path`` (:data:`FORMATS`; PNG otherwise). ``dpi``
+    The format follows the suffix of ``path`` (:data:`FORMATS`; any other suffix is
+    :class:`fvf.OutputError`, checked before the picture is drawn). ``dpi``
     is recorded in a PNG and sets the page of a PDF or SVG to ``width / dpi`` inches; the
     fonts scale with it, so the picture looks the same at every dpi.
     """
+    fmt = picture_format(path)
     require("matplotlib")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -258,7 +260,6 @@ def compose(
         _colorbar(fig, lay, scene.colorbar, legend, pt)
     if legend:
         _legend(fig, lay, scene, pt)
-    fmt = FORMATS.get(Path(path).suffix.lower(), "png")
     extra: dict[str, Any] = {"pil_kwargs": {"compress_level": 3}} if fmt == "png" else {}
     if fmt == "svg":
         extra["metadata"] = {"Date": None}  # the same picture gives the same file

@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..io.atomic import atomic_path
+from ..io.picturefile import picture_format
 from ..mesh.convert import MeshLike, as_mesh, takes_mesh
 from ..mesh.trimesh import TriMesh
 from ._deps import require
@@ -126,9 +127,7 @@ def render_correspondence(
 def save_image(picture: Any, path: str | Path, dpi: int = 100) -> None:
     """Write a PIL image atomically: PNG (with its dpi), or a PDF / SVG page of
     ``size / dpi`` inches holding it, by the suffix of ``path``."""
-    from .compose import FORMATS
-
-    fmt = FORMATS.get(Path(path).suffix.lower(), "png")
+    fmt = picture_format(path)
     with atomic_path(path) as out:
         if fmt == "png":
             picture.save(out, format="PNG", dpi=(dpi, dpi))
@@ -191,13 +190,12 @@ def plot_error_curves(
     (no ground truth) are left out."""
     from ..spectral.evaluation import cumulative_error_curve
 
+    fmt = picture_format(path)
     require("matplotlib")
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from .compose import FORMATS
 
     fig, ax = plt.subplots(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
     thresholds = np.linspace(0.0, max_error, 201)
@@ -216,6 +214,6 @@ def plot_error_curves(
         ax.set_title(title)
     fig.tight_layout()
     with atomic_path(path) as out:
-        fig.savefig(out, format=FORMATS.get(Path(path).suffix.lower(), "png"), dpi=dpi)
+        fig.savefig(out, format=fmt, dpi=dpi)
     plt.close(fig)
     return Path(path)

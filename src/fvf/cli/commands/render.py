@@ -8,6 +8,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from ...io.picturefile import picture_format
 from ..common import (
     EXIT_OK,
     add_display_options,
@@ -64,6 +65,7 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 )
 def run(args: argparse.Namespace) -> int:
     """Write the PNG."""
+    picture_format(args.output)
     check_outputs(args, ("-o", args.output))
     if args.title is None:  # named after what is drawn: the mesh file (and the data file)
         names = [Path(args.mesh).name] + [Path(d).name for d in args.data or []]
