@@ -381,9 +381,10 @@ def data_output(args: argparse.Namespace) -> tuple[str, str]:
 
 def derived_picture(path: str, what: str) -> str:
     """The name of a further picture of ``--png NAME``: ``STEM_WHAT.SUFFIX`` beside NAME
-    (``map.pdf``, ``errors`` -> ``map_errors.pdf``; PNG when NAME has no suffix)."""
+    (``map.pdf``, ``errors`` -> ``map_errors.pdf``; :func:`check_outputs` has made sure
+    NAME has a picture suffix)."""
     p = Path(path)
-    return str(p.with_name(f"{p.stem}_{what}{p.suffix or '.png'}"))
+    return str(p.with_name(f"{p.stem}_{what}{p.suffix}"))
 
 
 #: The choices of ``--up``.
