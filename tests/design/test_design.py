@@ -25,6 +25,7 @@ from fvf.design.constrained import (
     design_field,
     locate_points,
 )
+from fvf.design.nfields import to_power
 
 
 @pytest.fixture(autouse=True)
@@ -130,6 +131,36 @@ def test_a_degenerate_smoothest_eigenspace_gives_its_most_uniform_member():
     assert length.min() > 0.3 * length.max()
     assert abs(l2(tet, u) - 1) < 1e-12
     assert abs(connection_energy(tet, u) - lam[0]) < 1e-10
+
+
+@pytest.mark.parametrize("n", [1, 4])
+def test_every_part_of_a_mesh_of_several_gets_its_own_smoothest_field(n):
+    """The lowest eigenfield of a mesh of several parts lives on one part (zero on the
+    others: a CAD file of two solids got no field on one). Each part gets its own: the
+    field on a part is that part's smoothest field (as design_field of it alone, up to a
+    rotation and the scale), each part's share of Σ A|u|² is its share of the area, every
+    part's indices sum to its χ, and a lone face gets a unit direction."""
+    torus, ball = fvf.torus(24, 12), fvf.icosphere(2)
+    X = np.array([[9.0, 0, 0], [10, 0, 0], [9, 1, 0]])
+    V = np.concatenate([torus.vertices, 2.0 * ball.vertices + [6.0, 0, 0], X])
+    F = np.concatenate(
+        [torus.faces, ball.faces + torus.n_vertices, np.array([[0, 1, 2]]) + len(V) - 3]
+    )
+    mesh = fvf.TriMesh(V, F)
+    u = design_field(mesh, n=n)
+    A, m0, m1 = mesh.face_areas, torus.n_faces, torus.n_faces + ball.n_faces
+    parts = [slice(0, m0), slice(m0, m1), slice(m1, None)]
+    for part in parts:
+        share = (A[part] * (np.linalg.norm(u[part], axis=1) ** 2)).sum()
+        assert abs(share - A[part].sum() / A.sum()) < 1e-10
+    alone = design_field(torus, n=n)
+    z, w = to_power(torus, u[parts[0]], n), to_power(torus, alone, n)
+    a = torus.face_areas
+    cos = abs(np.vdot(w, a * z)) / np.sqrt(np.vdot(z, a * z).real * np.vdot(w, a * w).real)
+    assert abs(cos - 1) < 1e-8  # the same field up to a rotation and the scale
+    verts, idx = fvf.singularities(mesh, u)
+    on_ball = (verts >= torus.n_vertices) & (verts < torus.n_vertices + ball.n_vertices)
+    assert idx[~on_ball].sum() == 0 and idx[on_ball].sum() == 2  # χ: torus 0, ball 2
 
 
 # ---------------------------------------------------------------------------- soft

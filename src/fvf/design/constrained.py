@@ -32,6 +32,7 @@ form), receives the constraint.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -537,7 +538,10 @@ def design_field(
         constrained face as the direction of the set nearest to the given one (so a hard
         constraint is returned exactly). With no constraints and no alignment: the
         smoothest field of unit L2 norm, Σ A_F |u|² = 1, the lowest eigenfield of
-        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`); on meshes
+        L_N z = λ [A_F] z (:func:`fvf.design.connection.smoothest_fields`); on a mesh
+        of several parts (faces joined across sides), that of each part, scaled so that
+        its share of Σ A_F |u|² is its share of the area (a lone face: its first side's
+        direction); on meshes
         of up to ``DEGENERATE_PROBE_FACES`` faces whose lowest eigenvalue is repeated,
         the member of its eigenspace whose shortest face vector is longest (of the
         eigenbasis and seeded combinations), not whichever basis the solver returns.
@@ -594,19 +598,22 @@ def design_field(
             "align_smoothing diffuses an alignment target: pass align= too, or drop it"
         )
 
-    def smoothest() -> NField:  # nothing to meet: the smoothest N-field
-        small = mesh.n_faces <= DEGENERATE_PROBE_FACES
-        energies, fields = smoothest_fields(
-            mesh,
-            min(DEGENERATE_PROBE, mesh.n_faces) if small else 1,
-            kind,
-            n=n,
-            backend=backend,
-            progress=progress,
-            curvature_smoothing=curvature_smoothing,
-            log_scale=log_scale,
-        )
-        u = _most_uniform(mesh, energies, fields, n)
+    def smoothest() -> NField:  # nothing to meet: the smoothest N-field of each part
+        def of(part: TriMesh, scale: np.ndarray | None) -> np.ndarray:
+            small = part.n_faces <= DEGENERATE_PROBE_FACES
+            energies, fields = smoothest_fields(
+                part,
+                min(DEGENERATE_PROBE, part.n_faces) if small else 1,
+                kind,
+                n=n,
+                backend=backend,
+                progress=progress,
+                curvature_smoothing=curvature_smoothing,
+                log_scale=scale,
+            )
+            return _most_uniform(part, energies, fields, n)
+
+        u = _per_component(mesh, log_scale, of)
         return NField(_with_directions(mesh, u), n)
 
     if f.size == 0 and align is None:
@@ -727,6 +734,39 @@ DEGENERATE_PROBE = 3
 DEGENERATE_RTOL = 1e-8
 #: Seeded combinations of a degenerate eigenbasis tried by :func:`_most_uniform`.
 UNIFORM_TRIALS = 32
+
+
+def _per_component(
+    mesh: TriMesh,
+    log_scale: npt.ArrayLike | None,
+    smoothest: Callable[[TriMesh, np.ndarray | None], np.ndarray],
+) -> np.ndarray:
+    """The smoothest field of each part of the mesh (faces joined across edges), float64
+    (m, 3): ``smoothest(part, its log_scale)`` on each part of two faces or more, scaled to
+    Σ A_t |u_t|² = its share of the area (the whole has unit L2 norm and the same mean
+    length on every part: the lowest eigenfield of the whole lives on one part and is zero
+    on the others); a part of one face (no side shared: its energy is zero for every
+    field) gets its first side's direction."""
+    m = mesh.n_faces
+    across = mesh.face_adjacency.ravel()
+    t = np.repeat(np.arange(m), 3)[across >= 0]
+    joined = sp.csr_array((np.ones(t.size), (t, across[across >= 0])), shape=(m, m))
+    _, label = connected_components(joined, directed=False)
+    parts = np.bincount(label)
+    if parts.size == 1:
+        return smoothest(mesh, None if log_scale is None else np.asarray(log_scale, float))
+    A = mesh.face_areas
+    share = np.sqrt(np.bincount(label, A) / A.sum())
+    P = mesh.vertices[mesh.faces]
+    side = P[:, 1] - P[:, 0]
+    u = side / np.linalg.norm(side, axis=1, keepdims=True) * (share[label] / np.sqrt(A))[:, None]
+    for part in np.flatnonzero(parts > 1):  # a loop over the parts of several faces
+        faces = np.flatnonzero(label == part)
+        used, F = np.unique(mesh.faces[faces], return_inverse=True)
+        sub = TriMesh(mesh.vertices[used], F.reshape(-1, 3))
+        scale = None if log_scale is None else np.asarray(log_scale, float)[used]
+        u[faces] = smoothest(sub, scale) * share[part]
+    return u
 
 
 def _most_uniform(mesh: TriMesh, energies: np.ndarray, fields: np.ndarray, n: int) -> np.ndarray:
