@@ -335,3 +335,13 @@ def test_constraint_targets_are_frame_coordinates(rng):
     u[faces] = d
     assert np.allclose(tau, mesh.to_complex(mesh.project_tangent(u))[faces], atol=1e-15)
     assert np.allclose(np.abs(constraint_targets(mesh, faces, d)[1]), 1)
+
+
+def test_the_smoothest_fields_of_a_triangle_soup_are_any_fields(recwarn):
+    """A soup has no interior side: L = 0, and ARPACK's shift σ = -1e-8 max(L_tt/A_t) was
+    0 (SuperLU: "Factor is exactly singular", raw). σ now stays below 0."""
+    ball = fvf.icosphere(2)
+    P = ball.vertices[ball.faces].reshape(-1, 3)
+    soup = fvf.TriMesh(P, np.arange(len(P)).reshape(-1, 3))
+    lam, U = smoothest_fields(soup, 1, solver="arpack")
+    assert abs(lam[0]) < 1e-12 and abs(l2(soup, U[0]) - 1) < 1e-10

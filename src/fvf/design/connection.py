@@ -743,10 +743,17 @@ def smoothest_fields(
         )
     elif solver == "arpack":
         M = sp.diags_array(area.astype(complex))
-        sigma = -1e-8 * float(np.max(L.diagonal().real / area))
+        # just below 0 (L = 0 on a mesh with no interior side: below 0 all the same)
+        sigma = -1e-8 * max(float(np.max(L.diagonal().real / area)), 1.0 / float(area.max()))
         v0 = np.ones(m, dtype=complex)  # deterministic start vector
         k = count + 2  # a little slack for clusters cut at count
-        _, Z = spla.eigs(L, k=k, M=M, sigma=sigma, which="LM", v0=v0)
+        try:
+            _, Z = spla.eigs(L, k=k, M=M, sigma=sigma, which="LM", v0=v0)
+        except (RuntimeError, spla.ArpackError) as exc:  # ARPACK, SuperLU: never raw
+            raise SpectralSolveError(
+                f"smoothest_fields: ARPACK failed on {m} faces ({exc}). Fix: check the "
+                "mesh (fvf info FILE); a triangle soup needs welding first (fvf.repair_mesh)"
+            ) from exc
         lam, Z = _complex_ritz(L, area, Z, count)
     Z = _fix_phase(Z)
     if n != 1:
