@@ -608,3 +608,27 @@ def test_a_multi_line_error_is_one_line_of_clauses():
         "QuadMeshError: no valid quad mesh after 2 attempts: input: 3 flipped; "
         "remeshed: 2 folded; Where: (0, 0, 1). What to try: more quads."
     )
+
+
+def test_the_advice_names_only_options_the_command_takes():
+    """Library messages say method='upwind', growth_limit=np.inf and max_products; the
+    command says --method upwind and --growth-limit inf where it takes them, and leaves
+    the clause out where it does not (``fvf transport`` has no --method; no command has
+    max_products)."""
+    import argparse
+
+    from fvf.cli.main import _cli_words
+
+    text = (
+        "grew 300x; use method='upwind' (bounded on every mesh); pass growth_limit=np.inf "
+        "to accept it. Shorten t, flow fewer columns, use method='upwind' (a flow with a "
+        "maximum principle), or raise max_products (and pass progress= to follow it)."
+    )
+    flow = _cli_words(text, argparse.Namespace(method="chapter", growth_limit=100.0))
+    transport = _cli_words(text, argparse.Namespace(growth_limit=100.0))
+    assert flow.count("--method upwind") == 2 and "--growth-limit inf" in flow
+    assert "method" not in transport and "--growth-limit inf" in transport
+    for said in (flow, transport):
+        assert "max_products" not in said and "progress=" not in said and "np.inf" not in said
+        assert ";;" not in said and ",." not in said
+    assert transport.endswith("Shorten t, flow fewer columns.")

@@ -34,6 +34,7 @@ import argparse
 import atexit
 import errno
 import os
+import re
 import shlex
 import signal
 import sys
@@ -160,21 +161,32 @@ def _one_line(exc: BaseException) -> str:
     return out or type(exc).__name__
 
 
-#: Python spellings in the library's messages and the command's options that say the same.
+#: Python spellings in the library's messages and the options that say the same, with the
+#: ``args`` attribute a command has when it takes that option; a command without it gets
+#: the clause left out (``fvf transport`` has no ``--method``, no command ``max_products``).
 _CLI_SPELLINGS = (
-    ("pass growth_limit=np.inf to accept it", "pass --growth-limit inf to accept it"),
-    ("pass growth_limit=np.inf to silence this", "pass --growth-limit inf to accept it"),
-    ("growth_limit=np.inf", "--growth-limit inf"),
-    ("method='upwind'", "--method upwind"),
-    ("raise max_products", "shorten --t"),
+    (
+        r"pass growth_limit=np\.inf to (accept it|silence this)",
+        "pass --growth-limit inf to accept it",
+        "growth_limit",
+    ),
+    (r"growth_limit=np\.inf", "--growth-limit inf", "growth_limit"),
+    (r"method='upwind'", "--method upwind", "method"),
+    (r"raise max_products", "", "max_products"),
+    (r" ?\(and pass progress= to follow it\)", "", "progress="),
 )
 
 
-def _cli_words(text: str) -> str:
-    """A library message in the command's words (its options, not Python keywords)."""
-    for python, cli in _CLI_SPELLINGS:
-        text = text.replace(python, cli)
-    return text
+def _cli_words(text: str, args: argparse.Namespace | None = None) -> str:
+    """A library message in the command's words: its options, not Python keywords, and
+    no clause naming an option the command does not take."""
+    for python, cli, attr in _CLI_SPELLINGS:
+        if args is not None and hasattr(args, attr):
+            text = re.sub(python, cli, text)
+            continue
+        clause = r"(,? (or |and )?(use |pass )?)" + python + r"( \([^)]*\))?"
+        text = re.sub(clause, "", text)
+    return re.sub(r";(\s*;)+", ";", re.sub(r",(\s*[.;])", r"\1", text))
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
@@ -182,7 +194,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
     if issubclass(category, FlowGrowthWarning):
         _GREW.append(str(message))
-    text = f"fvf: warning: {category.__name__}: {_cli_words(' '.join(str(message).split()))}"
+    words = _cli_words(" ".join(str(message).split()), _ARGS[-1] if _ARGS else None)
+    text = f"fvf: warning: {category.__name__}: {words}"
     if text not in _SHOWN:  # once per distinct message, wherever it was raised
         _SHOWN.add(text)
         print(text, file=sys.stderr)
@@ -190,13 +203,15 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 _SHOWN: set[str] = set()
 _GREW: list[str] = []
+_ARGS: list[argparse.Namespace] = []  # the command running (its options name the advice)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the ``fvf`` command with ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
-    Exit status: :data:`EXIT_OK` (0), :data:`EXIT_PROBLEMS` (1, ``info`` found problems),
-    :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3), :data:`EXIT_FAILED` (4),
+    Exit status: :data:`EXIT_OK` (0), :data:`EXIT_PROBLEMS` (1, ``info`` found problems,
+    ``demo`` failed checks), :data:`EXIT_BAD_INPUT` (2), :data:`EXIT_UNAVAILABLE` (3),
+    :data:`EXIT_FAILED` (4),
     :data:`EXIT_WRITE_FAILED` (5), :data:`EXIT_GREW` (6, a flow grew beyond
     ``--growth-limit``; the output was written), :data:`EXIT_INTERRUPTED` (130),
     :data:`EXIT_TERMINATED` (143).
@@ -257,6 +272,7 @@ def _run(argv: list[str], command: bool = False) -> int:
     args.own_process = command
     _SHOWN.clear()
     _GREW.clear()
+    _ARGS[:] = [args]
     from fvf.errors import OutputWriteError
 
     with warnings.catch_warnings(), _terminate_cleanly():
@@ -265,11 +281,17 @@ def _run(argv: list[str], command: bool = False) -> int:
         try:
             status = args.run(args)
             if status == EXIT_OK and _GREW:
+                upwind = "--method upwind (bounded on every mesh, with or without boundary), "
                 print(
-                    "fvf: error: the result grew beyond --growth-limit (see the warning); it "
-                    "was written, but do not trust it: use --method upwind (bounded on every "
-                    "mesh, with or without boundary), shorter times, or pass --growth-limit "
-                    "inf to accept it",
+                    "fvf: error: the result grew beyond its limit (see the warning); it was "
+                    "written, but do not trust it: use "
+                    + (upwind if hasattr(args, "method") else "")
+                    + "shorter times"
+                    + (
+                        ", or pass --growth-limit inf to accept it"
+                        if hasattr(args, "growth_limit")
+                        else ""
+                    ),
                     file=sys.stderr,
                 )
                 return EXIT_GREW
@@ -293,7 +315,7 @@ def _run(argv: list[str], command: bool = False) -> int:
                 status = EXIT_BAD_INPUT
             else:
                 raise
-            print(f"fvf: error: {_cli_words(_one_line(exc))}", file=sys.stderr)
+            print(f"fvf: error: {_cli_words(_one_line(exc), args)}", file=sys.stderr)
             return status
         except KeyboardInterrupt:
             print("fvf: interrupted; no output was half-written", file=sys.stderr)
