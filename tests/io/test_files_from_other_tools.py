@@ -141,6 +141,26 @@ def test_obj_quads_as_stored_and_continued_line_numbers(tmp_path):
         read_mesh(write(tmp_path, "bad.obj", text))
 
 
+def test_a_comment_or_path_ending_with_a_backslash_continues_nothing(tmp_path):
+    """A Windows folder at the end of a comment or a ``mtllib`` line (``C:\\scans\\``)
+    swallowed the next vertex: every vertex after it moved down one index, silently."""
+    lines = obj_lines()
+    text = "mtllib C:\\a\\b\\\n" + "\n".join(lines[:3] + ["# from C:\\Users\\me\\scans\\"])
+    text += "\n" + "\n".join(lines[3:]) + "\nv 9 9 9\n"  # an extra vertex: no face needs it
+    V, F = read_mesh(write(tmp_path, "win.obj", text), faces="quads")
+    assert V.shape == (9, 3) and np.array_equal(V[-1], [9, 9, 9])
+    np.testing.assert_array_equal(V[:8], CUBE_V)
+    np.testing.assert_array_equal(F, CUBE_Q)
+
+
+def test_off_lines_beyond_the_declared_counts_are_refused(tmp_path):
+    """A header of 2 faces over 4 face lines: the last two were dropped unsaid (a sphere
+    with holes, then repaired as such); now the reader names them."""
+    text = "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 3 1\n3 0 2 3\n3 1 3 2\n"
+    with pytest.raises(MeshReadError, match=r"line 9: 2 data lines follow the 4 vertices and 2"):
+        read_mesh(write(tmp_path, "more.off", text))
+
+
 # ---------------------------------------------------------------------------- polygons
 def test_ngons_and_non_convex_polygons_come_back_unfolded(tmp_path):
     """Convex polygons keep their fans; a dart quad whose reflex corner is not v0 and an

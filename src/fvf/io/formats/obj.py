@@ -47,15 +47,23 @@ def read(path: Path, data: bytes) -> Polygons:
     return Polygons(vertices, counts, flat, raw, lambda i: f"line {f_line[i]}", valid)
 
 
+#: The statements whose lines continue on the next after a ``\\``: those of numbers.
+CONTINUED = frozenset({"v", "vt", "vn", "vp", "f", "fo", "l", "p"})
+
+
 def joined_lines(lines: list[str]) -> list[str]:
     """``lines`` with each line that ends with ``\\`` (then maybe blanks) joined to the
     next, the OBJ line continuation; an empty line takes the place of each joined one, so
-    line numbers stay those of the file."""
+    line numbers stay those of the file. Only statements of numbers continue
+    (:data:`CONTINUED`): a comment or a ``mtllib`` line ending with a Windows folder
+    (``# from C:\\scans\\``) swallowed the vertex after it."""
     out: list[str] = []
     carry: list[str] = []
     for line in lines:
         stripped = line.rstrip()
-        if stripped.endswith("\\"):
+        words = stripped.split(maxsplit=1)
+        continues = bool(carry) or (bool(words) and words[0] in CONTINUED)
+        if continues and stripped.endswith("\\"):
             carry.append(stripped[:-1])
             continue
         out.append(" ".join([*carry, line]))

@@ -54,6 +54,13 @@ def read(path: Path, data: bytes) -> Polygons:
             f"{path}: line {count_line}: the OFF header promises {nv} vertices and {nf} faces, "
             f"but only {len(rest)} data lines follow; the file is truncated or the counts wrong"
         )
+    if len(rest) > nv + nf:  # never dropped unsaid: 320 faces under a header of 300
+        raise MeshReadError(
+            f"{path}: line {rest[nv + nf] + 1}: {len(rest) - nv - nf} data lines follow the "
+            f"{nv} vertices and {nf} faces the header (line {count_line}) declares; the "
+            "header's counts are wrong (or the file was joined with another): fix the counts "
+            "or re-export the mesh"
+        )
     v_at, f_at = rest[:nv], rest[nv : nv + nf]
     v_line, f_line = [i + 1 for i in v_at], [i + 1 for i in f_at]
     tokens, counts = flatten([words[i] for i in v_at])
