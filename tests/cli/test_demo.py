@@ -252,3 +252,35 @@ def test_quad_caption_names_the_valences_present():
     assert _irregular_valences(cube) == "3"
     octagon = np.vstack([cube, [[8, 9, 10, 11]]])  # a lone quad: all corners valence 2
     assert _irregular_valences(octagon) == "2 and 3"
+
+
+def test_on_an_open_mesh_the_closed_surface_identities_are_reported_not_judged(tmp_path):
+    """div J∇h = 0, the norm its flow keeps and Poincaré–Hopf hold on closed surfaces;
+    on a disk they were marked failed. They are reported (no ✗) with that said."""
+    from fvf.cli.demo import demo
+
+    disk = fvf.disk(6, 12)
+    path = tmp_path / "disk.obj"
+    fvf.write_mesh(path, disk.vertices, disk.faces)
+    report = demo(str(path), tmp_path / "o", pictures=False)
+    closed_only = {
+        "max |div J grad h| / max |div|",
+        "relative A_V-norm drift of J grad h flow",
+        "Fig. 11 sum of singularity indices",
+        "cross field sum of indices",
+    }
+    judged = {c["label"]: c["ok"] for c in report["checks"]}
+    assert closed_only <= set(judged) and all(judged[k] is None for k in closed_only)
+    assert report["checks_failed"] == 0
+    page = (tmp_path / "o" / "index.html").read_text()
+    assert page.count("holds on closed surfaces, this one is open") == len(closed_only)
+
+
+def test_a_demo_whose_checks_fail_exits_1(monkeypatch, tmp_path, capsys):
+    import fvf.cli.demo as demo_module
+    from fvf.cli.main import main
+
+    for failed, status in ((0, 0), (2, 1)):
+        monkeypatch.setattr(demo_module, "demo", lambda *a, f=failed, **k: {"checks_failed": f})
+        assert main(["demo", "--out", str(tmp_path / "o")]) == status
+    assert "2 check(s) failed" in capsys.readouterr().err

@@ -81,11 +81,11 @@ def test_demo_view_aims_every_picture_and_keeps_both_sides_opposite(tmp_path, mo
 
 
 @pytest.mark.parametrize("command", ["render", "quad", "symmetry", "flow"])
-@pytest.mark.parametrize("name", ["d.npz", "p.jpg", "p"])
+@pytest.mark.parametrize("name", ["kept.npz", "p.jpg", "p"])
 def test_a_picture_under_a_name_of_another_kind_is_refused_and_nothing_is_replaced(
     command, name, tmp_path, capsys
 ):
-    """``-o d.npz`` for a picture used to replace the user's data file with PNG bytes:
+    """``-o kept.npz`` for a picture used to replace the user's data file with PNG bytes:
     refused before any work, exit status 2, one line naming the fix, the file unchanged."""
     from fvf.cli.main import main
 

@@ -328,10 +328,10 @@ def check_outputs(args: argparse.Namespace, *outputs: tuple[str, str | None]) ->
 
     seen: dict[str, str] = {}
     for option, path in outputs:
-        if path is not None and option == "--png":
-            picture_format(path)
         if path is not None:
             check_not_input(path, inputs(args), force=args.force, option=option)
+            if option == "--png":
+                picture_format(path)
             key = str(Path(path).resolve())
             if key in seen:
                 raise OutputError(

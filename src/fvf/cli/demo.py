@@ -22,6 +22,7 @@ import importlib.util
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -29,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import FvfError, OutputError
-from .report import Story, json_default, print_numbers, render_html, section_not_done
+from .report import Story, json_default, print_numbers, render_html, section_not_done, strict_json
 
 if TYPE_CHECKING:
     from ..mesh.trimesh import TriMesh  # noqa: F401
@@ -76,6 +77,16 @@ def _directions(mesh, u):
 
 
 # ---------------------------------------------------------------------------- stages
+def _scaled(X: np.ndarray, axis: int) -> np.ndarray:
+    """Coordinate ``axis`` of the vertices X (n, 3) over its extent, float64 (n,); on a
+    mesh flat across that axis (a planar mesh has no z extent: 0/0) the coordinate of
+    the largest extent instead."""
+    extent = np.ptp(X, axis=0)
+    if not extent[axis] > 1e-9 * extent.max():
+        axis = int(np.argmax(extent))
+    return X[:, axis] / max(float(extent[axis]), 1e-300)
+
+
 def _calculus(s, story):
     """Section 3.1: the discrete calculus and its identities."""
     import fvf
@@ -83,10 +94,11 @@ def _calculus(s, story):
     st = story.begin("Discrete calculus and identities (§3.1)", _calculus)
     mesh, X = s.mesh, s.mesh.vertices
     Dv, L = fvf.div(mesh), fvf.laplacian(mesh)
-    s.h = X[:, 1] + 0.5 * np.sin(3 * X[:, 0] / np.ptp(X[:, 0]))
+    s.h = X[:, 1] + 0.5 * np.sin(3 * _scaled(X, 0))
     s.v = fvf.rotate(mesh, fvf.gradient(mesh, s.h))  # v = J grad h: divergence-free
     s.w = fvf.gradient(mesh, X[:, 0])
-    st.check(
+    st.closed_check(
+        mesh.is_closed,
         "max |div J grad h| / max |div|",
         float(np.abs(Dv @ s.v.ravel()).max() / np.abs(Dv).max() / np.abs(s.v).max()),
         expect=0.0,
@@ -156,12 +168,13 @@ def _flow(s, story):
     st = story.begin("Functional flow exp(-t D^V_v) and LIC (§3.5, Fig. 3)", _flow)
     mesh, X = s.mesh, s.mesh.vertices
     phi = fvf.FunctionalFlow(mesh, s.v)
-    s.f0 = np.sin(4 * X[:, 2] / np.ptp(X[:, 2]))
+    s.f0 = np.sin(4 * _scaled(X, 2))
     s.times = np.linspace(0.0, 1.0, 5) * np.ptp(X[:, 0]) / np.abs(s.v).max()
     frames = phi(s.f0, s.times)
     s.frames = frames
     st.info("flow times", s.times.tolist(), note="input: the times of the pictures below")
-    st.check(
+    st.closed_check(
+        mesh.is_closed,
         "relative A_V-norm drift of J grad h flow",
         float(abs(phi.norm(frames[-1]) - phi.norm(s.f0)) / phi.norm(s.f0)),
         expect=0.0,
@@ -400,7 +413,8 @@ def _fig11(s, story):
             wide=True,
         )
     st.info("Fig. 11 ACAP singularity counts", counts, note="per field; the pictures show them")
-    st.check(
+    st.closed_check(
+        mesh.is_closed,
         "Fig. 11 sum of singularity indices",
         sums,
         equals=[float(mesh.euler_characteristic)] * len(sums),
@@ -516,13 +530,22 @@ def _cross_field(s, story):
 
     st = story.begin("A curvature-aligned cross field (N = 4)", _cross_field)
     mesh = s.mesh
-    s.cross = fvf.design_field(mesh, n=4, align="curvature")
+    with warnings.catch_warnings(record=True) as caught:  # a sphere: no direction to follow
+        warnings.simplefilter("always")
+        s.cross = fvf.design_field(mesh, n=4, align="curvature")
+    umbilic = [w for w in caught if issubclass(w.category, fvf.UnconstrainedComponentWarning)]
+    for w in caught:  # the others as they were
+        if w not in umbilic:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     ids, ind = fvf.singularities(mesh, s.cross, n=4)
+    aligned = "aligned to principal curvature directions"
+    if umbilic:  # (κ_1 − κ_2)² is round-off on every face
+        aligned = "the smoothest one (the surface is umbilic or flat: no principal direction)"
     story.picture(
         st,
         "cross_field.png",
         mesh,
-        "cross field aligned to principal curvature directions, singularities of index ±1/4",
+        f"cross field {aligned}, singularities of index ±1/4",
         field=_directions(mesh, s.cross),
         n=4,
         singularities=(fvf.singularity_positions(mesh, ids), ind),
@@ -535,7 +558,8 @@ def _cross_field(s, story):
         float(np.abs(4 * ind - np.round(4 * ind)).max(initial=0.0)),
         at_most=1e-9,
     )
-    st.check(
+    st.closed_check(
+        mesh.is_closed,
         "cross field sum of indices",
         float(np.sum(ind)),
         expect=float(mesh.euler_characteristic),
@@ -766,7 +790,8 @@ def demo(
     if hasattr(s, "frames"):
         with atomic_path(out / "flow.npz") as tmp:
             np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, f=s.frames, t=s.times, v=s.v)
-    atomic_write_text(out / "summary.json", json.dumps(report, indent=2, default=json_default))
+    text = json.dumps(strict_json(report), indent=2, default=json_default, allow_nan=False)
+    atomic_write_text(out / "summary.json", text)
     atomic_write_text(out / "index.html", render_html(story, report, _INTRO))
     print(
         f"[fvf demo] done in {report['seconds']:.1f}s; wrote {out}/index.html, "

@@ -35,6 +35,7 @@ __all__ = [
     "print_numbers",
     "section_not_done",
     "json_default",
+    "strict_json",
 ]
 
 #: Significant digits of the numbers shown.
@@ -168,6 +169,16 @@ class Section:
             raise ValueError("check needs expect and tol, below, above or equals")
         ok = _within(value, expect, tol)
         return self._add(Number(label, value, fmt(expect), f"≤ {fmt(tol, 2)}", ok, note))
+
+    def closed_check(
+        self, closed: bool, label: str, value: Any, note: str, **criterion: Any
+    ) -> Number:
+        """:meth:`check` of an identity that holds on closed surfaces only (div J∇g = 0
+        needs g constant along the boundary, Poincaré–Hopf counts no boundary turning);
+        on a mesh with boundary the value is reported with that said, not judged."""
+        if closed:
+            return self.check(label, value, note=note, **criterion)
+        return self.info(label, value, note=f"{note}; holds on closed surfaces, this one is open")
 
     def info(self, label: str, value: Any, note: str = "") -> Number:
         """Record an informative value (no expectation): say in ``note`` what it is."""
@@ -409,6 +420,20 @@ def section_not_done(
     st.info("section", "not done", note=why)
     print(f"[fvf demo] {title}: not done on this mesh ({why})", flush=True)
     return st.title
+
+
+def strict_json(x: Any) -> Any:
+    """``x`` with every NaN or infinite float (Python or numpy, in dicts, lists and
+    arrays) as None: JSON has no NaN (a flat mesh's bracket ratio was ``Infinity``)."""
+    if isinstance(x, dict):
+        return {k: strict_json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [strict_json(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return strict_json(x.tolist())
+    if isinstance(x, (float, np.floating)) and not np.isfinite(x):
+        return None
+    return x
 
 
 def json_default(x: Any) -> Any:

@@ -4,9 +4,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from ..common import EXIT_OK, add_picture_options
+from ..common import EXIT_OK, EXIT_PROBLEMS, add_picture_options
 from ..registry import register_command
 
 
@@ -28,5 +29,12 @@ def run(args: argparse.Namespace) -> int:
 
     size = (int(args.size[0]), int(args.size[1])) if args.size else (600, 450)
     view = tuple(args.view) if args.view else None
-    demo(args.mesh, Path(args.out), size=size, up=args.up, dpi=args.dpi, view=view)
+    report = demo(args.mesh, Path(args.out), size=size, up=args.up, dpi=args.dpi, view=view)
+    if report["checks_failed"]:  # a result that fails its own checks is not a success
+        print(
+            f"fvf demo: {report['checks_failed']} check(s) failed on this mesh (marked ✗ "
+            f"above and in {args.out}/index.html); exit status {EXIT_PROBLEMS}",
+            file=sys.stderr,
+        )
+        return EXIT_PROBLEMS
     return EXIT_OK

@@ -65,8 +65,8 @@ def _arguments(p: argparse.ArgumentParser) -> None:
 )
 def run(args: argparse.Namespace) -> int:
     """Write the PNG."""
-    picture_format(args.output)
     check_outputs(args, ("-o", args.output))
+    picture_format(args.output)
     if args.title is None:  # named after what is drawn: the mesh file (and the data file)
         names = [Path(args.mesh).name] + [Path(d).name for d in args.data or []]
         args.title = ", ".join(names)
