@@ -52,8 +52,25 @@ def test_index_out_of_range_named():
 def test_repeated_vertex_in_face():
     X, F = tet()
     F[1] = [0, 2, 2]
-    with pytest.raises(fvf.MeshIndexError, match=r"faces \[1\].*repeat a vertex"):
+    with pytest.raises(fvf.MeshIndexError, match=r"faces \[1\].*repeat a vertex") as caught:
         fvf.TriMesh(X, F)
+    # a degenerate face too: the repairs of degenerate faces (fvf quad FILE, the CLI's
+    # `fvf repair` hint) apply to it, as to a zero-area face
+    assert isinstance(caught.value, fvf.RepeatedVertexError)
+    assert isinstance(caught.value, fvf.DegenerateFaceError)
+
+
+def test_a_zero_area_stl_facet_welded_shut_is_repaired_by_fvf_quad(tmp_path, capsys):
+    """An STL facet whose corners the weld merges names one vertex twice; fvf quad
+    repaired zero-area faces but refused this one (exit 2)."""
+    from fvf.cli.main import main
+
+    ball = fvf.icosphere(2)
+    F = np.vstack([ball.faces, [[0, 1, 1]]])  # the extra facet: two corners at one point
+    fvf.write_mesh(tmp_path / "b.obj", ball.vertices, F)
+    out = tmp_path / "q.obj"
+    assert main(["quad", str(tmp_path / "b.obj"), "--faces", "200", "-o", str(out)]) == 0
+    assert "repaired as `fvf repair` does" in capsys.readouterr().err and out.exists()
 
 
 def test_unreferenced_vertices_and_fix():

@@ -18,6 +18,7 @@ __all__ = [
     "MeshIndexError",
     "NonFiniteError",
     "DegenerateFaceError",
+    "RepeatedVertexError",
     "UnreferencedVertexError",
     "NonManifoldError",
     "OrientationError",
@@ -118,6 +119,12 @@ class NonFiniteError(MeshError):
 
 class DegenerateFaceError(MeshError):
     """Some faces have zero area, so their gradient and normal are undefined."""
+
+
+class RepeatedVertexError(MeshIndexError, DegenerateFaceError):
+    """Some faces name one vertex twice (a zero-area STL facet welded shut, a polygon that
+    repeats its first vertex at its end): degenerate faces that ``fvf repair`` and
+    :func:`fvf.remove_degenerate_faces` drop."""
 
 
 class UnreferencedVertexError(MeshError):

@@ -111,7 +111,7 @@ def _face_problems(X: np.ndarray, F: np.ndarray, report: dict, problems: list[st
     if repeats.any():
         problems.append(
             _problem(
-                "MeshIndexError",
+                "RepeatedVertexError",
                 f"faces {format_indices(np.flatnonzero(repeats))} repeat a vertex",
                 "fvf.remove_degenerate_faces(V, F)",
             )

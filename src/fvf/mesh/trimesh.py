@@ -29,6 +29,7 @@ from ..errors import (
     NonFiniteError,
     NonManifoldError,
     OrientationError,
+    RepeatedVertexError,
     UnreferencedVertexError,
     format_indices,
     user_stacklevel,
@@ -812,7 +813,7 @@ def validate_arrays(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> tuple[np.n
     rep = (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])
     if rep.any():
         bad = np.flatnonzero(rep)
-        raise MeshIndexError(
+        raise RepeatedVertexError(
             f"faces {format_indices(bad)} repeat a vertex (degenerate triangles). Fix: "
             "`fvf.remove_degenerate_faces(V, F)` drops them."
         )

@@ -54,7 +54,7 @@ def _shell_fix(problem: str) -> str:
 def _repairable(report: dict) -> bool:
     """Whether ``fvf repair`` addresses the problems (all but non-finite coordinates,
     bad shapes and non-orientable surfaces)."""
-    fixable = ("Unreferenced", "Duplicate", "Degenerate", "NonManifold", "Orientation")
+    fixable = ("Unreferenced", "Duplicate", "Degenerate", "Repeated", "NonManifold", "Orientation")
     return any(p.split(":")[0].startswith(fixable) for p in report["problems"])
 
 
