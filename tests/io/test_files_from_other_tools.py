@@ -185,6 +185,47 @@ def test_ngons_and_non_convex_polygons_come_back_unfolded(tmp_path):
     assert np.isin(F[:2], [0, 1, 2, 3]).all() and np.isin(F[2:6], np.arange(4, 10)).all()
 
 
+def _zigzag(k: int) -> np.ndarray:
+    """A non-convex k-gon, k even: corners alternately on radii 1 and 0.8 (a gear's cap)."""
+    a = np.arange(k) * 2 * np.pi / k
+    r = np.where(np.arange(k) % 2 == 0, 1.0, 0.8)
+    return np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros(k)])
+
+
+@pytest.mark.parametrize("earcut", [True, False], ids=["mapbox_earcut", "fallback"])
+def test_a_gear_cap_is_ear_clipped_by_either_path(earcut, monkeypatch):
+    """A zig-zag 400-gon (its fan folds): k - 2 triangles of its corners, each turning
+    the polygon's way, areas adding up to the polygon's, with mapbox_earcut or without."""
+    from fvf.io.formats.triangulate import triangulate
+
+    if earcut:
+        pytest.importorskip("mapbox_earcut")
+    else:
+        monkeypatch.setitem(__import__("sys").modules, "mapbox_earcut", None)
+    P = _zigzag(400)
+    F, n_split, n_resplit = triangulate(P, np.array([400]), np.arange(400))
+    assert F.shape == (398, 3) and n_split == n_resplit == 1
+    T = P[F]
+    area = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])[:, 2] / 2
+    shoelace = 0.5 * np.sum(P[:, 0] * np.roll(P[:, 1], -1) - np.roll(P[:, 0], -1) * P[:, 1])
+    assert (area > 0).all() and area.sum() == pytest.approx(shoelace, rel=1e-12)
+
+
+@pytest.mark.perf
+def test_a_40000_corner_cap_reads_in_seconds_with_mapbox_earcut():
+    """Extruded outlines put the whole outline in one polygon: a 40,000-corner zig-zag
+    cap took 354 s by the Python ear clipping (restarting at corner 0 after each ear)."""
+    import time
+
+    pytest.importorskip("mapbox_earcut")
+    from fvf.io.formats.triangulate import triangulate
+
+    P = _zigzag(40_000)
+    t = time.perf_counter()
+    F, _, n_resplit = triangulate(P, np.array([40_000]), np.arange(40_000))
+    assert time.perf_counter() - t < 5.0 and n_resplit == 1 and F.shape == (39_998, 3)
+
+
 def test_triangulation_of_random_simple_polygons_never_folds():
     """Seeded star-shaped polygons (simple, slightly off their plane), each starting at a
     random corner: every triangle turns the polygon's way and the areas add up. Polygons
