@@ -698,3 +698,18 @@ def test_no_raw_exception_escapes_on_garbage(tmp_path):
             read(path)
         except FvfError:
             pass
+
+
+@pytest.mark.parametrize(
+    ("data", "said"),
+    [
+        (("\n".join(obj_lines()) + "\n").encode(), "text that does not begin with 'solid'"),
+        (__import__("gzip").compress(b"solid x\nendsolid x\n"), "gzip-compressed"),
+        (b"ply\nformat ascii 1.0\n" + b"\x00" * 200, "a PLY file"),
+    ],
+    ids=["OBJ text", "gzip", "PLY"],
+)
+def test_a_file_of_another_format_named_stl_is_called_what_it_is(tmp_path, data, said):
+    """An OBJ named .stl was called a binary STL 'truncated after 259 triangles'."""
+    with pytest.raises(MeshReadError, match=f"not an STL file: it is {said}"):
+        read_mesh(write(tmp_path, "part.stl", data))

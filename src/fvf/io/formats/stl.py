@@ -98,6 +98,8 @@ def _is_binary(path: Path, data: bytes) -> bool:
             "and triangle count, and is not ascii STL text ('solid' ...): it is truncated or "
             "not an STL file"
         )
+    if not says_solid:
+        _refuse_other_format(path, data)
     like = "begins with 'solid' like an ascii STL but holds NUL bytes, so it is binary: "
     like = like if says_solid else ""
     complete = (size - HEADER_BYTES) // RECORD.itemsize
@@ -109,6 +111,32 @@ def _is_binary(path: Path, data: bytes) -> bool:
         f"{path}: {like}the binary STL header promises {n} triangles, so 84 + 50*{n} = "
         f"{expected} bytes, but the file has {size}; it {what}: re-export the mesh"
     )
+
+
+#: The first bytes of files that are often named ``.stl`` by mistake, and what they are.
+OTHER_FORMATS = (
+    (b"\x1f\x8b", "gzip-compressed (decompress it first: gunzip)"),
+    (b"PK\x03\x04", "a zip archive (unzip it first)"),
+    (b"ply", "a PLY file (name it .ply)"),
+    (b"OFF", "an OFF file (name it .off)"),
+    (b"glTF", "a binary glTF file (name it .glb)"),
+)
+
+
+def _refuse_other_format(path: Path, data: bytes) -> None:
+    """Raise for a file that is not an STL at all, before it is judged as a damaged
+    binary STL: a known signature, or text (an OBJ named .stl got "truncated")."""
+    head = data.removeprefix(BOM)[:4096]
+    for magic, what in OTHER_FORMATS:
+        if head.startswith(magic):
+            raise MeshReadError(f"{path}: this is not an STL file: it is {what}")
+    printable = sum(32 <= b < 127 or b in (9, 10, 13) for b in head)
+    if head and printable == len(head):  # text that is not ascii STL ('solid' ...)
+        first = head.split(b"\n", 1)[0].decode("ascii", "replace").strip()[:40]
+        raise MeshReadError(
+            f"{path}: this is not an STL file: it is text that does not begin with 'solid' "
+            f"(it begins with {first!r}: an OBJ file? name it by its format)"
+        )
 
 
 def _ascii_corners(path: Path, data: bytes) -> np.ndarray:
