@@ -92,14 +92,14 @@ def _is_binary(path: Path, data: bytes) -> bool:
     says_solid = data.removeprefix(BOM).lstrip()[:5].lower() == b"solid"
     if says_solid and b"\x00" not in data:
         return False
+    if not says_solid:
+        _refuse_other_format(path, data)
     if size < HEADER_BYTES:
         raise MeshReadError(
             f"{path}: the file has {size} bytes, fewer than the 84 of a binary STL's header "
             "and triangle count, and is not ascii STL text ('solid' ...): it is truncated or "
             "not an STL file"
         )
-    if not says_solid:
-        _refuse_other_format(path, data)
     like = "begins with 'solid' like an ascii STL but holds NUL bytes, so it is binary: "
     like = like if says_solid else ""
     complete = (size - HEADER_BYTES) // RECORD.itemsize
