@@ -131,7 +131,8 @@ def _refuse_other_format(path: Path, data: bytes) -> None:
         if head.startswith(magic):
             raise MeshReadError(f"{path}: this is not an STL file: it is {what}")
     printable = sum(32 <= b < 127 or b in (9, 10, 13) for b in head)
-    if head and printable == len(head):  # text that is not ascii STL ('solid' ...)
+    # text that is not ascii STL ('solid' ...); a binary STL's 80-byte header is text too
+    if len(head) > HEADER_BYTES and printable == len(head):
         first = head.split(b"\n", 1)[0].decode("ascii", "replace").strip()[:40]
         raise MeshReadError(
             f"{path}: this is not an STL file: it is text that does not begin with 'solid' "
