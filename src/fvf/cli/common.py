@@ -138,7 +138,7 @@ def add_output(p: argparse.ArgumentParser, help: str) -> None:
 
 def add_display_options(p: argparse.ArgumentParser) -> None:
     """The mesh, data files and what to draw, of ``fvf render`` and ``fvf view``."""
-    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument("data", nargs="*", help=".npz data file(s) (or PLY with properties)")
     p.add_argument("--function", metavar="KEY", help="vertex/face function to color by (KEY[i])")
     p.add_argument("--field", metavar="KEY", help="per-face (or per-vertex) field to draw")

@@ -691,7 +691,8 @@ def demo(
     Parameters
     ----------
     mesh_path : str or None
-        OBJ, OFF or PLY file; None for the built-in spot (2930 vertices, 5856 faces).
+        Mesh file (OBJ, OFF, PLY, STL, VTK, glTF); None for the built-in spot (2930
+        vertices, 5856 faces).
     out : Path
         Output folder (created).
     pictures : bool

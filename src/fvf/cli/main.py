@@ -1,9 +1,9 @@
 """The ``fvf`` command: the chapter's operations on your meshes, from the shell.
 
-It contains no math: every number comes from a library call. Meshes are OBJ, OFF or PLY
-files; functions and fields are read from and written to ``.npz`` data files whose keys
-are documented in :mod:`fvf.io.datafile` and ``docs/cli.md`` (``f`` vertex functions,
-``v`` and ``u`` per-face fields, ``t`` times, ...).
+It contains no math: every number comes from a library call. Meshes are OBJ, OFF,
+PLY, STL, VTK or glTF files; functions and fields are read from and written to ``.npz``
+data files whose keys are documented in :mod:`fvf.io.datafile` and ``docs/cli.md``
+(``f`` vertex functions, ``v`` and ``u`` per-face fields, ``t`` times, ...).
 
 Each subcommand is one module of :mod:`fvf.cli.commands` registering itself
 (:func:`fvf.cli.registry.register_command`: its name, help, arguments and handler); what

@@ -9,7 +9,7 @@ function::
 
 
     def _arguments(p):
-        p.add_argument("mesh", help="OBJ, OFF or PLY file")
+        p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
         add_output(p, "output .npz")
 
 

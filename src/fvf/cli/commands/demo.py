@@ -12,7 +12,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--mesh", help="OBJ, OFF or PLY file (default: built-in spot)")
+    p.add_argument("--mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF; default: spot)")
     p.add_argument("--out", default="fvf-demo", help="output folder (default: fvf-demo)")
     add_picture_options(p)  # --size: of a one-view picture (default 600 450)
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--soft", type=real, metavar="W", help="soft weight of every constraint")

@@ -59,13 +59,14 @@ def _repairable(report: dict) -> bool:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
 @register_command(
     "info",
-    help="validation report of a mesh file (OBJ, OFF, PLY): every problem with indices and fix",
+    help="validation report of a mesh file (OBJ, OFF, PLY, STL, VTK, glTF): every problem "
+    "with indices and fix",
     example="fvf info bunny.off   (exit status 1 when a problem is found)",
     arguments=_arguments,
 )

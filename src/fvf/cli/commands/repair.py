@@ -16,7 +16,7 @@ def _maps_path(output: str) -> Path:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument(
         "--tol", type=real, default=0.0, help="weld vertices closer than this (default 0)"
     )

@@ -23,7 +23,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="OBJ, OFF or PLY file")
+    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, u1] " + MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times (interpolation: in [0, 1])")
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
