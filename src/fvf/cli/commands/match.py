@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -64,6 +65,17 @@ def _read_truth(args: argparse.Namespace) -> np.ndarray | None:
             f"{args.mesh_2}), each a vertex of {args.mesh_1} in [0, {n_1}) or the "
             f"--truth-missing value; it has {truth.size}{first}"
         )
+    if args.truth_missing is None and truth.size:  # a placeholder the user did not name
+        values, counts = np.unique(truth, return_counts=True)
+        top = int(np.argmax(counts))
+        if counts[top] > max(0.05 * truth.size, 10):
+            print(
+                f"fvf match: {counts[top]} of the {truth.size} rows of {args.truth} are "
+                f"{values[top]}: if that marks vertices without a ground truth (the shared "
+                f"camel files use 0), pass --truth-missing {values[top]}, or they count as "
+                "errors",
+                file=sys.stderr,
+            )
     return truth
 
 
