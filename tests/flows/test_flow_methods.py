@@ -422,3 +422,16 @@ def test_spectral_flow_of_many_times_costs_one_decomposition():
     k = 1234
     one = basis.reduced_flow(v, mesh.vertices[:, 0], times[k])
     assert np.abs(out[k] - one).max() < 1e-10
+
+
+def test_a_spectral_flow_on_a_mesh_of_fewer_than_51_vertices_needs_no_k():
+    """The default of 50 eigenfunctions asked a 42-vertex mesh for more than it has
+    ("k must satisfy 1 <= k < n = 42; got k = 50", a k the user never gave): the default
+    is n - 1 there, the whole basis but the last, and a k given is still checked."""
+    mesh = fvf.icosphere(1)
+    v = fvf.rotate(mesh, fvf.gradient(mesh, mesh.vertices[:, 2]))
+    f = mesh.vertices[:, 0]
+    frames = np.asarray(fvf.flow(mesh, v, f, [0.0, 0.3], method="spectral"))
+    assert frames.shape == (2, 42) and np.isfinite(frames).all()
+    with pytest.raises(fvf.SpectralInputError, match="got k = 50"):
+        fvf.flow(mesh, v, f, [0.0, 0.3], method="spectral", k=50)

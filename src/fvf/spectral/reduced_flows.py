@@ -35,6 +35,10 @@ from .basis import SpectralBasis
 __all__: list[str] = []
 
 
+#: Eigenfunctions of the reduced flow when ``k`` is not given.
+DEFAULT_K = 50
+
+
 class _SpectralFlow:
     """The ``"spectral"`` method of :class:`fvf.TransportFlow`: the reduced flow of one field.
 
@@ -44,8 +48,8 @@ class _SpectralFlow:
     field : float64 (m, 3)
         The checked tangent field.
     options : dict
-        ``k`` (default 50), the number of eigenfunctions, or ``basis``, a
-        :class:`SpectralBasis` of ``mesh``.
+        ``k`` (default 50, or n - 1 on a mesh of n ≤ 50 vertices), the number of
+        eigenfunctions, or ``basis``, a :class:`SpectralBasis` of ``mesh``.
 
     Attributes
     ----------
@@ -60,7 +64,8 @@ class _SpectralFlow:
     def __init__(self, mesh: TriMesh, field: np.ndarray, options: dict[str, Any]) -> None:
         basis = options.get("basis")
         if basis is None:
-            basis = SpectralBasis(mesh, as_count(options.get("k", 50), "k", minimum=1))
+            default = max(min(DEFAULT_K, mesh.n_vertices - 1), 1)  # a 24-vertex mesh: 23
+            basis = SpectralBasis(mesh, as_count(options.get("k", default), "k", minimum=1))
         elif basis.mesh is not mesh:
             raise ParameterError(
                 "basis was built on another mesh; build SpectralBasis(mesh, k) on this one"
