@@ -232,9 +232,13 @@ def _unit_area_basis(mesh: TriMesh, k: int, name: str) -> tuple[SpectralBasis, S
     """(basis of the unit-area copy, the same eigenpairs rescaled to ``mesh``)."""
     n = mesh.n_vertices
     if not 2 <= k < n:
+        fix = (
+            f"pass k <= {n - 1} (and 3 <= k_fit <= k), or a finer mesh"
+            if n - 1 >= 3  # k_fit needs 3 eigenfunctions at least
+            else "subdivide the mesh (a match needs 4 vertices at least)"
+        )
         raise NotEnoughEigenpairsError(
-            f"{name} has {n} vertices, too few for {k} eigenfunctions (need k < n). Fix: "
-            f"pass k <= {n - 1} (and k_fit <= k), or a finer mesh."
+            f"{name} has {n} vertices, too few for {k} eigenfunctions (need k < n). Fix: {fix}."
         )
     area = mesh.total_area
     unit = TriMesh(mesh.vertices / np.sqrt(area), mesh.faces)
