@@ -284,3 +284,21 @@ def test_a_demo_whose_checks_fail_exits_1(monkeypatch, tmp_path, capsys):
         monkeypatch.setattr(demo_module, "demo", lambda *a, f=failed, **k: {"checks_failed": f})
         assert main(["demo", "--out", str(tmp_path / "o")]) == status
     assert "2 check(s) failed" in capsys.readouterr().err
+
+
+@pytest.mark.filterwarnings("ignore::fvf.errors.ZeroFieldWarning")  # J grad h on box sides
+def test_a_cad_file_of_two_boxes_passes_every_check(tmp_path):
+    """Right angles make cotangent weights exactly 0, so L's nonzeros missed edges and the
+    bracket's 2-ring bound was too small (a ✗ on every CAD part); a file of two parts got
+    Poincaré-Hopf judged on ACAP eigenfields that live on one part."""
+    trimesh = pytest.importorskip("trimesh")
+    from fvf.cli.demo import demo
+
+    box = trimesh.creation.box()
+    for _ in range(2):
+        box = box.subdivide()
+    V = np.vstack([box.vertices, box.vertices * [2.0, 1.0, 0.5] + [4.0, 0.0, 0.0]])
+    F = np.vstack([box.faces, box.faces + len(box.vertices)])
+    fvf.write_mesh(tmp_path / "two.obj", V, F)
+    report = demo(str(tmp_path / "two.obj"), tmp_path / "o", pictures=False)
+    assert report["checks_failed"] == 0, [c for c in report["checks"] if c["ok"] is False]
