@@ -24,6 +24,7 @@ __all__ = [
     "OrientationError",
     "MeshReadError",
     "PolygonTriangulatedWarning",
+    "MeshReadWarning",
     "MeshFormatError",
     "VerticesWeldedWarning",
     "MeshScaleError",
@@ -141,6 +142,11 @@ class OrientationError(MeshError):
 
 class MeshReadError(FvfError):
     """A mesh file could not be parsed."""
+
+
+class MeshReadWarning(FvfWarning):
+    """Part of a mesh file was left out as it was read (a glTF file's primitives that are
+    not triangles); the message says which and how to keep them."""
 
 
 class PolygonTriangulatedWarning(FvfWarning):

@@ -713,3 +713,34 @@ def test_a_file_of_another_format_named_stl_is_called_what_it_is(tmp_path, data,
     """An OBJ named .stl was called a binary STL 'truncated after 259 triangles'."""
     with pytest.raises(MeshReadError, match=f"not an STL file: it is {said}"):
         read_mesh(write(tmp_path, "part.stl", data))
+
+
+def test_gltf_primitives_that_are_not_triangles_are_named(tmp_path):
+    """trimesh drops TRIANGLE_FAN, strip, line and point primitives: a fan-only file was
+    "0 vertices but no faces", a file with a fan beside triangles lost it silently."""
+    import json
+
+    trimesh = pytest.importorskip("trimesh")
+    from trimesh.exchange import gltf
+
+    ball = fvf.icosphere(1)
+    text = next(
+        iter(
+            gltf.export_gltf(
+                trimesh.Trimesh(ball.vertices, ball.faces), embed_buffers=True
+            ).values()
+        )
+    )
+    doc = json.loads(text)
+    prim = doc["meshes"][0]["primitives"][0]
+    doc["meshes"][0]["primitives"].append({**prim, "mode": 6})
+    both = tmp_path / "both.gltf"
+    both.write_text(json.dumps(doc))
+    with pytest.warns(fvf.MeshReadWarning, match="left out primitives of the file: 1 TRIANGLE_FAN"):
+        V, F = read_mesh(both)
+    assert F.shape == (80, 3)
+    doc["meshes"][0]["primitives"] = [{**prim, "mode": 6}]
+    fan = tmp_path / "fan.gltf"
+    fan.write_text(json.dumps(doc))
+    with pytest.raises(MeshReadError, match="primitives are 1 TRIANGLE_FAN"):
+        read_mesh(fan)

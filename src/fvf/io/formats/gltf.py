@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import MeshReadError, MissingExtraError, VerticesWeldedWarning
+from ...errors import MeshReadError, MeshReadWarning, MissingExtraError, VerticesWeldedWarning
 from ..atomic import atomic_path
 from .base import MeshFormat, Polygons
 
@@ -61,6 +61,12 @@ def read(path: Path, data: bytes) -> Polygons:
         ) from exc
     V = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
     F = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    skipped = _unread_primitives(data)
+    if skipped and F.size == 0:
+        raise MeshReadError(
+            f"{path}: the file's primitives are {skipped}, which trimesh does not read as "
+            "triangles; re-export the mesh with triangles (glTF mode 4)"
+        )
     V, F, merged = weld_equal(V, F)
     notes: tuple[tuple[type[Warning], str], ...] = ()
     if merged:
@@ -71,9 +77,48 @@ def read(path: Path, data: bytes) -> Polygons:
                 f"earlier one (glTF splits vertices at seams); {len(V)} vertices left",
             ),
         )
+    if skipped:
+        notes += (
+            (
+                MeshReadWarning,
+                f"{path}: left out primitives of the file: {skipped} (only triangles, "
+                "mode 4, are read); re-export them as triangles",
+            ),
+        )
     flat = F.reshape(-1)
     counts = np.full(len(F), 3, dtype=np.int64)
     return Polygons(V, counts, flat, flat, lambda i: f"triangle {i}", f"0..{len(V) - 1}", notes)
+
+
+#: glTF primitive modes other than TRIANGLES (4), by number.
+OTHER_MODES = {
+    0: "POINTS",
+    1: "LINES",
+    2: "LINE_LOOP",
+    3: "LINE_STRIP",
+    5: "TRIANGLE_STRIP",
+    6: "TRIANGLE_FAN",
+}
+
+
+def _unread_primitives(data: bytes) -> str:
+    """The primitives of a glTF file's JSON (``.gltf`` text or a ``.glb`` file's first
+    chunk) in modes other than TRIANGLES, counted by mode ("2 TRIANGLE_FAN"); "" when
+    there are none or the JSON cannot be read (trimesh then judges the file)."""
+    import json
+    from collections import Counter
+
+    text = data
+    if data[:4] == b"glTF" and len(data) >= 20:
+        size = int.from_bytes(data[12:16], "little")
+        text = data[20 : 20 + size]
+    try:
+        meshes = json.loads(text).get("meshes", [])
+        modes = [p.get("mode", 4) for m in meshes for p in m.get("primitives", [])]
+    except (ValueError, AttributeError, TypeError):
+        return ""
+    counts = Counter(OTHER_MODES.get(m, f"mode {m}") for m in modes if m != 4)
+    return ", ".join(f"{n} {name}" for name, n in sorted(counts.items()))
 
 
 def write(
