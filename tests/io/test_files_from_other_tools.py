@@ -744,3 +744,26 @@ def test_gltf_primitives_that_are_not_triangles_are_named(tmp_path):
     fan.write_text(json.dumps(doc))
     with pytest.raises(MeshReadError, match="primitives are 1 TRIANGLE_FAN"):
         read_mesh(fan)
+
+
+def test_a_damaged_vtu_leaves_no_vtk_log_on_stderr(tmp_path):
+    """VTK's reader logs through logging.error, which installed a console handler on the
+    root logger ("ERROR:root:No update piece number ..." before fvf's own message). In a
+    process of its own: pytest's log capture keeps a handler on the root logger."""
+    import subprocess
+    import sys
+
+    meshio = pytest.importorskip("meshio")
+    pytest.importorskip("pyvista")
+    path = tmp_path / "whole.vtu"
+    meshio.write(path, meshio.Mesh(CUBE_V, [("triangle", CUBE_T)]))
+    bad = write(tmp_path, "cut.vtu", path.read_bytes()[:400])
+    code = (
+        "import logging, fvf\n"
+        f"try:\n    fvf.read_mesh({str(bad)!r})\n"
+        "except fvf.MeshReadError:\n    print('refused')\n"
+        "print(len(logging.getLogger().handlers))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.stdout.split() == ["refused", "0"], run
+    assert "ERROR:root" not in run.stderr, run.stderr

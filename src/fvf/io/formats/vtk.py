@@ -16,9 +16,10 @@ name; a volume mesh's surface is ``pyvista.read(path).extract_surface()``, passe
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -290,6 +291,24 @@ def _polygons(path: Path, V: np.ndarray, types: np.ndarray, flat: np.ndarray) ->
     )
 
 
+@contextlib.contextmanager
+def _no_root_logging() -> Iterator[None]:
+    """VTK's reader errors reach ``logging.error`` on the root logger, which installs a
+    console handler when the root has none ("ERROR:root:No update piece number ..." on
+    stderr before fvf's own message): a null handler is the root's for the read."""
+    import logging
+
+    root = logging.getLogger()
+    null = logging.NullHandler() if not root.handlers else None
+    if null is not None:
+        root.addHandler(null)
+    try:
+        yield
+    finally:
+        if null is not None:
+            root.removeHandler(null)
+
+
 def _read_pyvista(path: Path) -> VtkArrays:
     """Read through PyVista; an error VTK reports (it only logs them: a damaged file reads
     as an empty one) is a MeshReadError quoting it, and VTK's console log stays quiet."""
@@ -300,7 +319,8 @@ def _read_pyvista(path: Path) -> VtkArrays:
     try:
         with warnings.catch_warnings(), quiet("off") if quiet else nullcontext(), catcher:
             warnings.simplefilter("ignore")
-            grid = pyvista.read(str(path))
+            with _no_root_logging():
+                grid = pyvista.read(str(path))
     except RuntimeError as exc:  # pyvista's VTKExecutionError: what VTK's reader said
         said = [ln for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("ERROR:")]
         raise MeshReadError(
