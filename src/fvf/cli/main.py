@@ -73,8 +73,8 @@ __all__ = [
     "EXIT_TERMINATED",
 ]
 
-_EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems or `fvf batch` had failed
-meshes, 2 bad input,
+_EXIT_TEXT = """exit status: 0 success, 1 `fvf info` found problems, `fvf batch` had failed
+meshes or `fvf demo` failed checks, 2 bad input,
 3 feature unavailable (fvf.viz / [viz] extra / display), 4 computation failed,
 5 output not written (disk full...), 6 the result grew beyond --growth-limit (written;
 --growth-limit inf accepts it), 130/143 interrupted.

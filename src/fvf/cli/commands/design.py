@@ -29,7 +29,13 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--soft", type=real, metavar="W", help="soft weight of every constraint")
+    mode.add_argument(
+        "--soft",
+        type=real,
+        metavar="W",
+        help="soft weight of every constraint, per unit area (1/length^2: scale the mesh "
+        "by s, scale W by 1/s^2); default: 100 times each face's own stiffness, scale-free",
+    )
     mode.add_argument("--hard", action="store_true", help="meet the constraints exactly")
     p.add_argument("--kind", choices=("knoppel", "singer_wu"), default="knoppel")
     p.add_argument("--keep-length", action="store_true", help="don't normalize directions")
