@@ -533,23 +533,3 @@ def test_singularities_match_libigl():
     P1, _ = igl.comb_cross_field(V, F, u, fvf.rotate(mesh, u))
     C = fvf.comb(mesh, u, 4)
     np.testing.assert_allclose(fvf.to_power(mesh, P1, 4), fvf.to_power(mesh, C[0], 4), atol=1e-9)
-
-
-def test_a_cube_aligned_to_curvature_gets_the_smoothest_cross_field_not_round_off():
-    """A cube's faces are flat: their curvature anisotropy is round-off ((κ_1 − κ_2)² of
-    1e-34 on a 12-triangle cube), which made the aligned design 1e-20 long with
-    directions from round-off. Below ANISOTROPY_RTOL of the curvature scale it is zero:
-    the design warns and returns the smoothest cross field, of unit L2 norm."""
-    X = np.array([[x, y, z] for x in (0.0, 30) for y in (0.0, 30) for z in (0.0, 30)])
-    c, s = np.cos(0.6), np.sin(0.6)  # turned: exact zeros become round-off
-    X = (
-        X
-        @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-        @ np.array([[1, 0, 0], [0, c, s], [0, -s, c]])
-    )
-    F = [[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4]]
-    F += [[2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]]
-    cube = fvf.TriMesh(X, np.array(F))
-    with pytest.warns(fvf.UnconstrainedComponentWarning, match="alignment weights are zero"):
-        u = fvf.design_field(cube, n=4, align="curvature")
-    assert abs(np.sum(cube.face_areas * np.einsum("ij,ij->i", u, u)) - 1) < 1e-10

@@ -12,10 +12,7 @@ and τ_t the N-th power of the target direction:
 
 * ``align="curvature"``: τ_t = e^{iNθ_t} with θ_t the angle of the κ_1 principal direction
   (:func:`fvf.principal_curvatures`) in the face frame, and ω_t = (κ_1 − κ_2)², the squared
-  curvature anisotropy. Umbilic and flat faces get ω_t = 0 and are left to smoothness
-  (an anisotropy below :data:`ANISOTROPY_RTOL` times the largest curvature, or the
-  inverse diagonal of the bounding box, is round-off: a cube's faces, whose (κ_1 − κ_2)²
-  of 1e-34 once made the design 1e-20 long with directions from round-off),
+  curvature anisotropy. Umbilic and flat faces get ω_t = 0 and are left to smoothness,
   and the term has the units of the smoothness energy (∫|∇z|² and ∫(κ_1 − κ_2)²|z − τ|²
   are both dimensionless), so β = 1 is a balanced default at every scale. The principal
   directions are a line field (defined up to sign), so N must be even; N = 4 aligns a
@@ -35,12 +32,10 @@ from ..mesh.curvature import principal_curvatures_transient
 from ..mesh.inputs import as_face_field
 from ..mesh.trimesh import TriMesh
 
-__all__ = ["alignment_targets", "ALIGN_STRENGTH", "ANISOTROPY_RTOL"]
+__all__ = ["alignment_targets", "ALIGN_STRENGTH"]
 
 #: Default β of the alignment term.
 ALIGN_STRENGTH = 1.0
-#: A curvature anisotropy below this fraction of the mesh's curvature scale is zero.
-ANISOTROPY_RTOL = 1e-9
 
 
 def _unit_power(z: np.ndarray, n: int) -> np.ndarray:
@@ -114,9 +109,7 @@ def alignment_targets(
             )
         pc = principal_curvatures_transient(mesh)  # not kept through the design's solve
         tau = _unit_power(mesh.to_complex(pc.d1), n)
-        scale = max(float(np.abs(pc.k1).max(initial=0.0)), float(np.abs(pc.k2).max(initial=0.0)))
-        scale = max(scale, 1.0 / float(np.linalg.norm(np.ptp(mesh.vertices, axis=0))))
-        w = np.where(pc.anisotropy > ANISOTROPY_RTOL * scale, pc.anisotropy**2, 0.0)
+        w = pc.anisotropy**2
         if align_weights is not None:
             w = w * _user_weights(mesh, align_weights, 1.0)
         return tau, w

@@ -28,7 +28,6 @@ Both are normalized to Σ_t A_t a_t b_t = Σ_t A_t, which keeps the number of qu
 
 from __future__ import annotations
 
-import warnings
 from typing import Literal
 
 import numpy as np
@@ -39,7 +38,7 @@ from ..calculus import vertex_to_face
 from ..design.commuting_frames import rescale_frame
 from ..design.constrained import design_field
 from ..design.holonomy import holonomy_rotations
-from ..errors import ParameterError, UnconstrainedComponentWarning
+from ..errors import ParameterError
 from ..mesh.convert import takes_mesh
 from ..mesh.inputs import as_face_field
 from ..mesh.nfield import NField
@@ -117,39 +116,24 @@ def default_cross_field(
         u = design_field(mesh, faces, dirs, hard=hard, n=4, progress=progress)
     else:
         h = edge_length
-        with warnings.catch_warnings():  # umbilic or flat everywhere: the smoothest field
-            warnings.simplefilter("ignore", UnconstrainedComponentWarning)
-            u = _aligned_design(mesh, faces, dirs, hard, h, progress, log_scale)
+        u = design_field(
+            mesh,
+            faces,
+            dirs,
+            hard=hard,
+            n=4,
+            align="curvature",
+            curvature_smoothing=h,
+            align_smoothing=None if h is None else ALIGN_SMOOTHING * h,
+            progress=progress,
+            log_scale=None if h is None else log_scale,
+        )
     # a cone at a face's centroid (e.g. by symmetry) makes the power exactly 0 there: any
     # direction is as good as another, take the face's first basis vector
     length = np.linalg.norm(u, axis=1)
     zero = length <= 1e-9 * float(length.max(initial=0.0))
     u[zero] = mesh.face_bases[zero, 0]
     return NField(unit_cross_field(mesh, u), 4)
-
-
-def _aligned_design(
-    mesh: TriMesh,
-    faces: np.ndarray | None,
-    dirs: np.ndarray | None,
-    hard: bool,
-    h: float | None,
-    progress: ProgressCallback | None,
-    log_scale: np.ndarray | None,
-) -> NField:
-    """The curvature-aligned design of :func:`default_cross_field`."""
-    return design_field(
-        mesh,
-        faces,
-        dirs,
-        hard=hard,
-        n=4,
-        align="curvature",
-        curvature_smoothing=h,
-        align_smoothing=None if h is None else ALIGN_SMOOTHING * h,
-        progress=progress,
-        log_scale=None if h is None else log_scale,
-    )
 
 
 def default_connection_rotations(
