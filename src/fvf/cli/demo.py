@@ -551,7 +551,7 @@ def _cross_field(s, story):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     ids, ind = fvf.singularities(mesh, s.cross, n=4)
     aligned = "aligned to principal curvature directions"
-    if umbilic:  # (κ_1 − κ_2)² is round-off on every face
+    if umbilic:  # (κ_1 − κ_2)² is zero on every face (a flat mesh)
         aligned = "the smoothest one (the surface is umbilic or flat: no principal direction)"
     story.picture(
         st,
