@@ -170,6 +170,18 @@ def dual_edge_fluxes(
     return mesh.assemble_vertex_operator(local)
 
 
+def finite_operator(A: Any, field: np.ndarray) -> Any:
+    """The flow's operator A (sparse), refused with :class:`FlowOverflowError` when a
+    field of finite but huge length (1e308) overflowed its entries to inf: the flow of
+    s·v for time t is the flow of v for time s·t."""
+    if sp.issparse(A) and not np.isfinite(A.data).all():
+        raise FlowOverflowError(
+            f"the operator of this field overflows (max |v| = {max_row_norm(field):.3g}): "
+            "scale the field down by s and the times up by s (the same flow)"
+        )
+    return A
+
+
 def _rows_and_diagonal(A: sp.csr_array) -> tuple[np.ndarray, np.ndarray]:
     rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
     return rows, rows == A.indices
@@ -394,12 +406,16 @@ class TransportFlow:
                 tol=options.get("tol", 1e-10),
                 **{k: options[k] for k in ("max_products", "progress") if k in options},
             )
-            self.operator = self._chapter.operator
+            self.operator = finite_operator(self._chapter.operator, self.field)
         elif method == "upwind":
-            self.operator = upwind_operator(mesh, self.field, tangent="ignore")
+            self.operator = finite_operator(
+                upwind_operator(mesh, self.field, tangent="ignore"), self.field
+            )
             self._upwind = {1.0: _Uniformization(self.operator)}
         elif method == "skew":
-            self.operator = skew_operator(mesh, self.field, tangent="ignore")
+            self.operator = finite_operator(
+                skew_operator(mesh, self.field, tangent="ignore"), self.field
+            )
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
             if "max_products" in options:
                 self._expm["max_products"] = options["max_products"]

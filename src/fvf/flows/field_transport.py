@@ -42,6 +42,7 @@ from ..numerics.expm import as_times, check_options, expm_action
 from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
 from ..numerics.summary import html_repr, short_repr
 from ..operators.brackets import ad
+from .dispatch import finite_operator
 from .functional import GROWTH_LIMIT
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
@@ -237,7 +238,8 @@ class FieldTransport:
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = TransportOperator(
-            ad(mesh, self.field, tangent="ignore"), vertex_to_face(mesh)
+            finite_operator(ad(mesh, self.field, tangent="ignore"), self.field),
+            vertex_to_face(mesh),
         )
         self._generator: sp.csr_array | None = None
 
