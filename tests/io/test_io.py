@@ -497,3 +497,21 @@ def test_fuzzed_files_that_load_go_through_report_and_repair(fuzz_dir, name, mut
         TriMesh(fixed.vertices, fixed.faces)
     except FvfError:  # only when something needed repair (welding can expose problems)
         assert not report["ok"] or report.get("hints")
+
+
+def test_ply_properties_named_as_reserved_keys_or_on_both_elements_are_refused(tmp_path):
+    """A vertex property ``t`` was read as the flow's times (162 of them, exit 0), and a
+    vertex ``f`` hid a face ``f`` silently."""
+    from fvf.io.datafile import read_data
+
+    ball = fvf.icosphere(1)
+    n, m = ball.n_vertices, ball.n_faces
+    cases = {
+        "t.ply": ({"t": np.arange(n, dtype=float)}, {}, r"vertex properties \['t'\]"),
+        "both.ply": ({"f": np.zeros(n)}, {"f": np.ones(m)}, r"\['f'\] name both a vertex"),
+    }
+    for name, (vdata, fdata, said) in cases.items():
+        path = tmp_path / name
+        fvf.write_mesh(path, ball.vertices, ball.faces, vertex_data=vdata, face_data=fdata)
+        with pytest.raises(fvf.DataFileError, match=said):
+            read_data(path)

@@ -109,6 +109,7 @@ def ply_arrays(path: Path) -> dict[str, np.ndarray]:
             X, F = read_mesh(path)
     except MeshReadError as exc:
         raise DataFileError(str(exc)) from exc
+    _check_property_names(path, vertex, face)
     arrays: dict[str, np.ndarray] = dict(vertex)
     arrays.update(vertices=X, faces=F)  # the PLY's own mesh: checked against the mesh used
     comments = header_comments(read_bytes(path, DataFileError, head=SNIFF_BYTES))
@@ -123,6 +124,29 @@ def ply_arrays(path: Path) -> dict[str, np.ndarray]:
             if all(k in face for k in triple) and base not in vertex:
                 arrays[base] = np.column_stack([face[k] for k in triple])
     return arrays
+
+
+#: Keys of fvf's data files that are no per-vertex or per-face values: a PLY property of
+#: one of these names would be read as that (a vertex property ``t`` as 162 flow times).
+RESERVED_KEYS = ("t", "vertices", "faces", "layout", "inputs", "command", "mesh_path")
+
+
+def _check_property_names(path: Path, vertex: dict, face: dict) -> None:
+    """Refuse PLY properties named as a reserved key, or on both elements (a vertex ``f``
+    hid a face ``f``): :class:`DataFileError` naming them and the fix."""
+    for element, props in (("vertex", vertex), ("face", face)):
+        clash = sorted(set(props) & set(RESERVED_KEYS))
+        if clash:
+            raise DataFileError(
+                f"{path}: the {element} properties {clash} have names fvf's data files keep "
+                "for other things (t: the times; vertices, faces: the mesh); rename them"
+            )
+    both = sorted(set(vertex) & set(face))
+    if both:
+        raise DataFileError(
+            f"{path}: {both} name both a vertex and a face property, and one key can hold "
+            "only one of them; rename one"
+        )
 
 
 def vtk_arrays(path: Path) -> dict[str, np.ndarray]:
