@@ -573,7 +573,7 @@ def test_batch_pairs(client, tmp_path):
             np.testing.assert_array_equal(data["p2p"], p2p)
     assert table["a--c"]["fmap_orthogonality"] < 1e-6  # an exact isometry: C is orthogonal
     assert table["b--a"]["status"] == "failed"  # a mesh file as a map: a row, not a crash
-    assert table["b--a"]["error"].startswith("ValueError")
+    assert table["b--a"]["error"].startswith("BatchInputError")  # typed, like every map problem
 
 
 def test_batch_match_task_recovers_a_permutation(client, tmp_path):

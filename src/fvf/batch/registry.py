@@ -312,8 +312,7 @@ class PairContext:
                     f"{self.map_path}: the vertex map is not a readable .npy array ({exc})"
                 ) from None
         else:  # one integer per line, # comments: the message names the file and the line
-            # (a ValueError, as the rows of batches have always said for a bad map)
-            raw = read_index_table(self.map_path, 1, "the vertex map", ValueError)
+            raw = read_index_table(self.map_path, 1, "the vertex map", BatchInputError)
         try:
             return check_p2p(np.asarray(raw).reshape(-1), n_t, n_s)
         except FieldShapeError as exc:
