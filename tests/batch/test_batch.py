@@ -886,3 +886,16 @@ def test_scheduler_and_workers_started_separately(tmp_path):
                 p.wait(timeout=30)
             except subprocess.TimeoutExpired:
                 p.kill()
+
+
+@pytest.mark.parametrize("limit", ["1KB", "10", 1000, "100MiB"])
+def test_a_memory_limit_no_worker_can_start_in_is_refused_at_once(limit, tmp_path):
+    """At 1 KB each local worker was killed as it started, over and over: the batch never
+    ended. A limit below MIN_WORKER_MEMORY is a ParameterError before any work."""
+    from fvf.batch.driver import MIN_WORKER_MEMORY, run
+
+    ball = fvf.icosphere(1)
+    fvf.write_mesh(tmp_path / "b.obj", ball.vertices, ball.faces)
+    with pytest.raises(fvf.ParameterError, match=f"below the {MIN_WORKER_MEMORY // 2**20} MiB"):
+        run([tmp_path / "b.obj"], tmp_path / "out", memory_limit=limit)
+    assert not (tmp_path / "out").exists()
