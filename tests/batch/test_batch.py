@@ -899,3 +899,19 @@ def test_a_memory_limit_no_worker_can_start_in_is_refused_at_once(limit, tmp_pat
     with pytest.raises(fvf.ParameterError, match=f"below the {MIN_WORKER_MEMORY // 2**20} MiB"):
         run([tmp_path / "b.obj"], tmp_path / "out", memory_limit=limit)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_vertex_map_of_the_wrong_kind_is_named_as_such(tmp_path):
+    """A (162, 2) table was reported as 'got int64 (324,)' (flattened first), an .npz
+    archive named .npy as 'got <U1 (1,)'."""
+    from fvf.batch.registry import MeshContext, PairContext
+
+    ball = fvf.icosphere(1)
+    ctx = MeshContext(tmp_path / "b.obj", ball.vertices, ball.faces, {})
+    np.save(tmp_path / "two.npy", np.zeros((ball.n_vertices, 2), np.int64))
+    np.savez(tmp_path / "arch.npz", p2p=np.arange(ball.n_vertices))
+    (tmp_path / "arch.npz").rename(tmp_path / "arch.npy")
+    cases = {"two.npy": r"shape \(42,\); got int64 \(42, 2\)", "arch.npy": "an .npz archive"}
+    for name, said in cases.items():
+        with pytest.raises(fvf.BatchInputError, match=said):
+            PairContext(ctx, ctx, tmp_path / name, {}).point_map()

@@ -288,7 +288,8 @@ class PairContext:
         FieldShapeError
             No map file and different vertex counts, or a map of the wrong shape or range.
         BatchInputError
-            The map file is not a regular file (a FIFO, a device).
+            The map file is not a regular file (a FIFO, a device), not a vertex map (an
+            .npz archive, a table of several columns), or a text line is no integer.
         """
         from ..errors import BatchInputError, FieldShapeError
         from ..io.inputfile import read_index_table, regular_file
@@ -311,9 +312,21 @@ class PairContext:
                 raise BatchInputError(
                     f"{self.map_path}: the vertex map is not a readable .npy array ({exc})"
                 ) from None
+            if not isinstance(raw, np.ndarray):  # np.load reads an .npz under any name
+                raw.close()
+                raise BatchInputError(
+                    f"{self.map_path}: the vertex map is an .npz archive under an .npy name; "
+                    "save the map alone with np.save(path, p2p)"
+                )
         else:  # one integer per line, # comments: the message names the file and the line
             raw = read_index_table(self.map_path, 1, "the vertex map", BatchInputError)
+        raw = np.asarray(raw)
+        if raw.ndim != 1 and not (raw.ndim == 2 and raw.shape[1] == 1):
+            raise BatchInputError(
+                f"{self.map_path}: the vertex map must be one target vertex per source vertex, "
+                f"shape ({n_s},); got {raw.dtype} {raw.shape}"
+            )
         try:
-            return check_p2p(np.asarray(raw).reshape(-1), n_t, n_s)
+            return check_p2p(raw.reshape(-1), n_t, n_s)
         except FieldShapeError as exc:
             raise FieldShapeError(f"{self.map_path}: {exc}") from None
