@@ -741,17 +741,13 @@ def _per_component(
     log_scale: npt.ArrayLike | None,
     smoothest: Callable[[TriMesh, np.ndarray | None], np.ndarray],
 ) -> np.ndarray:
-    """The smoothest field of each part of the mesh (faces joined across edges), float64
+    """The smoothest field of each part of the mesh (:attr:`TriMesh.vertex_components`), float64
     (m, 3): ``smoothest(part, its log_scale)`` on each part of two faces or more, scaled to
     Σ A_t |u_t|² = its share of the area (the whole has unit L2 norm and the same mean
     length on every part: the lowest eigenfield of the whole lives on one part and is zero
     on the others); a part of one face (no side shared: its energy is zero for every
     field) gets its first side's direction."""
-    m = mesh.n_faces
-    across = mesh.face_adjacency.ravel()
-    t = np.repeat(np.arange(m), 3)[across >= 0]
-    joined = sp.csr_array((np.ones(t.size), (t, across[across >= 0])), shape=(m, m))
-    _, label = connected_components(joined, directed=False)
+    label = mesh.vertex_components[mesh.faces[:, 0]]  # a valid mesh's parts meet at no vertex
     parts = np.bincount(label)
     if parts.size == 1:
         return smoothest(mesh, None if log_scale is None else np.asarray(log_scale, float))
