@@ -162,8 +162,8 @@ def _one_line(exc: BaseException) -> str:
 
 
 #: Python spellings in the library's messages and the options that say the same, with the
-#: ``args`` attribute a command has when it takes that option; a command without it gets
-#: the clause left out (``fvf transport`` has no ``--method``, no command ``max_products``).
+#: ``args`` attribute a command has when it takes that option (None: no command does); a
+#: command without it gets the clause left out (``fvf transport`` has no ``--method``).
 _CLI_SPELLINGS = (
     (
         r"pass growth_limit=np\.inf to (accept it|silence this)",
@@ -172,8 +172,8 @@ _CLI_SPELLINGS = (
     ),
     (r"growth_limit=np\.inf", "--growth-limit inf", "growth_limit"),
     (r"method='upwind'", "--method upwind", "method"),
-    (r"raise max_products", "", "max_products"),
-    (r" ?\(and pass progress= to follow it\)", "", "progress="),
+    (r"raise max_products", "", None),
+    (r" ?\(and pass progress= to follow it\)", "", None),
 )
 
 
@@ -181,7 +181,7 @@ def _cli_words(text: str, args: argparse.Namespace | None = None) -> str:
     """A library message in the command's words: its options, not Python keywords, and
     no clause naming an option the command does not take."""
     for python, cli, attr in _CLI_SPELLINGS:
-        if args is not None and hasattr(args, attr):
+        if args is not None and attr is not None and hasattr(args, attr):
             text = re.sub(python, cli, text)
             continue
         clause = r"(,? (or |and )?(use |pass )?)" + python + r"( \([^)]*\))?"
