@@ -68,6 +68,7 @@ from ..operators.directional import directional_derivatives
 from .functional import (
     GROWTH_LIMIT,
     FunctionalFlow,
+    finite_operator,
     hotspots,
     observed_growth,
 )
@@ -168,18 +169,6 @@ def dual_edge_fluxes(
     d = directional_derivatives(mesh, v)  # (m, 3): ⟨v(t), ∇φ_b⟩
     local = (mesh.face_areas / 3.0)[:, None, None] * (d[:, None, :] - d[:, :, None])
     return mesh.assemble_vertex_operator(local)
-
-
-def finite_operator(A: Any, field: np.ndarray) -> Any:
-    """The flow's operator A (sparse), refused with :class:`FlowOverflowError` when a
-    field of finite but huge length (1e308) overflowed its entries to inf: the flow of
-    s·v for time t is the flow of v for time s·t."""
-    if sp.issparse(A) and not np.isfinite(A.data).all():
-        raise FlowOverflowError(
-            f"the operator of this field overflows (max |v| = {max_row_norm(field):.3g}): "
-            "scale the field down by s and the times up by s (the same flow)"
-        )
-    return A
 
 
 def _rows_and_diagonal(A: sp.csr_array) -> tuple[np.ndarray, np.ndarray]:
@@ -406,7 +395,7 @@ class TransportFlow:
                 tol=options.get("tol", 1e-10),
                 **{k: options[k] for k in ("max_products", "progress") if k in options},
             )
-            self.operator = finite_operator(self._chapter.operator, self.field)
+            self.operator = self._chapter.operator  # checked there (finite_operator)
         elif method == "upwind":
             self.operator = finite_operator(
                 upwind_operator(mesh, self.field, tangent="ignore"), self.field
@@ -432,7 +421,9 @@ class TransportFlow:
                 )
                 self.operator = self._chapter.operator
             else:
-                self.operator = skew_operator(mesh, self.field, tangent="ignore")
+                self.operator = finite_operator(
+                    skew_operator(mesh, self.field, tangent="ignore"), self.field
+                )
             speed = max_row_norm(self.field)  # no overflow for |v| ~ 1e200
             dt = options.get("dt")
             if dt is None:

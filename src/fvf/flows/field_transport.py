@@ -42,8 +42,7 @@ from ..numerics.expm import as_times, check_options, expm_action
 from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
 from ..numerics.summary import html_repr, short_repr
 from ..operators.brackets import ad
-from .dispatch import finite_operator
-from .functional import GROWTH_LIMIT
+from .functional import GROWTH_LIMIT, finite_operator
 
 __all__ = ["FieldTransport", "TransportOperator", "Ad", "interpolate", "TransportResult"]
 

@@ -34,7 +34,13 @@ from ..errors import (
     user_stacklevel,
 )
 from ..mesh.convert import takes_mesh
-from ..mesh.inputs import TangentPolicy, as_face_field, as_growth_limit, as_vertex_function
+from ..mesh.inputs import (
+    TangentPolicy,
+    as_face_field,
+    as_growth_limit,
+    as_vertex_function,
+    max_row_norm,
+)
 from ..mesh.trimesh import TriMesh
 from ..numerics.expm import MAX_PRODUCTS, PreparedOperator, as_times, check_options, expm_action
 from ..numerics.progress import ProgressCallback, fraction_reporter, make_progress
@@ -89,6 +95,18 @@ def observed_growth(weights: np.ndarray, f0: np.ndarray, out: np.ndarray) -> tup
         return 0.0, 0.0
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         return float((nt[:, live] / n0[live]).max()), float((mt[:, live] / m0[live]).max())
+
+
+def finite_operator(A: sp.sparray, field: np.ndarray) -> sp.sparray:
+    """The flow's operator A (sparse), refused with :class:`FlowOverflowError` when a
+    field of finite but huge length (1e308) overflowed its entries to inf: the flow of
+    s·v for time t is the flow of v for time s·t."""
+    if sp.issparse(A) and not np.isfinite(A.data).all():
+        raise FlowOverflowError(
+            f"the operator of this field overflows (max |v| = {max_row_norm(field):.3g}): "
+            "scale the field down by s and the times up by s (the same flow)"
+        )
+    return A
 
 
 class FunctionalFlow:
@@ -167,7 +185,7 @@ class FunctionalFlow:
         make_progress(progress)  # a bad value fails here, not at the first call
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.operator = D_V(mesh, self.field, tangent="ignore")
+        self.operator = finite_operator(D_V(mesh, self.field, tangent="ignore"), self.field)
         self.growth_limit = as_growth_limit(growth_limit)
         self.method = method
         self.tol = float(tol)
