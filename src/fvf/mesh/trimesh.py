@@ -423,6 +423,13 @@ class TriMesh:
         """Undirected edges ``(i, j)`` with ``i < j``, sorted, int64 (E, 2)."""
         return self._connectivity[0]
 
+    @cached_property
+    def _edge_keys(self) -> np.ndarray:
+        """``i n + j`` of each edge, sorted as :attr:`edges` is, int64 (E,): the lookup of
+        :meth:`edge_ids`, built once (a cone edit looks up one path per move)."""
+        E = self.edges
+        return readonly(E[:, 0] * self.n_vertices + E[:, 1])
+
     def edge_ids(self, pairs: npt.ArrayLike) -> np.ndarray:
         """Index into :attr:`edges` of each vertex pair, int64 (k,); -1 where it is none.
 
@@ -434,10 +441,9 @@ class TriMesh:
         """
         P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         lo, hi = P.min(axis=1), P.max(axis=1)
-        n, E = self.n_vertices, self.edges
-        if E.shape[0] == 0:
+        n, keys = self.n_vertices, self._edge_keys
+        if keys.size == 0:
             return np.full(P.shape[0], -1, dtype=np.int64)
-        keys = E[:, 0] * n + E[:, 1]  # sorted: edges are sorted by (i, j)
         want = np.clip(lo, 0, n) * n + np.clip(hi, 0, n)
         pos = np.minimum(np.searchsorted(keys, want), keys.size - 1)
         found = (keys[pos] == want) & (lo >= 0) & (hi < n)
