@@ -317,10 +317,14 @@ def _read_pyvista(path: Path) -> VtkArrays:
     quiet = getattr(pyvista, "vtk_verbosity", None)
     catcher = pyvista.VtkErrorCatcher(raise_errors=True, send_to_logging=False)
     try:
-        with warnings.catch_warnings(), quiet("off") if quiet else nullcontext(), catcher:
+        with (
+            warnings.catch_warnings(),
+            quiet("off") if quiet else nullcontext(),
+            catcher,
+            _no_root_logging(),
+        ):
             warnings.simplefilter("ignore")
-            with _no_root_logging():
-                grid = pyvista.read(str(path))
+            grid = pyvista.read(str(path))
     except RuntimeError as exc:  # pyvista's VTKExecutionError: what VTK's reader said
         said = [ln for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("ERROR:")]
         raise MeshReadError(
