@@ -542,7 +542,7 @@ def _cross_field(s, story):
 
     st = story.begin("A curvature-aligned cross field (N = 4)", _cross_field)
     mesh = s.mesh
-    with warnings.catch_warnings(record=True) as caught:  # a sphere: no direction to follow
+    with warnings.catch_warnings(record=True) as caught:  # a flat mesh: no direction to follow
         warnings.simplefilter("always")
         s.cross = fvf.design_field(mesh, n=4, align="curvature")
     umbilic = [w for w in caught if issubclass(w.category, fvf.UnconstrainedComponentWarning)]
