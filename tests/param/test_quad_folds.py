@@ -94,6 +94,75 @@ def test_a_folded_quad_is_found_and_untangled_on_the_surface(torus_grid):
     assert fvf.quad_quality(mesh, r.vertices, qm.quads).n_folded == 0
 
 
+def test_folds_only_the_verdict_sees_are_relaxed_in_a_second_pass(torus_grid, monkeypatch):
+    """The repair's own reference can miss a fold the verdict (folded_quads) finds (on a
+    crumpled input it takes the summed vertex normals where the closest triangle is folded
+    over): a second pass relaxes the verdict's folds. Here the first pass is made blind to
+    quad 10; without the second pass the quad is returned folded."""
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    exact_mask = quad_folds._fold_mask
+
+    def blind(mesh, V, Q, tree, exact=False):
+        mask = exact_mask(mesh, V, Q, tree, exact=exact)
+        if not exact:  # the first pass's reference does not see quad 10
+            mask &= ~(Q == qm.quads[10]).all(axis=1)
+        return mask
+
+    monkeypatch.setattr(quad_folds, "_fold_mask", blind)
+    r = untangle_quads(mesh, V, qm.quads, vf)
+    assert r.folded_before.size == 0 and r.steps > 0
+    assert set(r.moved) <= set(qm.quads[10]) and r.moved.size > 0
+    monkeypatch.undo()
+    assert folded_quads(mesh, V, qm.quads).size == 1
+    assert folded_quads(mesh, r.vertices, qm.quads).size == 0 and r.verdict.size == 0
+    check_orientation(mesh, r.vertices, qm.quads)
+
+
+def test_a_second_pass_that_fails_changes_nothing(torus_grid, monkeypatch):
+    """When the second pass leaves a fold, its moves are dropped: here its steps only nudge
+    the free corners (never unfolding quad 10), and the corners come back unmoved."""
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    exact_mask = quad_folds._fold_mask
+    monkeypatch.setattr(
+        quad_folds,
+        "_fold_mask",
+        lambda mesh, V, Q, tree, exact=False: exact_mask(mesh, V, Q, tree, exact) & exact,
+    )
+
+    def nudge(mesh, V, vf, A, free, tree):
+        V[free] += 1e-4
+
+    monkeypatch.setattr(quad_folds, "_relax_step", nudge)
+    r = untangle_quads(mesh, V, qm.quads, vf)
+    assert r.folded_before.size == 0 and r.steps == 0 and r.moved.size == 0
+    assert np.array_equal(r.vertices, V) and np.array_equal(r.verdict, [10])
+
+
+@pytest.mark.parametrize("case", ["none", "one", "mirrored", "reversed", "detect only"])
+def test_the_verdict_a_repair_returns_is_the_gates_at_its_vertices(torus_grid, case):
+    """FoldRepair.verdict, which the validity gate takes instead of evaluating the folds
+    again, is folded_quads at the returned vertices (None when not evaluated: the first
+    pass failed, or no steps were allowed)."""
+    mesh, qm = torus_grid
+    V, vf, Q, steps = qm.vertices, qm.vertex_face, qm.quads, 40
+    if case in ("one", "detect only"):
+        V, vf = fold_one_quad(mesh, qm)
+        steps = 0 if case == "detect only" else steps
+    elif case == "mirrored":
+        c = qm.quads[10]
+        V, vf = qm.vertices.copy(), qm.vertex_face.copy()
+        V[c[[1, 3]]], vf[c[[1, 3]]] = V[c[[3, 1]]], vf[c[[3, 1]]]
+    elif case == "reversed":
+        Q = qm.quads[:, ::-1].copy()
+    r = untangle_quads(mesh, V, Q, vf, max_steps=steps)
+    if case in ("reversed", "detect only"):
+        assert r.verdict is None
+    else:
+        assert np.array_equal(r.verdict, folded_quads(mesh, r.vertices, Q))
+
+
 def test_folds_left_are_named_in_a_warning(torus_grid):
     mesh, qm = torus_grid
     V, vf = fold_one_quad(mesh, qm)

@@ -161,6 +161,31 @@ def test_quads_beside_a_hole_never_share_a_corner_point():
     assert verdict.valid, verdict.summary()
 
 
+def plate_slot_boss():
+    """A 5.25 mm plate with a boss and a 1.53 mm slot, turned, and a cube beside it (the
+    OpenSCAD-like part that exposed the folds of quads put back on a coarse input)."""
+    plate = mf.Manifold.cube([49.47, 20.5, 5.25]) + mf.Manifold.cylinder(
+        9.56, 4.97, 4.97, 40
+    ).translate([13.87, 5.41, 1])
+    plate = (plate - mf.Manifold.cube([20, 1.53, 30]).translate([10, 8, -10])).rotate(
+        [12.9, 48.14, 0]
+    )
+    return _from_manifold(plate + mf.Manifold.cube([10, 10, 10]).translate([120, 0, 0]))
+
+
+@pytest.mark.slow  # 5 s
+def test_quads_put_back_on_a_coarse_input_are_untangled_there():
+    """The 188-triangle plate is remeshed before its field; its quads, put back on the
+    input's few large triangles, folded over the slot's and the boss's edges where the
+    remeshed surface had rounded them (1 to 6 quads per attempt, by the gate's count), and
+    every attempt at 1,000 quads failed. They are now untangled on the input itself."""
+    mesh = fvf.as_mesh(plate_slot_boss())
+    made = fvf.quad_mesh(mesh, target_faces=1000)
+    V, Q = np.asarray(made.vertices), np.asarray(made.quads)
+    verdict = quadcheck.check(mesh.vertices, mesh.faces, V, Q)
+    assert verdict.valid, verdict.summary()
+
+
 @pytest.mark.perf
 def test_a_rounding_with_most_triangles_flipped_is_not_repaired():
     """A hemisphere at 3,000 quads: its attempt with the rim an integer iso-line (the only

@@ -591,6 +591,10 @@ class FoldRepair:
         How far each moved vertex went (3D distance from its extracted position).
     steps : int
         Relaxation steps taken.
+    verdict : int64 (v,) or None
+        The quads :func:`folded_quads` calls folded at ``vertices``, when the repair
+        evaluated it there (None when it did not: the first pass failed, or
+        ``max_steps`` is 0); the validity gate takes it instead of evaluating it again.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -603,6 +607,7 @@ class FoldRepair:
     moved: np.ndarray
     displacement: np.ndarray
     steps: int
+    verdict: np.ndarray | None = None
 
 
 def _quad_edge_adjacency(n_vertices: int, Q: np.ndarray) -> sp.csr_matrix:
@@ -655,11 +660,11 @@ def untangle_quads(
     vertex_face : array_like, int (k,)
         Input triangle holding each vertex (:attr:`fvf.QuadMesh.vertex_face`).
     max_steps : int
-        Relaxation steps at most (0: detect only). The free region starts at the corners
-        of the folded quads and grows by one ring of quads every :data:`STEPS_PER_RING`
-        steps, at most :data:`MAX_RINGS` times. None are taken when more than
-        :data:`UNTANGLE_FRACTION` of the quads (and more than :data:`UNTANGLE_FLOOR`) are
-        folded: relaxing does not unfold that many.
+        Relaxation steps at most per pass (0: detect only). The free region starts at the
+        corners of the folded quads and grows by one ring of quads every
+        :data:`STEPS_PER_RING` steps, at most :data:`MAX_RINGS` times. None are taken when
+        more than :data:`UNTANGLE_FRACTION` of the quads (and more than
+        :data:`UNTANGLE_FLOOR`) are folded: relaxing does not unfold that many.
 
     Returns
     -------
@@ -668,6 +673,15 @@ def untangle_quads(
         unchanged with the folds found on entry (relaxing a growing region can unfold some
         quads by crushing others: a torus with its quads wound backwards ends with a third
         of them "unfolded" and the rest still folded).
+
+    Notes
+    -----
+    The first pass stops when no quad is folded by the repair's reference (on a crumpled
+    input, the summed vertex normals where the closest triangle is folded over). A
+    second pass then relaxes the quads the verdict :func:`folded_quads` still calls
+    folded (the closest triangle's own normal, or either of two tied ones), and is kept
+    only when it leaves none: the quads the gate would refuse get the same repair as
+    those the first pass sees.
     """
     V0 = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
@@ -676,32 +690,59 @@ def untangle_quads(
     mask = _fold_mask(mesh, V0, Q, tree)
     before = np.flatnonzero(mask)
     V, vf = V0.copy(), vf0.copy()
-    steps = 0
-    few = before.size <= max(UNTANGLE_FLOOR, UNTANGLE_FRACTION * Q.shape[0])
-    if before.size and max_steps > 0 and few:
-        A = _quad_edge_adjacency(V.shape[0], Q)
-        inc = sp.csr_matrix(
-            (np.ones(Q.size), (Q.ravel(), np.repeat(np.arange(Q.shape[0]), 4))),
-            shape=(V.shape[0], Q.shape[0]),
-        )
-        free = np.unique(Q[before])
-        for ring in range(MAX_RINGS + 1):
-            watched = np.unique(inc[free].indices)
-            for _ in range(STEPS_PER_RING):
-                if steps >= max_steps or not mask.any():
-                    break
-                _relax_step(mesh, V, vf, A, free, tree)
-                mask[watched] = _fold_mask(mesh, V, Q[watched], tree)
-                steps += 1
-            if steps >= max_steps or not mask.any() or ring == MAX_RINGS:
-                break
-            free = np.unique(Q[watched])  # one more ring of quads
+    steps = _relax_folded(mesh, V, vf, Q, mask, tree, max_steps, exact=False)
     after = np.flatnonzero(mask)
+    verdict = None
     if after.size:  # all or nothing: a partial untangling may have smeared a whole region
         V, vf, after = V0.copy(), vf0.copy(), before
+    elif max_steps > 0:  # the verdict's folds (folded_quads), relaxed in a second pass
+        strict = _fold_mask(mesh, V, Q, tree, exact=True)
+        verdict = np.flatnonzero(strict)
+        W, wf = V.copy(), vf.copy()
+        more = _relax_folded(mesh, W, wf, Q, strict, tree, max_steps, exact=True)
+        if more and not strict.any():
+            V, vf, steps, verdict = W, wf, steps + more, verdict[:0]
     disp = np.linalg.norm(V - V0, axis=1)
     moved = np.flatnonzero(disp > 0).astype(np.int64)
-    return FoldRepair(V, vf, before, after, moved, disp[moved], steps)
+    return FoldRepair(V, vf, before, after, moved, disp[moved], steps, verdict)
+
+
+def _relax_folded(
+    mesh: TriMesh,
+    V: np.ndarray,
+    vf: np.ndarray,
+    Q: np.ndarray,
+    mask: np.ndarray,
+    tree: cKDTree,
+    max_steps: int,
+    exact: bool,
+) -> int:
+    """Relax the corners of the quads ``mask`` (bool (q,), updated in place) in ``V``
+    (k, 3) and ``vf`` (k,) (in place) until none is folded by :func:`_fold_mask` with
+    ``exact``, the region growing by a ring of quads every :data:`STEPS_PER_RING` steps;
+    the steps taken (none when too many are folded, :data:`UNTANGLE_FRACTION`)."""
+    folded = int(mask.sum())
+    if not folded or max_steps <= 0 or folded > max(UNTANGLE_FLOOR, UNTANGLE_FRACTION * len(Q)):
+        return 0
+    A = _quad_edge_adjacency(V.shape[0], Q)
+    inc = sp.csr_matrix(
+        (np.ones(Q.size), (Q.ravel(), np.repeat(np.arange(Q.shape[0]), 4))),
+        shape=(V.shape[0], Q.shape[0]),
+    )
+    free = np.unique(Q[mask])
+    steps = 0
+    for ring in range(MAX_RINGS + 1):
+        watched = np.unique(inc[free].indices)
+        for _ in range(STEPS_PER_RING):
+            if steps >= max_steps or not mask.any():
+                break
+            _relax_step(mesh, V, vf, A, free, tree)
+            mask[watched] = _fold_mask(mesh, V, Q[watched], tree, exact=exact)
+            steps += 1
+        if steps >= max_steps or not mask.any() or ring == MAX_RINGS:
+            break
+        free = np.unique(Q[watched])  # one more ring of quads
+    return steps
 
 
 def warn_folded(repair: FoldRepair) -> None:

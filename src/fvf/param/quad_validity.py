@@ -197,6 +197,7 @@ def check_quad_mesh(
     *,
     hausdorff: bool = True,
     signature: list[tuple[int, int]] | None = None,
+    folded: np.ndarray | None = None,
 ) -> QuadValidity:
     """Check a quad mesh made from ``mesh`` (the module docstring's six conditions).
 
@@ -210,6 +211,9 @@ def check_quad_mesh(
         Measure condition 6 (sampling both surfaces; the costliest check).
     signature : list of (int, int), optional
         The expected (χ, boundary loops) per component (default: ``mesh``'s).
+    folded : int64 (f,), optional
+        The quads :func:`fvf.param.quad_folds.folded_quads` finds folded at ``vertices``,
+        when already evaluated (:attr:`fvf.param.quad_folds.FoldRepair.verdict`).
 
     Returns
     -------
@@ -228,7 +232,8 @@ def check_quad_mesh(
     got = topology_signature(V.shape[0], Q)
     if got != want:
         problems.append(f"topology (χ, boundary loops) per component is {got}, the input's {want}")
-    folded = folded_quads(mesh, V, Q)
+    if folded is None:
+        folded = folded_quads(mesh, V, Q)
     if folded.size:
         problems.append(f"quads {format_indices(folded)} are folded against the surface")
     edge = float(np.linalg.norm(V[Q] - V[np.roll(Q, -1, axis=1)], axis=2).mean())

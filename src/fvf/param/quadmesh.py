@@ -303,8 +303,11 @@ def _attempt(
     field: np.ndarray | None,
     opts: dict,
     report: ProgressCallback,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh]:
-    """One try: (V, Q, vertex_faces on the component, parameterization, surface)."""
+) -> tuple[
+    np.ndarray, np.ndarray, np.ndarray, SeamlessParameterization, TriMesh, np.ndarray | None
+]:
+    """One try: (V, Q, vertex_faces on the component, parameterization, surface, the
+    quads folded at V by the gate's test or None when not known)."""
     surface, size = _sizing(part, plan, surfaces, opts)
     f = None if field is None else _transfer_field(part.mesh, surface, field)
     features = _plan_features(part, plan, surfaces, opts)
@@ -327,20 +330,24 @@ def _attempt(
         raise
     repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
     report("quad extraction", 1, 1)
-    V, vf, Q = repair.vertices, repair.vertex_face, qm.quads
+    V, vf, Q, folds = repair.vertices, repair.vertex_face, qm.quads, repair.verdict
     if part.cap is not None:
         V, Q = cut_caps(part.cap, V, Q)
     on_surface = V
-    if surface is not part.mesh:
+    if surface is not part.mesh:  # on the input, where the verdict measures folds
         vf, V = closest_surface_points(part.mesh, V, exact=True)
+        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"])
+        V, vf, folds = back.vertices, back.vertex_face, back.verdict
     if part.cap is not None:
         V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
+        folds = None
     return (
         np.ascontiguousarray(V, np.float64),
         np.ascontiguousarray(Q, np.int64),
         vf,
         param,
         surface,
+        folds,
     )
 
 
@@ -448,7 +455,9 @@ def _mesh_part(
                 report(f"component {part.label}: attempt {tried} ({plan})", 0, 1)
                 report(f"component {part.label}: attempt {tried} ({plan})", 1, 1)
             with _captured(opts["quiet"]):
-                V, Q, vf, param, surface = _attempt(part, plan, surfaces, field, opts, report)
+                V, Q, vf, param, surface, folds = _attempt(
+                    part, plan, surfaces, field, opts, report
+                )
         except (ParameterError, UndeclaredCacheKeyError):
             raise  # the caller's option, or a bug: not a reason to try another way
         except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
@@ -457,7 +466,7 @@ def _mesh_part(
             where = getattr(exc, "where", None)
             spots.append(np.zeros((0, 3)) if where is None else np.asarray(where))
             continue
-        verdict = check_quad_mesh(part.mesh, V, Q, signature=want)
+        verdict = check_quad_mesh(part.mesh, V, Q, signature=want, folded=folds)
         if verdict.valid:
             corners = corner_distortion(V, Q)
             if corners <= DISTORTED_CORNERS:
