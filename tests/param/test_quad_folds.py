@@ -140,6 +140,25 @@ def test_a_second_pass_that_fails_changes_nothing(torus_grid, monkeypatch):
     assert np.array_equal(r.vertices, V) and np.array_equal(r.verdict, [10])
 
 
+def test_verdict_only_leaves_quads_the_verdict_accepts(torus_grid, monkeypatch):
+    """Quads put on the input from a remeshed copy are untangled by the verdict only: a
+    quad only the first pass's reference calls folded (here quad 10, made so) is moved by
+    the full repair and left in place by ``verdict_only``."""
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    exact_mask = quad_folds._fold_mask
+    monkeypatch.setattr(
+        quad_folds,
+        "_fold_mask",
+        lambda mesh, V, Q, tree, exact=False: exact_mask(mesh, V, Q, tree, exact) & ~exact,
+    )
+    full = untangle_quads(mesh, V, qm.quads, vf)
+    assert np.array_equal(full.folded_before, [10]) and full.moved.size > 0
+    only = untangle_quads(mesh, V, qm.quads, vf, verdict_only=True)
+    assert only.folded_before.size == 0 and only.moved.size == 0 and only.verdict.size == 0
+    assert np.array_equal(only.vertices, V)
+
+
 @pytest.mark.parametrize("case", ["none", "one", "mirrored", "reversed", "detect only"])
 def test_the_verdict_a_repair_returns_is_the_gates_at_its_vertices(torus_grid, case):
     """FoldRepair.verdict, which the validity gate takes instead of evaluating the folds

@@ -646,6 +646,7 @@ def untangle_quads(
     vertex_face: npt.ArrayLike,
     *,
     max_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
+    verdict_only: bool = False,
 ) -> FoldRepair:
     """Unfold folded quads by relaxing their corners on the input surface (module docstring).
 
@@ -665,6 +666,10 @@ def untangle_quads(
         :data:`STEPS_PER_RING` steps, at most :data:`MAX_RINGS` times. None are taken when
         more than :data:`UNTANGLE_FRACTION` of the quads (and more than
         :data:`UNTANGLE_FLOOR`) are folded: relaxing does not unfold that many.
+    verdict_only : bool
+        Only the second pass (Notes): for quads already untangled on another surface and
+        put on this one, which the first pass's reference could fold where the verdict
+        finds nothing.
 
     Returns
     -------
@@ -687,7 +692,7 @@ def untangle_quads(
     Q = np.asarray(quads, dtype=np.int64)
     vf0 = np.asarray(vertex_face, dtype=np.int64)
     tree = cKDTree(mesh.face_centroids)
-    mask = _fold_mask(mesh, V0, Q, tree)
+    mask = np.zeros(len(Q), bool) if verdict_only else _fold_mask(mesh, V0, Q, tree)
     before = np.flatnonzero(mask)
     V, vf = V0.copy(), vf0.copy()
     steps = _relax_folded(mesh, V, vf, Q, mask, tree, max_steps, exact=False)

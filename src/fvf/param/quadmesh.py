@@ -336,7 +336,7 @@ def _attempt(
     on_surface = V
     if surface is not part.mesh:  # on the input, where the verdict measures folds
         vf, V = closest_surface_points(part.mesh, V, exact=True)
-        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"])
+        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"], verdict_only=True)
         V, vf, folds = back.vertices, back.vertex_face, back.verdict
     if part.cap is not None:
         V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
@@ -552,7 +552,8 @@ def quad_mesh(
     Each connected component is meshed on its own at one target edge length h: a
     seamless parameterization (:func:`fvf.seamless_parameterization`), its integer grid
     pulled back (:func:`fvf.param.extraction.extract_quads`), quads folded in 3D untangled
-    on the surface (:func:`fvf.param.quad_folds.untangle_quads`). The result must pass
+    on the surface (:func:`fvf.param.quad_folds.untangle_quads`; when the surface was a
+    remeshed copy, once more on the input after the quads are put on it). The result must pass
     :func:`fvf.param.quad_validity.check_quad_mesh`: pure quads, manifold, consistently
     oriented, the input's χ and boundary loops per component, no folded quad, within one
     quad edge of the input. Otherwise the next attempt runs (``docs/quads.md``): the input
