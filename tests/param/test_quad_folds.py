@@ -140,10 +140,10 @@ def test_a_second_pass_that_fails_changes_nothing(torus_grid, monkeypatch):
     assert np.array_equal(r.vertices, V) and np.array_equal(r.verdict, [10])
 
 
-def test_verdict_only_leaves_quads_the_verdict_accepts(torus_grid, monkeypatch):
+def test_the_verdict_pass_alone_leaves_quads_the_verdict_accepts(torus_grid, monkeypatch):
     """Quads put on the input from a remeshed copy are untangled by the verdict only: a
     quad only the first pass's reference calls folded (here quad 10, made so) is moved by
-    the full repair and left in place by ``verdict_only``."""
+    the full repair and left in place by ``passes="verdict"``."""
     mesh, qm = torus_grid
     V, vf = fold_one_quad(mesh, qm)
     exact_mask = quad_folds._fold_mask
@@ -154,19 +154,21 @@ def test_verdict_only_leaves_quads_the_verdict_accepts(torus_grid, monkeypatch):
     )
     full = untangle_quads(mesh, V, qm.quads, vf)
     assert np.array_equal(full.folded_before, [10]) and full.moved.size > 0
-    only = untangle_quads(mesh, V, qm.quads, vf, verdict_only=True)
+    only = untangle_quads(mesh, V, qm.quads, vf, passes="verdict")
     assert only.folded_before.size == 0 and only.moved.size == 0 and only.verdict.size == 0
     assert np.array_equal(only.vertices, V)
 
 
-@pytest.mark.parametrize("case", ["none", "one", "mirrored", "reversed", "detect only"])
+@pytest.mark.parametrize(
+    "case", ["none", "one", "mirrored", "reversed", "detect only", "first pass only"]
+)
 def test_the_verdict_a_repair_returns_is_the_gates_at_its_vertices(torus_grid, case):
     """FoldRepair.verdict, which the validity gate takes instead of evaluating the folds
     again, is folded_quads at the returned vertices (None when not evaluated: the first
     pass failed, or no steps were allowed)."""
     mesh, qm = torus_grid
     V, vf, Q, steps = qm.vertices, qm.vertex_face, qm.quads, 40
-    if case in ("one", "detect only"):
+    if case in ("one", "detect only", "first pass only"):
         V, vf = fold_one_quad(mesh, qm)
         steps = 0 if case == "detect only" else steps
     elif case == "mirrored":
@@ -175,9 +177,12 @@ def test_the_verdict_a_repair_returns_is_the_gates_at_its_vertices(torus_grid, c
         V[c[[1, 3]]], vf[c[[1, 3]]] = V[c[[3, 1]]], vf[c[[3, 1]]]
     elif case == "reversed":
         Q = qm.quads[:, ::-1].copy()
-    r = untangle_quads(mesh, V, Q, vf, max_steps=steps)
+    passes = "first" if case == "first pass only" else "both"
+    r = untangle_quads(mesh, V, Q, vf, max_steps=steps, passes=passes)
     if case in ("reversed", "detect only"):
         assert r.verdict is None
+    elif case == "first pass only":
+        assert r.verdict is None and r.folded.size == 0
     else:
         assert np.array_equal(r.verdict, folded_quads(mesh, r.vertices, Q))
 
@@ -263,6 +268,12 @@ def test_reversed_quads_cannot_be_untangled_and_are_named(torus_grid):
     assert r.folded.size == Q.shape[0] and np.array_equal(r.vertices, qm.vertices)
     with pytest.warns(fvf.FoldedQuadWarning, match=rf"\({Q.shape[0]} in all\)"):
         warn_folded(r)
+
+
+def test_untangle_names_a_bad_passes_value(torus_grid):
+    mesh, qm = torus_grid
+    with pytest.raises(fvf.ParameterError, match="passes must be 'both', 'first' or 'verdict'"):
+        untangle_quads(mesh, qm.vertices, qm.quads, qm.vertex_face, passes="second")
 
 
 @pytest.mark.parametrize("steps", [-1, 1.5, True])

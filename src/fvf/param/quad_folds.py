@@ -75,7 +75,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from ..errors import FoldedQuadWarning, format_indices, user_stacklevel
+from ..errors import FoldedQuadWarning, ParameterError, format_indices, user_stacklevel
 from ..mesh.convert import takes_mesh
 from ..mesh.geometry import vertex_vector_areas
 from ..mesh.trimesh import TriMesh
@@ -593,8 +593,9 @@ class FoldRepair:
         Relaxation steps taken.
     verdict : int64 (v,) or None
         The quads :func:`folded_quads` calls folded at ``vertices``, when the repair
-        evaluated it there (None when it did not: the first pass failed, or
-        ``max_steps`` is 0); the validity gate takes it instead of evaluating it again.
+        evaluated it there (None when it did not: the first pass failed, ``max_steps``
+        is 0, or ``passes="first"``); the validity gate takes it instead of evaluating it
+        again.
     """
 
     __repr__ = short_repr  # arrays by dtype and shape
@@ -646,7 +647,7 @@ def untangle_quads(
     vertex_face: npt.ArrayLike,
     *,
     max_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
-    verdict_only: bool = False,
+    passes: str = "both",
 ) -> FoldRepair:
     """Unfold folded quads by relaxing their corners on the input surface (module docstring).
 
@@ -666,10 +667,11 @@ def untangle_quads(
         :data:`STEPS_PER_RING` steps, at most :data:`MAX_RINGS` times. None are taken when
         more than :data:`UNTANGLE_FRACTION` of the quads (and more than
         :data:`UNTANGLE_FLOOR`) are folded: relaxing does not unfold that many.
-    verdict_only : bool
-        Only the second pass (Notes): for quads already untangled on another surface and
-        put on this one, which the first pass's reference could fold where the verdict
-        finds nothing.
+    passes : {"both", "first", "verdict"}
+        The passes to run (Notes): ``"first"`` for quads that are then put on another
+        surface and judged there, ``"verdict"`` for quads already untangled on another
+        surface and put on this one (the first pass's reference could move quads there
+        that the verdict accepts).
 
     Returns
     -------
@@ -688,11 +690,14 @@ def untangle_quads(
     only when it leaves none: the quads the gate would refuse get the same repair as
     those the first pass sees.
     """
+    if passes not in ("both", "first", "verdict"):
+        raise ParameterError(f"passes must be 'both', 'first' or 'verdict'; got {passes!r}")
     V0 = np.asarray(vertices, dtype=np.float64)
     Q = np.asarray(quads, dtype=np.int64)
     vf0 = np.asarray(vertex_face, dtype=np.int64)
     tree = cKDTree(mesh.face_centroids)
-    mask = np.zeros(len(Q), bool) if verdict_only else _fold_mask(mesh, V0, Q, tree)
+    first = passes != "verdict"
+    mask = _fold_mask(mesh, V0, Q, tree) if first else np.zeros(len(Q), bool)
     before = np.flatnonzero(mask)
     V, vf = V0.copy(), vf0.copy()
     steps = _relax_folded(mesh, V, vf, Q, mask, tree, max_steps, exact=False)
@@ -700,7 +705,7 @@ def untangle_quads(
     verdict = None
     if after.size:  # all or nothing: a partial untangling may have smeared a whole region
         V, vf, after = V0.copy(), vf0.copy(), before
-    elif max_steps > 0:  # the verdict's folds (folded_quads), relaxed in a second pass
+    elif max_steps > 0 and passes != "first":  # the verdict's folds, in a second pass
         strict = _fold_mask(mesh, V, Q, tree, exact=True)
         verdict = np.flatnonzero(strict)
         W, wf = V.copy(), vf.copy()

@@ -328,15 +328,23 @@ def _attempt(
     except QuadExtractionError as exc:
         exc.where = surface.face_centroids[param.flipped]
         raise
-    repair = untangle_quads(surface, qm.vertices, qm.quads, qm.vertex_face, max_steps=opts["steps"])
+    elsewhere = surface is not part.mesh  # the quads are then judged on the input
+    repair = untangle_quads(
+        surface,
+        qm.vertices,
+        qm.quads,
+        qm.vertex_face,
+        max_steps=opts["steps"],
+        passes="first" if elsewhere else "both",
+    )
     report("quad extraction", 1, 1)
     V, vf, Q, folds = repair.vertices, repair.vertex_face, qm.quads, repair.verdict
     if part.cap is not None:
         V, Q = cut_caps(part.cap, V, Q)
     on_surface = V
-    if surface is not part.mesh:  # on the input, where the verdict measures folds
+    if elsewhere:
         vf, V = closest_surface_points(part.mesh, V, exact=True)
-        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"], verdict_only=True)
+        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"], passes="verdict")
         V, vf, folds = back.vertices, back.vertex_face, back.verdict
     if part.cap is not None:
         V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
