@@ -68,7 +68,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from itertools import chain
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -647,7 +647,7 @@ def untangle_quads(
     vertex_face: npt.ArrayLike,
     *,
     max_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
-    passes: str = "both",
+    passes: Literal["both", "first", "verdict"] = "both",
 ) -> FoldRepair:
     """Unfold folded quads by relaxing their corners on the input surface (module docstring).
 
