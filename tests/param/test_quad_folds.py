@@ -119,17 +119,23 @@ def test_folds_only_the_verdict_sees_are_relaxed_in_a_second_pass(torus_grid, mo
     check_orientation(mesh, r.vertices, qm.quads)
 
 
+def folds_seen_only_by(monkeypatch, verdict: bool) -> None:
+    """Make folds visible to one of the untangling's tests only: the verdict's (exact)
+    or the first pass's."""
+    fold_mask = quad_folds._fold_mask
+
+    def seen(mesh, V, Q, tree, exact=False):
+        return fold_mask(mesh, V, Q, tree, exact) & (exact == verdict)
+
+    monkeypatch.setattr(quad_folds, "_fold_mask", seen)
+
+
 def test_a_second_pass_that_fails_changes_nothing(torus_grid, monkeypatch):
     """When the second pass leaves a fold, its moves are dropped: here its steps only nudge
     the free corners (never unfolding quad 10), and the corners come back unmoved."""
     mesh, qm = torus_grid
     V, vf = fold_one_quad(mesh, qm)
-    exact_mask = quad_folds._fold_mask
-    monkeypatch.setattr(
-        quad_folds,
-        "_fold_mask",
-        lambda mesh, V, Q, tree, exact=False: exact_mask(mesh, V, Q, tree, exact) & exact,
-    )
+    folds_seen_only_by(monkeypatch, verdict=True)
 
     def nudge(mesh, V, vf, A, free, tree):
         V[free] += 1e-4
@@ -146,12 +152,7 @@ def test_the_verdict_pass_alone_leaves_quads_the_verdict_accepts(torus_grid, mon
     the full repair and left in place by ``passes="verdict"``."""
     mesh, qm = torus_grid
     V, vf = fold_one_quad(mesh, qm)
-    exact_mask = quad_folds._fold_mask
-    monkeypatch.setattr(
-        quad_folds,
-        "_fold_mask",
-        lambda mesh, V, Q, tree, exact=False: exact_mask(mesh, V, Q, tree, exact) & ~exact,
-    )
+    folds_seen_only_by(monkeypatch, verdict=False)
     full = untangle_quads(mesh, V, qm.quads, vf)
     assert np.array_equal(full.folded_before, [10]) and full.moved.size > 0
     only = untangle_quads(mesh, V, qm.quads, vf, passes="verdict")
