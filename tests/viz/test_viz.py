@@ -774,3 +774,44 @@ def test_magnitude_of_a_cross_field_as_colour(tmp_path):
         fvf.viz.render(mesh, tmp_path / "x.png", function="magnitude")
     with pytest.raises(fvf.ParameterError, match="got 'norm'"):
         fvf.viz.render(mesh, tmp_path / "x.png", field=u, function="norm")
+
+
+def _cube():
+    """The unit cube as CAD exports it: 8 vertices, 12 triangles, outward."""
+    V = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    F = np.array([t for a, b, c, d in quads for t in ([a, b, c], [a, c, d])])
+    return V, F
+
+
+def test_sharp_edges_split_the_shading_and_smooth_surfaces_do_not():
+    """The shading's vertex normals (polyscope) are split along chains of sharp edges: a
+    12-triangle cube gets one normal per face at each corner, its face's own; a sphere
+    and Spot's short ear creases keep one smooth normal per vertex."""
+    from fvf.viz.ps_backend import shading_corners
+
+    cube = fvf.TriMesh(*_cube())
+    corner, faces, normals = shading_corners(cube)
+    assert len(corner) == 24 and np.array_equal(corner[faces], cube.faces)
+    assert np.allclose(normals[faces], cube.face_normals[:, None, :])
+    ball = fvf.icosphere(3)
+    corner, faces, normals = shading_corners(ball)
+    assert len(corner) == ball.n_vertices and np.array_equal(corner[faces], ball.faces)
+    radial = ball.vertices / np.linalg.norm(ball.vertices, axis=1, keepdims=True)
+    assert np.einsum("kd,kd->k", normals, radial[corner]).min() > 0.99
+    spot = fvf.mesh.builtin.spot()
+    assert len(shading_corners(spot)[0]) <= spot.n_vertices + 20
+
+
+def test_a_cad_box_is_drawn_with_flat_faces(tmp_path):
+    """Each face of a 12-triangle box is drawn in one colour (its slivers' vertex normals
+    averaged over its 90° edges shaded it as a gradient)."""
+    need("polyscope-egl")
+    V, F = _cube()
+    box = fvf.TriMesh(V * [4.0, 2.0, 1.0], F)
+    img = picture(
+        viz.render(box, tmp_path / "box.png", backend="polyscope-egl", size=(300, 240)).path
+    )
+    drawn = img[(img < 235).any(2)]
+    colours, counts = np.unique(drawn, axis=0, return_counts=True)
+    assert np.sort(counts)[::-1][:3].sum() > 0.9 * len(drawn)  # three faces seen, flat
