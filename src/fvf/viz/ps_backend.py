@@ -32,8 +32,8 @@ from .scene import Scene, shade
 #: Chains of sharp edges (:func:`fvf.param.features.sharp_edges` at its default crease
 #: angle) at least this fraction of the bounding box's diagonal long split the shading's
 #: vertex normals (:func:`shading_corners`): a CAD part's edges stay crisp, while the
-#: short creases of a coarse organic mesh (Spot's ears: 152 edges bend by more than 35°,
-#: 8 are kept) and a scan's noise are shaded smoothly.
+#: short creases of a coarse organic mesh (152 of Spot's edges bend by more than 35°,
+#: 8 of them in chains that long) and a scan's noise are shaded smoothly.
 SHADING_CHAIN = 0.02
 
 __all__ = [
