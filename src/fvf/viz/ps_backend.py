@@ -325,7 +325,9 @@ def populate(
     Returns
     -------
     list
-        The polyscope structures registered.
+        The polyscope structures registered, the surface first. With colours per vertex
+        its vertices are the shading's (:func:`shading_corners`: the mesh's, split along
+        sharp edges), so a quantity added to it has one value per shading vertex.
     """
     from .overlay import panel_overlay
 
