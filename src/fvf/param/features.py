@@ -120,10 +120,11 @@ def sharp_edges(
         raise ParameterError(f"crease_angle must be in (0, 180) degrees; got {crease_angle!r}")
     d = dihedral_angles(mesh)
     over = d > a
-    smooth = (_side_roughness(mesh, over, d) < SMOOTH_SIDES * a) | (
-        _bend_along(mesh, over, d) < CROSS_BEND
+    bent = np.flatnonzero(over)  # the only edges the two tests below are asked about
+    smooth = (_side_roughness(mesh, over, d, bent) < SMOOTH_SIDES * a) | (
+        _bend_along(mesh, over, d, bent) < CROSS_BEND
     )
-    sharp = np.flatnonzero(over & smooth)
+    sharp = bent[smooth]
     if min_length <= 0 or sharp.size == 0:
         return sharp
     E = mesh.edges[sharp]
@@ -157,30 +158,35 @@ def _is_tip(X: np.ndarray, E: np.ndarray, label: np.ndarray, radius: float) -> n
     return tip
 
 
-def _side_roughness(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Per edge (E,): the largest dihedral angle of the other, not sharp, edges of its two
-    faces (0 where there is none)."""
+def _side_roughness(
+    mesh: TriMesh, sharp: np.ndarray, d: np.ndarray, edges: np.ndarray
+) -> np.ndarray:
+    """Per edge of ``edges`` (k,): the largest dihedral angle of the other, not
+    ``sharp``, edges of its two faces (0 where there is none)."""
     fe = mesh.face_edges
-    other = np.where(sharp[fe], 0.0, d[fe]).max(axis=1)  # (m,) per face
-    ef = mesh.edge_faces
-    both = np.where(ef >= 0, other[np.maximum(ef, 0)], 0.0)
-    return both.max(axis=1)
+    ef = mesh.edge_faces[edges]  # (k, 2)
+    g = np.maximum(ef, 0)
+    other = np.where(sharp[fe[g]], 0.0, d[fe[g]]).max(axis=2)  # (k, 2) per face
+    return np.where(ef >= 0, other, 0.0).max(axis=1)
 
 
-def _bend_along(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Per edge e (E,), degrees: the largest θ_f |cos∠(f, e)| over the other, not sharp,
-    edges f of its two faces (θ_f their dihedral angles ``d``): the bend beside e about
-    an axis along e. 0 on a tessellated cylinder's rim, whose wall facets meet along
-    edges perpendicular to it."""
+def _bend_along(mesh: TriMesh, sharp: np.ndarray, d: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Per edge e of ``edges`` (k,), degrees: the largest θ_f |cos∠(f, e)| over the
+    other, not ``sharp``, edges f of its two faces (θ_f their dihedral angles ``d``): the
+    bend beside e about an axis along e. 0 on a tessellated cylinder's rim, whose wall
+    facets meet along edges perpendicular to it."""
     X, E = mesh.vertices, mesh.edges
-    t = X[E[:, 1]] - X[E[:, 0]]
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    fe, ef = mesh.face_edges, mesh.edge_faces
-    out = np.zeros(E.shape[0])
+
+    def tangent(i: np.ndarray) -> np.ndarray:  # unit, (..., 3)
+        t = X[E[i, 1]] - X[E[i, 0]]
+        return t / np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-300)
+
+    fe, ef = mesh.face_edges, mesh.edge_faces[edges]
+    out = np.zeros(len(edges))
     for side in (0, 1):
         has = np.flatnonzero(ef[:, side] >= 0)
-        others = fe[ef[has, side]]  # (k, 3) the edges of the face on this side
-        cos = np.abs(np.einsum("kjd,kd->kj", t[others], t[has]))
+        others = fe[ef[has, side]]  # (h, 3) the edges of the face on this side
+        cos = np.abs(np.einsum("kjd,kd->kj", tangent(others), tangent(edges[has])))
         bend = np.where(sharp[others], 0.0, d[others] * cos).max(axis=1)
         out[has] = np.maximum(out[has], bend)
     return out

@@ -248,9 +248,12 @@ def shading_corners(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     diagonal = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
     cut = np.zeros(mesh.n_edges, dtype=bool)
     cut[sharp_edges(mesh, min_length=SHADING_CHAIN * diagonal)] = True
-    W, k = wedges(mesh, cut)
-    corner = np.empty(k, dtype=np.int64)
-    corner[W.ravel()] = mesh.faces.ravel()
+    if cut.any():
+        W, k = wedges(mesh, cut)
+        corner = np.empty(k, dtype=np.int64)
+        corner[W.ravel()] = mesh.faces.ravel()
+    else:  # a smooth surface: its own vertices
+        W, k, corner = mesh.faces, mesh.n_vertices, np.arange(mesh.n_vertices)
     AN = mesh.face_normals * mesh.face_areas[:, None]
     idx = W.ravel()
     N = np.stack(
