@@ -720,20 +720,31 @@ def assert_ok_file(path: Path, k: int = K) -> None:
         assert np.isfinite(data["eigenfunctions"]).all()
 
 
-def _interrupted_batch(tmp_path: Path, results: int, presses: int) -> tuple:
+def _interrupted_batch(tmp_path: Path, results: int, presses: int, group: bool = False) -> tuple:
     """``fvf batch`` on 40 meshes (enough that it cannot end first), Ctrl-C ``presses``
-    times 0.3 s apart once ``results`` result files exist: (files, out, cmd, exit status,
+    times 0.3 s apart once ``results`` result files exist, to the driver or (``group``) to
+    its whole process group as a terminal sends it: (files, out, cmd, exit status,
     stderr)."""
     files = _corpus_files(tmp_path / "in", 40)
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "fvf.cli", "batch", str(tmp_path / "in"), "-o", str(out),
            "--workers", "2", "--k", "30", "--tasks", "info,basis,fields,singularities"]  # fmt: skip
-    proc = subprocess.Popen(cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        cmd,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=group,
+        preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)) if group else None,
+    )
     deadline = time.monotonic() + 120
     while len(list((out / "meshes").glob("*.npz"))) < results and time.monotonic() < deadline:
         time.sleep(0.05)
     for i in range(presses):
-        proc.send_signal(signal.SIGINT)
+        if group:
+            os.killpg(proc.pid, signal.SIGINT)
+        else:
+            proc.send_signal(signal.SIGINT)
         if i + 1 < presses:
             time.sleep(0.3)
     _, err = proc.communicate(timeout=120)
@@ -772,6 +783,21 @@ def test_three_sigints_end_quietly(tmp_path):
     assert "Traceback" not in err and "interrupted" in err, err
     assert no_temporaries(out)
     assert (out / "summary.csv").exists()
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_a_terminal_ends_with_one_line_and_every_result_in_the_summary(tmp_path):
+    """Ctrl-C as a terminal sends it, to the driver and its Dask workers alike: one line,
+    no worker's traceback of it (the workers ignore SIGINT, fvf.batch.worker_start), and
+    every result written before the cluster closed has its row in summary.csv (those that
+    finished while the others were cancelled used to be left out)."""
+    _, out, _, rc, err = _interrupted_batch(tmp_path, results=2, presses=1, group=True)
+    assert rc == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert err.strip().endswith("fvf: interrupted; no output was half-written"), err
+    written = {p.stem for p in (out / "meshes").glob("*.npz")}
+    rows = {r["mesh"] for r in read_csv(out / "summary.csv")}
+    assert written and rows == written
 
 
 @pytest.fixture

@@ -35,7 +35,7 @@ from . import interrupts
 from .inputs import MeshInput, PairInput, plan_inputs
 from .progress import Progress
 from .registry import Task, registered_tasks, resolve_tasks
-from .runner import MeshJob, PairJob, run_jobs
+from .runner import MeshJob, PairJob, run_jobs, stored_result_row
 from .store import columns_of, options_text, output_lock, remove_temporaries, write_summary
 
 __all__ = [
@@ -57,6 +57,8 @@ DEFAULT_MESH_TASKS = ("info", "basis", "fields", "singularities")
 #: multi-threaded worker still holds one mesh at a time.
 MESH_RESOURCE = "MESH"
 
+#: The module each worker of the local cluster loads at its start (Dask's preload).
+WORKER_PRELOAD = "fvf.batch.worker_start"
 #: Seconds between two rewrites of ``summary.csv`` while a batch runs.
 SUMMARY_INTERVAL = 10.0
 
@@ -114,6 +116,9 @@ def local_cluster_config(retries: int) -> dict[str, Any]:
     threshold, so every array above 128 KiB is a fresh mmap with its pages zero-filled on
     first touch: the serial loop over the 40-mesh mixed corpus of
     ``benchmarks/bench_batch.py`` takes 1.35-1.55x the CPU time with it set (same run).
+    Each worker loads :data:`WORKER_PRELOAD`, which makes it ignore SIGINT: a terminal's
+    Ctrl-C reaches every process of its group, and the workers printed their tracebacks
+    of it while the driver closed them.
     """
     return {
         "distributed.scheduler.allowed-failures": retries,
@@ -127,6 +132,7 @@ def local_cluster_config(retries: int) -> dict[str, Any]:
         "distributed.admin.system-monitor.interval": "2s",
         "distributed.admin.system-monitor.gil.enabled": False,
         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,  # None unsets
+        "distributed.worker.preload": [WORKER_PRELOAD],
     }
 
 
@@ -643,6 +649,28 @@ def _execute(
             client.cancel(list(futures))
 
 
+def _written_meanwhile(
+    jobs: Sequence[MeshJob | PairJob], rows: dict[int, dict], since: float
+) -> dict[int, dict]:
+    """The rows of jobs without one whose results were written since ``since`` (epoch
+    seconds) and are current: tasks that finished while an interrupted batch cancelled
+    the others and closed its cluster. Their rows are read from the result files, as a
+    rerun would (a rerun counts them as skipped)."""
+    found = {}
+    for i, job in enumerate(jobs):
+        if i in rows:
+            continue
+        try:
+            if os.stat(job.result).st_mtime < since:
+                continue
+        except OSError:
+            continue
+        row = stored_result_row(job)
+        if row is not None:
+            found[i] = row
+    return found
+
+
 def _table(rows: list[dict], columns: list[str], as_frame: bool | None) -> Any:
     """A pandas.DataFrame of the rows (when pandas is there and wanted), else a list."""
     if as_frame is not False:
@@ -768,6 +796,7 @@ def run(
             last_save[0] = time.perf_counter()
 
     with interrupts.held(), output_lock(out):  # one Ctrl-C stops, no second cuts cleanup
+        started = time.time()
         remove_temporaries(out)
         _result_folders(jobs)
         try:
@@ -779,6 +808,8 @@ def run(
                 _execute(c, jobs, show, resources, retries if local else None, rows, save)
         finally:
             show.close()
+            if len(rows) < len(jobs):  # interrupted or failed: results written meanwhile
+                rows.update(_written_meanwhile(jobs, rows, started))
             save(rows, force=True)
             remove_temporaries(out)
     ordered = [rows[i] for i in sorted(rows)]

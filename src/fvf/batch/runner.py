@@ -228,6 +228,18 @@ def _inputs_of(job: MeshJob | PairJob) -> list[str]:
     return [job.source, job.target] + ([job.map] if job.map else [])
 
 
+def _job_key(job: MeshJob | PairJob) -> tuple[list[str], str]:
+    """The SHA-256 of each input file of ``job`` and the key of its result."""
+    hashes = [file_sha256(p) for p in _inputs_of(job)]
+    return hashes, result_key(hashes, job.options_json)
+
+
+def stored_result_row(job: MeshJob | PairJob) -> dict[str, Any] | None:
+    """The summary row stored in ``job``'s result file when that file is intact and
+    current (written for these inputs and options), else None."""
+    return stored_row(job.result, _job_key(job)[1])
+
+
 def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
     """Run one job on this process; write its result; return its summary row.
 
@@ -260,8 +272,7 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
     }
     figures: dict[str, Any] = {}
     try:
-        hashes = [file_sha256(p) for p in _inputs_of(job)]
-        key = result_key(hashes, job.options_json)
+        hashes, key = _job_key(job)
         stored = stored_row(job.result, key)
         if stored is not None and stored.get("status") == "ok":  # a failed task: again
             return {**stored, "status": "skipped"}
