@@ -398,12 +398,12 @@ class TransportFlow:
             self.operator = self._chapter.operator  # checked there (finite_operator)
         elif method == "upwind":
             self.operator = finite_operator(
-                upwind_operator(mesh, self.field, tangent="ignore"), self.field
+                lambda: upwind_operator(mesh, self.field, tangent="ignore"), self.field
             )
             self._upwind = {1.0: _Uniformization(self.operator)}
         elif method == "skew":
             self.operator = finite_operator(
-                skew_operator(mesh, self.field, tangent="ignore"), self.field
+                lambda: skew_operator(mesh, self.field, tangent="ignore"), self.field
             )
             self._expm = {"method": options.get("expm", "auto"), "tol": options.get("tol", 1e-10)}
             if "max_products" in options:
@@ -422,7 +422,7 @@ class TransportFlow:
                 self.operator = self._chapter.operator
             else:
                 self.operator = finite_operator(
-                    skew_operator(mesh, self.field, tangent="ignore"), self.field
+                    lambda: skew_operator(mesh, self.field, tangent="ignore"), self.field
                 )
             speed = max_row_norm(self.field)  # no overflow for |v| ~ 1e200
             dt = options.get("dt")

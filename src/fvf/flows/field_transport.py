@@ -237,7 +237,7 @@ class FieldTransport:
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
         self.operator = TransportOperator(
-            finite_operator(ad(mesh, self.field, tangent="ignore"), self.field),
+            finite_operator(lambda: ad(mesh, self.field, tangent="ignore"), self.field),
             vertex_to_face(mesh),
         )
         self._generator: sp.csr_array | None = None

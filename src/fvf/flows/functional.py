@@ -19,6 +19,7 @@ valid for every :math:`f_0`, :math:`e^{\mu t}` with :math:`\mu` the logarithmic 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from functools import cached_property
 
 import numpy as np
@@ -97,10 +98,13 @@ def observed_growth(weights: np.ndarray, f0: np.ndarray, out: np.ndarray) -> tup
         return float((nt[:, live] / n0[live]).max()), float((mt[:, live] / m0[live]).max())
 
 
-def finite_operator(A: sp.sparray, field: np.ndarray) -> sp.sparray:
-    """The flow's operator A (sparse), refused with :class:`FlowOverflowError` when a
-    field of finite but huge length (1e308) overflowed its entries to inf: the flow of
-    s·v for time t is the flow of v for time s·t."""
+def finite_operator(build: Callable[[], sp.sparray], field: np.ndarray) -> sp.sparray:
+    """The flow's operator A (sparse) ``build()`` forms, refused with
+    :class:`FlowOverflowError` when a field of finite but huge length (1e308) overflowed
+    its entries to inf: the flow of s·v for time t is the flow of v for time s·t. numpy's
+    overflow warnings while it forms are silenced: the error says it once."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        A = build()
     if sp.issparse(A) and not np.isfinite(A.data).all():
         raise FlowOverflowError(
             f"the operator of this field overflows (max |v| = {max_row_norm(field):.3g}): "
@@ -185,7 +189,7 @@ class FunctionalFlow:
         make_progress(progress)  # a bad value fails here, not at the first call
         self.mesh = mesh
         self.field = as_face_field(mesh, v, "v", tangent)
-        self.operator = finite_operator(D_V(mesh, self.field, tangent="ignore"), self.field)
+        self.operator = finite_operator(lambda: D_V(mesh, self.field, tangent="ignore"), self.field)
         self.growth_limit = as_growth_limit(growth_limit)
         self.method = method
         self.tol = float(tol)
