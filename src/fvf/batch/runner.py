@@ -34,7 +34,7 @@ from ..io.datafile import write_data
 from ..io.meshfile import read_mesh
 from . import tasks as _builtin  # noqa: F401 (registers the built-in tasks)
 from .registry import MeshContext, PairContext, Task, TaskOutput, lookup_task
-from .store import KEY_FIELD, file_sha256, result_key, stored_row
+from .store import ARRAYS_FIELD, KEY_FIELD, file_sha256, result_key, stored_row
 
 __all__ = ["MeshJob", "PairJob", "run_job", "run_jobs"]
 
@@ -148,10 +148,11 @@ def _apply(task: Task, ctx: MeshContext | PairContext, figures: dict) -> None:
 
 
 def _provenance(
-    job: MeshJob | PairJob, key: str, file_hashes: Sequence[str], row: dict
+    job: MeshJob | PairJob, key: str, file_hashes: Sequence[str], row: dict, arrays: Sequence[str]
 ) -> dict[str, np.ndarray]:
     return {
         KEY_FIELD: np.array(key),
+        ARRAYS_FIELD: np.array(sorted(arrays), dtype=str),
         "batch_input_sha256": np.array(list(file_hashes), dtype=str),
         "batch_options": np.array(job.options_json),
         "batch_tasks": np.array([t if isinstance(t, str) else t.name for t in job.tasks], str),
@@ -286,7 +287,8 @@ def run_job(job: MeshJob | PairJob) -> dict[str, Any]:
         row.update(status="failed" if failed else "ok", warnings=_warning_text(caught))
         row.update(error="; ".join(failed), **figures)
         row.update(seconds=time.perf_counter() - start, peak_mb=_peak_mb(reset))
-        extra = _provenance(job, key, hashes, row)
+        made = (pair_ctx if isinstance(job, PairJob) else mesh_ctx).arrays
+        extra = _provenance(job, key, hashes, row, list(made))
         if isinstance(job, PairJob):
             _write_pair(job, pair_ctx, extra)
         else:

@@ -37,6 +37,7 @@ __all__ = [
     "SUMMARY_COLUMNS",
     "RESULT_SCHEMA",
     "KEY_FIELD",
+    "ARRAYS_FIELD",
     "file_sha256",
     "options_text",
     "result_key",
@@ -67,6 +68,9 @@ RESULT_SCHEMA = 2
 
 #: The key of a result file under which its hash is stored.
 KEY_FIELD = "batch_key"
+#: The key under which a result file lists the arrays its tasks wrote (a result that
+#: lost one, say rewritten by hand without it, is computed again).
+ARRAYS_FIELD = "batch_arrays"
 
 
 def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
@@ -113,14 +117,19 @@ def _intact(path: str | os.PathLike) -> bool:
 def stored_row(path: str | os.PathLike, key: str) -> dict | None:
     """The summary row stored in the result ``path`` when its key is ``key``, else None.
 
-    A missing, unreadable, damaged (a member whose checksum does not match) or stale
-    (other key) result gives None: the mesh is recomputed.
+    A missing, unreadable, damaged (a member whose checksum does not match), stale
+    (other key) or incomplete (an array it lists under :data:`ARRAYS_FIELD` is missing)
+    result gives None: the mesh is recomputed.
     """
     try:
         if not _intact(path):
             return None
         with np.load(path, allow_pickle=False) as data:
             if KEY_FIELD not in data.files or str(data[KEY_FIELD]) != key:
+                return None
+            if ARRAYS_FIELD in data.files and not set(data[ARRAYS_FIELD].tolist()) <= set(
+                data.files
+            ):
                 return None
             return json.loads(str(data["batch_summary"]))
     except (OSError, ValueError, KeyError, EOFError):
