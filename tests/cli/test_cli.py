@@ -125,6 +125,26 @@ def test_flow_methods_and_function_rows_in_process(work, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+def test_negative_values_in_scientific_notation_are_values(work, capsys):
+    """-1e-3 and -inf after an option are values, not unknown options: argparse's own
+    pattern takes only -1 and -.5 (``--t 0 -1e-2`` was "expected at least one argument",
+    ``--t -inf`` too instead of the check of the times)."""
+    from fvf.cli.main import parser
+
+    args = parser().parse_args(["render", "m.obj", "--clim", "-1e-3", "1E+2", "-o", "x.png"])
+    assert args.clim == [-1e-3, 100.0]
+    d, mesh, a = work
+    out = d / "flow_neg.npz"
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "0", "-1e-2",
+                 "-o", str(out)]) == 0  # fmt: skip
+    np.testing.assert_allclose(np.load(out)["f_t"], fvf.flow(mesh, a["v"], a["f"], [0.0, -1e-2]))
+    capsys.readouterr()
+    assert main(["flow", str(d / "ico.obj"), str(d / "fields.npz"), "--t", "-inf",
+                 "-o", str(out)]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert one_line_error(err) and "finite" in err and "-inf" in err, err
+
+
 def test_bracket_subprocess_equals_library(work):
     d, mesh, a = work
     r = run("bracket", "ico.obj", "two.npz", "-o", "br.npz", cwd=d)

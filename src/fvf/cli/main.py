@@ -97,8 +97,19 @@ class _Terminated(BaseException):
     """SIGTERM, raised in the main thread so that outputs being written are cleaned up."""
 
 
+#: What counts as a negative number after an option (argparse's own pattern takes -1 and
+#: -.5 but not -1e-3 or -inf, which it reads as unknown options: ``--clim -1e-3 1e-3``
+#: failed with "expected 2 arguments").
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$|^-(inf|infinity|nan)$", re.I)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors (exit status 2)."""
+    """argparse with one-line usage errors (exit status 2) that reads -1e-3 and -inf as
+    values (:data:`NEGATIVE_NUMBER`)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
