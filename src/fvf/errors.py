@@ -22,6 +22,7 @@ __all__ = [
     "UnreferencedVertexError",
     "NonManifoldError",
     "OrientationError",
+    "NonOrientableError",
     "MeshReadError",
     "PolygonTriangulatedWarning",
     "MeshReadWarning",
@@ -138,6 +139,11 @@ class NonManifoldError(MeshError):
 
 class OrientationError(MeshError):
     """Two faces sharing an edge traverse it in the same direction."""
+
+
+class NonOrientableError(OrientationError):
+    """No orientation of the faces exists (a Moebius strip, a Klein bottle): no repair
+    makes the normals consistent."""
 
 
 class MeshReadError(FvfError):

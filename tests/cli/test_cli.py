@@ -145,6 +145,42 @@ def test_negative_values_in_scientific_notation_are_values(work, capsys):
     assert one_line_error(err) and "finite" in err and "-inf" in err, err
 
 
+def test_a_non_orientable_file_is_not_sent_to_repair(tmp_path, capsys):
+    """A Moebius strip: the error says no repair fixes it and does not point to ``fvf
+    repair`` (it did: "`fvf repair ...` fixes it"), and ``fvf info`` prints no fix line;
+    faces merely flipped still point to it."""
+    n, w = 24, 3
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    s = np.linspace(-0.3, 0.3, w)
+    V = np.array([[(1 + b * np.cos(a / 2)) * np.cos(a), (1 + b * np.cos(a / 2)) * np.sin(a),
+                   b * np.sin(a / 2)] for a in t for b in s])  # fmt: skip
+    F = []
+    for i in range(n):
+        for j in range(w - 1):
+            a, b = i * w + j, i * w + j + 1
+            c, d = ((i + 1) * w + j, (i + 1) * w + j + 1) if i < n - 1 else (w - 1 - j, w - 2 - j)
+            F += [[a, c, b], [b, c, d]]
+    path = tmp_path / "strip.obj"
+    fvf.write_mesh(path, V, np.array(F))
+    assert main(["quad", str(path), "--faces", "100", "-o", str(tmp_path / "q.obj")]) == 2
+    err = capsys.readouterr().err
+    assert one_line_error(err) and "NonOrientableError" in err and "fvf repair" not in err, err
+    assert main(["info", str(path)]) == 1  # problems found
+    out = capsys.readouterr().out
+    assert "non-orientable" in out and "fix: fvf repair" not in out, out
+    ball = fvf.icosphere(1)
+    G = ball.faces.copy()
+    G[::5] = G[::5, ::-1]
+    fvf.write_mesh(tmp_path / "flipped.obj", ball.vertices, G)
+    assert (
+        main(
+            ["quad", str(tmp_path / "flipped.obj"), "--faces", "100", "-o", str(tmp_path / "q.obj")]
+        )
+        == 2
+    )
+    assert "fvf repair" in capsys.readouterr().err
+
+
 def test_bracket_subprocess_equals_library(work):
     d, mesh, a = work
     r = run("bracket", "ico.obj", "two.npz", "-o", "br.npz", cwd=d)

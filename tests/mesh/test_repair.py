@@ -272,10 +272,19 @@ def test_orient_faces_per_component_and_across_a_nonmanifold_vertex(rng):
 
 def test_orient_faces_rejects_moebius_and_nonmanifold_edges():
     V, F = moebius()
-    with pytest.raises(fvf.OrientationError, match=r"faces \[0, 1, .*\(20 in all\).*non-orient"):
+    with pytest.raises(fvf.NonOrientableError, match=r"faces \[0, 1, .*\(20 in all\).*non-orient"):
         fvf.orient_faces(V, F)
-    with pytest.raises(fvf.OrientationError):
+    # TriMesh says so too, instead of advising orient_faces, which cannot fix it
+    with pytest.raises(fvf.NonOrientableError, match="No repair can fix this") as caught:
         fvf.TriMesh(V, F)
+    assert "orient_faces" not in str(caught.value)
+    assert issubclass(fvf.NonOrientableError, fvf.OrientationError)
+    S, G = icosphere_arrays(1)
+    G = G.copy()
+    G[::5] = G[::5, ::-1]  # an orientable mesh with faces flipped: the fix is named
+    with pytest.raises(fvf.OrientationError, match="orient_faces") as caught:
+        fvf.TriMesh(S, G)
+    assert not isinstance(caught.value, fvf.NonOrientableError)
     # a Moebius strip next to a fine sphere: only the strip's faces are named
     S, G = icosphere_arrays(0)
     with pytest.raises(fvf.OrientationError, match=r"faces \[20, 21, .*\(20 in all\)"):

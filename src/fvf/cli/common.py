@@ -173,7 +173,7 @@ def checked_mesh(path: str, V: Any, F: Any) -> TriMesh:
         return fvf.TriMesh(V, F)
     except fvf.MeshError as exc:
         hint = f"`fvf info {path}` lists every problem"
-        if isinstance(exc, REPAIRABLE):
+        if isinstance(exc, REPAIRABLE) and not isinstance(exc, fvf_errors.NonOrientableError):
             stem = Path(path).stem
             hint += f"; `fvf repair {path} -o {stem}_fixed.obj` fixes it"
         raise type(exc)(f"{path}: {exc} ({hint})") from exc

@@ -20,6 +20,7 @@ __all__ = [
     "zero_area_faces",
     "duplicate_faces",
     "nonmanifold_message",
+    "non_orientable_message",
 ]
 
 
@@ -123,6 +124,26 @@ def duplicate_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     reversed_ = np.zeros(m, dtype=bool)
     reversed_[order] = duplicate[order] & (even[order] != even[first])
     return duplicate, reversed_
+
+
+def non_orientable_message(bad_faces: np.ndarray, component: np.ndarray) -> str:
+    """What is wrong with a non-orientable surface, and that no repair fixes it.
+
+    Parameters
+    ----------
+    bad_faces : int64 (k,)
+        Faces whose two orientations are one sheet
+        (:func:`fvf.mesh.halfedges.orientation_sheets`).
+    component : int64 (m,)
+        The component label of each face (the same function's second result).
+    """
+    comps = np.unique(component[bad_faces])
+    return (
+        f"faces {format_indices(bad_faces)} form {comps.size} non-orientable "
+        "component(s) (a Moebius strip or Klein bottle): no vertex order makes every "
+        "shared edge run in opposite directions. No repair can fix this: cut the "
+        "surface open, or remove those faces."
+    )
 
 
 def nonmanifold_message(F: np.ndarray, runs: halfedges.EdgeRuns, bad: np.ndarray) -> str:

@@ -184,6 +184,33 @@ def edge_pairs(runs: EdgeRuns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return h[p], h[p + 1], runs.backward[p] == runs.backward[p + 1]
 
 
+def orientation_sheets(runs: EdgeRuns, n_faces: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two orientations of every face on the double cover of the edge-manifold faces.
+
+    Nodes (face, kept) and (face, flipped); each interior edge joins the nodes of equal
+    parity (the same flip when its faces traverse it in opposite directions, different
+    flips otherwise), and one ``connected_components`` call splits every orientable
+    component into its two sheets. A component is non-orientable exactly when a face's
+    two nodes land on one sheet.
+
+    Returns
+    -------
+    sheet : int64 (2 m,)
+        Sheet label of node (face t, kept) at t and of (face t, flipped) at m + t.
+    component : int64 (m,)
+        Per face, the smaller of its two sheet labels (one label per component).
+    """
+    m = n_faces
+    ha, hb, same = edge_pairs(runs)  # same direction: different flips needed
+    ta, tb = ha // 3, hb // 3
+    r = np.concatenate([ta, ta + m])
+    k = np.concatenate([np.where(same, tb + m, tb), np.where(same, tb, tb + m)])
+    g = sp.coo_array((np.ones(r.size), (r, k)), shape=(2 * m, 2 * m))
+    _, sheet = connected_components(g, directed=False)
+    sheet = sheet.astype(np.int64)
+    return sheet, np.minimum(sheet[:m], sheet[m:])
+
+
 def edge_corners(runs: EdgeRuns) -> np.ndarray:
     """The half-edge (= opposite corner) of each edge on each side, int64 (E, 2); -1 if none.
 

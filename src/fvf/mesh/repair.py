@@ -21,10 +21,16 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import NonFiniteError, NonManifoldError, OrientationError, format_indices
+from ..errors import (
+    NonFiniteError,
+    NonManifoldError,
+    NonOrientableError,
+    format_indices,
+)
 from . import halfedges
 from .defects import (
     duplicate_faces,
+    non_orientable_message,
     nonmanifold_message,
     raw_arrays,
     repeats_vertex,
@@ -511,9 +517,9 @@ def orient_faces(
     ------
     NonManifoldError
         An edge is in more than two faces (orientation across it is undefined).
-    OrientationError
+    NonOrientableError
         A component is non-orientable (a Möbius strip, a Klein bottle); the message names
-        its faces.
+        its faces (an :class:`OrientationError`).
 
     Notes
     -----
@@ -531,24 +537,11 @@ def orient_faces(
     bad = np.flatnonzero(runs.counts > 2)
     if bad.size:
         raise NonManifoldError("cannot orient: " + nonmanifold_message(F, runs, bad))
-    ha, hb, same = halfedges.edge_pairs(runs)  # same direction: different flips needed
-    ta, tb = ha // 3, hb // 3
-    r = np.concatenate([ta, ta + m])
-    k = np.concatenate([np.where(same, tb + m, tb), np.where(same, tb, tb + m)])
-    g = sp.coo_array((np.ones(r.size), (r, k)), shape=(2 * m, 2 * m))
-    _, sheet = connected_components(g, directed=False)
-    # A component's faces all carry the same pair of sheets: the smaller labels it.
-    comp = np.minimum(sheet[:m], sheet[m:])
+    sheet, comp = halfedges.orientation_sheets(runs, m)
     n_comp = int(np.count_nonzero(np.bincount(comp)))
     bad_faces = np.flatnonzero(sheet[:m] == sheet[m:])
     if bad_faces.size:
-        comps = np.unique(comp[bad_faces])
-        raise OrientationError(
-            f"faces {format_indices(bad_faces)} form {comps.size} non-orientable "
-            "component(s) (a Moebius strip or Klein bottle): no vertex order makes every "
-            "shared edge run in opposite directions. No repair can fix this: cut the "
-            "surface open, or remove those faces."
-        )
+        raise NonOrientableError(non_orientable_message(bad_faces, comp))
     n_labels = 2 * m
     root = np.full(n_labels, m, dtype=np.int64)
     np.minimum.at(root, comp, np.arange(m))

@@ -28,6 +28,7 @@ from ..errors import (
     MeshShapeError,
     NonFiniteError,
     NonManifoldError,
+    NonOrientableError,
     OrientationError,
     RepeatedVertexError,
     UnreferencedVertexError,
@@ -37,6 +38,7 @@ from ..errors import (
 from ..numerics.summary import html_table
 from . import halfedges
 from .cache import quantity_name, value_nbytes
+from .defects import non_orientable_message
 from .geometry import cross_rows, edge_components, readonly
 
 __all__ = ["TriMesh", "validate_arrays"]
@@ -705,13 +707,17 @@ class TriMesh:
         # Orientation: a manifold edge's two faces must traverse it in opposite directions.
         inconsistent = halfedges.misoriented_edges(runs)
         if inconsistent.size:
+            sheet, component = halfedges.orientation_sheets(runs, self.n_faces)
+            m = component.size
+            twisted = np.flatnonzero(sheet[:m] == sheet[m:])
+            if twisted.size:  # no orientation exists: the fix below cannot apply
+                raise NonOrientableError(non_orientable_message(twisted, component))
             raise OrientationError(
                 f"faces {format_indices(halfedges.faces_of_edges(runs, inconsistent))} traverse a "
                 "shared edge in the same direction as their neighbour (edges "
                 f"{format_indices(inconsistent)}), so the normals are inconsistent. Fix: "
                 "`fvf.orient_faces(V, F)` orients every component consistently (or flip the "
-                "offending faces, F[i] = F[i, ::-1]); a non-orientable surface (Moebius "
-                "strip) is not supported."
+                "offending faces, F[i] = F[i, ::-1])."
             )
 
     def _validate_vertex_fans(self) -> None:
