@@ -260,6 +260,29 @@ def test_output_of_adapts_library_results():
     assert set(out.arrays) == {"quad_0", "quad_1"}
 
 
+def test_results_written_meanwhile_are_found_by_their_stamps_not_the_clock(tmp_path):
+    """After an interrupt the driver reads back the rows of results that changed since
+    the batch started: by (inode, mtime, size), so a file system with coarse times (an
+    mtime before the start) or another host's clock loses none; a result that was there
+    before is not taken for new; one whose input is gone meanwhile is left to the rerun
+    (no exception in the cleanup, which would skip writing the summary)."""
+    tasks, opts = ("info",), {"k": K, "n": None}
+    jobs = [
+        MeshJob(f"m{i}", str(_write(tmp_path / f"m{i}.off", fvf.icosphere(1))),
+                str(tmp_path / "out" / f"m{i}.npz"), tasks, opts, options_text(tasks, opts), "t")
+        for i in range(4)
+    ]  # fmt: skip
+    run_job(jobs[2])  # done before the batch
+    before = batch_driver._result_stamps(jobs)
+    assert before[0] is None and before[2] is not None
+    for j in (0, 1, 3):
+        assert run_job(jobs[j])["status"] == "ok"
+    os.utime(jobs[0].result, ns=(0, 0))  # a coarse or skewed clock: "written" in 1970
+    os.remove(jobs[1].path)  # its input removed while the batch ran
+    found = batch_driver._written_meanwhile(jobs, {3: {"mesh": "m3"}}, before)
+    assert sorted(found) == [0] and found[0]["mesh"] == "m0" and found[0]["status"] == "ok"
+
+
 def test_run_job_without_dask_resumes_by_content_hash(tmp_path):
     """The worker side alone: ok, then skipped; recomputed when input or options change."""
     path = _write(tmp_path / "m.off", fvf.icosphere(2))

@@ -271,6 +271,21 @@ def test_reversed_quads_cannot_be_untangled_and_are_named(torus_grid):
         warn_folded(r)
 
 
+def test_the_verdict_pass_alone_reports_the_verdicts_folds(torus_grid):
+    """With ``passes="verdict"`` the folds found and left are the verdict's, so that a
+    detection without steps still names them (and warns)."""
+    mesh, qm = torus_grid
+    V, vf = fold_one_quad(mesh, qm)
+    r = untangle_quads(mesh, V, qm.quads, vf, max_steps=0, passes="verdict")
+    assert np.array_equal(r.folded_before, [10]) and np.array_equal(r.folded, [10])
+    assert np.array_equal(r.verdict, [10]) and r.moved.size == 0
+    with pytest.warns(fvf.FoldedQuadWarning, match=r"quads \[10\]"):
+        warn_folded(r)
+    r = untangle_quads(mesh, V, qm.quads, vf, passes="verdict")
+    assert np.array_equal(r.folded_before, [10]) and r.folded.size == 0 and r.verdict.size == 0
+    assert folded_quads(mesh, r.vertices, qm.quads).size == 0
+
+
 def test_untangle_names_a_bad_passes_value(torus_grid):
     mesh, qm = torus_grid
     with pytest.raises(fvf.ParameterError, match="passes must be 'both', 'first' or 'verdict'"):

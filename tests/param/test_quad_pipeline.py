@@ -724,3 +724,41 @@ def test_every_quad_vertex_lies_on_the_input_triangle_named_for_it():
     assert "input surface" in made.attempts[-1]  # the untangling ran on the input itself
     T = mesh.vertices[mesh.faces[made.vertex_faces]]
     assert _barycentric_off(made.vertices, T).max() < 1e-6
+
+
+@pytest.mark.parametrize("case", ["input", "remeshed", "open"])
+def test_the_folds_the_gate_is_handed_are_its_own_test_at_the_vertices_returned(case, monkeypatch):
+    """``_attempt`` hands the gate the untangling's verdict (instead of evaluating it
+    again): on the input surface, on a remeshed copy put back on the input (a 12-triangle
+    box, remeshing forced), and not at all for an open surface, whose boundary is snapped afterwards. Each
+    verdict handed over equals ``folded_quads`` at the vertices the gate checks."""
+    from fvf.param import quadmesh
+    from fvf.param.quad_folds import folded_quads
+
+    gate = quadmesh.check_quad_mesh
+    handed = []
+
+    def spy(mesh, V, Q, **kw):
+        if kw.get("folded") is not None:
+            assert np.array_equal(kw["folded"], folded_quads(mesh, V, Q))
+        handed.append(kw.get("folded") is not None)
+        return gate(mesh, V, Q, **kw)
+
+    monkeypatch.setattr(quadmesh, "check_quad_mesh", spy)
+    if case == "input":
+        mesh, n = fvf.torus(48, 24), 300
+    elif case == "remeshed":
+        V = np.array([[x, y, z] for x in (0, 1) for y in (0, 2) for z in (0, 3)], float)
+        quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+        mesh = fvf.TriMesh(V, np.array([t for a, b, c, d in quads for t in ([a, b, c], [a, c, d])]))
+        n = 200
+    else:
+        S = fvf.icosphere(3)
+        keep = S.faces[S.face_centroids[:, 2] > 0.1]
+        used = np.unique(keep)
+        mesh = fvf.TriMesh(S.vertices[used], np.searchsorted(used, keep))
+        n = 200
+    made = fvf.quad_mesh(mesh, target_faces=n, remesh=case == "remeshed")
+    assert handed and len(made.quads) > 0
+    assert ("remeshed" in made.attempts[-1]) == (case == "remeshed"), made.attempts
+    assert all(handed) if case != "open" else not any(handed)

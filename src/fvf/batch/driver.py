@@ -649,23 +649,37 @@ def _execute(
             client.cancel(list(futures))
 
 
+def _result_stamps(jobs: Sequence[MeshJob | PairJob]) -> list[tuple | None]:
+    """Per job, its result file's (inode, mtime in ns, size), or None when there is none."""
+    stamps: list[tuple | None] = []
+    for job in jobs:
+        try:
+            st = os.stat(job.result)
+        except OSError:
+            stamps.append(None)
+        else:
+            stamps.append((st.st_ino, st.st_mtime_ns, st.st_size))
+    return stamps
+
+
 def _written_meanwhile(
-    jobs: Sequence[MeshJob | PairJob], rows: dict[int, dict], since: float
+    jobs: Sequence[MeshJob | PairJob], rows: dict[int, dict], before: list[tuple | None]
 ) -> dict[int, dict]:
-    """The rows of jobs without one whose results were written since ``since`` (epoch
-    seconds) and are current: tasks that finished while an interrupted batch cancelled
-    the others and closed its cluster. Their rows are read from the result files, as a
-    rerun would (a rerun counts them as skipped)."""
+    """The rows of jobs without one whose result files changed since ``before``
+    (:func:`_result_stamps` when the batch started: no clock is compared, so coarse file
+    times and another host's clock do not matter) and are current: tasks that finished
+    while an interrupted batch cancelled the others and closed its cluster. Their rows are
+    read from the result files, as a rerun would; a file that cannot be read (an input
+    removed meanwhile) is left to the rerun."""
     found = {}
     for i, job in enumerate(jobs):
-        if i in rows:
+        stamp = None if i in rows else _result_stamps([job])[0]
+        if stamp is None or stamp == before[i]:
             continue
         try:
-            if os.stat(job.result).st_mtime < since:
-                continue
-        except OSError:
+            row = stored_result_row(job)
+        except (OSError, ValueError):
             continue
-        row = stored_result_row(job)
         if row is not None:
             found[i] = row
     return found
@@ -796,7 +810,7 @@ def run(
             last_save[0] = time.perf_counter()
 
     with interrupts.held(), output_lock(out):  # one Ctrl-C stops, no second cuts cleanup
-        started = time.time()
+        before = _result_stamps(jobs)  # to find the results written if interrupted
         remove_temporaries(out)
         _result_folders(jobs)
         try:
@@ -809,7 +823,7 @@ def run(
         finally:
             show.close()
             if len(rows) < len(jobs):  # interrupted or failed: results written meanwhile
-                rows.update(_written_meanwhile(jobs, rows, started))
+                rows.update(_written_meanwhile(jobs, rows, before))
             save(rows, force=True)
             remove_temporaries(out)
     ordered = [rows[i] for i in sorted(rows)]

@@ -582,7 +582,8 @@ class FoldRepair:
     vertex_face : int64 (k,)
         Input triangle holding each vertex.
     folded_before : int64 (f0,)
-        Quads folded on entry (:func:`folded_quads`).
+        Quads folded on entry by the first pass's test (by :func:`folded_quads` with
+        ``passes="verdict"``).
     folded : int64 (f,)
         Quads still folded (empty when the repair succeeded).
     moved : int64 (r,)
@@ -671,7 +672,8 @@ def untangle_quads(
         The passes to run (Notes): ``"first"`` for quads that are then put on another
         surface and judged there, ``"verdict"`` for quads already untangled on another
         surface and put on this one (the first pass's reference could move quads there
-        that the verdict accepts).
+        that the verdict accepts; ``folded_before`` and ``folded`` are then the
+        verdict's).
 
     Returns
     -------
@@ -696,16 +698,17 @@ def untangle_quads(
     Q = np.asarray(quads, dtype=np.int64)
     vf0 = np.asarray(vertex_face, dtype=np.int64)
     tree = cKDTree(mesh.face_centroids)
-    first = passes != "verdict"
-    mask = _fold_mask(mesh, V0, Q, tree) if first else np.zeros(len(Q), bool)
+    exact = passes == "verdict"  # the verdict's test is then the only pass's
+    mask = _fold_mask(mesh, V0, Q, tree, exact=exact)
     before = np.flatnonzero(mask)
     V, vf = V0.copy(), vf0.copy()
-    steps = _relax_folded(mesh, V, vf, Q, mask, tree, max_steps, exact=False)
+    steps = _relax_folded(mesh, V, vf, Q, mask, tree, max_steps, exact=exact)
     after = np.flatnonzero(mask)
-    verdict = None
+    verdict = after if exact else None
     if after.size:  # all or nothing: a partial untangling may have smeared a whole region
         V, vf, after = V0.copy(), vf0.copy(), before
-    elif max_steps > 0 and passes != "first":  # the verdict's folds, in a second pass
+        verdict = before if exact else None
+    elif max_steps > 0 and passes == "both":  # the verdict's folds, in a second pass
         strict = _fold_mask(mesh, V, Q, tree, exact=True)
         verdict = np.flatnonzero(strict)
         W, wf = V.copy(), vf.copy()

@@ -603,7 +603,8 @@ def quad_mesh(
         Deprecated: return ``(V, Q, parameterization)`` instead of the result (typed as
         the result for type checkers); use the result's ``.parameterization``.
     fold_repair_steps : int
-        Relaxation steps at most for untangling folded quads (0: detect only).
+        Relaxation steps at most per pass of the untangling of folded quads
+        (:func:`fvf.param.quad_folds.untangle_quads`; 0: detect only).
     **options
         Passed to :func:`fvf.seamless_parameterization` (``scale``, ``rounding_batch``,
         ``scale_iterations``, ``stiffening_iterations``, ``cone_cancel_radius``,
