@@ -730,8 +730,9 @@ def test_every_quad_vertex_lies_on_the_input_triangle_named_for_it():
 def test_the_folds_the_gate_is_handed_are_its_own_test_at_the_vertices_returned(case, monkeypatch):
     """``_attempt`` hands the gate the untangling's verdict (instead of evaluating it
     again): on the input surface, on a remeshed copy put back on the input (a 12-triangle
-    box, remeshing forced), and not at all for an open surface, whose boundary is snapped afterwards. Each
-    verdict handed over equals ``folded_quads`` at the vertices the gate checks."""
+    box, remeshing forced), and not at all for an open surface, whose boundary is snapped
+    afterwards. Each verdict handed over equals ``folded_quads`` at the vertices the gate
+    checks."""
     from fvf.param import quadmesh
     from fvf.param.quad_folds import folded_quads
 

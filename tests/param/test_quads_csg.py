@@ -209,3 +209,28 @@ def test_a_rounding_with_most_triangles_flipped_is_not_repaired():
     made = fvf.quad_mesh(mesh, target_faces=3000)
     verdict = quadcheck.check(mesh.vertices, mesh.faces, *map(np.asarray, made))
     assert verdict.valid, verdict.summary()
+
+
+def test_a_cad_quad_mesh_is_shaded_with_its_rims_crisp():
+    """The picture of a CAD part's quads (fvf.viz.render_quads) splits the shading at its
+    rims: at 300 quads the disc's quads bend along the rim, which sharp_edges takes for
+    a rough surface (it keeps 4 of the 58 edges that bend by more than 75°, and the
+    shading split none); the fold chains split 56 (the other two end a chain, where the
+    faces around the vertex still join the other way round)."""
+    from fvf.param.features import dihedral_angles
+    from fvf.viz.ps_backend import SHADING_FOLD, shading_corners
+    from fvf.viz.quads import _shading_mesh
+    from wild_corpus import cad_cylinder_boss, repaired_as_cli
+
+    made = fvf.quad_mesh(repaired_as_cli(*cad_cylinder_boss()), target_faces=300)
+    mesh = _shading_mesh(np.asarray(made.vertices), np.asarray(made.quads))
+    folds = np.flatnonzero(dihedral_angles(mesh) > SHADING_FOLD)
+    _, W, _ = shading_corners(mesh)
+
+    def split(e):  # both ends: the two faces' corners are different shading vertices
+        f, g = mesh.edge_faces[e]
+        F = mesh.faces
+        return all(W[f][F[f] == v] != W[g][F[g] == v] for v in mesh.edges[e])
+
+    assert folds.size > 40
+    assert sum(split(e) for e in folds) >= 0.9 * folds.size

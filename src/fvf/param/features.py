@@ -42,6 +42,7 @@ __all__ = [
     "CREASE_ANGLE",
     "dihedral_angles",
     "sharp_edges",
+    "long_chains",
     "feature_density",
     "feature_edge_ids",
     "feature_constraints",
@@ -124,18 +125,26 @@ def sharp_edges(
     smooth = (_side_roughness(mesh, over, d, bent) < SMOOTH_SIDES * a) | (
         _bend_along(mesh, over, d, bent) < CROSS_BEND
     )
-    sharp = bent[smooth]
-    if min_length <= 0 or sharp.size == 0:
-        return sharp
-    E = mesh.edges[sharp]
+    return long_chains(mesh, bent[smooth], min_length)
+
+
+def long_chains(mesh: TriMesh, edges: np.ndarray, min_length: float) -> np.ndarray:
+    """The edges of ``edges`` (indices into ``mesh.edges``, int (k,)) in chains (joined
+    through shared vertices) at least ``min_length`` long and not within that length of
+    a vertex where :data:`STAR_EDGES` or more of them meet (a spike's tip), int64; all of
+    them when ``min_length`` ≤ 0."""
+    edges = np.asarray(edges, dtype=np.int64)
+    if min_length <= 0 or edges.size == 0:
+        return edges
+    E = mesh.edges[edges]
     n = mesh.n_vertices
-    graph = sp.coo_matrix((np.ones(sharp.size), (E[:, 0], E[:, 1])), shape=(n, n))
+    graph = sp.coo_matrix((np.ones(edges.size), (E[:, 0], E[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
-    own = label[E[:, 0]]  # (k,) each sharp edge's chain
+    own = label[E[:, 0]]  # (k,) each edge's chain
     length = np.linalg.norm(mesh.vertices[E[:, 1]] - mesh.vertices[E[:, 0]], axis=1)
     chain = np.bincount(own, weights=length, minlength=n)
     tip = _is_tip(mesh.vertices, E, label, min_length)
-    return sharp[(chain[own] >= min_length) & ~tip[own]]
+    return edges[(chain[own] >= min_length) & ~tip[own]]
 
 
 def _is_tip(X: np.ndarray, E: np.ndarray, label: np.ndarray, radius: float) -> np.ndarray:

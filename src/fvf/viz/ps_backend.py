@@ -35,6 +35,10 @@ from .scene import Scene, shade
 #: short creases of a coarse organic mesh (152 of Spot's edges bend by more than 35°,
 #: 8 of them in chains that long) and a scan's noise are shaded smoothly.
 SHADING_CHAIN = 0.02
+#: Chains of edges bending by more than this many degrees split them too, even where
+#: the faces beside them bend (a quad mesh's rim on a coarse cylinder, whose quads bend
+#: by 7° each, which sharp_edges takes for a rough surface: 48 of 132 rim edges kept).
+SHADING_FOLD = 75.0
 
 __all__ = [
     "PREFIX",
@@ -224,7 +228,8 @@ def shading_corners(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The shading's vertices: the mesh's, split where edges are sharp.
 
     Corners of faces around a vertex that meet across edges other than sharp ones
-    (chains at least :data:`SHADING_CHAIN` of the diagonal long) share one shading vertex
+    (chains at least :data:`SHADING_CHAIN` of the diagonal long, of sharp edges or of
+    edges bending by more than :data:`SHADING_FOLD`) share one shading vertex
     (a wedge, :func:`fvf.param.cutmesh.wedges`) whose normal is the area-weighted sum of
     their faces' normals: a CAD part's faces are shaded each with its own normal up to
     its edges, not blended with the next face along the length of its slivers.
@@ -243,11 +248,12 @@ def shading_corners(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         Unit normal of each shading vertex.
     """
     from ..param.cutmesh import wedges
-    from ..param.features import sharp_edges
+    from ..param.features import dihedral_angles, long_chains, sharp_edges
 
-    diagonal = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    chain = SHADING_CHAIN * float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
     cut = np.zeros(mesh.n_edges, dtype=bool)
-    cut[sharp_edges(mesh, min_length=SHADING_CHAIN * diagonal)] = True
+    cut[sharp_edges(mesh, min_length=chain)] = True
+    cut[long_chains(mesh, np.flatnonzero(dihedral_angles(mesh) > SHADING_FOLD), chain)] = True
     if cut.any():
         W, k = wedges(mesh, cut)
         corner = np.empty(k, dtype=np.int64)
