@@ -53,6 +53,33 @@ def test_specks_are_dropped_with_a_warning_and_stand_for_the_nearest_vertex(shap
     assert p.changed and "small component" in p.log[0]
 
 
+@pytest.mark.parametrize("cut", ["soup", "patches"])
+def test_a_soup_or_patches_are_welded_not_dropped_as_specks(shape, cut):
+    """A triangle soup (every face its own three vertices) and a mesh exported in patches
+    (vertices repeated along the patch borders) are one surface once welded: each of
+    their pieces is under the speck size, and all but one were dropped (the soup of Spot
+    kept one triangle, then "too few vertices: subdivide the mesh"). Every input vertex
+    stands for the welded vertex at its position."""
+    F0 = shape.faces
+    if cut == "soup":
+        V = shape.vertices[F0].reshape(-1, 3)
+        F = np.arange(len(V)).reshape(-1, 3)
+    else:  # 8 patches by face index, each with its own copies of its vertices
+        patch = np.arange(len(F0)) * 8 // len(F0)
+        V, F, base = [], [], 0
+        for k in range(8):
+            used, local = np.unique(F0[patch == k], return_inverse=True)
+            V.append(shape.vertices[used])
+            F.append(local.reshape(-1, 3) + base)
+            base += used.size
+        V, F = np.vstack(V), np.vstack(F)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fvf.DuplicateVertexWarning)
+        p = prepare_mesh(V, F, name="scan")
+    assert p.mesh.n_vertices == shape.n_vertices and p.mesh.n_faces == len(F0)
+    assert np.array_equal(p.mesh.vertices[p.input_to_mesh], V)
+
+
 def test_specks_on_a_mesh_that_also_needs_repair(shape):
     """A non-manifold flap (cut off by the repair) and specks of the input: both dropped
     by the one rule, every input vertex indexed."""

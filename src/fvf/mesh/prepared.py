@@ -242,10 +242,12 @@ def prepare_mesh(
         return PreparedMesh(mesh, mesh.n_vertices, ident, ident)
     V = np.asarray(vertices, dtype=float)
     F = np.asarray(faces, dtype=np.int64)
-    F, own = _drop_own_specks(V, F, name, max_dropped_fraction)
-    log: list[str] = [own] if own else []
-    if mesh is not None:  # valid apart from the specks: keep the vertices as they are
-        return _subset(V, F, log)
+    log: list[str] = []
+    if not _pieces_touch(V, F):  # else a soup or seams: welded by the repair below
+        F, own = _drop_own_specks(V, F, name, max_dropped_fraction)
+        log = [own] if own else []
+        if mesh is not None:  # valid apart from the specks: keep the vertices as they are
+            return _subset(V, F, log)
     rep = repair_mesh(V, F, MATCH_REPAIR_STEPS)
     log.extend(rep.log)
     V2, F2 = rep.vertices, rep.faces
@@ -285,6 +287,14 @@ def _subset(V: np.ndarray, F: np.ndarray, log: list[str]) -> PreparedMesh:
     input_to_mesh = sub.vertex_map.copy()  # -1 for the vertices of dropped pieces
     _nearest_for_missing(V, sub.mesh, input_to_mesh, log)
     return PreparedMesh(sub.mesh, V.shape[0], input_to_mesh, sub.vertex_origin, tuple(log))
+
+
+def _pieces_touch(V: np.ndarray, F: np.ndarray) -> bool:
+    """Whether two referenced vertices sit at one position (a triangle soup, a mesh split
+    at its UV seams or exported in patches): its pieces are one surface once welded, not
+    specks beside a shape (a soup's 5,855 one-triangle pieces were dropped but one)."""
+    used = np.unique(F)
+    return bool(np.unique(V[used], axis=0).shape[0] < used.size)
 
 
 def _nearest_for_missing(
