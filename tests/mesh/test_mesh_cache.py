@@ -18,6 +18,7 @@ from fvf.mesh import geometry
 from fvf.mesh.cache import CACHED_QUANTITIES, quantity_name, value_nbytes
 from fvf.mesh.geometry import vertex_vector_areas
 from fvf.operators.directional import D_V, extract_field
+from fvf.param.features import dihedral_angles
 from fvf.param.quad_folds import closest_surface_points
 from fvf.spectral.evaluation import geodesic_distances
 
@@ -107,6 +108,7 @@ def fill_cache(mesh: fvf.TriMesh) -> dict[str, object]:
         results[method] = geodesic_distances(mesh, [0, 5], method=method)
     results["closest"] = closest_surface_points(mesh, 1.01 * mesh.vertices, exact=True)
     results["vector areas"] = vertex_vector_areas(mesh)
+    results["dihedral"] = dihedral_angles(mesh)
     return results
 
 

@@ -94,6 +94,13 @@ CACHED_QUANTITIES: Mapping[str, CachedQuantity] = _declare(
         "closest_surface_points(exact=True) (quad vertices put back on the input, the gate)",
     ),
     CachedQuantity(
+        "dihedral_angles",
+        "the angle between the normals of each edge's two faces, degrees, float64 (E,)",
+        "8E bytes",
+        "fvf.param.features.dihedral_angles",
+        "sharp_edges (quad features) and the pictures' shading (fvf.viz.ps_backend)",
+    ),
+    CachedQuantity(
         "surface_sample_tree",
         "a cKDTree of points spread over every triangle and the triangle of each, int64 (p,)",
         "about 56p bytes, p ≤ m · 1225 points (≈ 4m on a mesh of even triangles)",

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = [
     "readonly",
     "readonly_csr",
+    "coincident_vertices",
     "cross_rows",
     "edge_components",
     "sorted_corners",
@@ -40,6 +41,11 @@ def readonly(a: np.ndarray) -> np.ndarray:
     """Mark ``a`` read-only in place and return it (cached arrays are never written)."""
     a.flags.writeable = False
     return a
+
+
+def coincident_vertices(X: np.ndarray) -> int:
+    """How many of the points X (n, 3) sit exactly at the position of an earlier one."""
+    return int(X.shape[0] - np.unique(X, axis=0).shape[0])
 
 
 def readonly_csr(A: sp.sparray | sp.spmatrix) -> sp.csr_array:

@@ -42,6 +42,7 @@ from ..errors import (
     user_stacklevel,
 )
 from ..numerics.summary import html_repr, short_repr
+from .geometry import coincident_vertices
 from .repair import DEFAULT_REPAIR_STEPS, remove_unreferenced_vertices, repair_mesh
 from .trimesh import TriMesh
 
@@ -293,8 +294,7 @@ def _pieces_touch(V: np.ndarray, F: np.ndarray) -> bool:
     """Whether two referenced vertices sit at one position (a triangle soup, a mesh split
     at its UV seams or exported in patches): its pieces are one surface once welded, not
     specks beside a shape (a soup's 5,855 one-triangle pieces were dropped but one)."""
-    used = np.unique(F)
-    return bool(np.unique(V[used], axis=0).shape[0] < used.size)
+    return coincident_vertices(V[np.unique(F)]) > 0
 
 
 def _nearest_for_missing(

@@ -39,7 +39,7 @@ from ..numerics.summary import html_table
 from . import halfedges
 from .cache import quantity_name, value_nbytes
 from .defects import non_orientable_message
-from .geometry import cross_rows, edge_components, readonly
+from .geometry import coincident_vertices, cross_rows, edge_components, readonly
 
 __all__ = ["TriMesh", "validate_arrays"]
 
@@ -160,7 +160,7 @@ class TriMesh:
         try:
             self._validate_topology()
         except (NonManifoldError, OrientationError) as exc:
-            shared = _coincident_vertices(self.vertices)
+            shared = coincident_vertices(self.vertices)
             if not shared:
                 raise
             raise type(exc)(
@@ -673,7 +673,7 @@ class TriMesh:
         boundary, n_edges = self.boundary_edges.size, self.n_edges
         if self.n_faces < SOUP_MIN_FACES or boundary <= SOUP_FRACTION * n_edges:
             return
-        shared = _coincident_vertices(self.vertices)
+        shared = coincident_vertices(self.vertices)
         if shared > SOUP_FRACTION * self.n_vertices:
             warnings.warn(
                 f"{shared} of the {self.n_vertices} vertices sit at the position of another "
@@ -740,11 +740,6 @@ class TriMesh:
                 f"{int(fans[bad].max())} separate fans (two surfaces touch at a vertex). Fix: "
                 "`fvf.split_nonmanifold_vertices(V, F)` gives each fan its own copy."
             )
-
-
-def _coincident_vertices(X: np.ndarray) -> int:
-    """How many vertices sit exactly at the position of an earlier one."""
-    return int(X.shape[0] - np.unique(X, axis=0).shape[0])
 
 
 def _as_array(a: npt.ArrayLike, name: str) -> np.ndarray:

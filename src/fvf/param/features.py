@@ -35,7 +35,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import ParameterError, format_indices
-from ..mesh.geometry import segment_points
+from ..mesh.geometry import readonly, segment_points
 from ..mesh.trimesh import TriMesh
 
 __all__ = [
@@ -75,14 +75,18 @@ DENSE_FEATURES = 2.0
 
 def dihedral_angles(mesh: TriMesh) -> np.ndarray:
     """Angle between the normals of each edge's two faces, degrees, float64 (E,); 0 on
-    boundary edges."""
-    ef = mesh.edge_faces
-    both = (ef >= 0).all(axis=1)
-    out = np.zeros(ef.shape[0])
-    N = mesh.face_normals
-    cos = np.einsum("kd,kd->k", N[ef[both, 0]], N[ef[both, 1]])
-    out[both] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-    return out
+    boundary edges. Cached on the mesh (read-only)."""
+
+    def build() -> np.ndarray:
+        ef = mesh.edge_faces
+        both = (ef >= 0).all(axis=1)
+        out = np.zeros(ef.shape[0])
+        N = mesh.face_normals
+        cos = np.einsum("kd,kd->k", N[ef[both, 0]], N[ef[both, 1]])
+        out[both] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        return readonly(out)
+
+    return mesh.cached("dihedral_angles", build)
 
 
 def feature_density(mesh: TriMesh, edges: np.ndarray, h: float) -> float:
