@@ -136,9 +136,15 @@ def add_output(p: argparse.ArgumentParser, help: str) -> None:
     )
 
 
+#: The mesh formats the command reads (:func:`fvf.read_mesh`), for the help texts.
+MESH_FORMATS = "OBJ, OFF, PLY, STL, VTK, glTF"
+#: The help of a command's mesh file argument.
+MESH_FILE = f"mesh file ({MESH_FORMATS})"
+
+
 def add_display_options(p: argparse.ArgumentParser) -> None:
     """The mesh, data files and what to draw, of ``fvf render`` and ``fvf view``."""
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("data", nargs="*", help=".npz data file(s) (or PLY with properties)")
     p.add_argument("--function", metavar="KEY", help="vertex/face function to color by (KEY[i])")
     p.add_argument("--field", metavar="KEY", help="per-face (or per-vertex) field to draw")

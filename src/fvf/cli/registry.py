@@ -4,12 +4,12 @@ A command is a module of :mod:`fvf.cli.commands` with a function adding its argu
 its subparser and a handler returning the exit status; registering it is one decorated
 function::
 
-    from fvf.cli.common import EXIT_OK, add_output
+    from fvf.cli.common import EXIT_OK, MESH_FILE, add_output
     from fvf.cli.registry import register_command
 
 
     def _arguments(p):
-        p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+        p.add_argument("mesh", help=MESH_FILE)
         add_output(p, "output .npz")
 
 

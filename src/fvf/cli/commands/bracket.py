@@ -8,6 +8,7 @@ import argparse
 from ..common import (
     EXIT_OK,
     MERGE,
+    MESH_FILE,
     Sources,
     add_output,
     check_outputs,
@@ -19,7 +20,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, f] " + MERGE)
     p.add_argument("--first", default="v", metavar="KEY", help="first field key (default v)")
     p.add_argument("--second", default="u", metavar="KEY", help="second field key (default u)")

@@ -7,12 +7,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..common import EXIT_OK, EXIT_PROBLEMS, add_picture_options
+from ..common import EXIT_OK, EXIT_PROBLEMS, MESH_FORMATS, add_picture_options
 from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF; default: spot)")
+    p.add_argument("--mesh", help=f"mesh file ({MESH_FORMATS}; default: spot)")
     p.add_argument("--out", default="fvf-demo", help="output folder (default: fvf-demo)")
     add_picture_options(p)  # --size: of a one-view picture (default 600 450)
 

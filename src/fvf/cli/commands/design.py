@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..common import (
     EXIT_OK,
+    MESH_FILE,
     PROGRESS,
     add_output,
     check_outputs,
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("--constraints", help=".npz with constraint_faces|points, directions")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument(

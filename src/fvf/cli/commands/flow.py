@@ -8,6 +8,7 @@ import argparse
 from ..common import (
     EXIT_OK,
     MERGE,
+    MESH_FILE,
     PROGRESS,
     Sources,
     add_output,
@@ -38,7 +39,7 @@ _FLOW_OPTIONS = {
 def _arguments(p: argparse.ArgumentParser) -> None:
     from fvf.flows.dispatch import METHODS
 
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("data", nargs="*", help=".npz with keys f (n,)|(n,k), v (m,3) " + MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times, e.g. --t 0 0.5 1 (or key t)")
     p.add_argument("--method", choices=METHODS, default="chapter", help="default: chapter")

@@ -9,7 +9,7 @@ import re
 import shlex
 from pathlib import Path
 
-from ..common import EXIT_OK, EXIT_PROBLEMS
+from ..common import EXIT_OK, EXIT_PROBLEMS, MESH_FILE, MESH_FORMATS
 from ..registry import register_command
 
 __all__ = ["info", "run"]
@@ -59,14 +59,13 @@ def _repairable(report: dict) -> bool:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
 @register_command(
     "info",
-    help="validation report of a mesh file (OBJ, OFF, PLY, STL, VTK, glTF): every problem "
-    "with indices and fix",
+    help=f"validation report of a mesh file ({MESH_FORMATS}): every problem with indices and fix",
     example="fvf info bunny.off   (exit status 1 when a problem is found)",
     arguments=_arguments,
 )

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from ..common import (
     EXIT_OK,
+    MESH_FORMATS,
     PROGRESS,
     add_output,
     add_picture_options,
@@ -80,7 +81,7 @@ def _read_truth(args: argparse.Namespace) -> np.ndarray | None:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh_1", help="first mesh (OBJ, OFF, PLY, STL, VTK, glTF): the map lands on it")
+    p.add_argument("mesh_1", help=f"first mesh ({MESH_FORMATS}): the map lands on it")
     p.add_argument("mesh_2", help="second mesh: the map has one entry per vertex of it")
     p.add_argument("--k", type=int, default=200, help="final functional map size (200)")
     p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")

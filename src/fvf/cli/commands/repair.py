@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..common import EXIT_OK, add_output, check_output_places, check_outputs, real
+from ..common import EXIT_OK, MESH_FILE, add_output, check_output_places, check_outputs, real
 from ..registry import register_command
 
 
@@ -16,7 +16,7 @@ def _maps_path(output: str) -> Path:
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument(
         "--tol", type=real, default=0.0, help="weld vertices closer than this (default 0)"
     )

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..common import (
     EXIT_OK,
+    MESH_FILE,
     PROGRESS,
     add_output,
     add_picture_options,
@@ -22,7 +23,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("--k", type=int, default=100, help="functional map size (100)")
     p.add_argument("--k-fit", type=int, default=15, help="fitted map size (15)")
     p.add_argument("--progress", action="store_true", help=PROGRESS)

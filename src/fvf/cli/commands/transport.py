@@ -8,6 +8,7 @@ import argparse
 from ..common import (
     EXIT_OK,
     MERGE,
+    MESH_FILE,
     PROGRESS,
     Sources,
     add_output,
@@ -23,7 +24,7 @@ from ..registry import register_command
 
 
 def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mesh", help="mesh file (OBJ, OFF, PLY, STL, VTK, glTF)")
+    p.add_argument("mesh", help=MESH_FILE)
     p.add_argument("data", nargs="*", help=".npz with keys v, u (m,3) [, u1] " + MERGE)
     p.add_argument("--t", nargs="+", metavar="T", help="times (interpolation: in [0, 1])")
     p.add_argument("--field", default="v", metavar="KEY", help="flowing field key (default v)")
