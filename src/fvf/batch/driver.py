@@ -649,21 +649,24 @@ def _execute(
             client.cancel(list(futures))
 
 
-def _result_stamps(jobs: Sequence[MeshJob | PairJob]) -> list[tuple | None]:
-    """Per job, its result file's (inode, mtime in ns, size), or None when there is none."""
-    stamps: list[tuple | None] = []
-    for job in jobs:
-        try:
-            st = os.stat(job.result)
-        except OSError:
-            stamps.append(None)
-        else:
-            stamps.append((st.st_ino, st.st_mtime_ns, st.st_size))
-    return stamps
+def _stamp(path: str) -> tuple[int, int, int] | None:
+    """The file's (inode, mtime in ns, size), or None when there is none."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+def _result_stamps(jobs: Sequence[MeshJob | PairJob]) -> list[tuple[int, int, int] | None]:
+    """Per job, its result file's :func:`_stamp`."""
+    return [_stamp(job.result) for job in jobs]
 
 
 def _written_meanwhile(
-    jobs: Sequence[MeshJob | PairJob], rows: dict[int, dict], before: list[tuple | None]
+    jobs: Sequence[MeshJob | PairJob],
+    rows: dict[int, dict],
+    before: list[tuple[int, int, int] | None],
 ) -> dict[int, dict]:
     """The rows of jobs without one whose result files changed since ``before``
     (:func:`_result_stamps` when the batch started: no clock is compared, so coarse file
@@ -673,7 +676,7 @@ def _written_meanwhile(
     removed meanwhile) is left to the rerun."""
     found = {}
     for i, job in enumerate(jobs):
-        stamp = None if i in rows else _result_stamps([job])[0]
+        stamp = None if i in rows else _stamp(job.result)
         if stamp is None or stamp == before[i]:
             continue
         try:
