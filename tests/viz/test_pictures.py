@@ -176,8 +176,9 @@ def test_quad_pictures_speak_of_valence_in_the_fields_colours(tmp_path):
     finally:
         fvf.viz.quads.render = real
     assert captured["singularity_kind"] == "valence"
-    # corners have valence 2: index (4 - 2) / 4 = +1/2; the middle ones 3: +1/4
-    assert sorted(captured["singularities"][1]) == [0.25, 0.25, 0.5, 0.5, 0.5, 0.5]
+    # corners have valence 2: index (4 - 2) / 4 = +1/2; the middle ones 3, regular on the
+    # boundary, are not marked
+    assert sorted(captured["singularities"][1]) == [0.5, 0.5, 0.5, 0.5]
 
 
 def test_index_colours_are_told_apart_by_lightness():
@@ -251,6 +252,19 @@ def test_a_quad_with_three_collinear_corners_is_drawn(tmp_path):
     assert mesh.n_vertices == 4  # vertices 3 and 5, in no quad, dropped
     info = viz.render_quads(V, np.array([[0, 1, 2, 4]]), tmp_path / "q.png", **MPL)
     assert (tmp_path / "q.png").stat().st_size > 0 and info is not None
+
+
+def test_an_open_quad_grid_marks_only_its_corners(tmp_path):
+    """A 4 x 3 grid of quads: its 6 interior vertices have valence 4, its 10 boundary
+    vertices but the corners valence 3 (regular on a boundary), its 4 corners valence 2:
+    only the corners are marked (every boundary vertex was, as valence 3)."""
+    x, y = np.meshgrid(np.arange(5.0), np.arange(4.0), indexing="ij")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(20)], axis=1)
+    i, j = np.meshgrid(np.arange(4), np.arange(3), indexing="ij")
+    a = (4 * i + j).ravel()
+    Q = np.stack([a, a + 4, a + 5, a + 1], axis=1)
+    info = viz.render_quads(V, Q, tmp_path / "q.png", **MPL)
+    assert info.n_singularities == 4
 
 
 def test_a_colorbar_of_small_values_shows_its_whole_exponent(tmp_path):

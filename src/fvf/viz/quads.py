@@ -1,9 +1,10 @@
 """Pictures of parameterizations and quad meshes, drawn with :func:`fvf.viz.render`.
 
 - :func:`render_quads`: a quad mesh shaded, its edges as a wireframe on top (thinner as
-  the quads get denser on screen), and its irregular vertices marked and named by valence,
-  in the colours of the cross-field index ``(4 − valence) / 4`` they come from (valence 3:
-  +1/4 yellow, valence 5: −1/4 sky blue, :func:`fvf.viz.index_color`).
+  the quads get denser on screen), and its irregular vertices (valence other than 4
+  inside, other than 3 on the boundary) marked and named by valence, in the colours of
+  the cross-field index ``(4 − valence) / 4`` they come from (valence 3: +1/4 yellow,
+  valence 5: −1/4 sky blue, :func:`fvf.viz.index_color`).
 - :func:`render_checkerboard`: a triangle mesh textured by the checkerboard of a
   per-corner parameterization, uv (m, 3, 2): each triangle is subdivided on its own (so
   seams stay seams) and each small triangle coloured by the parity of ⌊u⌋ + ⌊v⌋ at its
@@ -22,7 +23,7 @@ import numpy.typing as npt
 from ..errors import DuplicateVertexWarning, FvfError
 from ..mesh.convert import takes_mesh
 from ..mesh.trimesh import TriMesh
-from ..param.quality import quad_edges
+from ..param.quality import quad_boundary_vertices, quad_edges
 from .backends import RenderInfo, render
 
 __all__ = ["render_quads", "render_checkerboard", "quad_wireframe"]
@@ -76,7 +77,8 @@ def _without_fins(tris: np.ndarray) -> np.ndarray:
 def render_quads(
     vertices: npt.ArrayLike, quads: npt.ArrayLike, path: str | Path, **kwargs: Any
 ) -> RenderInfo:
-    """Render a quad mesh: shading, wireframe, irregular vertices by valence.
+    """Render a quad mesh: shading, wireframe, irregular vertices by valence (an
+    interior vertex of valence other than 4, a boundary vertex of valence other than 3).
 
     Parameters
     ----------
@@ -95,7 +97,9 @@ def render_quads(
     mesh = _shading_mesh(V, Q)
     edges = quad_edges(Q)[0]
     valence = np.bincount(edges.ravel(), minlength=V.shape[0])
-    irr = np.flatnonzero((valence != 4) & (valence > 0))
+    regular = np.full(V.shape[0], 4)
+    regular[quad_boundary_vertices(Q)] = 3  # on the boundary: 3; 2 marks a corner
+    irr = np.flatnonzero((valence != regular) & (valence > 0))
     sing = (V[irr], (4 - valence[irr]) / 4.0) if irr.size else None
     return render(
         mesh,
