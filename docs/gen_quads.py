@@ -91,12 +91,13 @@ WILD = (
     ("cad_plate_holes", 1500, (30, 35)),  # a CAD plate with holes, an STL soup
     ("cad_two_parts", 1500, (30, 30)),  # two parts in one file
     ("scan_body_holes", 2000, None),  # a scan with spikes and holes cut, y up: default view
+    ("tiny_strip", 1000, (20, 25)),  # a helical ribbon one triangle wide: its mirror image
 )
 
 
 def wild_pictures() -> None:
-    """Quads of a CAD part, a two-part file and an open scan: the input triangles beside the
-    result, with the feature edges followed."""
+    """Quads of a CAD part, a two-part file, an open scan and a ribbon: the input triangles
+    beside the result, with the feature edges followed."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "param"))
     import wild_corpus
 

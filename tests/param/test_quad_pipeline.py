@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 import fvf
+import quadcheck
 from fvf.mesh.shapes import midpoint_subdivision
-from fvf.param.caps import boundary_loops, capped, cut_caps
+from fvf.param import quadmesh
+from fvf.param.caps import boundary_loops, capped, cut_caps, doubled
 from fvf.param.features import (
     MIN_CHAIN,
     feature_constraints,
@@ -363,15 +365,15 @@ def test_domes_close_every_hole_and_their_quads_are_cut_off():
     assert cap.rim.size == n and cap.is_cap.sum() == cap.mesh.n_faces - mesh.n_faces
     made = fvf.quad_mesh(mesh, target_faces=100)
     assert topology_signature(made.vertices.shape[0], made.quads) == [(1, 1)]
-    V, Q = cut_caps(cap, *_all_cap_quads(cap))
-    assert Q.shape[0] == 0 and V.shape[0] == 0
+    V, Q, vf = cut_caps(cap, *_all_cap_quads(cap))
+    assert Q.shape[0] == 0 and V.shape[0] == 0 and vf.shape[0] == 0
 
 
 def _all_cap_quads(cap):
     """A quad on a dome (its centre lies on the dome): cut off."""
     top = cap.mesh.vertices[-1]
     P = top + 0.01 * np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
-    return P, np.array([[0, 1, 2, 3]])
+    return P, np.array([[0, 1, 2, 3]]), np.zeros(4, np.int64)  # faces unused by domes
 
 
 def _square_of_four(cap_squares):
@@ -395,14 +397,73 @@ def test_cutting_domes_never_leaves_two_quads_touching_at_a_corner():
     from fvf.param.quad_validity import quad_vertex_fans
 
     cap, V, Q = _square_of_four([1, 2])
-    V2, Q2 = cut_caps(cap, V, Q)
+    V2, Q2, _ = cut_caps(cap, V, Q, np.zeros(9, np.int64))
     assert Q2.shape == (4, 4) and (quad_vertex_fans(V2.shape[0], Q2) == 1).all()
     cap, V, Q = _square_of_four([1, 3])
-    V2, Q2 = cut_caps(cap, V, Q)
+    V2, Q2, _ = cut_caps(cap, V, Q, np.zeros(9, np.int64))
     assert Q2.shape == (2, 4) and (quad_vertex_fans(V2.shape[0], Q2) == 1).all()
 
 
 def test_a_cylinder_open_at_both_ends_keeps_its_two_loops():
+    made = fvf.quad_mesh(_open_cylinder(), target_faces=200)
+    assert topology_signature(made.vertices.shape[0], made.quads) == [(0, 2)]
+
+
+def _strip(n: int = 12) -> fvf.TriMesh:
+    """A flat strip one triangle wide: every interior edge is a chord (both ends on the
+    boundary), its inner faces have two chords, its end faces two boundary edges."""
+    x = np.arange(n, dtype=float)
+    V = np.concatenate([np.stack([x, 0 * x, 0 * x], 1), np.stack([x, 0 * x + 1, 0 * x], 1)])
+    i = np.arange(n - 1)
+    return fvf.TriMesh(
+        V, np.concatenate([np.stack([i, i + 1, i + n], 1), np.stack([i + 1, i + 1 + n, i + n], 1)])
+    )
+
+
+def _triforce() -> fvf.TriMesh:
+    """A face whose three edges are chords, with an ear (one chord) on each."""
+    V = np.array([[0, 0, 0], [2, 0, 0], [1, 1.7, 0], [1, -1, 0], [2.4, 1.2, 0], [-0.4, 1.2, 0]])
+    return fvf.TriMesh(V, np.array([[0, 1, 2], [0, 3, 1], [1, 4, 2], [2, 5, 0]]))
+
+
+def _boundary_pairs(mesh: fvf.TriMesh) -> set:
+    return {tuple(sorted(e)) for e in mesh.edges[mesh.boundary_edges].tolist()}
+
+
+@pytest.mark.parametrize("name", ["disk", "cylinder", "strip", "triforce"])
+def test_the_mirror_image_closes_an_open_surface_with_twice_its_area(name):
+    """Glued to its mirror image along its boundary: closed and manifold, chi = 2 chi(M),
+    exactly twice the area, every face of the copy on its twin with the opposite normal,
+    the rims are M's boundary edges, and no edge of M's sheet joins two rim vertices
+    without being a rim edge (the chords are split, else four faces would share them)."""
+    mesh = {
+        "disk": fvf.disk(4, 6),
+        "cylinder": _open_cylinder(),
+        "strip": _strip(),
+        "triforce": _triforce(),
+    }[name]
+    cap = doubled(mesh)
+    closed = cap.mesh
+    assert cap.mirrored and closed.is_closed
+    assert closed.euler_characteristic == 2 * mesh.euler_characteristic
+    assert closed.total_area == pytest.approx(2 * mesh.total_area, rel=1e-12)
+    m = closed.n_faces // 2
+    assert cap.is_cap.tolist() == [False] * m + [True] * m
+    np.testing.assert_allclose(closed.face_centroids[m:], closed.face_centroids[:m], atol=1e-12)
+    np.testing.assert_allclose(closed.face_normals[m:], -closed.face_normals[:m], atol=1e-12)
+    rim = {tuple(sorted(e)) for e in closed.edges[cap.rim].tolist()}
+    assert rim == _boundary_pairs(mesh) and cap.rim.min() >= 0
+    sheet = fvf.TriMesh(*fvf.remove_unreferenced_vertices(closed.vertices, closed.faces[:m])[:2])
+    assert sheet.total_area == pytest.approx(mesh.total_area, rel=1e-12)
+    ends = np.zeros(sheet.n_vertices, bool)
+    ends[sheet.boundary_vertices] = True
+    inner = (sheet.edge_faces >= 0).all(axis=1)
+    assert not (inner & ends[sheet.edges].all(axis=1)).any()
+    split = {"disk": 0, "cylinder": 0, "strip": 2 * 11 - 1, "triforce": 3}[name]
+    assert sheet.n_vertices == mesh.n_vertices + split
+
+
+def _open_cylinder() -> fvf.TriMesh:
     t = np.linspace(0, 2 * np.pi, 33)[:-1]
     z = np.linspace(0, 2, 17)
     X = np.stack(
@@ -412,8 +473,130 @@ def test_a_cylinder_open_at_both_ends_keeps_its_two_loops():
     i, j = np.meshgrid(np.arange(16), np.arange(32), indexing="ij")
     a, b = (i * 32 + j).ravel(), (i * 32 + (j + 1) % 32).ravel()
     F = np.concatenate([np.stack([a, b, b + 32], 1), np.stack([a, b + 32, a + 32], 1)])
-    made = fvf.quad_mesh(fvf.TriMesh(X, F), target_faces=200)
+    return fvf.TriMesh(X, F)
+
+
+def _rectangle(bend: float | None) -> fvf.TriMesh:
+    """A 4 x 1 rectangle, flat or rolled onto a cylinder of radius ``bend`` (an isometry)."""
+    u, v = np.meshgrid(np.linspace(0, 4, 41), np.linspace(0, 1, 11), indexing="ij")
+    u, v = u.ravel(), v.ravel()
+    X = (
+        np.c_[u, v, 0 * u]
+        if bend is None
+        else np.c_[bend * np.sin(u / bend), v, bend * np.cos(u / bend)]
+    )
+    i, j = np.meshgrid(np.arange(40), np.arange(10), indexing="ij")
+    a = (i * 11 + j).ravel()
+    return fvf.TriMesh(
+        X, np.concatenate([np.stack([a, a + 11, a + 12], 1), np.stack([a, a + 12, a + 1], 1)])
+    )
+
+
+@pytest.mark.parametrize("bend", [None, 2.0])
+def test_a_rectangle_closed_by_its_mirror_image_is_a_grid_with_its_corners(bend, monkeypatch):
+    """A 4 x 1 rectangle (flat, or rolled into a developable sheet) closed by its mirror
+    image (a pillowcase with four cones of index 1/2 at its corners; its domes would hold
+    2.4 and 1.6 times its area, so the mirror image is asked for first here) is meshed at
+    h = 0.2 as the 20 x 5 grid: the four corners in one quad each, the other 46 boundary
+    vertices in two, the 76 interior ones in four."""
+    monkeypatch.setattr(quadmesh, "DOME_AREA_LIMIT", 1.0)
+    mesh = _rectangle(bend)
+    made = fvf.quad_mesh(mesh, target_faces=100)
+    # one attempt: its grid lines run along the input's edges on both sheets, whose rays
+    # have the same 3D directions at the rims (extraction tells them apart by the sheet)
+    assert "smooth field, features as iso-lines" in made.attempts[0]
+    assert len(made.attempts) == 1
+    counts = np.bincount(np.bincount(made.quads.ravel()), minlength=5)
+    assert made.quads.shape[0] == 100 and counts.tolist() == [0, 4, 46, 0, 76]
+    assert quadcheck.check(mesh.vertices, mesh.faces, *map(np.asarray, made)).valid
+
+
+@pytest.mark.slow
+def test_a_rolled_rectangle_whose_domes_fail_is_closed_by_its_mirror_image():
+    """Every attempt on the domes over the rolled rectangle's boundary fails (12 attempts,
+    about 10 s); its mirror image gives the grid with its four corners."""
+    mesh = _rectangle(2.0)
+    made = fvf.quad_mesh(mesh, target_faces=100)
+    assert len(made.attempts) > 1 and "smooth field, features as iso-lines" in made.attempts[-1]
+    counts = np.bincount(np.bincount(made.quads.ravel()), minlength=5)
+    assert made.quads.shape[0] == 100 and counts.tolist() == [0, 4, 46, 0, 76]
+
+
+def _sheet(nu: int, nv: int, point) -> fvf.TriMesh:
+    """A grid of (nu - 1) x (nv - 1) squares, two triangles each, mapped by ``point(u, v)``
+    (u, v in [0, 1], arrays) to 3D."""
+    u, v = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv), indexing="ij")
+    i, j = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="ij")
+    a = (i * nv + j).ravel()
+    F = np.concatenate([np.stack([a, a + nv, a + nv + 1], 1), np.stack([a, a + nv + 1, a + 1], 1)])
+    return fvf.TriMesh(point(u.ravel(), v.ravel()), F)
+
+
+def _twisted(u, v):  # half a turn of twist along a 4 x 0.3 strip
+    s = 0.3 * (v - 0.5)
+    return np.stack([4 * u, s * np.cos(np.pi * u), s * np.sin(np.pi * u)], axis=1)
+
+
+def _helicoid(u, v):  # 1.5 turns, radii 0.3-0.8, pitch 2.5
+    t, r = 3 * np.pi * u, 0.3 + 0.5 * v
+    return np.stack([r * np.cos(t), r * np.sin(t), 0.4 * t], axis=1)
+
+
+@pytest.mark.parametrize(
+    "mesh",
+    [lambda: _sheet(200, 5, _twisted), lambda: _sheet(200, 6, _helicoid)],
+    ids=["twisted strip", "helicoid"],
+)
+def test_sheets_whose_boundary_winds_through_space_are_valid(mesh):
+    """Sheets whose one boundary loop winds through space: a twisted strip (domes 5 times
+    its area: its mirror image first) and a helicoid (domes 3.3 times: domes first, all
+    their attempts fail in about 30 s, then the mirror image; here the mirror image is
+    asked for first), valid by quadcheck with each of the four corners in one quad."""
+    M = mesh()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(quadmesh, "DOME_AREA_LIMIT", 1.0)
+        made = fvf.quad_mesh(M, target_faces=500)
+    assert quadcheck.check(M.vertices, M.faces, made.vertices, made.quads).valid
+    assert np.count_nonzero(np.bincount(made.quads.ravel()) == 1) == 4
+    assert topology_signature(made.vertices.shape[0], made.quads) == [(1, 1)]
+
+
+def test_an_open_surface_is_closed_the_other_way_when_every_attempt_fails(monkeypatch):
+    """Domes come first (over a cylinder's small ends), the mirror image where the domes
+    would hold more than DOME_AREA_LIMIT times the area (a strip); when every attempt on
+    one fails the other is tried, and its attempts follow the failed ones in the log;
+    when both fail, the error lists both."""
+    cylinder = quadmesh.component_parts(_open_cylinder())[0]
+    assert [name for name, _ in quadmesh._closures(cylinder, 0.2)] == [
+        "domes",
+        "its mirror image",
+    ]
+    strip = quadmesh.component_parts(_strip(40))[0]
+    assert [name for name, _ in quadmesh._closures(strip, 0.2)] == [
+        "its mirror image",
+        "domes",
+    ]
+    real = quadmesh._mesh_part
+
+    def domes_fail(part, plans, *args):
+        if not part.cap.mirrored:
+            raise fvf.QuadMeshError("domes failed", attempts=("a dome attempt",))
+        return real(part, plans, *args)
+
+    monkeypatch.setattr(quadmesh, "_mesh_part", domes_fail)
+    made = fvf.quad_mesh(_open_cylinder(), target_faces=200)
+    assert made.attempts[0] == "component 0: a dome attempt"
+    assert "features as iso-lines" in made.attempts[1]
     assert topology_signature(made.vertices.shape[0], made.quads) == [(0, 2)]
+
+    def all_fail(part, plans, *args):
+        raise fvf.QuadMeshError(f"{quadmesh._closure_name(part)} failed", attempts=("x",))
+
+    monkeypatch.setattr(quadmesh, "_mesh_part", all_fail)
+    with pytest.raises(fvf.QuadMeshError, match="(?s)domes failed.*by its mirror image instead"):
+        fvf.quad_mesh(_open_cylinder(), target_faces=200)
+    with pytest.raises(fvf.QuadMeshError, match="domes failed$"):
+        fvf.quad_mesh(_open_cylinder(), target_faces=200, retry=False)
 
 
 # ---------------------------------------------------------------------------- the result
@@ -665,7 +848,7 @@ def test_sharp_edges_denser_than_the_quads_are_no_features(monkeypatch):
     opts = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert quadmesh._own_features(part, coarse, opts) is None
     assert opts["dense features"] == {
-        (part.label, round(coarse, 12)): pytest.approx(2.5 * DENSE_FEATURES)
+        (part.label, round(coarse, 12), "domes"): pytest.approx(2.5 * DENSE_FEATURES)
     }
     fine = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert np.array_equal(quadmesh._own_features(part, coarse / 3, fine), sharp)

@@ -18,6 +18,20 @@ whose centres lie on a dome are then cut off, and the remaining quad vertices pu
 their closest points, and the vertices on the quads' boundary moved to their closest
 points on M's boundary loops (:func:`snap_boundary`). The result has M's
 boundary loops; :func:`fvf.param.quad_validity.check_quad_mesh` judges it against M.
+
+A dome over a loop that winds through space (a helical ribbon's) holds many times M's area,
+and meshing it fails. Such an M (or one whose domes fail) is closed instead by its
+**mirror image** (:func:`doubled`): a copy of M with every face's orientation reversed,
+glued to M along the boundary, :math:`\chi = 2\chi(M)` (a rectangle becomes a pillowcase
+whose four corners, where M's boundary turns by 90°, are cones of index 1/2). The copy lies
+on M, so the closed surface has exactly twice M's area, whatever
+the loops' shape; its cotangent weights, connection and angle defects are M's on each
+sheet, and the loops, where the surface folds back by 180°, are features. An interior edge
+of M with both ends on the boundary (a chord: a strip one triangle wide, a triangle with
+two boundary edges) would be shared by four faces of the glued surface, so each chord is
+split at its midpoint first. The quads of the closed surface never cross the loops when
+they are integer iso-lines; those of the copy are told apart by their orientation (their
+normal points against M's), not by position, which both sheets share.
 """
 
 from __future__ import annotations
@@ -35,7 +49,7 @@ from .quad_folds import closest_surface_points
 from .quad_validity import quad_vertex_fans
 from .quality import quad_boundary_vertices
 
-__all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "snap_boundary"]
+__all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "doubled", "snap_boundary"]
 
 #: Dome height over the loop's mean radius (57.5° at the rim, a sharp feature).
 DOME_HEIGHT = 1.0
@@ -55,11 +69,15 @@ class Capped:
         Faces of the domes.
     rim : int64 (k,)
         Edge ids (of ``mesh.edges``) of the boundary loops the domes close.
+    mirrored : bool
+        Closed by the open mesh's mirror image (:func:`doubled`), not by domes: then
+        ``is_cap`` marks the copy's faces.
     """
 
     mesh: TriMesh
     is_cap: np.ndarray
     rim: np.ndarray
+    mirrored: bool = False
 
     __repr__ = short_repr  # arrays by dtype and shape
     _repr_html_ = html_repr  # a table in Jupyter
@@ -185,15 +203,100 @@ def capped(mesh: TriMesh, spacing: float) -> Capped:
     return Capped(closed, is_cap, closed.edge_ids(np.concatenate(rim)))
 
 
-def cut_caps(cap: Capped, vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The quads whose centres lie on the open part (not on a dome), with their vertices
-    renumbered: float64 (k', 3), int64 (q', 4)."""
-    face, _ = closest_surface_points(cap.mesh, vertices[quads].mean(axis=1))
-    Q = quads[_unpinched(vertices.shape[0], quads, ~cap.is_cap[face])]
+def doubled(mesh: TriMesh) -> Capped:
+    """``mesh`` closed by its mirror image (module docstring).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+        One component with boundary loops, none pinched (else
+        :class:`fvf.ParameterizationInputError`).
+
+    Returns
+    -------
+    Capped
+        ``mirrored=True``; ``mesh.vertices`` are the open mesh's, then the chords'
+        midpoints, then the copies of the interior vertices; the faces are the open mesh's
+        with its chords split, then their mirror images in the same order.
+    """
+    boundary_loops(mesh)  # refuses pinched loops, which the gluing would leave pinched
+    V, F = _split_chords(mesh)
+    n, m = V.shape[0], F.shape[0]
+    inside = np.ones(n, dtype=bool)
+    inside[mesh.boundary_vertices] = False  # the chords' midpoints are interior
+    twin = np.arange(n)
+    twin[inside] = n + np.arange(int(inside.sum()))
+    closed = TriMesh(np.concatenate([V, V[inside]]), np.concatenate([F, twin[F][:, ::-1]]))
+    rim = closed.edge_ids(mesh.edges[mesh.boundary_edges])
+    return Capped(closed, np.arange(2 * m) >= m, rim, mirrored=True)
+
+
+def _split_chords(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
+    """``mesh``'s vertices and faces with every chord (an interior edge whose two ends lie
+    on the boundary) split at its midpoint: float64 (n + k, 3), the midpoints appended,
+    and int64 (m', 3), each face with its orientation. A face (a, b, c) with the edge
+    opposite a split at p becomes (a, b, p), (a, p, c); with the edges opposite b and c
+    split at q and r, (a, r, q), (r, b, c), (r, c, q); with all three split, the 1-to-4
+    midpoint subdivision. The midpoints are interior vertices, so no new chord appears."""
+    V, F = mesh.vertices, mesh.faces
+    ends = np.zeros(mesh.n_vertices, dtype=bool)
+    ends[mesh.boundary_vertices] = True
+    inner = (mesh.edge_faces >= 0).all(axis=1)
+    chords = np.flatnonzero(inner & ends[mesh.edges].all(axis=1))
+    if chords.size == 0:
+        return np.asarray(V, np.float64), np.asarray(F, np.int64)
+    mid = np.full(mesh.n_edges, -1, dtype=np.int64)
+    mid[chords] = mesh.n_vertices + np.arange(chords.size)
+    M = mid[mesh.face_edges]  # (m, 3): the midpoint opposite each corner, or -1
+    count = (M >= 0).sum(axis=1)
+    out = [F[count == 0]]
+    one = np.flatnonzero(count == 1)
+    i = np.argmax(M[one] >= 0, axis=1)
+    a, b, c, p = F[one, i], F[one, (i + 1) % 3], F[one, (i + 2) % 3], M[one, i]
+    out += [np.stack([a, b, p], axis=1), np.stack([a, p, c], axis=1)]
+    two = np.flatnonzero(count == 2)
+    k = np.argmin(M[two] >= 0, axis=1)  # the corner whose opposite edge stays
+    a, b, c = F[two, k], F[two, (k + 1) % 3], F[two, (k + 2) % 3]
+    q, r = M[two, (k + 1) % 3], M[two, (k + 2) % 3]
+    out += [np.stack(t, axis=1) for t in ((a, r, q), (r, b, c), (r, c, q))]
+    three = count == 3
+    (a, b, c), (pa, pb, pc) = F[three].T, M[three].T
+    out += [np.stack(t, axis=1) for t in ((a, pc, pb), (b, pa, pc), (c, pb, pa), (pa, pb, pc))]
+    W = np.concatenate([V, V[mesh.edges[chords]].mean(axis=1)])
+    return W, np.concatenate(out).astype(np.int64)
+
+
+def cut_caps(
+    cap: Capped, vertices: np.ndarray, quads: np.ndarray, vertex_faces: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quads of the open part (not on a dome, not on the mirror image), with their
+    vertices renumbered: float64 (k', 3), int64 (q', 4), and the kept vertices' faces of
+    ``cap.mesh``, int64 (k',). ``vertex_faces`` (k,) is each vertex's face of ``cap.mesh``.
+    A dome's quads are those whose centres' closest faces are the dome's; the mirror
+    image's, those whose normal points against the open mesh's faces at their corners."""
+    if cap.mirrored:
+        keep = _facing_open(cap, vertices, quads, vertex_faces)
+    else:
+        face, _ = closest_surface_points(cap.mesh, vertices[quads].mean(axis=1))
+        keep = ~cap.is_cap[face]
+    Q = quads[_unpinched(vertices.shape[0], quads, keep)]
     used = np.unique(Q)
     remap = np.full(vertices.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
-    return vertices[used], remap[Q]
+    return vertices[used], remap[Q], vertex_faces[used]
+
+
+def _facing_open(
+    cap: Capped, vertices: np.ndarray, quads: np.ndarray, vertex_faces: np.ndarray
+) -> np.ndarray:
+    """Whether each quad (q, 4) lies on the open sheet of a mirrored ``cap``: its normal
+    (the cross product of its diagonals) against the open sheet's face normals at its
+    corners (a face of the copy counts with its twin's normal, the opposite of its own)."""
+    P = vertices[quads]
+    normal = np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 1])
+    sheet = np.where(cap.is_cap, -1.0, 1.0)[vertex_faces[quads]]  # (q, 4)
+    n = cap.mesh.face_normals[vertex_faces[quads]] * sheet[..., None]
+    return np.einsum("qd,qcd->q", normal, n) > 0.0
 
 
 def _unpinched(n_vertices: int, quads: np.ndarray, keep: np.ndarray) -> np.ndarray:

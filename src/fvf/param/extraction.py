@@ -478,6 +478,12 @@ def _directions_3d(mesh: TriMesh, uv: np.ndarray, faces: np.ndarray, d: np.ndarr
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
+#: Weight of the faces' agreement (normal · normal, in [-1, 1]) beside the 3D direction's
+#: (in [-1, 1]) when a reverse ray is chosen by direction: far below the gap between two
+#: grid directions, it only decides between rays of one 3D direction on two sheets.
+SHEET_TIE_BREAK = 1e-3
+
+
 def _opposites(
     mesh: TriMesh,
     uv: np.ndarray,
@@ -495,7 +501,9 @@ def _opposites(
     Usually the reverse ray lies in the face where the trace arrived; when the half-open
     rule gives it to another face around the end point (a ray along or through a mesh
     edge or vertex), it is the ray at that point whose 3D direction is closest to the
-    reverse direction.
+    reverse direction; of two rays in the same 3D direction (two sheets that lie on each
+    other: a surface glued to its mirror image, :func:`fvf.param.caps.doubled`), the one
+    whose face faces the same way as the face the trace arrived in.
     """
     back = -hdir
     di = np.argmax(np.einsum("kd,jd->kj", back, DIRS), axis=1)
@@ -511,10 +519,13 @@ def _opposites(
         by_point = np.argsort(rays.point, kind="stable")
         start = np.searchsorted(rays.point[by_point], dst[fix], side="left")
         stop = np.searchsorted(rays.point[by_point], dst[fix], side="right")
+        normals = mesh.face_normals
         for i, (lo, hi) in enumerate(zip(start, stop, strict=True)):  # the few ambiguous rays
             cand = by_point[lo:hi]
             if cand.size:
-                out[fix[i]] = cand[np.argmax(ray_dirs[cand] @ want[i])]
+                side = normals[rays.face[cand]] @ normals[hface[fix[i]]]
+                score = ray_dirs[cand] @ want[i] + SHEET_TIE_BREAK * side
+                out[fix[i]] = cand[np.argmax(score)]
     return out
 
 

@@ -94,6 +94,9 @@ __all__ = [
     "warn_folded",
 ]
 
+#: Which untangling passes :func:`untangle_quads` runs.
+Passes = Literal["both", "first", "verdict"]
+
 #: Input triangles (nearest centroids) searched for the closest point on the surface.
 CANDIDATES = 32
 #: Triangles of the nearest surface samples also searched (:func:`surface_sample_tree`).
@@ -648,7 +651,7 @@ def untangle_quads(
     vertex_face: npt.ArrayLike,
     *,
     max_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
-    passes: Literal["both", "first", "verdict"] = "both",
+    passes: Passes = "both",
 ) -> FoldRepair:
     """Unfold folded quads by relaxing their corners on the input surface (module docstring).
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -37,7 +37,7 @@ from ..mesh.open_seams import weld_open_seams
 from ..mesh.trimesh import TriMesh
 from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
-from .caps import capped, cut_caps, snap_boundary
+from .caps import capped, cut_caps, doubled, snap_boundary
 from .decimation import decimated_for_quads
 from .extraction import extract_quads
 from .features import (
@@ -54,6 +54,7 @@ from .quad_failures import describe_places, failure_places, resolving_edge
 from .quad_folds import (
     MAX_RINGS,
     STEPS_PER_RING,
+    Passes,
     closest_surface_points,
     folded_quads,
     untangle_quads,
@@ -89,9 +90,11 @@ FINER_ATTEMPTS = 3
 SIZED_REFINEMENT = 1.2
 #: A sized attempt that makes more than this many times the quads asked says so.
 SIZED_WARN = 1.5
-#: An open component whose domes hold more than this many times its area gets one
-#: attempt, not the retries (a helical ribbon's dome is 9.4 times the ribbon: 600 s of
-#: retries, every one failed).
+#: An open component whose domes would hold more than this many times its area is closed
+#: by its mirror image first (:func:`fvf.param.caps.doubled`, which adds exactly its
+#: area), by domes only if that fails; below it, domes first (a helical ribbon's domes hold
+#: 9.4 times the ribbon and every attempt on them failed; a flat disk's hold 2 times it,
+#: and its quads' corners are 5° from square on domes, 11° on its mirror image).
 DOME_AREA_LIMIT = 4.0
 #: Ring spacing of the domes that close open components, in quad edges.
 CAP_SPACING = 0.5
@@ -163,6 +166,8 @@ def _plans(
     """The attempts for one component, in order (``docs/quads.md``); with ``rims_only``
     (the only features are the rims of the domes over its holes: a scan with holes) those
     with the features as iso-lines follow the first without."""
+    if part.cap is not None and part.cap.mirrored:
+        return _mirrored_plans(h, align, retry)
     if not retry:
         return [_Plan(remesh is True, align, h, features)]
     other: Alignment = "smooth" if align == "curvature" else "curvature"
@@ -188,6 +193,24 @@ def _plans(
         iso = [_Plan(can, align, finer, isolines=True, strips=True)] if features else []
         plans += held + iso if rims_only else iso + held
     return list(dict.fromkeys(plans))
+
+
+def _mirrored_plans(h: float, align: Alignment, retry: bool) -> list[_Plan]:
+    """The attempts for a component closed by its mirror image: on the input surface (the
+    remeshers and the decimation would join or move the two sheets, which lie on each
+    other), its boundary loops as iso-lines (else quads would fold across them); the
+    smoothest field, then the curvature-aligned one (the curvature at the loops is the
+    fold's, and it pulled the cones of a ribbon's corners off them), then thin strips
+    stretched, then 1.5× and 2.25× the quads. Without ``retry``, one attempt with
+    ``align``."""
+    if not retry:
+        return [_Plan(False, align, h, isolines=True)]
+    plans = []
+    for k, edge in enumerate((h, h * MORE_QUADS, h * MORE_QUADS**2)):
+        fields: tuple[Alignment, ...] = ("smooth", "curvature") if k == 0 else ("smooth",)
+        plans += [_Plan(False, a, edge, isolines=True) for a in fields]
+        plans += [_Plan(False, "smooth", edge, isolines=True, strips=True)]
+    return plans
 
 
 def _surface(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> TriMesh:
@@ -236,10 +259,10 @@ def _density(part: Part, h: float, opts: dict) -> float | None:
     return opts.get("dense features", {}).get(_part_key(part, h))
 
 
-def _part_key(part: Part, h: float) -> tuple[int, float]:
-    """The key of what is found once per component and quad edge (its own features, their
-    density)."""
-    return (part.label, round(h, 12))
+def _part_key(part: Part, h: float) -> tuple[int, float, str]:
+    """The key of what is found once per component, closure and quad edge (its own
+    features, their density)."""
+    return (part.label, round(h, 12), _closure_name(part))
 
 
 def _resolved(
@@ -276,6 +299,7 @@ def _decimated(part: Part, h: float, surfaces: dict, opts: dict) -> bool:
     if key not in surfaces:
         found = _features(part, part.closed, h, opts)
         sharp = _featured(found) and not _only_rims(part, found)
+        sharp = sharp or (part.cap is not None and part.cap.mirrored)
         surfaces[key] = None if sharp else decimated_for_quads(part.closed, h)
     return surfaces[key] is not None
 
@@ -329,22 +353,21 @@ def _attempt(
         exc.where = surface.face_centroids[param.flipped]
         raise
     elsewhere = surface is not part.mesh  # the quads are then judged on the input
-    repair = untangle_quads(
-        surface,
-        qm.vertices,
-        qm.quads,
-        qm.vertex_face,
-        max_steps=opts["steps"],
-        passes="first" if elsewhere else "both",
-    )
+    mirrored = part.cap is not None and part.cap.mirrored  # untangled on the input only
+    V, vf, Q, folds = qm.vertices, qm.vertex_face, qm.quads, None
+    if not mirrored:  # the mirror image lies on the input: its closest faces are ambiguous
+        repair = untangle_quads(
+            surface, V, Q, vf, max_steps=opts["steps"], passes="first" if elsewhere else "both"
+        )
+        V, vf, folds = repair.vertices, repair.vertex_face, repair.verdict
     report("quad extraction", 1, 1)
-    V, vf, Q, folds = repair.vertices, repair.vertex_face, qm.quads, repair.verdict
     if part.cap is not None:
-        V, Q = cut_caps(part.cap, V, Q)
+        V, Q, vf = cut_caps(part.cap, V, Q, vf)
     on_surface = V
     if elsewhere:
         vf, V = closest_surface_points(part.mesh, V, exact=True)
-        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"], passes="verdict")
+        passes: Passes = "both" if mirrored else "verdict"
+        back = untangle_quads(part.mesh, V, Q, vf, max_steps=opts["steps"], passes=passes)
         V, vf, folds = back.vertices, back.vertex_face, back.verdict
     if part.cap is not None:
         V, vf = _snapped(part.mesh, V, Q, vf, on_surface)
@@ -711,27 +734,9 @@ def _mesh_parts(
         if small:
             hp = float(np.sqrt(part.mesh.total_area / MIN_COMPONENT_QUADS))
         fp = None if field is None else field[part.faces]
-        if not part.mesh.is_closed:
-            part = dataclasses.replace(part, cap=capped(part.mesh, CAP_SPACING * hp))
-        found = _features(part, part.closed, hp, opts)
-        _warn_dense(part, hp, opts)
-        featured = _featured(found)
-        rims = featured and _only_rims(part, found)
-        dome = _dome_ratio(part)
-        tries = retry and dome <= DOME_AREA_LIMIT
-        plans = _plans(part, hp, align, tries, remesh, featured, rims)
         try:
-            made.append((part, _mesh_part(part, plans, fp, opts, report)))
-            _warn_if_raised(part, made[-1][1], hp)
-        except QuadMeshError as exc:
-            finer = _finer(part, exc, plans, align, tries, remesh, featured, rims)
-            if finer:
-                with contextlib.suppress(QuadMeshError):
-                    made.append((part, _mesh_part(part, finer, fp, opts, report)))
-                    _warn_raised(part, exc, hp, finer[0].h)
-                    continue
-            if retry and not tries:
-                exc.args = (f"{exc.args[0]}\n{_dome_note(dome)}",)
+            made.append(_mesh_closures(part, hp, fp, align, retry, remesh, opts, report))
+        except QuadMeshError:
             if not small or len(parts) == 1:
                 raise
             dropped.append(part)
@@ -749,24 +754,94 @@ def _mesh_parts(
     return made, dropped
 
 
-def _dome_ratio(part: Part) -> float:
-    """The area of the domes closing ``part`` (:mod:`.caps`) over its own, 0 when closed.
-    Above :data:`DOME_AREA_LIMIT` (a ribbon, whose one boundary loop winds through space)
-    every attempt spends most of its time on the domes, so one is made."""
-    if part.cap is None:
-        return 0.0
-    cap = part.cap
-    return float(cap.mesh.face_areas[cap.is_cap].sum()) / part.mesh.total_area
-
-
-def _dome_note(ratio: float) -> str:
-    """Why a component got one attempt: its domes hold ``ratio`` times its area."""
-    return (
-        f"One attempt only: the domes that close its boundary loops hold {ratio:.2g} times "
-        "its area (a ribbon or strip whose boundary winds through space), so retries would "
-        "mostly mesh the domes. Close the surface, or mesh it in pieces whose boundary "
-        "loops are nearly flat."
+def _mesh_closures(
+    part: Part,
+    h: float,
+    field: np.ndarray | None,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple[Part, tuple]:
+    """The component with the closed surface it was meshed on, and what :func:`_mesh_part`
+    made there: on each of :func:`_closures` in turn (the second only with ``retry``)
+    until one gives a valid mesh, else :class:`fvf.QuadMeshError` with their attempts."""
+    closures = _closures(part, h)
+    failed: list[QuadMeshError] = []
+    for _, close in closures if retry else closures[:1]:
+        try:
+            closed = close()
+            made = _mesh_closed(closed, h, field, align, retry, remesh, opts, report)
+        except QuadMeshError as exc:
+            failed.append(exc)
+            continue
+        earlier = tuple(line for exc in failed for line in exc.attempts)
+        return closed, (*made[:-1], [*earlier, *made[-1]])
+    if len(failed) == 1:
+        raise failed[0]
+    first, second = failed
+    raise QuadMeshError(
+        f"{first}\nClosed by {closures[1][0]} instead, "
+        f"{len(second.attempts)} more attempts failed:\n  " + "\n  ".join(second.attempts),
+        attempts=first.attempts + second.attempts,
+        best=first.best or second.best,
+        places=first.places + second.places,
     )
+
+
+def _closures(part: Part, h: float) -> list[tuple[str, Callable[[], Part]]]:
+    """How ``part`` is closed for meshing, in order: (name, the closed part when called).
+    Itself when closed; else by domes with rings about ``CAP_SPACING * h`` apart
+    (:func:`fvf.param.caps.capped`) and by its mirror image
+    (:func:`fvf.param.caps.doubled`, made only if tried), the mirror image first where the
+    domes would hold more than :data:`DOME_AREA_LIMIT` times its area (a ribbon: a
+    boundary loop that winds through space)."""
+    if part.mesh.is_closed:
+        return [("itself", lambda: part)]
+    cap = capped(part.mesh, CAP_SPACING * h)
+    domes = ("domes", lambda: dataclasses.replace(part, cap=cap))
+    mirror = ("its mirror image", lambda: dataclasses.replace(part, cap=doubled(part.mesh)))
+    added = float(cap.mesh.face_areas[cap.is_cap].sum())
+    return [mirror, domes] if added > DOME_AREA_LIMIT * part.mesh.total_area else [domes, mirror]
+
+
+def _closure_name(part: Part) -> str:
+    """How an open component was closed, for messages."""
+    return "its mirror image" if part.cap is not None and part.cap.mirrored else "domes"
+
+
+def _mesh_closed(
+    part: Part,
+    h: float,
+    field: np.ndarray | None,
+    align: Alignment,
+    retry: bool,
+    remesh: bool | str,
+    opts: dict,
+    report: ProgressCallback,
+) -> tuple:
+    """:func:`_mesh_part` on the closed surface of ``part`` with its attempts, then (when
+    they all failed at parts narrower than a quad) with more quads (:func:`_finer`)."""
+    found = _features(part, part.closed, h, opts)
+    _warn_dense(part, h, opts)
+    featured = _featured(found)
+    rims = featured and _only_rims(part, found)
+    plans = _plans(part, h, align, retry, remesh, featured, rims)
+    try:
+        made = _mesh_part(part, plans, field, opts, report)
+    except QuadMeshError as exc:
+        finer = _finer(part, exc, plans, align, retry, remesh, featured, rims)
+        if not finer:
+            raise
+        try:
+            made = _mesh_part(part, finer, field, opts, report)
+        except QuadMeshError:
+            raise exc from None
+        _warn_raised(part, exc, h, finer[0].h)
+        return made
+    _warn_if_raised(part, made, h)
+    return made
 
 
 def _featured(features: np.ndarray | None) -> bool:
