@@ -561,6 +561,48 @@ def test_sheets_whose_boundary_winds_through_space_are_valid(mesh):
     assert topology_signature(made.vertices.shape[0], made.quads) == [(1, 1)]
 
 
+def test_a_folded_quad_on_the_open_sheet_is_told_apart_by_its_corners_not_its_normal():
+    """A 3 x 3 grid of squares and its mirror image's quads, quad 0 folded (its inner
+    corner pulled past the outer one, on both sheets): the sheet of the faces of its
+    corners off the loops says it is the open sheet's, whatever its normal says; so the
+    open sheet's nine quads are kept (for the untangling on the input) and the copy's cut."""
+    from fvf.param.caps import _facing_open
+
+    g = np.arange(16).reshape(4, 4)
+    x, y = np.meshgrid(np.arange(4.0), np.arange(4.0), indexing="ij")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(16)], axis=1)
+    a, b, c, d = g[:-1, :-1].ravel(), g[1:, :-1].ravel(), g[1:, 1:].ravel(), g[:-1, 1:].ravel()
+    cap = doubled(fvf.TriMesh(V, np.r_[np.c_[a, b, c], np.c_[a, c, d]]))
+    m, n = cap.mesh.n_faces // 2, cap.mesh.n_vertices
+    copies = np.setdiff1d(cap.mesh.faces[m:], cap.mesh.faces[:m])  # (chords split first)
+    twin = np.arange(n)
+    for v in copies:
+        twin[np.flatnonzero((cap.mesh.vertices[:16] == cap.mesh.vertices[v]).all(axis=1))] = v
+    Q = np.r_[np.c_[a, b, c, d], twin[np.c_[a, b, c, d]][:, ::-1]]
+    vf = np.array([np.flatnonzero((cap.mesh.faces == v).any(axis=1))[0] for v in range(n)])
+    X = cap.mesh.vertices.copy()
+    X[5] = X[twin[5]] = [-0.5, -0.5, 0.0]  # quad 0 (0, 4, 5, 1) and its twin folded
+    assert _facing_open(cap, X, Q, vf).tolist() == [True] * 9 + [False] * 9
+
+
+def test_a_users_feature_edge_that_is_a_chord_follows_its_split():
+    """A user's feature edge across a strip one triangle wide is a chord, split before the
+    gluing: its two halves are the feature (it was refused as no edge of the mesh)."""
+    strip = _strip(40)
+    made = fvf.quad_mesh(strip, target_faces=120, features=[[15, 55]])
+    assert quadcheck.check(strip.vertices, strip.faces, made.vertices, made.quads).valid
+    assert "its mirror image" in made.attempts[0]
+
+
+def test_a_mirror_image_that_cannot_be_built_yields_to_the_domes():
+    """Splitting a sliver's chord leaves faces too thin for the mesh checks: closing by
+    the mirror image fails as one attempt, and the domes are tried (here they fail too:
+    a typed error naming both closures)."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 3e-14, 0], [1, 1, 0]], float)
+    with pytest.raises(fvf.QuadMeshError, match="(?s)closing it by its mirror image failed.*domes"):
+        fvf.quad_mesh(fvf.TriMesh(V, np.array([[0, 1, 2], [1, 3, 2]])), target_faces=20)
+
+
 def test_an_open_surface_is_closed_the_other_way_when_every_attempt_fails(monkeypatch):
     """Domes come first (over a cylinder's small ends), the mirror image where the domes
     would hold more than DOME_AREA_LIMIT times the area (a strip); when every attempt on
@@ -585,8 +627,8 @@ def test_an_open_surface_is_closed_the_other_way_when_every_attempt_fails(monkey
 
     monkeypatch.setattr(quadmesh, "_mesh_part", domes_fail)
     made = fvf.quad_mesh(_open_cylinder(), target_faces=200)
-    assert made.attempts[0] == "component 0: a dome attempt"
-    assert "features as iso-lines" in made.attempts[1]
+    assert made.attempts[0] == "component 0: domes: a dome attempt"
+    assert made.attempts[1].startswith("component 0: its mirror image: input surface")
     assert topology_signature(made.vertices.shape[0], made.quads) == [(0, 2)]
 
     def all_fail(part, plans, *args):

@@ -30,13 +30,14 @@ sheet, and the loops, where the surface folds back by 180°, are features. An in
 of M with both ends on the boundary (a chord: a strip one triangle wide, a triangle with
 two boundary edges) would be shared by four faces of the glued surface, so each chord is
 split at its midpoint first. The quads of the closed surface never cross the loops when
-they are integer iso-lines; those of the copy are told apart by their orientation (their
-normal points against M's), not by position, which both sheets share.
+they are integer iso-lines; those of the copy are told apart by the sheet of the faces
+under their corners off the loops (by their normal, which points against M's, where all
+four lie on a loop), not by position, which both sheets share.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -49,7 +50,16 @@ from .quad_folds import closest_surface_points
 from .quad_validity import quad_vertex_fans
 from .quality import quad_boundary_vertices
 
-__all__ = ["Capped", "boundary_loops", "capped", "cut_caps", "doubled", "snap_boundary"]
+__all__ = [
+    "Capped",
+    "boundary_loops",
+    "capped",
+    "closest_on_segments",
+    "cut_caps",
+    "doubled",
+    "snap_boundary",
+    "split_pairs",
+]
 
 #: Dome height over the loop's mean radius (57.5° at the rim, a sharp feature).
 DOME_HEIGHT = 1.0
@@ -72,12 +82,16 @@ class Capped:
     mirrored : bool
         Closed by the open mesh's mirror image (:func:`doubled`), not by domes: then
         ``is_cap`` marks the copy's faces.
+    chords : int64 (k, 3)
+        With ``mirrored``: each chord of the open mesh split before the gluing, as its
+        two ends and its midpoint (vertices of ``mesh``); else empty.
     """
 
     mesh: TriMesh
     is_cap: np.ndarray
     rim: np.ndarray
     mirrored: bool = False
+    chords: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
 
     __repr__ = short_repr  # arrays by dtype and shape
     _repr_html_ = html_repr  # a table in Jupyter
@@ -220,7 +234,7 @@ def doubled(mesh: TriMesh) -> Capped:
         with its chords split, then their mirror images in the same order.
     """
     boundary_loops(mesh)  # refuses pinched loops, which the gluing would leave pinched
-    V, F = _split_chords(mesh)
+    V, F, chords = _split_chords(mesh)
     n, m = V.shape[0], F.shape[0]
     inside = np.ones(n, dtype=bool)
     inside[mesh.boundary_vertices] = False  # the chords' midpoints are interior
@@ -228,13 +242,32 @@ def doubled(mesh: TriMesh) -> Capped:
     twin[inside] = n + np.arange(int(inside.sum()))
     closed = TriMesh(np.concatenate([V, V[inside]]), np.concatenate([F, twin[F][:, ::-1]]))
     rim = closed.edge_ids(mesh.edges[mesh.boundary_edges])
-    return Capped(closed, np.arange(2 * m) >= m, rim, mirrored=True)
+    return Capped(closed, np.arange(2 * m) >= m, rim, mirrored=True, chords=chords)
 
 
-def _split_chords(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
+def split_pairs(cap: Capped, pairs: np.ndarray) -> np.ndarray:
+    """Vertex pairs (k, 2) of the open mesh as pairs of ``cap.mesh``: a chord split by
+    :func:`doubled` becomes its two halves (its ends and midpoint), int64 (k', 2)."""
+    P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if cap.chords.size == 0 or P.size == 0:
+        return P
+    n = cap.mesh.n_vertices
+    key = P.min(axis=1) * n + P.max(axis=1)
+    ends = cap.chords[:, :2]
+    chord_key = ends.min(axis=1) * n + ends.max(axis=1)
+    order = np.argsort(chord_key)
+    at = np.clip(np.searchsorted(chord_key[order], key), 0, order.size - 1)
+    split = chord_key[order[at]] == key
+    c = cap.chords[order[at[split]]]
+    halves = np.concatenate([c[:, [0, 2]], c[:, [2, 1]]])
+    return np.concatenate([P[~split], halves])
+
+
+def _split_chords(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``mesh``'s vertices and faces with every chord (an interior edge whose two ends lie
     on the boundary) split at its midpoint: float64 (n + k, 3), the midpoints appended,
-    and int64 (m', 3), each face with its orientation. A face (a, b, c) with the edge
+    int64 (m', 3), each face with its orientation, and the chords as (end, end, midpoint),
+    int64 (k, 3). A face (a, b, c) with the edge
     opposite a split at p becomes (a, b, p), (a, p, c); with the edges opposite b and c
     split at q and r, (a, r, q), (r, b, c), (r, c, q); with all three split, the 1-to-4
     midpoint subdivision. The midpoints are interior vertices, so no new chord appears."""
@@ -244,7 +277,7 @@ def _split_chords(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
     inner = (mesh.edge_faces >= 0).all(axis=1)
     chords = np.flatnonzero(inner & ends[mesh.edges].all(axis=1))
     if chords.size == 0:
-        return np.asarray(V, np.float64), np.asarray(F, np.int64)
+        return np.asarray(V, np.float64), np.asarray(F, np.int64), np.zeros((0, 3), np.int64)
     mid = np.full(mesh.n_edges, -1, dtype=np.int64)
     mid[chords] = mesh.n_vertices + np.arange(chords.size)
     M = mid[mesh.face_edges]  # (m, 3): the midpoint opposite each corner, or -1
@@ -263,7 +296,8 @@ def _split_chords(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray]:
     (a, b, c), (pa, pb, pc) = F[three].T, M[three].T
     out += [np.stack(t, axis=1) for t in ((a, pc, pb), (b, pa, pc), (c, pb, pa), (pa, pb, pc))]
     W = np.concatenate([V, V[mesh.edges[chords]].mean(axis=1)])
-    return W, np.concatenate(out).astype(np.int64)
+    split = np.column_stack([mesh.edges[chords], mid[chords]])
+    return W, np.concatenate(out).astype(np.int64), split
 
 
 def cut_caps(
@@ -289,14 +323,46 @@ def cut_caps(
 def _facing_open(
     cap: Capped, vertices: np.ndarray, quads: np.ndarray, vertex_faces: np.ndarray
 ) -> np.ndarray:
-    """Whether each quad (q, 4) lies on the open sheet of a mirrored ``cap``: its normal
-    (the cross product of its diagonals) against the open sheet's face normals at its
-    corners (a face of the copy counts with its twin's normal, the opposite of its own)."""
+    """Whether each quad (q, 4) lies on the open sheet of a mirrored ``cap``: the sheet of
+    the faces its corners off the loops lie on (no quad crosses a loop; a corner on a loop
+    lies on both sheets); where they are all on the loops (or disagree), its normal (the
+    cross product of its diagonals) against the open sheet's face normals at its corners
+    (a face of the copy counts with its twin's normal, the opposite of its own)."""
+    sheet = np.where(cap.is_cap, -1, 1)[vertex_faces[quads]]  # (q, 4)
+    mesh = cap.mesh
+    A, B = mesh.vertices[mesh.edges[cap.rim, 0]], mesh.vertices[mesh.edges[cap.rim, 1]]
+    p, _ = closest_on_segments(A, B, vertices)
+    diagonal = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    off = np.linalg.norm(p - vertices, axis=1) > RIM_TOL * diagonal
+    vote = (sheet * off[quads]).sum(axis=1)
     P = vertices[quads]
     normal = np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 1])
-    sheet = np.where(cap.is_cap, -1.0, 1.0)[vertex_faces[quads]]  # (q, 4)
-    n = cap.mesh.face_normals[vertex_faces[quads]] * sheet[..., None]
-    return np.einsum("qd,qcd->q", normal, n) > 0.0
+    n = mesh.face_normals[vertex_faces[quads]] * sheet[..., None]
+    facing = np.einsum("qd,qcd->q", normal, n) > 0.0
+    return np.where(vote != 0, vote > 0, facing)
+
+
+#: A quad vertex within this fraction of the diagonal of a loop of a mirrored surface lies
+#: on it (the extraction puts such vertices on the loop's edges up to round-off).
+RIM_TOL = 1e-9
+
+
+def closest_on_segments(
+    A: np.ndarray, B: np.ndarray, x: np.ndarray, candidates: int = 16
+) -> tuple[np.ndarray, np.ndarray]:
+    """The closest points to x (k, 3) on the segments A_i B_i (s, 3), among the
+    ``candidates`` segments whose midpoints are nearest: float64 (k, 3) and the segment
+    of each, int64 (k,)."""
+    mids = 0.5 * (A + B)
+    cand = cKDTree(mids).query(x, k=min(candidates, A.shape[0]))[1].reshape(x.shape[0], -1)
+    a, d = A[cand], (B - A)[cand]  # (r, c, 3)
+    t = np.einsum("rcd,rcd->rc", x[:, None] - a, d) / np.maximum(
+        np.einsum("rcd,rcd->rc", d, d), 1e-300
+    )
+    p = a + np.clip(t, 0.0, 1.0)[..., None] * d
+    j = np.argmin(np.einsum("rcd,rcd->rc", p - x[:, None], p - x[:, None]), axis=1)
+    rows = np.arange(x.shape[0])
+    return p[rows, j], cand[rows, j]
 
 
 def _unpinched(n_vertices: int, quads: np.ndarray, keep: np.ndarray) -> np.ndarray:
@@ -328,19 +394,10 @@ def snap_boundary(
     if rim.size == 0 or b.size == 0:
         return vertices, vertex_faces
     A, B = mesh.vertices[mesh.edges[b, 0]], mesh.vertices[mesh.edges[b, 1]]
-    x = vertices[rim]
-    mids = 0.5 * (A + B)
-    cand = cKDTree(mids).query(x, k=min(16, b.size))[1].reshape(x.shape[0], -1)
-    a, d = A[cand], (B - A)[cand]  # (r, c, 3)
-    t = np.einsum("rcd,rcd->rc", x[:, None] - a, d) / np.maximum(
-        np.einsum("rcd,rcd->rc", d, d), 1e-300
-    )
-    p = a + np.clip(t, 0.0, 1.0)[..., None] * d
-    j = np.argmin(np.einsum("rcd,rcd->rc", p - x[:, None], p - x[:, None]), axis=1)
-    rows = np.arange(x.shape[0])
+    p, segment = closest_on_segments(A, B, vertices[rim])
     V = vertices.copy()
-    V[rim] = p[rows, j]
+    V[rim] = p
     vf = vertex_faces.copy()
-    ef = mesh.edge_faces[b[cand[rows, j]]]
+    ef = mesh.edge_faces[b[segment]]
     vf[rim] = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1])
     return V, vf

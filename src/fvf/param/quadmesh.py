@@ -20,6 +20,7 @@ import numpy.typing as npt
 from ..errors import (
     DenseFeaturesWarning,
     DistortedQuadsWarning,
+    FvfError,
     ParameterError,
     ProblemSizeError,
     QuadCountRaisedWarning,
@@ -37,7 +38,7 @@ from ..mesh.open_seams import weld_open_seams
 from ..mesh.trimesh import TriMesh
 from ..numerics.budget import check_memory
 from ..numerics.progress import ProgressCallback, make_progress
-from .caps import capped, cut_caps, doubled, snap_boundary
+from .caps import capped, cut_caps, doubled, snap_boundary, split_pairs
 from .decimation import decimated_for_quads
 from .extraction import extract_quads
 from .features import (
@@ -424,7 +425,10 @@ def _own_features(part: Part, h: float, opts: dict) -> np.ndarray | None:
         local = np.full(whole.n_vertices, -1, dtype=np.int64)
         local[part.vertices] = np.arange(part.vertices.size)
         mine = local[pairs]
-        found.append(feature_edge_ids(mesh, mine[(mine >= 0).all(axis=1)]))
+        mine = mine[(mine >= 0).all(axis=1)]
+        if part.cap is not None:  # the halves of a chord the mirror image split
+            mine = split_pairs(part.cap, mine)
+        found.append(feature_edge_ids(mesh, mine))
     if not found:
         return None
     return np.unique(np.concatenate(found))
@@ -769,25 +773,42 @@ def _mesh_closures(
     until one gives a valid mesh, else :class:`fvf.QuadMeshError` with their attempts."""
     closures = _closures(part, h)
     failed: list[QuadMeshError] = []
-    for _, close in closures if retry else closures[:1]:
+    named = len(closures) > 1 and retry  # an open component: its attempts say how it was closed
+    for name, close in closures if retry else closures[:1]:
         try:
-            closed = close()
+            closed = _closed(name, close)
             made = _mesh_closed(closed, h, field, align, retry, remesh, opts, report)
         except QuadMeshError as exc:
+            if named:
+                exc.attempts = tuple(f"{name}: {line}" for line in exc.attempts)
             failed.append(exc)
             continue
-        earlier = tuple(line for exc in failed for line in exc.attempts)
-        return closed, (*made[:-1], [*earlier, *made[-1]])
+        log = [f"{name}: {line}" for line in made[-1]] if named else made[-1]
+        earlier = [line for exc in failed for line in exc.attempts]
+        return closed, (*made[:-1], [*earlier, *log])
     if len(failed) == 1:
         raise failed[0]
     first, second = failed
     raise QuadMeshError(
-        f"{first}\nClosed by {closures[1][0]} instead, "
+        f"closed by {closures[0][0]}: {first}\nClosed by {closures[1][0]} instead, "
         f"{len(second.attempts)} more attempts failed:\n  " + "\n  ".join(second.attempts),
         attempts=first.attempts + second.attempts,
         best=first.best or second.best,
         places=first.places + second.places,
     )
+
+
+def _closed(name: str, close: Callable[[], Part]) -> Part:
+    """``close()``; an fvf error in it (a chord split into faces too thin for the mesh
+    checks) as a :class:`fvf.QuadMeshError` whose one attempt says so, so that the other
+    closure is tried."""
+    try:
+        return close()
+    except QuadMeshError:
+        raise
+    except FvfError as exc:
+        line = f"closing it: {type(exc).__name__}: {_first_line(exc)}"
+        raise QuadMeshError(f"closing it by {name} failed: {exc}", attempts=(line,)) from exc
 
 
 def _closures(part: Part, h: float) -> list[tuple[str, Callable[[], Part]]]:
