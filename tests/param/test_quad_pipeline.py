@@ -594,13 +594,20 @@ def test_a_users_feature_edge_that_is_a_chord_follows_its_split():
     assert "its mirror image" in made.attempts[0]
 
 
-def test_a_mirror_image_that_cannot_be_built_yields_to_the_domes():
+def test_a_mirror_image_that_cannot_be_built_yields_to_the_domes(monkeypatch):
     """Splitting a sliver's chord leaves faces too thin for the mesh checks: closing by
-    the mirror image fails as one attempt, and the domes are tried (here they fail too:
-    a typed error naming both closures)."""
+    the mirror image fails as one attempt that says so, and the domes are tried (made to
+    fail here: a typed error naming both closures)."""
+
+    def domes_fail(part, plans, *args):
+        raise fvf.QuadMeshError("domes failed", attempts=("a dome attempt",))
+
+    monkeypatch.setattr(quadmesh, "_mesh_part", domes_fail)
     V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 3e-14, 0], [1, 1, 0]], float)
-    with pytest.raises(fvf.QuadMeshError, match="(?s)closing it by its mirror image failed.*domes"):
+    with pytest.raises(fvf.QuadMeshError, match="(?s)closing it by its mirror image failed") as err:
         fvf.quad_mesh(fvf.TriMesh(V, np.array([[0, 1, 2], [1, 3, 2]])), target_faces=20)
+    assert err.value.attempts[0].startswith("its mirror image: closing it: DegenerateFaceError")
+    assert err.value.attempts[1] == "domes: a dome attempt"
 
 
 def test_an_open_surface_is_closed_the_other_way_when_every_attempt_fails(monkeypatch):
