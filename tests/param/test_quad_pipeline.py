@@ -638,12 +638,18 @@ def test_an_open_surface_is_closed_the_other_way_when_every_attempt_fails(monkey
     assert made.attempts[1].startswith("component 0: its mirror image: input surface")
     assert topology_signature(made.vertices.shape[0], made.quads) == [(0, 2)]
 
+    from fvf.param.quad_failures import Place
+
+    rim = _open_cylinder().vertices[0]  # every attempt fails there: one place, 4 attempts
+
     def all_fail(part, plans, *args):
-        raise fvf.QuadMeshError(f"{quadmesh._closure_name(part)} failed", attempts=("x",))
+        there = (Place(rim.copy(), 1, np.inf),)
+        raise fvf.QuadMeshError(f"{quadmesh._closure_name(part)} failed", ("x",), None, there)
 
     monkeypatch.setattr(quadmesh, "_mesh_part", all_fail)
-    with pytest.raises(fvf.QuadMeshError, match="closed by domes and by its mirror image"):
+    with pytest.raises(fvf.QuadMeshError, match="closed by domes and by its mirror image") as err:
         fvf.quad_mesh(_open_cylinder(), target_faces=200)
+    assert [p.attempts for p in err.value.places] == [4] and "4 of 4 attempts" in str(err.value)
     with pytest.raises(fvf.QuadMeshError, match="domes failed$"):
         fvf.quad_mesh(_open_cylinder(), target_faces=200, retry=False)
 

@@ -823,28 +823,19 @@ def _mesh_closures(
         closed, (*made, corners) = distorted
         _warn_distorted(part, corners)
         return closed, (*made[:-1], list(attempts))
+    spots = [p.centre[None] for exc in failed for p in exc.places for _ in range(p.attempts)]
+    places = failure_places(part.mesh, spots, h)
     raise QuadMeshError(
         f"no valid quad mesh of component {part.label} ({part.mesh.n_faces} triangles) "
         f"after {len(attempts)} attempts, closed by domes and by its mirror image:\n  "
         + "\n  ".join(attempts)
         + "\n"
-        + "\n".join(_advice_lines(failed)),
+        + describe_places(places, len(attempts), h, part.mesh.total_area)
+        + _advice(opts),
         attempts=attempts,
         best=next((exc.best for exc in failed if exc.best is not None), None),
-        places=tuple(p for exc in failed for p in exc.places),
+        places=tuple(places),
     )
-
-
-def _advice_lines(failed: list[QuadMeshError]) -> list[str]:
-    """The lines of the failures' messages after their attempts (where they failed, what
-    to try), each once."""
-    lines = [
-        line
-        for exc in failed
-        for line in str(exc.args[0]).split("\n")[1:]
-        if line and not line.startswith("  ")
-    ]
-    return list(dict.fromkeys(lines))
 
 
 def _closed(name: str, close: Callable[[], Part]) -> Part:
