@@ -903,7 +903,7 @@ def test_sharp_edges_denser_than_the_quads_are_no_features(monkeypatch):
     opts = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert quadmesh._own_features(part, coarse, opts) is None
     assert opts["dense features"] == {
-        (part.label, round(coarse, 12), "domes"): pytest.approx(2.5 * DENSE_FEATURES)
+        (part.label, round(coarse, 12), "itself"): pytest.approx(2.5 * DENSE_FEATURES)
     }
     fine = {"crease_angle": 35.0, "features": True, "user_edges": None}
     assert np.array_equal(quadmesh._own_features(part, coarse / 3, fine), sharp)

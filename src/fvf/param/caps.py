@@ -307,7 +307,7 @@ def cut_caps(
     vertices renumbered: float64 (k', 3), int64 (q', 4), and the kept vertices' faces of
     ``cap.mesh``, int64 (k',). ``vertex_faces`` (k,) is each vertex's face of ``cap.mesh``.
     A dome's quads are those whose centres' closest faces are the dome's; the mirror
-    image's, those whose normal points against the open mesh's faces at their corners."""
+    image's, those :func:`_facing_open` puts on the copy."""
     if cap.mirrored:
         keep = _facing_open(cap, vertices, quads, vertex_faces)
     else:

@@ -295,7 +295,8 @@ def _decimated(part: Part, h: float, surfaces: dict, opts: dict) -> bool:
     """Whether the closed component, decimated for quads of edge ``h``
     (:func:`fvf.param.decimation.decimated_for_quads`, kept in ``surfaces``), replaces it:
     not where it has sharp features (the collapses move creases; the rims of its domes
-    do not count)."""
+    do not count), nor when it is closed by its mirror image (the collapses would move the
+    two sheets, which lie on each other, apart)."""
     key = ("decimated", round(h, 12))
     if key not in surfaces:
         found = _features(part, part.closed, h, opts)
@@ -868,8 +869,11 @@ def _closures(part: Part, h: float) -> list[tuple[str, Callable[[], Part]]]:
 
 
 def _closure_name(part: Part) -> str:
-    """How an open component was closed, for messages."""
-    return "its mirror image" if part.cap is not None and part.cap.mirrored else "domes"
+    """How the component was closed, as :func:`_closures` names it: "itself" when it is
+    closed, "domes" or "its mirror image"."""
+    if part.cap is None:
+        return "itself"
+    return "its mirror image" if part.cap.mirrored else "domes"
 
 
 def _mesh_closed(
@@ -888,7 +892,8 @@ def _mesh_closed(
     "first": the first only; "rest": the others), then, unless "first", when they all
     failed at parts narrower than a quad, with more quads (:func:`_finer`)."""
     found = _features(part, part.closed, h, opts)
-    _warn_dense(part, h, opts)
+    if phase != "rest":  # once per closure
+        _warn_dense(part, h, opts)
     featured = _featured(found)
     rims = featured and _only_rims(part, found)
     plans = _plans(part, h, align, retry, remesh, featured, rims)
