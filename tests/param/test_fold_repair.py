@@ -170,6 +170,7 @@ def test_integer_lattice_equals_the_dense_reference_and_spans_the_kernel():
         prefer = rng.random(p) < 0.5
         N = integer_lattice(C, prefer)
         np.testing.assert_array_equal(N, _lattice_reference(C, prefer))
+        np.testing.assert_array_equal(integer_lattice(sp.csr_array(C), prefer), N)
         assert np.abs(C @ N).max() == 0 and np.array_equal(N, np.round(N))
         if p == 6:  # completeness, by enumeration of small kernel vectors
             for z in itertools.product(range(-2, 3), repeat=p):

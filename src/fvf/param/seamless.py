@@ -70,7 +70,7 @@ from .uv_folds import repair_folds
 
 __all__ = ["SeamlessParameterization", "seamless_parameterization", "uv_flips", "edge_length_for"]
 
-#: The largest integer system eliminated (bytes of its dense arrays): beyond it (a
+#: The largest integer system eliminated (bytes of its dense lattice basis): beyond it (a
 #: thread's sharp edges as iso-lines, thousands of cones) the attempt is refused before
 #: the memory runs out.
 LATTICE_BYTES = 2**28
@@ -226,15 +226,17 @@ def _frame_axes(mesh: TriMesh, cm: CutMesh) -> np.ndarray:
 
 
 def _check_lattice_size(rows: int, cols: int, cones: int, chains: int, iso: int) -> None:
-    """Refuse an integer system whose dense elimination (:func:`integer_lattice`, about
-    three (rows, cols) float64 arrays) exceeds :data:`LATTICE_BYTES`:
+    """Refuse an integer system whose lattice basis (:func:`integer_lattice`: N, up to
+    (cols, cols) float64, and its product with the integer kernel of the rows left, about
+    as large again) exceeds :data:`LATTICE_BYTES`:
     :class:`fvf.ParameterizationInputError` (in :func:`fvf.quad_mesh`, the end of one
     attempt, not of the call)."""
-    need = 3.0 * 8.0 * rows * cols
+    need = 2.0 * 8.0 * cols * cols
     if need > LATTICE_BYTES:
         raise ParameterizationInputError(
             f"the integer conditions across the cut form a {rows} x {cols} system "
-            f"({need / 2**30:.3g} GiB to eliminate, more than {LATTICE_BYTES / 2**30:.3g}) "
+            f"({need / 2**30:.3g} GiB for its lattice basis, more than "
+            f"{LATTICE_BYTES / 2**30:.3g}) "
             f"from {cones} cones, {chains} seam chains and {iso} feature iso-line "
             "conditions: too many sharp edges to make iso-lines (a thread, a knurl) or too "
             "many cones (slivers much finer than the quads); hold the field along the "
@@ -272,8 +274,7 @@ def _variables(
     real_cols = np.setdiff1d(np.setdiff1d(np.arange(ncol), int_cols), pinned)
     closing = sp.vstack([ss.closing, rows]).tocsr()
     _check_lattice_size(closing.shape[0], int_cols.size, cm.singular.size, C, rows.shape[0])
-    Cz = closing[:, int_cols].toarray() if closing.shape[0] else np.zeros((0, int_cols.size))
-    N = integer_lattice(Cz, prefer=int_cols >= 2 * R)
+    N = integer_lattice(closing[:, int_cols], prefer=int_cols >= 2 * R)
     nr = real_cols.size
     Q = sp.bmat(
         [
