@@ -180,6 +180,13 @@ def test_integer_lattice_equals_the_dense_reference_and_spans_the_kernel():
                     assert np.allclose(N @ w, z) and np.allclose(w, np.round(w))
 
 
+def test_integer_lattice_of_no_conditions_is_the_identity():
+    from fvf.param.rounding import integer_lattice
+
+    for C in (np.zeros((0, 3)), sp.csr_array((0, 3)), np.zeros((2, 3))):
+        np.testing.assert_array_equal(integer_lattice(C), np.eye(3))
+
+
 def test_a_released_solver_keeps_its_integers_and_cannot_solve():
     rng = np.random.default_rng(3)
     K = sp.csr_array(

@@ -143,7 +143,7 @@ class _SparseRows:
 
     def active_rows(self) -> np.ndarray:
         """int64: the rows left without a unit pivot (and with entries)."""
-        return np.flatnonzero(self.active & np.array([bool(r) for r in self.rows]))
+        return np.flatnonzero(self.active & np.array([bool(r) for r in self.rows], dtype=bool))
 
 
 def _integer_kernel(C: np.ndarray) -> np.ndarray:
