@@ -254,10 +254,12 @@ class SurfaceDistance:
 
 
 def cover(V: np.ndarray, T: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points within about 1.2 h of every point of the triangles ``T``: the vertices, points
-    every h along the edges, and the points inside each triangle of a grid of step h laid
-    in the triangle's own frame (x along its longest edge, so slivers cost their length
-    over h, not its square). Returns (points (p, 3), owning triangle int64 (p,))."""
+    """Points within about 1.2 h of every point of the triangles ``T``, each triangle's own
+    points within that of all of its points: per triangle its corners, points every h
+    along its sides, and the points inside it of a grid of step h laid in its own frame
+    (x along its longest edge, so slivers cost their length over h, not its square).
+    Returns (points (p, 3), owning triangle int64 (p,)); a vertex or a side shared by
+    several triangles is sampled once per triangle."""
     m = T.shape[0]
     C = V[T]  # (m, 3, 3)
     lengths = np.linalg.norm(C[:, [1, 2, 0]] - C, axis=2)
@@ -281,16 +283,17 @@ def cover(V: np.ndarray, T: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarra
     inside = (y * cx[tri] <= x * H[tri]) & (y * (L - cx)[tri] <= (L[tri] - x) * H[tri])
     tri, x, y = tri[inside], x[inside], y[inside]
     grid = C[tri, 0] + x[:, None] * ex[tri] + y[:, None] * ey[tri]
-    D = np.stack([T, np.roll(T, -1, axis=1)], -1).reshape(-1, 2)
-    E, first = np.unique(np.sort(D, axis=1), axis=0, return_index=True)
+    # every side of every triangle, owned by that triangle (a side shared by two triangles
+    # is sampled twice): a sliver's grid row misses its tips, and the points of a side
+    # owned by the neighbour alone left parts of it more than 2 h from any point it owns
+    E = np.stack([T, np.roll(T, -1, axis=1)], -1).reshape(-1, 2)  # (3m, 2) sides
     ne = np.ceil(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1) / h).astype(np.int64)
     ne = np.maximum(ne - 1, 0)
     eid = np.repeat(np.arange(E.shape[0]), ne)  # points strictly inside, every <= h
     t = (np.arange(eid.size) - np.repeat(np.cumsum(ne) - ne, ne) + 1.0) / (ne[eid] + 1.0)
     on_edges = V[E[eid, 0]] + t[:, None] * (V[E[eid, 1]] - V[E[eid, 0]])
-    corners, corner_of = np.unique(T.ravel(), return_index=True)
-    pts = np.concatenate([V[corners], on_edges, grid])
-    own = np.concatenate([corner_of // 3, first[eid] // 3, tri])
+    pts = np.concatenate([V[T.ravel()], on_edges, grid])
+    own = np.concatenate([np.arange(3 * m) // 3, eid // 3, tri])
     return pts, own
 
 

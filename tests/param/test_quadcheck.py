@@ -149,3 +149,30 @@ def test_sharp_edges_of_cad_box():
     V, F = wc.tiny_cube12()
     E = qc.sharp_edges(V, F)
     assert len(E) == 12  # the diagonals of the faces are flat
+
+
+def test_normal_on_a_sliver_next_to_a_facing_sheet_is_the_slivers():
+    """A point on a long sliver, near its tip and 0.01 above a sheet facing the other way
+    (a knife edge left by a boolean), the sliver's sides shared with triangles listed
+    before it: the normal is the sliver's. When each side's points were owned by its first
+    triangle only, the sliver owned just its grid row, which misses its tips, and had no
+    point within the search radius there."""
+    L, eps, gap = 10.0, 0.05, 0.01
+    V = np.array(
+        [
+            [0.0, 0.0, 0.0],
+            [L, 0.0, 0.0],
+            [L / 2, eps, 0.0],  # the sliver (normal +z)
+            [-1.0, -1.0, -gap],
+            [-1.0, 1.0, -gap],
+            [L + 1, -1.0, -gap],
+            [L + 1, 1.0, -gap],  # the sheet below it (normal -z)
+            [L / 2, -3.0, 3.0],
+            [L + 2, 1.0, 3.0],
+            [-2.0, 1.0, 3.0],  # apexes of the triangles on the sliver's sides
+        ]
+    )
+    T = np.array([[1, 0, 7], [2, 1, 8], [0, 2, 9], [0, 1, 2], [3, 4, 5], [4, 6, 5]])
+    d = qc.SurfaceDistance(V, T, 0.5)
+    P = np.array([[0.3, 0.001, 0.0], [L - 0.3, 0.001, 0.0], [L / 2, 0.01, 0.0]])
+    np.testing.assert_allclose(d.normal(P), np.tile([0.0, 0.0, 1.0], (3, 1)), atol=1e-12)
