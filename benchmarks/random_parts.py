@@ -24,7 +24,9 @@ joined by union, difference or intersection; with probability 0.3 a second part 
 it; the whole scaled by a power of ten from $10^{-3}$ to $10^{3}$. ``--stl`` gives each
 part to fvf as ``fvf quad FILE`` would get it: a binary STL soup read back by
 ``fvf.read_mesh`` (welded), zero-area faces repaired as ``fvf repair`` does. A foreign
-exception (not an ``fvf.FvfError``) is printed as ``FOREIGN``.
+exception (not an ``fvf.FvfError``) is printed as ``FOREIGN``. ``--fallback split`` asks
+``fvf.quad_mesh(..., fallback="split")``: a part whose attempts all fail is split from
+triangles (marked ``split``).
 
 Each part is meshed at ``--quads`` quads in this process (BLAS on one thread,
 threadpoolctl) and the output judged by the independent checker
@@ -163,6 +165,12 @@ def main() -> None:
     ap.add_argument("--quads", type=int, default=2000)
     ap.add_argument("--family", choices=["boxes", "shapes", "mixed"], default="boxes")
     ap.add_argument("--stl", action="store_true", help="each part through a binary STL soup")
+    ap.add_argument(
+        "--fallback",
+        choices=["error", "split"],
+        default="error",
+        help="fvf.quad_mesh's fallback: parts whose attempts all fail split from triangles",
+    )
     args = ap.parse_args()
     tmp = tempfile.TemporaryDirectory()
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "param")]
@@ -173,7 +181,7 @@ def main() -> None:
 
     threadpool_limits(1)
     warnings.simplefilter("ignore")
-    valid = total = 0
+    valid = total = split = 0
     cpu = 0.0
     make = {"boxes": part, "shapes": shape, "mixed": mixed}[args.family]
     for seed in range(*args.seeds):
@@ -185,18 +193,20 @@ def main() -> None:
         try:
             if args.stl:  # as `fvf quad FILE` gets it: a soup, welded, zero-area faces repaired
                 V, F = _through_stl(V, F, Path(tmp.name) / f"{seed}.stl")
-            r = fvf.quad_mesh((V, F), target_faces=args.quads)
+            r = fvf.quad_mesh((V, F), target_faces=args.quads, fallback=args.fallback)
             ok = quadcheck.check(V, F, np.asarray(r.vertices), np.asarray(r.quads)).valid
             res = f"{len(r.quads):6d} {'valid' if ok else 'INVALID':8s} {len(r.attempts):2d}"
+            res += " split" if r.split_components.size else ""
         except fvf.FvfError as exc:
             ok, res = False, f"{'-':>6s} {type(exc).__name__:8s}"
         except Exception as exc:  # noqa: BLE001 -- a foreign exception is a bug: reported
             ok, res = False, f"{'-':>6s} FOREIGN {type(exc).__name__}: {str(exc)[:60]}"
         dt = time.process_time() - start
         valid, total, cpu = valid + ok, total + 1, cpu + dt
+        split += res.endswith("split")
         label = {"boxes": f"t={t:4.2f}", "shapes": f"kind {t}", "mixed": f"x{t:g}"}[args.family]
         print(f"{seed:4d}  {label:6s}  {F.shape[0]:5d}  {res:20s} {dt:6.1f}", flush=True)
-    print(f"valid {valid} / {total}   CPU {cpu:.1f} s")
+    print(f"valid {valid} / {total} ({split} split from triangles)   CPU {cpu:.1f} s")
 
 
 if __name__ == "__main__":

@@ -86,6 +86,7 @@ __all__ = [
     "QuadCountRaisedWarning",
     "DenseFeaturesWarning",
     "DistortedQuadsWarning",
+    "QuadFallbackWarning",
     "format_indices",
 ]
 
@@ -505,6 +506,13 @@ class DistortedQuadsWarning(FvfWarning):
     """A component of a quad mesh is valid but distorted (corner angles far from 90°, as
     an input's long fan triangles can leave it): no later attempt gave an undistorted
     one; the message gives the measure and what to try."""
+
+
+class QuadFallbackWarning(FvfWarning):
+    """With ``fvf.quad_mesh(..., fallback="split")``: no field-aligned attempt on a
+    component passed the gate, and its triangles were split into three quads each
+    (valid quads that follow no field); the message names the component, where the
+    attempts failed and the quads made."""
 
 
 class FoldedQuadWarning(FvfWarning):

@@ -596,7 +596,8 @@ def _quads(s, story):
         st.info("quad mesh", "not made", note=f"{type(exc).__name__}: {exc}"[:300])
         return
     V, Q, q = made.vertices, made.quads, made.quality
-    p, surface = made.parameterizations[0], made.surfaces[0]  # the first component's
+    params = [x for x in made.parameterizations if x is not None]  # (none split: no fallback)
+    p, surface = params[0], made.surfaces[0]  # the first component's
     story.picture(
         st,
         "quads_checker.png",
@@ -616,7 +617,7 @@ def _quads(s, story):
         wide=True,
     )
     st.info("quads", Q.shape[0], note=f"target {target}")
-    flipped = int(sum(x.n_flipped for x in made.parameterizations))
+    flipped = int(sum(x.n_flipped for x in params))
     st.check("flipped uv triangles", flipped, equals=0)
     st.check(
         "quad mesh is manifold with the input's boundary and Euler characteristic",

@@ -84,7 +84,9 @@ def join_parts(mesh: TriMesh, made: list, dropped: list, h: float) -> QuadMeshRe
         verdict = made[0][1][5]
     else:
         kept = np.concatenate([p.faces for p, _ in made])
-        verdict = _joint_verdict(mesh, kept, V, Q)
+        starts = np.cumsum([0] + [m[1].shape[0] for _, m in made[:-1]])
+        folded = np.concatenate([m[5].folded + q0 for (_, m), q0 in zip(made, starts, strict=True)])
+        verdict = _joint_verdict(mesh, kept, V, Q, folded)
     return QuadMeshResult(
         vertices=V,
         quads=Q,
@@ -97,17 +99,22 @@ def join_parts(mesh: TriMesh, made: list, dropped: list, h: float) -> QuadMeshRe
         dropped_components=np.array([p.label for p in dropped], dtype=np.int64),
         attempts=tuple(logs),
         edge_length=float(h),
+        split_components=np.array([p.label for p, m in made if m[3] is None], dtype=np.int64),
     )
 
 
-def _joint_verdict(mesh: TriMesh, kept: np.ndarray, V: np.ndarray, Q: np.ndarray) -> QuadValidity:
-    """The gate on the joined mesh, against the kept components of the input."""
+def _joint_verdict(
+    mesh: TriMesh, kept: np.ndarray, V: np.ndarray, Q: np.ndarray, folded: np.ndarray
+) -> QuadValidity:
+    """The gate on the joined mesh, against the kept components of the input, with the
+    folded quads each part's gate found (``folded``, int64: none; the fold test is the
+    parts', and a split part's is its own, :mod:`fvf.param.split_quads`)."""
     F = mesh.faces[np.sort(kept)]
     used = np.unique(F)
     remap = np.full(mesh.n_vertices, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     sub = mesh if used.size == mesh.n_vertices else TriMesh(mesh.vertices[used], remap[F])
-    verdict = check_quad_mesh(sub, V, Q)
+    verdict = check_quad_mesh(sub, V, Q, folded=folded.astype(np.int64))
     if not verdict.valid:  # pragma: no cover - each part passed the same checks
         from ..errors import QuadMeshError
 

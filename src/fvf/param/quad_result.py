@@ -8,6 +8,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..errors import format_indices
 from ..mesh.trimesh import TriMesh
 from ..numerics.summary import html_repr, short_repr
 from .quad_validity import QuadValidity
@@ -33,11 +34,13 @@ class QuadMeshResult:
         The input triangle mesh.
     validity : QuadValidity
         The gate's verdict (always valid: an invalid mesh is never returned).
-    parameterizations : tuple of SeamlessParameterization
-        One per meshed component, each on the triangle mesh in ``surfaces``.
+    parameterizations : tuple of SeamlessParameterization or None
+        One per meshed component, each on the triangle mesh in ``surfaces``; None for a
+        component in ``split_components``.
     surfaces : tuple of TriMesh
         The triangle mesh each parameterization lives on: the component itself, or its
-        copy remeshed at the quad scale (:mod:`fvf.param.remesh`).
+        copy remeshed at the quad scale (:mod:`fvf.param.remesh`); for a split component,
+        the triangles that were split.
     components : int64 (c,)
         Input component (label of ``mesh.vertex_components``) of each entry above.
     dropped_components : int64 (d,)
@@ -47,6 +50,10 @@ class QuadMeshResult:
         What was tried, in order, and how each try ended.
     edge_length : float
         The target quad edge length h.
+    split_components : int64 (s,)
+        Components whose attempts all failed and whose triangles were split into three
+        quads each (``fallback="split"``, :mod:`fvf.param.split_quads`): valid quads that
+        follow no field.
     """
 
     vertices: np.ndarray
@@ -54,12 +61,13 @@ class QuadMeshResult:
     vertex_faces: np.ndarray
     mesh: TriMesh
     validity: QuadValidity
-    parameterizations: tuple[SeamlessParameterization, ...]
+    parameterizations: tuple[SeamlessParameterization | None, ...]
     surfaces: tuple[TriMesh, ...]
     components: np.ndarray
     dropped_components: np.ndarray
     attempts: tuple[str, ...]
     edge_length: float
+    split_components: np.ndarray
 
     __repr__ = short_repr  # arrays by dtype and shape
     _repr_html_ = html_repr  # a table in Jupyter
@@ -79,14 +87,20 @@ class QuadMeshResult:
     @property
     def parameterization(self) -> SeamlessParameterization:
         """The parameterization, when one component was meshed on the input itself."""
-        if len(self.parameterizations) != 1 or self.surfaces[0] is not self.mesh:
-            from ..errors import ParameterError
+        from ..errors import ParameterError
 
+        if len(self.parameterizations) != 1 or self.surfaces[0] is not self.mesh:
             raise ParameterError(
                 "this quad mesh has several parameterizations (several components or a "
                 "remeshed surface): read .parameterizations and .surfaces"
             )
-        return self.parameterizations[0]
+        made = self.parameterizations[0]
+        if made is None:
+            raise ParameterError(
+                "this quad mesh has no parameterization: its triangles were split into quads "
+                "(fallback='split', .split_components)"
+            )
+        return made
 
     @cached_property
     def quality(self) -> QuadQuality:
@@ -95,7 +109,7 @@ class QuadMeshResult:
         distances and folded quads those the validity gate measured, when it judged the
         whole input)."""
         on_input = len(self.parameterizations) == 1 and self.surfaces[0] is self.mesh
-        p = self.parameterizations[0] if on_input else None
+        p = self.parameterizations[0] if on_input else None  # (None when split)
         v = self.validity  # measured against the kept components: all of them, or not used
         whole = self.dropped_components.size == 0 and np.isfinite(v.one_sided).all()
         gate = (v.one_sided, v.folded.size) if whole else None
@@ -104,9 +118,15 @@ class QuadMeshResult:
     def summary(self) -> str:
         """One line: quads, irregular vertices, corner angles, Hausdorff distance, folds."""
         q = self.quality
+        split = ""
+        if self.split_components.size:
+            split = (
+                f"; components {format_indices(self.split_components)} split from triangles, "
+                "following no field"
+            )
         return (
             f"{q.n_quads} quads, {q.n_vertices} vertices, {100 * q.irregular_fraction:.1f} % "
             f"irregular, corner angle error median {q.angle_deviation_median:.1f}° "
             f"(p95 {q.angle_deviation_p95:.1f}°), Hausdorff "
-            f"{self.validity.hausdorff:.2f} quad edges, {q.n_folded} folded, valid"
+            f"{self.validity.hausdorff:.2f} quad edges, {q.n_folded} folded, valid{split}"
         )

@@ -12,7 +12,7 @@ import dataclasses
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -25,6 +25,7 @@ from ..errors import (
     ProblemSizeError,
     QuadCountRaisedWarning,
     QuadExtractionError,
+    QuadFallbackWarning,
     QuadMeshError,
     SmallComponentWarning,
     UndeclaredCacheKeyError,
@@ -73,10 +74,14 @@ from .remesh import (
 )
 from .seamless import SeamlessParameterization, edge_length_for, seamless_parameterization
 from .sizing import curvature_log_scale
+from .split_quads import split_quad_mesh
 from .strips import has_thin_strips
 
 __all__ = ["quad_mesh", "MIN_COMPONENT_QUADS", "MAX_QUADS_PER_FACE", "QUAD_BYTES"]
 
+#: What :func:`quad_mesh` gives a component whose attempts all failed.
+Fallback = Literal["error", "split"]
+FALLBACKS = ("error", "split")
 #: A component smaller than this many target quads (area / h²) is meshed at its own,
 #: smaller edge length √(area / MIN_COMPONENT_QUADS); if that fails, it is left out.
 MIN_COMPONENT_QUADS = 8
@@ -571,6 +576,10 @@ def _first_line(exc: BaseException, limit: int = 240) -> str:
 
 def _advice(opts: dict) -> str:
     tip = "try another target (fvf quad --faces N), or align='smooth'"
+    tip += (
+        "; or fallback='split' (fvf quad --fallback split) for valid quads there that follow "
+        "no field (the triangles split into three quads each)"
+    )
     if opts["remesher"] in ("auto", "subdivide"):
         from .remesh import available_remesher
 
@@ -596,6 +605,7 @@ def quad_mesh(
     features: npt.ArrayLike | None = None,
     return_parameterization: bool = False,
     fold_repair_steps: int = STEPS_PER_RING * (MAX_RINGS + 1),
+    fallback: Fallback = "error",
     **options: Any,
 ) -> QuadMeshResult:
     """A valid pure-quad mesh whose edges follow a cross field (the chapter's Fig. 1), or an error.
@@ -648,6 +658,13 @@ def quad_mesh(
     fold_repair_steps : int
         Relaxation steps at most per pass of the untangling of folded quads
         (:func:`fvf.param.quad_folds.untangle_quads`; 0: detect only).
+    fallback : {"error", "split"}
+        What a component gets when every attempt fails: ``"error"`` (default), the
+        :class:`fvf.QuadMeshError`; ``"split"``, quads that follow no field, its triangles
+        (remeshed at the quad scale when that passes the gate) split into three quads each
+        (:mod:`fvf.param.split_quads`: valid by construction, the same surface), with a
+        :class:`fvf.QuadFallbackWarning`; listed in ``split_components``. A component too
+        small for the quads is then split too, not left out.
     **options
         Passed to :func:`fvf.seamless_parameterization` (``scale``, ``rounding_batch``,
         ``scale_iterations``, ``stiffening_iterations``, ``cone_cancel_radius``,
@@ -680,8 +697,11 @@ def quad_mesh(
     DistortedQuadsWarning
         A component's valid results all have corners more than :data:`DISTORTED_CORNERS`
         degrees from square at the 95th percentile (the first is returned).
+    QuadFallbackWarning
+        With ``fallback="split"``: components whose attempts all failed were split from
+        triangles (the message says which, where the attempts failed, and the quads made).
     """
-    steps = _check_options(fold_repair_steps, remesh)
+    steps = _check_options(fold_repair_steps, remesh, fallback)
     if features is None:  # (user features name the input's vertices: no weld then)
         mesh = _welded(mesh)
     remesh = "never" if remesh is False or features is not None else remesh
@@ -703,6 +723,7 @@ def quad_mesh(
         "seamless": options,
         "quiet": retry,
         "decimate": remesh != "never",
+        "fallback": fallback,
     }
     opts["whole"] = mesh
     report = make_progress(options.get("progress"))
@@ -756,10 +777,13 @@ def _mesh_parts(
         fp = None if field is None else field[part.faces]
         try:
             made.append(_mesh_closures(part, hp, fp, align, retry, remesh, opts, report))
-        except QuadMeshError:
-            if not small or len(parts) == 1:
+        except QuadMeshError as exc:
+            if opts["fallback"] == "split":
+                made.append(_split_part(part, hp, exc))
+            elif not small or len(parts) == 1:
                 raise
-            dropped.append(part)
+            else:
+                dropped.append(part)
     if dropped:
         labels = np.array([p.label for p in dropped])
         areas = ", ".join(f"{p.mesh.total_area / (h * h):.2g}" for p in dropped)
@@ -772,6 +796,37 @@ def _mesh_parts(
     if not made:
         raise QuadMeshError("every component is too small for the quad size; ask for more quads")
     return made, dropped
+
+
+def _split_part(part: Part, h: float, failed: QuadMeshError) -> tuple[Part, tuple]:
+    """The component's triangles split into quads
+    (:func:`fvf.param.split_quads.split_quad_mesh`), said with a
+    :class:`fvf.QuadFallbackWarning`; ``failed`` (the error of its attempts) is raised
+    again if even that fails the gate."""
+    made = split_quad_mesh(part.mesh, h)
+    if not made.validity.valid:  # pragma: no cover - the split triangles are the surface
+        raise failed
+    q = made.quads.shape[0]
+    where = "; ".join(f"({', '.join(f'{x:.3g}' for x in p.centre)})" for p in failed.places[:3])
+    warnings.warn(
+        f"component {part.label} ({part.mesh.n_faces} triangles): no field-aligned quad mesh "
+        f"passed the gate in {len(failed.attempts)} attempts"
+        + (f" (they failed at {where})" if where else "")
+        + f"; as fallback='split' asks, its triangles were split into three quads each: "
+        f"{q} valid quads that follow no field (result.split_components)",
+        QuadFallbackWarning,
+        stacklevel=user_stacklevel(),
+    )
+    log = [*failed.attempts, f"fallback: its triangles split into three quads each, {q} quads"]
+    return part, (
+        made.vertices,
+        made.quads,
+        made.vertex_faces,
+        None,
+        made.surface,
+        made.validity,
+        log,
+    )
 
 
 def _mesh_closures(
@@ -1027,7 +1082,7 @@ def _warn_raised(part: Part, exc: QuadMeshError, h: float, edge: float) -> None:
     )
 
 
-def _check_options(fold_repair_steps: object, remesh: object) -> int:
+def _check_options(fold_repair_steps: object, remesh: object, fallback: object) -> int:
     if (
         isinstance(fold_repair_steps, bool)
         or not isinstance(fold_repair_steps, int | np.integer)
@@ -1038,4 +1093,6 @@ def _check_options(fold_repair_steps: object, remesh: object) -> int:
         )
     if remesh not in ("auto", True, "never", False):
         raise ParameterError(f"remesh must be 'auto', True or 'never'; got {remesh!r}")
+    if fallback not in FALLBACKS:
+        raise ParameterError(f"fallback must be one of {FALLBACKS}; got {fallback!r}")
     return int(fold_repair_steps)

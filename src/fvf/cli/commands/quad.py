@@ -62,6 +62,14 @@ def _arguments(p: argparse.ArgumentParser) -> None:
         help="remesh the input at the quad scale: when its triangles ask for it or an "
         "attempt failed (auto), always, or never",
     )
+    p.add_argument(
+        "--fallback",
+        choices=("error", "split"),
+        default="error",
+        help="a part where every attempt fails: exit 4 with the error (default), or split "
+        "its triangles into three quads each (valid quads that follow no field; said on "
+        "stderr and in the quality line)",
+    )
     add_output(p, "output quad mesh (.obj, .off, .ply, .vtu or .vtp)")
     p.add_argument("--uv", metavar="OBJ", help="also write the parameterized mesh with vt")
     p.add_argument("--png", help="also render the quad mesh (fvf.viz): .png, .pdf or .svg")
@@ -116,13 +124,19 @@ def run(args: argparse.Namespace) -> int:
         crease_angle=args.crease_angle if args.crease_angle > 0 else None,
         features=features,
         remesh=_REMESH[args.remesh],
+        fallback=args.fallback,
         progress=_stage_printer(),
     )
     fvf.write_mesh(args.output, made.vertices, made.quads)
     print(f"wrote {args.output}: {made.summary()}")
-    if args.uv:
-        _write_uv(args.uv, made, write_uv_mesh)
+    if args.uv and _write_uv(args.uv, made, write_uv_mesh):
         print(f"wrote {args.uv}: the parameterized triangle mesh (vt per corner)")
+    elif args.uv:
+        print(
+            f"fvf quad: {args.uv} not written: every part was split from triangles "
+            "(--fallback split), none has a parameterization",
+            file=sys.stderr,
+        )
     if args.png:
         viz = load_viz()
         Q = made.quads
@@ -168,15 +182,20 @@ def _faces_only(path: str) -> tuple[Any, Any]:
     return checked_mesh(path, fixed.vertices, fixed.faces), fixed.vertex_map
 
 
-def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> None:
+def _write_uv(path: str, made: Any, write_uv_mesh: Callable[..., None]) -> bool:
     """The triangle meshes the parameterizations live on, one file (components side by
-    side, each in its own uv chart)."""
+    side, each in its own uv chart); False (nothing written) when no component has one."""
     import numpy as np
 
     Vs, Fs, uvs, offset = [], [], [], 0
     for surface, param in zip(made.surfaces, made.parameterizations, strict=True):
+        if param is None:  # split from triangles (--fallback split): no uv
+            continue
         Vs.append(surface.vertices)
         Fs.append(surface.faces + offset)
         uvs.append(param.uv)
         offset += surface.n_vertices
+    if not Vs:
+        return False
     write_uv_mesh(path, np.concatenate(Vs), np.concatenate(Fs), np.concatenate(uvs))
+    return True
