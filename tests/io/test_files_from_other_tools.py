@@ -414,6 +414,132 @@ def test_binary_stl_whose_header_says_solid_is_binary_by_its_size(tmp_path, head
     assert np.array_equal(V[F], T)
 
 
+# ---------------------------------------------------------------------------- part 1: 3MF
+def threemf(model: str, rels: bool = True, prefix: str = "") -> bytes:
+    """A 3MF archive holding ``model`` as its 3D model part (as slicers write it)."""
+    import io
+    import zipfile
+
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as z:
+        z.writestr("[Content_Types].xml", "<Types/>")
+        if rels:
+            z.writestr(
+                "_rels/.rels",
+                '<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/'
+                'relationships"><Relationship Target="/3D/3dmodel.model" Id="r0" '
+                'Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>'
+                "</Relationships>",
+            )
+        z.writestr("3D/3dmodel.model", model)
+    return out.getvalue()
+
+
+def cube_object(oid: int, prefix: str = "", extra: str = "") -> str:
+    p = prefix
+    verts = "".join(f'<{p}vertex  y="{y:g}" x="{x:g}" z="{z:g}" />' for x, y, z in CUBE_V)
+    tris = "".join(f"<{p}triangle v1='{a}' v2='{b}' v3='{c}' {extra}/>" for a, b, c in CUBE_T)
+    return (
+        f'<{p}object id="{oid}" type="model"><{p}mesh><{p}vertices>{verts}</{p}vertices>'
+        f"<{p}triangles>{tris}</{p}triangles></{p}mesh></{p}object>"
+    )
+
+
+def test_3mf_as_slicers_write_it(tmp_path):
+    """A namespace prefix, attributes in any order and quoting, triangle properties, and
+    the cube placed twice: by a build item's transform (scaled 2, moved 10 in x) and as a
+    component of another object (moved 5 in z) placed by an item without transform."""
+    ns = 'xmlns:m="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"'
+    model = (
+        f'<?xml version="1.0"?><m:model unit="millimeter" {ns}><m:resources>'
+        + cube_object(1, "m:", extra='pid="3" p1="0"')
+        + '<m:object id="2" type="model"><m:components><m:component objectid="1" '
+        'transform="1 0 0 0 1 0 0 0 1 0 0 5"/></m:components></m:object></m:resources>'
+        '<m:build><m:item objectid="1" transform="2 0 0 0 2 0 0 0 2 10 0 0"/>'
+        '<m:item objectid="2"/></m:build></m:model>'
+    )
+    V, F = read_mesh(write(tmp_path, "part.3mf", threemf(model)))
+    assert F.shape == (24, 3) and V.shape == (16, 3)
+    np.testing.assert_array_equal(V[:8], 2 * CUBE_V + [10, 0, 0])
+    np.testing.assert_array_equal(V[8:], CUBE_V + [0, 0, 5])
+    np.testing.assert_array_equal(F[:12], CUBE_T)
+    np.testing.assert_array_equal(F[12:], CUBE_T + 8)
+    assert signed_volume(V, F) == pytest.approx(8 + 1)
+    # without _rels/.rels: the archive's one .model file
+    V2, F2 = read_mesh(write(tmp_path, "norels.3mf", threemf(model, rels=False)))
+    np.testing.assert_array_equal(V2, V)
+
+
+def test_3mf_round_trip_and_the_quad_command(tmp_path):
+    s = fvf.torus(16, 8)
+    path = tmp_path / "torus.3mf"
+    fvf.write_mesh(path, s.vertices, s.faces)
+    V, F = read_mesh(path)
+    assert np.array_equal(V, s.vertices) and np.array_equal(F, s.faces)
+    out = tmp_path / "q.obj"
+    assert main(["quad", str(path), "--faces", "100", "-o", str(out)]) == EXIT_OK
+
+
+@pytest.mark.parametrize(
+    ("content", "said"),
+    [
+        (b"not a zip", "zip archive"),
+        (threemf("<model/>")[:-30], "zip archive"),
+        ("<model><resources>" + cube_object(1) + "</resources><build/></model>", "places no"),
+        (
+            '<model><resources><object id="1"><mesh><vertices><vertex x="0" y="0"/>'
+            "</vertices><triangles/></mesh></object></resources>"
+            '<build><item objectid="1"/></build></model>',
+            "z= attributes",
+        ),
+        (
+            "<model><resources>" + cube_object(1) + '</resources><build><item objectid="7"/>'
+            "</build></model>",
+            "object 7 is referred to",
+        ),
+        (
+            "<model><resources>" + cube_object(1) + '</resources><build><item objectid="1" '
+            'p:path="/3D/other.model"/></build></model>',
+            "another model part",
+        ),
+        (
+            "<model><resources>" + cube_object(1) + '</resources><build><item objectid="1" '
+            'transform="1 0 0"/></build></model>',
+            "not 12 finite",
+        ),
+    ],
+    ids=[
+        "not zip",
+        "truncated",
+        "no build",
+        "vertex without z",
+        "missing object",
+        "other part",
+        "transform",
+    ],
+)
+def test_damaged_3mf_files_are_typed_errors(tmp_path, content, said):
+    data = content if isinstance(content, bytes) else threemf(content)
+    with pytest.raises(MeshReadError, match=said):
+        read_mesh(write(tmp_path, "bad.3mf", data))
+
+
+def test_no_raw_exception_escapes_on_3mf_garbage(tmp_path):
+    """Seeded random cuts and byte flips of a valid model part: a typed error or a mesh."""
+    rng = np.random.default_rng(11)
+    good = "<model><resources>" + cube_object(1) + '</resources><build><item objectid="1"/>'
+    good += "</build></model>"
+    for k in range(40):
+        text = bytearray(good.encode())
+        for i in rng.integers(0, len(text), size=int(rng.integers(1, 20))):
+            text[i] = int(rng.integers(32, 127))
+        cut = bytes(text[: int(rng.integers(len(text) // 2, len(text) + 1))])
+        try:
+            read(write(tmp_path, f"g{k}.3mf", threemf(cut.decode())))
+        except FvfError:
+            pass
+
+
 # ---------------------------------------------------------------------------- part 2: tools
 def icosphere_f32() -> tuple[np.ndarray, np.ndarray]:
     """An icosphere whose coordinates are float32 numbers (STL and glTF store float32)."""

@@ -267,13 +267,13 @@ def test_fvf_quad_checks_the_output_format_before_the_pipeline(tmp_path, capsys)
 # ---------------------------------------------------------------------------- registry
 def test_registry_lists_the_formats():
     # VTK files are read too now (through PyVista or meshio), legacy .vtk as well
-    suffixes = (".obj", ".off", ".ply", ".stl", ".vtu", ".vtp", ".vtk", ".glb", ".gltf")
+    suffixes = (".obj", ".off", ".ply", ".stl", ".vtu", ".vtp", ".vtk", ".glb", ".gltf", ".3mf")
     assert readable_suffixes() == suffixes
     assert set(writable_suffixes()) == set(suffixes)
     assert fvf.io.meshfile.SUFFIXES == readable_suffixes()
     assert fvf.io.meshfile.VTK_SUFFIXES == (".vtu", ".vtp")
-    with pytest.raises(MeshReadError, match=r"unsupported mesh file suffix '\.3mf'"):
-        read_mesh("mesh.3mf")
+    with pytest.raises(MeshReadError, match=r"unsupported mesh file suffix '\.fbx'"):
+        read_mesh("mesh.fbx")
 
 
 def _read_back(path, fmt):

@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 
 from ...errors import MeshFormatError, MeshReadError
-from . import gltf, obj, off, ply, stl, vtk
+from . import gltf, obj, off, ply, stl, threemf, vtk
 from .base import MeshFormat
 
 __all__ = [
@@ -50,6 +50,7 @@ def register_format(fmt: MeshFormat) -> MeshFormat:
 for _format in (obj.FORMAT, off.FORMAT, ply.FORMAT, stl.FORMAT, vtk.FORMAT, vtk.LEGACY):
     register_format(_format)
 register_format(gltf.FORMAT)
+register_format(threemf.FORMAT)
 
 
 def readable_suffixes() -> tuple[str, ...]:
