@@ -180,6 +180,44 @@ def strip_pictures() -> None:
     print("thin tray", len(Q), "quads")
 
 
+def fallback_pictures() -> None:
+    """Part 19 of ``benchmarks/random_parts.py --family mixed`` (two parts; the second's
+    knife edges are 0.2-0.6 quad edges thick) at 2,000 quads with ``fallback="split"``:
+    the first part's aligned quads beside the second's, split from its triangles."""
+    import warnings
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import random_parts
+
+    solid, _ = random_parts.mixed(19)
+    m = solid.to_mesh()
+    V = np.asarray(m.vert_properties, np.float64)[:, :3]
+    F = np.asarray(m.tri_verts, np.int64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fvf.QuadFallbackWarning)
+        made = fvf.quad_mesh((V, F), target_faces=2000, fallback="split")
+    mesh = fvf.TriMesh(V, F)
+    part = int(made.split_components[0])  # the split part alone, input and quads
+    label = mesh.vertex_components[mesh.faces[:, 0]]
+    sub = fvf.remove_unreferenced_vertices(V, F[label == part])
+    piece = fvf.TriMesh(sub.vertices, sub.faces)
+    Vq, Q = np.asarray(made.vertices), np.asarray(made.quads)
+    Q = Q[label[made.vertex_faces[Q[:, 0]]] == part]
+    kw = {"size": (640, 480), "view": (60, 20)}
+    title = f"a knife-edged part, {piece.n_faces} triangles"
+    edges = list(piece.vertices[piece.edges])
+    fvf.viz.render(piece, OUT / "knife_edges_input.png", streamlines=edges, title=title, **kw)
+    fvf.viz.render_quads(
+        Vq,
+        Q,
+        OUT / "knife_edges_split.png",
+        title=f"fallback='split': {len(Q)} quads from its triangles",
+        **kw,
+    )
+    split = part
+    print("knife edges", len(made.quads), "quads, split", split)
+
+
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     picture("spot", fvf.spot(), 1500)
@@ -188,6 +226,7 @@ def main() -> None:
     wild_pictures()
     sized_pictures()
     strip_pictures()
+    fallback_pictures()
     bob = SHARED / "bob_tri.obj"
     if bob.exists():
         picture("bob", fvf.TriMesh(*fvf.read_mesh(bob)), 1500)
