@@ -334,6 +334,28 @@ def test_quad_task_is_fvf_quad_with_its_figures(tmp_path):
         assert row["quad_euler_characteristic"] == 2
 
 
+def test_quad_task_takes_the_quad_count_and_the_fallback(tmp_path):
+    """``quads`` is the target of fvf.quad_mesh (the same quads as the call), ``fallback``
+    passed on; a split-free result says 0 split components; bad values are refused."""
+    from fvf.batch.registry import registered_tasks
+
+    mesh = fvf.mesh.builtin.spot()
+    path = _write(tmp_path / "spot.off", mesh)
+    V, Q = fvf.quad_mesh(fvf.TriMesh(*fvf.read_mesh(path)), target_faces=300)
+    opts = {"quads": 300, "fallback": "split"}
+    result = str(tmp_path / "out" / "quad.npz")
+    job = MeshJob("spot", str(path), result, ("quad",), opts, options_text(("quad",), opts), "t")
+    row = run_job(job)
+    assert row["status"] == "ok", row
+    with np.load(result) as data:
+        np.testing.assert_array_equal(data["quad_quads"], Q)
+    assert row["quad_n_quads"] == Q.shape[0] and row["quad_split_components"] == 0
+    check = registered_tasks()["quad"].check
+    for bad in ({"quads": 0}, {"quads": 2.5}, {"fallback": "triangles"}):
+        with pytest.raises(fvf.ParameterError):
+            check(bad)
+
+
 def test_run_job_failures_are_rows(tmp_path):
     corpus, rows = make_corpus(tmp_path, shared=False), {}
     for name, item in corpus.items():

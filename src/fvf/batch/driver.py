@@ -714,6 +714,8 @@ def run(
     *,
     k: int = 50,
     n: int | None = None,
+    quads: int | None = None,
+    fallback: str = "error",
     pairs: str | os.PathLike | None = None,
     client: Any = None,
     scheduler: str | None = None,
@@ -747,6 +749,12 @@ def run(
         Eigenpairs of ``basis`` and ``fmap``.
     n : int, optional
         Symmetry of the fields (N-fields, when :func:`fvf.design_field` takes ``n``).
+    quads : int, optional
+        Quads per mesh of the ``quad`` task (``target_faces`` of :func:`fvf.quad_mesh`;
+        default m / 10).
+    fallback : {"error", "split"}
+        The ``quad`` task's ``fallback`` (:func:`fvf.quad_mesh`): a component whose
+        attempts all fail fails the mesh, or is split from triangles.
     pairs : str or path, optional
         CSV of mesh pairs, ``source,target[,map]`` per line: one pair task per row.
     client : distributed.Client, optional
@@ -794,7 +802,7 @@ def run(
     """
     _require_dask()
     _check_options(k, n, workers, memory_limit, retries, client, scheduler)
-    options = {"k": k, "n": n}
+    options = {"k": k, "n": n, "quads": quads, "fallback": fallback}
     meshes, pair_inputs = plan_inputs(inputs, pairs)
     mesh_tasks, pair_tasks = _split_tasks(tasks, bool(meshes), bool(pair_inputs), options)
     out = Path(out).resolve()

@@ -237,16 +237,41 @@ def match(ctx: PairContext) -> TaskOutput:
     return TaskOutput({"match_p2p": r.p2p_21, "match_C": r.C_12}, figures)
 
 
-@register_task("quad", description="quad mesh, as `fvf quad MESH` makes it (fvf.quad_mesh)")
+def _check_quad(options: Mapping[str, Any]) -> None:
+    q = options.get("quads")
+    if q is not None and (not isinstance(q, (int, np.integer)) or isinstance(q, bool) or q < 1):
+        raise ParameterError(f"quads (quads per mesh) must be an integer >= 1, not {q!r}")
+    if options.get("fallback", "error") not in ("error", "split"):
+        raise ParameterError(
+            f"fallback must be 'error' or 'split', not {options.get('fallback')!r}"
+        )
+
+
+@register_task(
+    "quad",
+    options=("quads", "fallback"),
+    check=_check_quad,
+    description="quad mesh, as `fvf quad MESH --faces N` makes it (fvf.quad_mesh; --quads, "
+    "--fallback)",
+)
 def quad(ctx: MeshContext) -> TaskOutput:
     """The quad mesh :func:`fvf.quad_mesh` makes with its own default cross field (curvature
-    aligned at the scale of the quads, m / 10 quads), as ``fvf quad MESH`` does; the
-    ``fields`` task's field is not used (a smoothest N-field has no quad-scale alignment).
+    aligned at the scale of the quads), as ``fvf quad MESH --faces N`` does: ``quads``
+    quads (default m / 10), and with ``fallback="split"`` the components whose attempts
+    all fail split from triangles. The ``fields`` task's field is not used (a smoothest
+    N-field has no quad-scale alignment).
 
     ``quad_vertices`` float64 (k, 3), ``quad_quads`` int64 (q, 4); figures: the scalars of
     :func:`fvf.quad_quality` (``n_quads``, ``irregular_fraction``, angle deviations,
-    ``n_folded``, ``closed``, ``manifold``, ...).
+    ``n_folded``, ``closed``, ``manifold``, ...) and ``split_components`` (how many
+    components were split from triangles).
     """
-    made = fvf.quad_mesh(ctx.mesh)
+    made = fvf.quad_mesh(
+        ctx.mesh,
+        target_faces=ctx.options.get("quads"),
+        fallback=ctx.options.get("fallback") or "error",
+    )
     quads = {"quad_vertices": made.vertices, "quad_quads": made.quads}
-    return TaskOutput(quads, output_of(made.quality, "quad").figures)
+    figures = {**output_of(made.quality, "quad").figures}
+    figures["split_components"] = int(made.split_components.size)
+    return TaskOutput(quads, figures)

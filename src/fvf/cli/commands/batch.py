@@ -39,6 +39,14 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--k", type=int, default=50, help="eigenpairs of basis / fmap (default 50)")
     p.add_argument("--n", type=int, help="field symmetry N (N-fields, when supported)")
+    p.add_argument("--quads", type=int, metavar="N", help="quads per mesh of the quad task")
+    p.add_argument(
+        "--fallback",
+        choices=("error", "split"),
+        default="error",
+        help="quad task: a part whose attempts all fail fails the mesh (default) or is "
+        "split from triangles",
+    )
     p.add_argument("--pairs", metavar="CSV", help="mesh pairs, source,target[,map] per line")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     p.add_argument(
@@ -74,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
             args.tasks,
             k=args.k,
             n=args.n,
+            quads=args.quads,
+            fallback=args.fallback,
             pairs=args.pairs,
             scheduler=args.scheduler,
             workers=args.workers,
