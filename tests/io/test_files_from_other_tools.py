@@ -435,6 +435,22 @@ def threemf(model: str, rels: bool = True, prefix: str = "") -> bytes:
     return out.getvalue()
 
 
+def _corrupt_deflate() -> bytes:
+    """A 3MF archive whose compressed model part has its bytes flipped (zlib's error)."""
+    import io
+    import zipfile
+
+    model = "<model><resources>" + cube_object(1) + "</resources></model>"
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("3D/3dmodel.model", model * 4)
+    data = bytearray(out.getvalue())
+    start = data.index(b"3dmodel.model") + len("3dmodel.model")  # the local header's name
+    for i in range(start + 10, start + 60):
+        data[i] ^= 0x5A
+    return bytes(data)
+
+
 def cube_object(oid: int, prefix: str = "", extra: str = "") -> str:
     p = prefix
     verts = "".join(f'<{p}vertex  y="{y:g}" x="{x:g}" z="{z:g}" />' for x, y, z in CUBE_V)
@@ -465,6 +481,13 @@ def test_3mf_as_slicers_write_it(tmp_path):
     np.testing.assert_array_equal(F[:12], CUBE_T)
     np.testing.assert_array_equal(F[12:], CUBE_T + 8)
     assert signed_volume(V, F) == pytest.approx(8 + 1)
+    # a comment, '>' in quoted values, a self-closing object: the same build
+    odd = model.replace("<m:build>", '<m:build><!-- <m:item objectid="1"/> -->')
+    odd = odd.replace('<m:item objectid="1" ', '<m:item partnumber="a>b" objectid="1" ')
+    odd = odd.replace("<m:resources>", '<m:resources><m:object id="9" name="x>y"/>')
+    V3, F3 = read_mesh(write(tmp_path, "odd.3mf", threemf(odd)))
+    np.testing.assert_array_equal(V3, V)
+    np.testing.assert_array_equal(F3, F)
     # without _rels/.rels: the archive's one .model file
     V2, F2 = read_mesh(write(tmp_path, "norels.3mf", threemf(model, rels=False)))
     np.testing.assert_array_equal(V2, V)
@@ -485,6 +508,14 @@ def test_3mf_round_trip_and_the_quad_command(tmp_path):
     [
         (b"not a zip", "zip archive"),
         (threemf("<model/>")[:-30], "zip archive"),
+        (_corrupt_deflate(), "zip archive"),
+        (
+            '<model><resources><object id="1"><mesh><vertices><vertex x="nan" y="0" z="0"/>'
+            '<vertex x="1" y="0" z="0"/><vertex x="0" y="1" z="0"/></vertices><triangles>'
+            '<triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources>'
+            '<build><item objectid="1"/></build></model>',
+            "not a finite number",
+        ),
         ("<model><resources>" + cube_object(1) + "</resources><build/></model>", "places no"),
         (
             '<model><resources><object id="1"><mesh><vertices><vertex x="0" y="0"/>'
@@ -511,6 +542,8 @@ def test_3mf_round_trip_and_the_quad_command(tmp_path):
     ids=[
         "not zip",
         "truncated",
+        "corrupt deflate",
+        "nan",
         "no build",
         "vertex without z",
         "missing object",

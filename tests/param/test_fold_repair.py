@@ -180,6 +180,13 @@ def test_integer_lattice_equals_the_dense_reference_and_spans_the_kernel():
                     assert np.allclose(N @ w, z) and np.allclose(w, np.round(w))
 
 
+def test_integer_lattice_sums_the_duplicate_entries_of_a_sparse_input():
+    from fvf.param.rounding import integer_lattice
+
+    C = sp.csr_array((np.array([1.0, 1.0, -1.0]), np.array([0, 0, 1]), np.array([0, 3])), (1, 2))
+    np.testing.assert_array_equal(integer_lattice(C), integer_lattice(np.array([[2.0, -1.0]])))
+
+
 def test_integer_lattice_of_no_conditions_is_the_identity():
     from fvf.param.rounding import integer_lattice
 

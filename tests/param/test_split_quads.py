@@ -141,3 +141,59 @@ def test_a_knife_edged_boolean_is_valid_with_the_fallback(tmp_path):
     assert made.split_components.tolist() == [1]
     verdict = quadcheck.check(V, F, made.vertices, made.quads)
     assert verdict.valid, verdict.reasons
+
+
+def test_the_gate_refuses_two_corners_at_one_point():
+    """A quad whose distinct vertices lie at one point is degenerate: the gate says so (as
+    the independent checker does), and a split fallback on triangles too thin to split
+    into distinct points ends in the error, not in a mesh."""
+    from fvf.param.quad_validity import check_quad_mesh
+
+    mesh = fvf.icosphere(1)
+    V, Q, _ = triangle_quads(mesh)
+    assert check_quad_mesh(mesh, V, Q).valid
+    W = V.copy()
+    W[Q[0, 1]] = W[Q[0, 0]]  # two corners of quad 0 at one point
+    verdict = check_quad_mesh(mesh, W, Q)
+    assert not verdict.valid and "two corners at one point" in str(verdict)
+    assert not quadcheck.check(mesh.vertices, mesh.faces, W, Q).valid
+
+
+def test_a_split_fallback_on_a_needle_triangle_is_the_error(monkeypatch):
+    import fvf.param.quadmesh as qm
+
+    s = fvf.icosphere(2)
+    a, b, c = s.faces[0]
+    V = s.vertices.copy()
+    mid = 0.5 * (V[b] + V[c])
+    side = (V[c] - V[b]) / np.linalg.norm(V[c] - V[b])
+    up = V[a] - mid - ((V[a] - mid) @ side) * side
+    V[a] = mid + 2e-12 * up / np.linalg.norm(up)  # 1e-12 of the extent off its base
+
+    def failing(part, *args):
+        raise fvf.QuadMeshError("planted failure", attempts=("planted",))
+
+    monkeypatch.setattr(qm, "_mesh_closures", failing)
+    with pytest.raises(fvf.QuadMeshError, match="planted"):
+        fvf.quad_mesh(fvf.TriMesh(V, s.faces), target_faces=400, fallback="split")
+
+
+def test_a_split_result_says_it_has_no_parameterization(monkeypatch):
+    import fvf.param.quadmesh as qm
+
+    def failing(part, *args):
+        raise fvf.QuadMeshError("planted failure", attempts=("planted",))
+
+    monkeypatch.setattr(qm, "_mesh_closures", failing)
+    with pytest.warns(fvf.QuadFallbackWarning):
+        made = fvf.quad_mesh(fvf.icosphere(1), target_faces=100, fallback="split")
+    with pytest.raises(fvf.ParameterError, match="no parameterization"):
+        _ = made.parameterization
+    with (
+        pytest.warns(fvf.QuadFallbackWarning),
+        pytest.warns(DeprecationWarning),
+        pytest.raises(fvf.ParameterError, match="split"),
+    ):
+        fvf.quad_mesh(
+            fvf.icosphere(1), target_faces=100, fallback="split", return_parameterization=True
+        )

@@ -89,16 +89,16 @@ class QuadMeshResult:
         """The parameterization, when one component was meshed on the input itself."""
         from ..errors import ParameterError
 
-        if len(self.parameterizations) != 1 or self.surfaces[0] is not self.mesh:
-            raise ParameterError(
-                "this quad mesh has several parameterizations (several components or a "
-                "remeshed surface): read .parameterizations and .surfaces"
-            )
         made = self.parameterizations[0]
-        if made is None:
+        if len(self.parameterizations) == 1 and made is None:
             raise ParameterError(
                 "this quad mesh has no parameterization: its triangles were split into quads "
                 "(fallback='split', .split_components)"
+            )
+        if len(self.parameterizations) != 1 or self.surfaces[0] is not self.mesh or made is None:
+            raise ParameterError(
+                "this quad mesh has several parameterizations (several components or a "
+                "remeshed surface): read .parameterizations and .surfaces"
             )
         return made
 

@@ -2,7 +2,8 @@ r"""Is a quad mesh a valid remeshing of a triangle mesh? The gate of :func:`fvf.
 
 A quad mesh :math:`(V_q, Q)` made from a triangle mesh :math:`M` is **valid** when
 
-1. every face is a quad of four distinct vertices, every vertex is used;
+1. every face is a quad of four distinct vertices at four distinct points (sides and
+   diagonals longer than :data:`COINCIDENT` of the input's extent), every vertex is used;
 2. it is a 2-manifold: every undirected edge bounds one or two quads, and the quads
    around every vertex form a single fan (corners linked across shared edges);
 3. it is consistently oriented: no directed edge appears twice;
@@ -42,6 +43,9 @@ __all__ = [
 
 #: The two-sided Hausdorff distance allowed, in mean quad edge lengths.
 HAUSDORFF_EDGES = 1.0
+#: Two corners of a quad at most this far apart (× the input's largest extent) are one
+#: point: the quad is degenerate (as the independent checker judges it).
+COINCIDENT = 1e-12
 
 
 @dataclass(frozen=True)
@@ -190,6 +194,16 @@ def _connectivity_problems(n_vertices: int, Q: np.ndarray) -> list[str]:
     return problems
 
 
+def _shortest_span(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """The shortest side or diagonal of each quad, float64 (q,)."""
+    P = V[Q]
+    sides = np.linalg.norm(P - np.roll(P, -1, axis=1), axis=2).min(axis=1)
+    diagonals = np.minimum(
+        np.linalg.norm(P[:, 2] - P[:, 0], axis=1), np.linalg.norm(P[:, 3] - P[:, 1], axis=1)
+    )
+    return np.minimum(sides, diagonals)
+
+
 def check_quad_mesh(
     mesh: TriMesh,
     vertices: np.ndarray,
@@ -228,6 +242,10 @@ def check_quad_mesh(
     problems = _connectivity_problems(V.shape[0], Q)
     if problems:
         return _invalid(*problems)
+    scale = float(np.ptp(mesh.vertices, axis=0).max()) or 1.0
+    flat = np.flatnonzero(_shortest_span(V, Q) <= COINCIDENT * scale)
+    if flat.size:
+        problems.append(f"quads {format_indices(flat)} put two corners at one point")
     want = signature if signature is not None else topology_signature(mesh.n_vertices, mesh.faces)
     got = topology_signature(V.shape[0], Q)
     if got != want:

@@ -661,8 +661,9 @@ def quad_mesh(
     fallback : {"error", "split"}
         What a component gets when every attempt fails: ``"error"`` (default), the
         :class:`fvf.QuadMeshError`; ``"split"``, quads that follow no field, its triangles
-        (remeshed at the quad scale when that passes the gate) split into three quads each
-        (:mod:`fvf.param.split_quads`: valid by construction, the same surface), with a
+        (midpoint-subdivided to about the quads asked, at least three per triangle) split
+        into three quads each (:mod:`fvf.param.split_quads`: on the surface, judged by the
+        gate like any attempt; if even they fail it, the error), with a
         :class:`fvf.QuadFallbackWarning`; listed in ``split_components``. A component too
         small for the quads is then split too, not left out.
     **options
@@ -737,6 +738,11 @@ def quad_mesh(
             DeprecationWarning,
             stacklevel=user_stacklevel(),
         )
+        if result.parameterizations[0] is None:
+            raise ParameterError(
+                "quad_mesh(return_parameterization=True): the first component was split from "
+                "triangles (fallback='split') and has no parameterization"
+            )
         legacy = (result.vertices, result.quads, result.parameterizations[0])
         return cast(QuadMeshResult, legacy)  # the deprecated three values, as before
     return result
@@ -804,7 +810,7 @@ def _split_part(part: Part, h: float, failed: QuadMeshError) -> tuple[Part, tupl
     :class:`fvf.QuadFallbackWarning`; ``failed`` (the error of its attempts) is raised
     again if even that fails the gate."""
     made = split_quad_mesh(part.mesh, h)
-    if not made.validity.valid:  # pragma: no cover - the split triangles are the surface
+    if not made.validity.valid:  # triangles too thin to split into distinct points
         raise failed
     q = made.quads.shape[0]
     where = "; ".join(f"({', '.join(f'{x:.3g}' for x in p.centre)})" for p in failed.places[:3])

@@ -50,7 +50,9 @@ def integer_lattice(C: npt.ArrayLike, prefer: np.ndarray | None = None) -> np.nd
         Integer matrix whose columns span the lattice: z = N w satisfies C z = 0 and is
         integer for every integer w, and every such z has that form.
     """
-    A = _SparseRows(sp.csr_array(C, dtype=np.float64), prefer)
+    rows = sp.csr_array(C, dtype=np.float64, copy=True)
+    rows.sum_duplicates()  # (a csr input may hold an entry twice: its sum is meant)
+    A = _SparseRows(rows, prefer)
     pivots: list[tuple[int, int]] = []
     while (pivot := A.next_pivot()) is not None:
         A.eliminate(*pivot)

@@ -22,6 +22,8 @@ from __future__ import annotations
 import io
 import re
 import zipfile
+import zlib
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -34,11 +36,14 @@ __all__ = ["read", "write", "FORMAT"]
 
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 MODEL_TYPE = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
-_OBJECT = re.compile(rb"<(?:\w+:)?object\b([^>]*?)(/?)>(.*?)(?:</(?:\w+:)?object>|(?=$))", re.S)
+#: The attribute text of a start tag: quoted values may hold ``>``.
+_ATTRIBUTES = rb"((?:[^>\"']|\"[^\"]*\"|'[^']*')*)>"
 _TAG = {
-    name: re.compile(rb"<(?:\w+:)?" + name.encode() + rb"\b([^>]*)>", re.S)
-    for name in ("vertex", "triangle", "component", "item")
+    name: re.compile(rb"<(?:\w+:)?" + name.encode() + rb"\b" + _ATTRIBUTES, re.S)
+    for name in ("object", "vertex", "triangle", "component", "item", "build")
 }
+_OBJECT_END = re.compile(rb"</(?:\w+:)?object\s*>")
+_COMMENT = re.compile(rb"<!--.*?-->", re.S)
 
 
 def _attribute(name: str) -> re.Pattern[bytes]:
@@ -64,7 +69,7 @@ _ATTR = {
 }
 
 
-def _column(block: bytes, name: str, count: int, dtype: type, path: Path, what: str):
+def _column(block: bytes, name: str, count: int, dtype: type, path: Path, what: str) -> np.ndarray:
     """The attribute ``name`` of the ``count`` tags in ``block``, in order: one search of
     the whole block, float64 or int64 (count,)."""
     found = _ATTR[name].findall(block)
@@ -114,7 +119,7 @@ def _transform(text: bytes, path: Path) -> np.ndarray:
 def _objects(model: bytes, path: Path) -> dict[bytes, tuple]:
     """id -> ("mesh", V, F) or ("components", [(objectid, transform), ...])."""
     out: dict[bytes, tuple] = {}
-    for head, _, body in _OBJECT.findall(model):
+    for head, body in _object_texts(model):
         ids = _ATTR["id"].findall(head)
         if not ids:
             raise MeshReadError(f"{path}: an <object> has no id")
@@ -136,6 +141,19 @@ def _objects(model: bytes, path: Path) -> dict[bytes, tuple]:
             [_column(tris, c, nt, np.int64, path, "triangle") for c in ("v1", "v2", "v3")]
         )
         out[ids[0]] = ("mesh", V.reshape(-1, 3), F.reshape(-1, 3))
+    return out
+
+
+def _object_texts(model: bytes) -> list[tuple[bytes, bytes]]:
+    """(attribute text, body) of each ``<object>`` (a self-closing one has no body)."""
+    out = []
+    for start in _TAG["object"].finditer(model):
+        head = start.group(1)
+        if head.rstrip().endswith(b"/"):
+            out.append((head, b""))
+            continue
+        end = _OBJECT_END.search(model, start.end())
+        out.append((head, model[start.end() : end.start() if end else len(model)]))
     return out
 
 
@@ -168,7 +186,7 @@ def read(path: Path, data: bytes) -> Polygons:
     """The triangles of a 3MF file's build (module docstring)."""
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as archive:
-            model = _model_part(path, archive)
+            model = _COMMENT.sub(b"", _model_part(path, archive))
     except (
         zipfile.BadZipFile,
         zipfile.LargeZipFile,
@@ -176,15 +194,16 @@ def read(path: Path, data: bytes) -> Polygons:
         RuntimeError,
         EOFError,
         OSError,
+        zlib.error,
     ) as exc:  # not a zip, damaged, encrypted, another compression
         raise MeshReadError(
             f"{path}: cannot open it as a 3MF file (a zip archive: {type(exc).__name__}: "
             f"{exc}); check the file, or re-export it"
         ) from exc
     objects = _objects(model, path)
-    items = [
-        (_ATTR["objectid"].findall(t), t) for t in _TAG["item"].findall(model.split(b"<build")[-1])
-    ]
+    build = _TAG["build"].search(model)
+    after = model[build.end() :] if build else b""
+    items = [(_ATTR["objectid"].findall(t), t) for t in _TAG["item"].findall(after)]
     if any(_ATTR["path"].findall(t) for _, t in items):
         raise MeshReadError(
             f"{path}: the build refers to another model part (3MF production extension), "
@@ -197,13 +216,26 @@ def read(path: Path, data: bytes) -> Polygons:
         raise MeshReadError(f"{path}: the 3MF build places no object; export the mesh with it")
     offsets = np.cumsum([0] + [len(V) for V, _ in placed[:-1]])
     V = np.concatenate([V for V, _ in placed])
+    bad = np.flatnonzero(~np.isfinite(V).all(axis=1))
+    if bad.size:
+        raise MeshReadError(
+            f"{path}: vertex {bad[0]} of the build is not a finite number ({V[bad[0]]}; "
+            f"{bad.size} such vertices in all): fix the coordinates or the transforms"
+        )
     F = np.concatenate([F + o for (_, F), o in zip(placed, offsets, strict=True)])
     flat = F.reshape(-1)
     counts = np.full(len(F), 3, dtype=np.int64)
     return Polygons(V, counts, flat, flat, lambda i: f"triangle {i}", f"0..{len(V) - 1}")
 
 
-def write(path: Path, V, F, vertex_data, face_data, comments) -> None:
+def write(
+    path: Path,
+    V: np.ndarray,
+    F: np.ndarray,
+    vertex_data: Mapping[str, np.ndarray],
+    face_data: Mapping[str, np.ndarray],
+    comments: tuple[str, ...] = (),
+) -> None:
     """One object of the triangles and one build item (module docstring)."""
     verts = ('<vertex x="%.17g" y="%.17g" z="%.17g"/>' * len(V)) % tuple(V.ravel().tolist())
     tris = ('<triangle v1="%d" v2="%d" v3="%d"/>' * len(F)) % tuple(F.ravel().tolist())
