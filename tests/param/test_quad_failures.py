@@ -139,3 +139,21 @@ def test_a_slit_left_by_a_removed_zero_area_face_is_named():
         fvf.quad_mesh((V, F[1:]), target_faces=100)
     for v in (a, b, c):
         assert str(v) in str(err.value)
+
+
+def test_a_remeshing_that_failed_is_not_run_again_for_the_next_attempt(monkeypatch):
+    """Every attempt on a surface whose remeshing failed fails with its message, but the
+    remeshing runs once per surface (edge length and fraction), not once per attempt."""
+    import fvf.param.quadmesh as qm
+
+    calls: list[tuple[float, float]] = []
+
+    def failing(mesh, h, *, crease_angle, method, fraction):
+        calls.append((round(h, 12), fraction))
+        raise fvf.QuadExtractionError("the remeshing gave an invalid mesh (planted)")
+
+    monkeypatch.setattr(qm, "remesh_for_quads", failing)
+    with pytest.raises(fvf.QuadMeshError) as err:
+        fvf.quad_mesh(fvf.icosphere(2), target_faces=100, remesh=True)
+    planted = [a for a in err.value.attempts if "(planted)" in a]
+    assert len(planted) > len(set(calls)) and len(calls) == len(set(calls))

@@ -221,7 +221,9 @@ def _mirrored_plans(h: float, align: Alignment, retry: bool) -> list[_Plan]:
 
 def _surface(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> TriMesh:
     """The closed component, or it remeshed for quads of edge ``plan.h`` (kept in
-    ``surfaces`` for the next attempts), as ``plan`` asks."""
+    ``surfaces`` for the next attempts, and so is the message of a remeshing that failed:
+    the next attempt on that surface raises it again without remeshing), as ``plan``
+    asks."""
     if plan.decimated:
         return surfaces[("decimated", round(plan.h, 12))]
     if not plan.remeshed:
@@ -229,13 +231,18 @@ def _surface(part: Part, plan: _Plan, surfaces: dict, opts: dict) -> TriMesh:
     fraction = FINE_REMESH_FRACTION if plan.fine else REMESH_FRACTION
     key = (round(plan.h, 12), fraction)
     if key not in surfaces:
-        surfaces[key] = remesh_for_quads(
-            part.closed,
-            plan.h,
-            crease_angle=opts["crease_angle"],
-            method=opts["remesher"],
-            fraction=fraction,
-        )
+        try:
+            surfaces[key] = remesh_for_quads(
+                part.closed,
+                plan.h,
+                crease_angle=opts["crease_angle"],
+                method=opts["remesher"],
+                fraction=fraction,
+            )
+        except QuadExtractionError as exc:  # kept: the next plan on it fails at once
+            surfaces[key] = str(exc)
+    if isinstance(surfaces[key], str):  # (the L bracket at 10,000 quads: 30 s per try)
+        raise QuadExtractionError(surfaces[key])
     return surfaces[key]
 
 
