@@ -795,7 +795,7 @@ def test_a_thin_strips_plan_without_a_strip_is_the_plain_one_or_skipped(monkeypa
 
     part = component_parts(fvf.icosphere(2))[0]
     plans = quadmesh._plans(part, 0.3, "curvature", True, "auto", True)
-    opts = {"decimate": False}
+    opts = {"remesh": "never"}  # (no decimation)
     for has in (False, True):
         monkeypatch.setattr(quadmesh, "_has_strips", lambda *args, has=has: has)
         for plan in (p for p in plans if p.strips):

@@ -287,7 +287,8 @@ def _resolved(
     the plan without strips, or skipped; a plan
     on the input surface runs on it decimated where the input is far finer than the quads
     (:mod:`.decimation`)."""
-    if not plan.remeshed and opts["decimate"] and _decimated(part, plan.h, surfaces, opts):
+    decimate = opts["remesh"] != "never"
+    if not plan.remeshed and decimate and _decimated(part, plan.h, surfaces, opts):
         plan = dataclasses.replace(plan, decimated=True)
     if plan.strips and not _has_strips(part, plan, surfaces, opts):
         plain = dataclasses.replace(plan, strips=False)
@@ -507,7 +508,7 @@ def _mesh_part(
             if tried > 1:
                 report(f"component {part.label}: attempt {tried} ({plan})", 0, 1)
                 report(f"component {part.label}: attempt {tried} ({plan})", 1, 1)
-            with _captured(opts["quiet"]):
+            with _captured(opts["retry"]):
                 V, Q, vf, param, surface, folds = _attempt(
                     part, plan, surfaces, field, opts, report
                 )
@@ -729,14 +730,15 @@ def quad_mesh(
         "features": crease_angle is not None,
         "user_edges": user_edges,
         "seamless": options,
-        "quiet": retry,
-        "decimate": remesh != "never",
+        "align": align,
+        "retry": retry,
+        "remesh": remesh,
         "fallback": fallback,
     }
     opts["whole"] = mesh
     report = make_progress(options.get("progress"))
     parts = component_parts(mesh)
-    made, dropped = _mesh_parts(parts, h, f, align, retry, remesh, opts, report)
+    made, dropped = _mesh_parts(parts, h, f, opts, report)
     result = join_parts(mesh, made, dropped, h)
     if return_parameterization:
         warnings.warn(
@@ -775,9 +777,6 @@ def _mesh_parts(
     parts: list[Part],
     h: float,
     field: np.ndarray | None,
-    align: Alignment,
-    retry: bool,
-    remesh: bool | str,
     opts: dict,
     report: ProgressCallback,
 ) -> tuple[list, list]:
@@ -789,7 +788,7 @@ def _mesh_parts(
             hp = float(np.sqrt(part.mesh.total_area / MIN_COMPONENT_QUADS))
         fp = None if field is None else field[part.faces]
         try:
-            made.append(_mesh_closures(part, hp, fp, align, retry, remesh, opts, report))
+            made.append(_mesh_closures(part, hp, fp, opts, report))
         except QuadMeshError as exc:
             if opts["fallback"] == "split":
                 made.append(_split_part(part, hp, exc))
@@ -843,14 +842,7 @@ def _split_part(part: Part, h: float, failed: QuadMeshError) -> tuple[Part, tupl
 
 
 def _mesh_closures(
-    part: Part,
-    h: float,
-    field: np.ndarray | None,
-    align: Alignment,
-    retry: bool,
-    remesh: bool | str,
-    opts: dict,
-    report: ProgressCallback,
+    part: Part, h: float, field: np.ndarray | None, opts: dict, report: ProgressCallback
 ) -> tuple[Part, tuple]:
     """The component with the closed surface it was meshed on, and what :func:`_mesh_part`
     made there. A closed component (or without ``retry``, the first of
@@ -860,10 +852,10 @@ def _mesh_closures(
     its mirror image succeeds at the first in 0.8 s); else :class:`fvf.QuadMeshError`
     with every attempt, each named by its closure."""
     closures = _closures(part, h)
-    if len(closures) == 1 or not retry:
+    if len(closures) == 1 or not opts["retry"]:
         name, close = closures[0]
         closed = _closed(name, close)
-        return closed, _mesh_closed(closed, h, field, align, retry, remesh, opts, report)
+        return closed, _mesh_closed(closed, h, field, opts, report)
     failed: list[QuadMeshError] = []
     built: dict[str, Part] = {}
     distorted: tuple | None = None  # the first closure and result valid but distorted
@@ -874,9 +866,7 @@ def _mesh_closures(
                 if name not in built:
                     built[name] = _closed(name, close)
                 closed = built[name]
-                made = _mesh_closed(
-                    closed, h, field, align, retry, remesh, opts, report, phase, surfaces[name]
-                )
+                made = _mesh_closed(closed, h, field, opts, report, phase, surfaces[name])
             except QuadMeshError as exc:
                 exc.attempts = tuple(f"{name}: {line}" for line in exc.attempts)
                 failed.append(exc)
@@ -948,9 +938,6 @@ def _mesh_closed(
     part: Part,
     h: float,
     field: np.ndarray | None,
-    align: Alignment,
-    retry: bool,
-    remesh: bool | str,
     opts: dict,
     report: ProgressCallback,
     phase: str = "all",
@@ -964,7 +951,7 @@ def _mesh_closed(
         _warn_dense(part, h, opts)
     featured = _featured(found)
     rims = featured and _only_rims(part, found)
-    plans = _plans(part, h, align, retry, remesh, featured, rims)
+    plans = _plans(part, h, opts["align"], opts["retry"], opts["remesh"], featured, rims)
     tried = {"all": plans, "first": plans[:1], "rest": plans[1:]}[phase]
     if not tried:
         raise QuadMeshError("no attempt left", attempts=())
@@ -974,7 +961,7 @@ def _mesh_closed(
     except QuadMeshError as exc:
         if phase == "first" or isinstance(exc, _OnlyDistorted):
             raise
-        finer = _finer(part, exc, tried, align, retry, remesh, featured, rims)
+        finer = _finer(part, exc, tried, opts, featured, rims)
         if not finer:
             raise
         try:
@@ -1006,9 +993,7 @@ def _finer(
     part: Part,
     exc: QuadMeshError,
     plans: list[_Plan],
-    align: Alignment,
-    retry: bool,
-    remesh: bool | str,
+    opts: dict,
     featured: bool,
     rims: bool,
 ) -> list[_Plan]:
@@ -1017,12 +1002,13 @@ def _finer(
     shorter than every one tried, asks for at most :data:`MAX_RAISE` times the quads and
     the input carries them; else none."""
     h = plans[0].h
-    edge = resolving_edge(exc.places, h) if retry else None
+    edge = resolving_edge(exc.places, h) if opts["retry"] else None
     if edge is None or edge >= min(p.h for p in plans) or (h / edge) ** 2 > MAX_RAISE:
         return []
     if part.mesh.total_area / edge**2 > MAX_QUADS_PER_FACE * part.mesh.n_faces:
         return []
-    return _plans(part, edge, align, retry, remesh, featured, rims)[:FINER_ATTEMPTS]
+    asked = (opts["align"], opts["retry"], opts["remesh"])
+    return _plans(part, edge, *asked, featured, rims)[:FINER_ATTEMPTS]
 
 
 def _warn_if_raised(part: Part, made: tuple, h: float) -> None:
