@@ -64,17 +64,10 @@ def integer_lattice(C: npt.ArrayLike, prefer: np.ndarray | None = None) -> np.nd
     where[free] = np.arange(free.size)
     N = np.zeros((p, free.size))
     N[free, np.arange(free.size)] = 1.0
-    for r, c in pivots:  # a pivot row holds its pivot and free columns only
-        for j, v in A.rows[r].items():
-            if j != c:
-                N[c, where[j]] = -v
-    left = A.active_rows()
+    N[pcols] = -A.dense([r for r, _ in pivots], where)  # x_c = -(row r on the free columns)
+    left = np.flatnonzero(A.active)  # rows without a unit pivot
     if left.size:
-        rest = np.zeros((left.size, free.size))
-        for i, r in enumerate(left.tolist()):
-            for j, v in A.rows[r].items():
-                rest[i, where[j]] = v
-        N = N @ _integer_kernel(np.round(rest).astype(np.int64))
+        N = N @ _integer_kernel(np.round(A.dense(left.tolist(), where)).astype(np.int64))
     return np.round(N)
 
 
@@ -95,7 +88,7 @@ class _SparseRows:
                 if abs(v) > 0.5:
                     self.rows[r][j] = v
                     self.cols[j].add(r)
-        self.active = np.ones(k, dtype=bool)
+        self.active = np.ones(k, dtype=bool)  # rows with entries and not yet a pivot
         self.first = np.full((2, k), -1, dtype=np.int64)  # unit column: preferred, any
         self.heaps: tuple[list, list] = ([], [])
         for r in range(k):
@@ -143,9 +136,16 @@ class _SparseRows:
             if self.active[o]:
                 self._refresh(o)
 
-    def active_rows(self) -> np.ndarray:
-        """int64: the rows left without a unit pivot (and with entries)."""
-        return np.flatnonzero(self.active & np.array([bool(r) for r in self.rows], dtype=bool))
+    def dense(self, rows: list[int], where: np.ndarray) -> np.ndarray:
+        """float64 (len(rows), where.max() + 1): the ``rows`` on the columns j with
+        ``where[j] >= 0``, at ``where[j]`` (after the elimination a row holds no other
+        pivot column than its own, which is left out)."""
+        out = np.zeros((len(rows), int(where.max(initial=-1)) + 1))
+        for i, r in enumerate(rows):  # a loop over rows of a few entries each
+            for j, v in self.rows[r].items():
+                if where[j] >= 0:
+                    out[i, where[j]] = v
+        return out
 
 
 def _integer_kernel(C: np.ndarray) -> np.ndarray:
