@@ -40,7 +40,7 @@ MODEL_TYPE = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
 _ATTRIBUTES = rb"((?:[^>\"']|\"[^\"]*\"|'[^']*')*)>"
 _TAG = {
     name: re.compile(rb"<(?:\w+:)?" + name.encode() + rb"\b" + _ATTRIBUTES, re.S)
-    for name in ("object", "vertex", "triangle", "component", "item", "build")
+    for name in ("object", "vertex", "triangle", "component", "item", "build", "Relationship")
 }
 _OBJECT_END = re.compile(rb"</(?:\w+:)?object\s*>")
 _COMMENT = re.compile(rb"<!--.*?-->", re.S)
@@ -88,7 +88,7 @@ def _model_part(path: Path, archive: zipfile.ZipFile) -> bytes:
     target = None
     if "_rels/.rels" in names:
         rels = archive.read("_rels/.rels")
-        for rel in re.findall(rb"<(?:\w+:)?Relationship\b([^>]*)>", rels):
+        for rel in _TAG["Relationship"].findall(rels):
             kind = _ATTR["Type"].findall(rel)
             if kind and kind[0].decode(errors="replace") == MODEL_TYPE:
                 target = _ATTR["Target"].findall(rel)[0].decode().lstrip("/")
